@@ -1,0 +1,12 @@
+//! emplan: a ground-control mission planner that orders multirotor waypoint missions by minimum
+//! energy, uploads them over MAVLink with a verified read-back, and measures per-leg energy.
+//!
+//! Layers (dependencies point down only; see ARCHITECTURE.md):
+//! `mission` (files, geodesy) -> `physics` (energy model and table) -> `plan` (cost matrices,
+//! ATSP solvers, baselines) -> `link` (MAVLink) and `sim` (mock autopilot).
+
+pub mod link;
+pub mod mission;
+pub mod physics;
+pub mod plan;
+pub mod sim;

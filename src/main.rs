@@ -1,0 +1,49 @@
+//! The `emplan` command line: parses arguments (clap) and hands each subcommand to its module
+//! under `src/cmd/`. The binary is the only place that knows clap and anyhow.
+
+mod cmd;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// Minimum-energy mission planning for multirotors.
+#[derive(Debug, Parser)]
+#[command(name = "emplan", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Order a mission's waypoints and report every order's metrics.
+    Plan(cmd::plan::Args),
+    /// Convert a mission between emplan TOML, QGroundControl .plan and .waypoints.
+    Convert(cmd::convert::Args),
+    /// Solve a TSPLIB asymmetric TSP instance.
+    Tsp(cmd::tsp::Args),
+}
+
+fn main() -> ExitCode {
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn")),
+        )
+        .with_writer(std::io::stderr)
+        .init();
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Plan(args) => cmd::plan::run(args),
+        Command::Convert(args) => cmd::convert::run(args),
+        Command::Tsp(args) => cmd::tsp::run(args),
+    };
+    match result {
+        Ok(code) => code,
+        Err(err) => {
+            eprintln!("error: {err:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

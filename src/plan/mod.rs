@@ -1,0 +1,64 @@
+//! Planning: legs between every ordered pair of points, cost matrices, exact and heuristic
+//! solvers for the asymmetric travelling-salesman tour through the origin, the distance
+//! baselines, and the random-mission study.
+//!
+//! Invariant: pure and deterministic (seeded); no IO, no tokio, no MAVLink.
+
+/// A square matrix of leg costs between `n` nodes, row-major: `cost(i, j)` is the cost of flying
+/// from node `i` to node `j`. Node 0 is the origin (depot); the diagonal is never used.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CostMatrix {
+    n: usize,
+    costs: Vec<f64>,
+}
+
+impl CostMatrix {
+    /// Builds an `n` x `n` matrix from `cost(i, j)`.
+    pub fn from_fn(n: usize, mut cost: impl FnMut(usize, usize) -> f64) -> Self {
+        let mut costs = Vec::with_capacity(n * n);
+        for i in 0..n {
+            for j in 0..n {
+                costs.push(if i == j { 0.0 } else { cost(i, j) });
+            }
+        }
+        CostMatrix { n, costs }
+    }
+
+    /// Number of nodes, the origin included.
+    pub fn len(&self) -> usize {
+        self.n
+    }
+
+    /// True when the matrix has no nodes.
+    pub fn is_empty(&self) -> bool {
+        self.n == 0
+    }
+
+    /// Cost of the arc `from -> to`.
+    #[inline]
+    pub fn cost(&self, from: usize, to: usize) -> f64 {
+        self.costs[from * self.n + to]
+    }
+
+    /// Cost of the closed tour `0 -> order[0] -> ... -> order[last] -> 0`, where `order` lists
+    /// the non-origin nodes.
+    pub fn tour_cost(&self, order: &[usize]) -> f64 {
+        let mut prev = 0;
+        let mut total = 0.0;
+        for &node in order {
+            total += self.cost(prev, node);
+            prev = node;
+        }
+        total + self.cost(prev, 0)
+    }
+}
+
+/// A solved tour: the visiting order of the non-origin nodes (origin excluded at both ends),
+/// its cost, a lower bound on the optimum, and whether optimality is proven.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Tour {
+    pub order: Vec<usize>,
+    pub cost: f64,
+    pub lower_bound: f64,
+    pub optimal: bool,
+}

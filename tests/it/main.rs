@@ -1,0 +1,3 @@
+//! The integration test binary: one crate, one link step (modules below).
+
+mod tidy;
