@@ -60,17 +60,7 @@ fn ecef_to_enu_rotation(g: Geodetic) -> Matrix3<f64> {
     let (lat, lon) = (g.lat_deg.to_radians(), g.lon_deg.to_radians());
     let (sl, cl) = lat.sin_cos();
     let (so, co) = lon.sin_cos();
-    Matrix3::new(
-        -so,
-        co,
-        0.0,
-        -sl * co,
-        -sl * so,
-        cl,
-        cl * co,
-        cl * so,
-        sl,
-    )
+    Matrix3::new(-so, co, 0.0, -sl * co, -sl * so, cl, cl * co, cl * so, sl)
 }
 
 impl Origin {
@@ -85,8 +75,8 @@ impl Origin {
     /// Geodetic position (altitude AMSL) of a point given in the origin's ENU frame.
     pub fn to_geodetic(&self, p: Enu) -> Geodetic {
         let o = self.geodetic();
-        let offset = ecef_to_enu_rotation(o).transpose()
-            * Vector3::new(p.x_east_m, p.y_north_m, p.z_up_m);
+        let offset =
+            ecef_to_enu_rotation(o).transpose() * Vector3::new(p.x_east_m, p.y_north_m, p.z_up_m);
         from_ecef(to_ecef(o) + offset)
     }
 
@@ -153,7 +143,10 @@ mod tests {
         });
         // Meridional radius M = a(1-e^2)/(1-e^2 sin^2 lat)^1.5 = 6.36024e6 m at 38.54 deg, so
         // 1000 m north is 1000/M rad = 0.0090084 deg (hand-computed).
-        assert!((g.lat_deg - o.home.lat_deg - 0.0090084).abs() < 2e-7, "{g:?}");
+        assert!(
+            (g.lat_deg - o.home.lat_deg - 0.0090084).abs() < 2e-7,
+            "{g:?}"
+        );
         // Earth curvature: a tangent-plane point 1 km away is d^2 / 2R = 7.8 cm above the
         // ellipsoid through the origin.
         let rise = g.alt_m - o.geodetic().alt_m;

@@ -4,6 +4,14 @@
 //!
 //! Invariant: pure and deterministic (seeded); no IO, no tokio, no MAVLink.
 
+pub mod brute;
+pub mod geometry;
+pub mod held_karp;
+pub mod orders;
+
+pub use geometry::Geometry;
+pub use orders::{order_waypoints, plan_orders, Direction, LegReport, Objective, OrderReport};
+
 /// A square matrix of leg costs between `n` nodes, row-major: `cost(i, j)` is the cost of flying
 /// from node `i` to node `j`. Node 0 is the origin (depot); the diagonal is never used.
 #[derive(Debug, Clone, PartialEq)]
@@ -61,4 +69,23 @@ pub struct Tour {
     pub cost: f64,
     pub lower_bound: f64,
     pub optimal: bool,
+}
+
+/// Errors from planning and solving.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PlanError {
+    #[error("held-karp solves at most {max} waypoints exactly ({n} given); use another solver")]
+    TooManyForHeldKarp { n: usize, max: usize },
+    #[error("brute force enumerates at most {max} waypoints ({n} given)")]
+    TooManyForBruteForce { n: usize, max: usize },
+    #[error("cost of leg {from} -> {to} is not finite")]
+    NonFiniteCost { from: usize, to: usize },
+    #[error("the energy order needs an energy model (none was given)")]
+    NoEnergyModel,
+    #[error("energy of leg {from} -> {to}: {reason}")]
+    LegEnergy {
+        from: String,
+        to: String,
+        reason: String,
+    },
 }
