@@ -1,3 +1,4 @@
 //! The integration test binary: one crate, one link step (modules below).
 
+mod mission;
 mod tidy;

@@ -1,0 +1,195 @@
+//! `QGC WPL 110` text missions (`.waypoints`, `.txt`) as Mission Planner, MAVProxy and QGC write
+//! them (research notes mavlink.md section 5.2): a header line, then one item per line with 12
+//! fields `seq current frame command p1 p2 p3 p4 lat lon alt autocontinue`; the first item is
+//! home (AMSL altitude). Read: any whitespace, `#` comments and blank lines allowed. Write: tabs,
+//! 10 decimals for degrees (about 0.01 mm). Names are not stored: imported waypoints are WP1..WPn.
+
+use super::qgc_plan::{
+    interpret_item, ItemMeaning, NAV_RETURN_TO_LAUNCH, NAV_TAKEOFF, NAV_WAYPOINT,
+};
+use super::{
+    Geodetic, Mission, MissionError, Place, RawMission, RawPosition, RawWaypoint,
+    DEFAULT_MIN_HEIGHT_ABOVE_HOME_M, DEFAULT_TAKEOFF_HEIGHT_M,
+};
+
+const HEADER: &str = "QGC WPL 110";
+const COLUMNS: [&str; 12] = [
+    "seq",
+    "current",
+    "frame",
+    "command",
+    "param1",
+    "param2",
+    "param3",
+    "param4",
+    "latitude",
+    "longitude",
+    "altitude",
+    "autocontinue",
+];
+
+pub(super) fn parse(text: &str, file: &str, stem: &str) -> Result<RawMission, MissionError> {
+    let bad =
+        |line: usize, problem: String| MissionError::invalid(file, Place::Line(line), problem);
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.trim()))
+        .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
+    match lines.next() {
+        Some((_, l)) if l == HEADER => {}
+        Some((n, l)) => {
+            return Err(bad(
+                n,
+                format!("header {l:?} is not supported (expected {HEADER:?})"),
+            ))
+        }
+        None => {
+            return Err(MissionError::invalid(
+                file,
+                Place::File,
+                format!("empty file (expected the header {HEADER:?} and a home line)"),
+            ))
+        }
+    }
+    let mut home: Option<Geodetic> = None;
+    let mut height_above_home_m = None;
+    let mut waypoints = Vec::new();
+    for (n, line) in lines {
+        let fields: Vec<&str> = line.split_whitespace().collect();
+        if fields.len() != COLUMNS.len() {
+            return Err(bad(
+                n,
+                format!(
+                    "{} columns found, 12 expected ({})",
+                    fields.len(),
+                    COLUMNS.join(" ")
+                ),
+            ));
+        }
+        let mut values = [0.0f64; 12];
+        for (c, (field, value)) in fields.iter().zip(values.iter_mut()).enumerate() {
+            *value = field.parse::<f64>().map_err(|_| {
+                bad(
+                    n,
+                    format!(
+                        "column {} ({}): {field:?} is not a number",
+                        c + 1,
+                        COLUMNS[c]
+                    ),
+                )
+            })?;
+        }
+        let integer = |c: usize| -> Result<u64, MissionError> {
+            let v = values[c];
+            if v >= 0.0 && v.fract() == 0.0 && v < 1e9 {
+                Ok(v as u64)
+            } else {
+                Err(bad(
+                    n,
+                    format!(
+                        "column {} ({}): {v} is not a non-negative integer",
+                        c + 1,
+                        COLUMNS[c]
+                    ),
+                ))
+            }
+        };
+        let (command, frame) = (integer(3)?, integer(2)?);
+        let Some(home) = home else {
+            // The first item is home: latitude, longitude, altitude above mean sea level.
+            home = Some(Geodetic {
+                lat_deg: values[8],
+                lon_deg: values[9],
+                alt_m: values[10],
+            });
+            continue;
+        };
+        let params = [
+            values[4], values[5], values[6], values[7], values[8], values[9], values[10],
+        ];
+        match interpret_item(command, frame, params, home.alt_m).map_err(|p| bad(n, p))? {
+            ItemMeaning::Waypoint(lat, lon, alt, hover) => waypoints.push(RawWaypoint {
+                name: format!("WP{}", waypoints.len() + 1),
+                position: RawPosition::Geodetic {
+                    lat_deg: lat,
+                    lon_deg: lon,
+                    alt_above_home_m: alt,
+                },
+                hover_s: Some(if hover.is_nan() { 0.0 } else { hover }),
+                place: Place::Line(n),
+            }),
+            ItemMeaning::Takeoff(h) => height_above_home_m = Some(h),
+            ItemMeaning::Ignored => {}
+        }
+    }
+    let home = home.ok_or_else(|| {
+        MissionError::invalid(
+            file,
+            Place::File,
+            "no home line (the first item must be home)",
+        )
+    })?;
+    Ok(RawMission {
+        name: stem.to_string(),
+        home,
+        height_above_home_m: height_above_home_m.unwrap_or(DEFAULT_TAKEOFF_HEIGHT_M),
+        default_hover_s: 0.0,
+        min_height_above_home_m: DEFAULT_MIN_HEIGHT_ABOVE_HOME_M,
+        waypoints,
+        place: Place::File,
+    })
+}
+
+fn row(seq: usize, frame: u64, command: u64, p1: f64, lat: f64, lon: f64, alt: f64) -> String {
+    format!(
+        "{seq}\t{}\t{frame}\t{command}\t{p1}\t0\t0\t0\t{lat:.10}\t{lon:.10}\t{alt:.4}\t1\n",
+        u8::from(seq == 0)
+    )
+}
+
+/// The mission as `QGC WPL 110`: home, take-off to the origin, the waypoints, return to launch.
+pub(super) fn write(mission: &Mission) -> String {
+    let home = mission.origin.home;
+    let mut text = format!("{HEADER}\n");
+    text += &row(
+        0,
+        0,
+        NAV_WAYPOINT,
+        0.0,
+        home.lat_deg,
+        home.lon_deg,
+        home.alt_m,
+    );
+    text += &row(
+        1,
+        3,
+        NAV_TAKEOFF,
+        0.0,
+        home.lat_deg,
+        home.lon_deg,
+        mission.origin.height_above_home_m,
+    );
+    for (k, w) in mission.waypoints.iter().enumerate() {
+        let g = mission.origin.to_geodetic(w.position);
+        text += &row(
+            k + 2,
+            3,
+            NAV_WAYPOINT,
+            w.hover_s,
+            g.lat_deg,
+            g.lon_deg,
+            g.alt_m - home.alt_m,
+        );
+    }
+    text += &row(
+        mission.waypoints.len() + 2,
+        2,
+        NAV_RETURN_TO_LAUNCH,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+    );
+    text
+}
