@@ -8,6 +8,7 @@ pub mod brute;
 pub mod geometry;
 pub mod held_karp;
 pub mod orders;
+pub mod tsplib;
 
 pub use geometry::Geometry;
 pub use orders::{order_waypoints, plan_orders, Direction, LegReport, Objective, OrderReport};

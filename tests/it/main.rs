@@ -1,4 +1,5 @@
 //! The integration test binary: one crate, one link step (modules below).
 
+mod cli;
 mod mission;
 mod tidy;

@@ -1,0 +1,117 @@
+//! The `emplan` binary end to end: the JSON contract of DESIGN.md on the paper's sample missions
+//! and on TSPLIB's br17, and clear failures on bad input.
+
+use std::path::Path;
+use std::process::Command;
+
+use serde_json::Value;
+
+fn emplan(args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_emplan"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("emplan runs");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn json(args: &[&str]) -> Value {
+    let (ok, stdout, stderr) = emplan(args);
+    assert!(ok, "emplan {args:?} failed: {stderr}");
+    serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("not JSON ({e}): {stdout}"))
+}
+
+fn order<'a>(plan: &'a Value, objective: &str, direction: &str) -> &'a Value {
+    plan["orders"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|o| o["objective"] == objective && o["direction"] == direction)
+        .unwrap_or_else(|| panic!("no {objective} {direction} order"))
+}
+
+fn assert_metrics(o: &Value, d: f64, x: f64, z: f64) {
+    for (key, want) in [("distance_m", d), ("horizontal_m", x), ("vertical_m", z)] {
+        let got = o[key].as_f64().unwrap();
+        assert!((got - want).abs() <= 0.05, "{key}: {got} vs {want} in {o}");
+    }
+}
+
+#[test]
+fn plan_json_of_the_eight_waypoint_sample_has_the_papers_baseline_metrics() {
+    let plan = json(&["plan", "missions/paper-sample-8wp.toml", "--json"]);
+    assert_eq!(plan["mission"], "paper-sample-8wp");
+    for direction in ["forward", "reverse"] {
+        assert_metrics(order(&plan, "distance", direction), 284.4, 189.5, 174.0);
+        assert_metrics(order(&plan, "horizontal", direction), 311.6, 183.2, 240.0);
+        assert_metrics(order(&plan, "vertical", direction), 321.4, 291.3, 76.0);
+    }
+    let d = order(&plan, "distance", "forward");
+    assert_eq!(d["sequence"].as_array().unwrap().len(), 8);
+    assert_eq!(d["legs"].as_array().unwrap().len(), 9);
+    assert_eq!(d["legs"][0]["from"], "origin");
+}
+
+#[test]
+fn plan_json_of_the_three_waypoint_sample_has_the_papers_distance_metrics() {
+    let plan = json(&["plan", "missions/paper-sample-3wp.toml", "--json"]);
+    assert_metrics(order(&plan, "distance", "forward"), 167.8, 136.6, 50.0);
+}
+
+#[test]
+fn tsp_solves_tsplib_br17_to_its_known_optimum_of_39() {
+    let br17 = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/tsplib-atsp/br17.atsp");
+    let report = json(&["tsp", br17.to_str().unwrap(), "--json"]);
+    assert_eq!(report["instance"], "br17");
+    assert_eq!(report["dimension"], 17);
+    assert_eq!(report["cost"], 39.0);
+    assert_eq!(report["optimal"], true);
+    assert_eq!(report["lower_bound"], 39.0);
+    let mut tour: Vec<u64> = report["tour"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_u64().unwrap())
+        .collect();
+    assert_eq!(tour[0], 1);
+    tour.sort_unstable();
+    assert_eq!(tour, (1..=17).collect::<Vec<_>>());
+    assert!(report["seconds"].as_f64().unwrap() >= 0.0);
+}
+
+#[test]
+fn a_bad_mission_fails_with_a_message_naming_the_file_and_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("broken.toml");
+    std::fs::write(
+        &path,
+        "[origin]\nlat_deg = 1.0\nlon_deg = 2.0\nhome_alt_amsl_m = 0.0\nheight_above_home_m = 30.0\n\
+         [[waypoints]]\nname = \"A\"\nx_m = 1.0\ny_m = 1.0\nz_m = 1.0\naltitude = 3\n",
+    )
+    .unwrap();
+    let (ok, stdout, stderr) = emplan(&["plan", path.to_str().unwrap(), "--json"]);
+    assert!(!ok);
+    assert!(stdout.is_empty());
+    assert!(
+        stderr.contains("broken.toml") && stderr.contains("line 11") && stderr.contains("altitude"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn convert_writes_a_plan_that_plans_like_its_source() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("s.plan");
+    let (ok, _, stderr) = emplan(&[
+        "convert",
+        "missions/paper-sample-8wp.toml",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{stderr}");
+    let plan = json(&["plan", out.to_str().unwrap(), "--json"]);
+    assert_metrics(order(&plan, "distance", "forward"), 284.4, 189.5, 174.0);
+}
