@@ -23,6 +23,12 @@ enum Command {
     Convert(cmd::convert::Args),
     /// Solve a TSPLIB asymmetric TSP instance.
     Tsp(cmd::tsp::Args),
+    /// Simulate one hover-to-hover operation with the physics model.
+    Energy(cmd::energy::Args),
+    /// Build the precomputed energy tables.
+    Table(cmd::table::Args),
+    /// Compare the model with the paper's published energies (and refit with --fit).
+    Calibrate(cmd::calibrate::Args),
 }
 
 fn main() -> ExitCode {
@@ -38,6 +44,9 @@ fn main() -> ExitCode {
         Command::Plan(args) => cmd::plan::run(args),
         Command::Convert(args) => cmd::convert::run(args),
         Command::Tsp(args) => cmd::tsp::run(args),
+        Command::Energy(args) => cmd::energy::run(args),
+        Command::Table(args) => cmd::table::run(args),
+        Command::Calibrate(args) => cmd::calibrate::run(args),
     };
     match result {
         Ok(code) => code,

@@ -1,5 +1,8 @@
 //! One module per `emplan` subcommand: argument structs (clap) and the code that runs them.
 
+pub mod calibrate;
 pub mod convert;
+pub mod energy;
 pub mod plan;
+pub mod table;
 pub mod tsp;

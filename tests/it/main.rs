@@ -2,4 +2,5 @@
 
 mod cli;
 mod mission;
+mod physics;
 mod tidy;

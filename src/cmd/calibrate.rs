@@ -1,0 +1,94 @@
+//! `emplan calibrate`: the model against the paper's published operation energies, and the fit
+//! of the calibrated parameters (`--fit`).
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use emplan::physics::calibration::{
+    compare, fit, marginal_costs, min_power_speed_m_s, rms_pct, Row, PAPER_MARGINAL_J_M,
+};
+use emplan::physics::{hover_power_w, Profile, Vehicle};
+use serde_json::json;
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Vehicle directory holding vehicle.toml
+    #[arg(long, default_value = "models/s1000")]
+    vehicle: PathBuf,
+    /// Refit the calibrated parameters (PTF: mass, drags, speed limits; HVB: its limits) and
+    /// print the values to put in vehicle.toml
+    #[arg(long)]
+    fit: bool,
+    /// Print one JSON document instead of text
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    let mut vehicle = Vehicle::load(&args.vehicle)?;
+    let mut fitted = Vec::new();
+    if args.fit {
+        for profile in [Profile::Ptf, Profile::Hvb] {
+            let (v, values) = fit(&vehicle, profile, 300);
+            vehicle = v;
+            fitted.extend(values);
+        }
+    }
+    let ptf = compare(&vehicle, Profile::Ptf)?;
+    let hvb = compare(&vehicle, Profile::Hvb)?;
+    let marginal = marginal_costs(&ptf);
+    let hover_w = hover_power_w(&vehicle)?;
+    let v_min = min_power_speed_m_s(&vehicle);
+    if args.json {
+        let doc = json!({
+            "ptf": {"rows": ptf, "rms_pct": rms_pct(&ptf)},
+            "hvb": {"rows": hvb, "rms_pct": rms_pct(&hvb)},
+            "marginal_j_m": {"model": marginal, "paper": PAPER_MARGINAL_J_M},
+            "hover_power_w": hover_w,
+            "min_power_speed_m_s": v_min,
+            "fitted": fitted,
+        });
+        println!("{}", serde_json::to_string_pretty(&doc)?);
+        return Ok(ExitCode::SUCCESS);
+    }
+    let print = |rows: &[Row]| {
+        for r in rows {
+            println!(
+                "{:<4} {:>6.1} {:>6.1} {:>9.2} {:>9.2} {:>+8.1}%",
+                r.profile.to_string(),
+                r.xf_m,
+                r.zf_m,
+                r.paper_kj,
+                r.model_kj,
+                r.error_pct
+            );
+        }
+        println!(
+            "     rms {:.1}%, worst {:.1}%",
+            rms_pct(rows),
+            rows.iter().map(|r| r.error_pct.abs()).fold(0.0, f64::max)
+        );
+    };
+    println!("operation energies to the 4 m rule, model vs paper (NOTES.md section 3)");
+    println!(
+        "{:<4} {:>6} {:>6} {:>9} {:>9} {:>9}",
+        "", "Xf_m", "Zf_m", "paper_kJ", "model_kJ", "error"
+    );
+    print(&ptf);
+    print(&hvb);
+    println!(
+        "PTF marginal cost, J/m (model / paper): climbing {:.0} / {:.0}, level {:.0} / {:.0}, descending saves {:.0} / {:.0}",
+        marginal[0], PAPER_MARGINAL_J_M[0], marginal[1], PAPER_MARGINAL_J_M[1], marginal[2], PAPER_MARGINAL_J_M[2]
+    );
+    println!("hover power {hover_w:.0} W; least-power level speed {v_min:.2} m/s");
+    if !fitted.is_empty() {
+        println!("fitted values (put them in vehicle.toml):");
+        for f in &fitted {
+            println!(
+                "  {} = {:.4}   (searched {} to {})",
+                f.key, f.value, f.low, f.high
+            );
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,67 @@
+//! `emplan table build`: rebuild a vehicle's energy tables in parallel, with a progress bar.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Instant;
+
+use anyhow::Context;
+use emplan::physics::table::{DEFAULT_XF, DEFAULT_ZF};
+use emplan::physics::{EnergyTable, Profile, Vehicle};
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    #[command(subcommand)]
+    command: TableCommand,
+}
+
+#[derive(Debug, clap::Subcommand)]
+enum TableCommand {
+    /// Simulate every grid point and write <vehicle>/<profile>.table
+    Build {
+        /// Vehicle directory holding vehicle.toml
+        #[arg(long, default_value = "models/s1000")]
+        vehicle: PathBuf,
+        /// ptf, hvb, px4 or all (default: all)
+        #[arg(long, default_value = "all")]
+        profile: String,
+    },
+}
+
+pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    let TableCommand::Build {
+        vehicle: dir,
+        profile,
+    } = args.command;
+    let vehicle = Vehicle::load(&dir)?;
+    let profiles: Vec<Profile> = if profile == "all" {
+        Profile::ALL.to_vec()
+    } else {
+        vec![profile.parse().map_err(anyhow::Error::msg)?]
+    };
+    for profile in profiles {
+        let bar = indicatif::ProgressBar::new((DEFAULT_XF.count * DEFAULT_ZF.count) as u64);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{prefix} [{bar:40}] {pos}/{len} cells, {eta} left",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        bar.set_prefix(profile.to_string());
+        let started = Instant::now();
+        let table = EnergyTable::build(&vehicle, profile, DEFAULT_XF, DEFAULT_ZF, |done, _| {
+            bar.set_position(done as u64)
+        })
+        .with_context(|| format!("building the {profile} table"))?;
+        bar.finish_and_clear();
+        let path = EnergyTable::path(&dir, profile);
+        std::fs::write(&path, table.to_text())
+            .with_context(|| format!("writing {}", path.display()))?;
+        eprintln!(
+            "{profile}: {} cells in {:.1} s -> {}",
+            DEFAULT_XF.count * DEFAULT_ZF.count,
+            started.elapsed().as_secs_f64(),
+            path.display()
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,485 @@
+//! Simulating one hover-to-hover operation: the profile's schedule sampled in time, the body,
+//! rotor, motor and battery models at each sample, and the battery terminal energy integrated
+//! with the midpoint rule. Operation energy follows the paper (NOTES.md section 3): from the start
+//! until the vehicle first comes within 4 m of the end point; the rest of the trajectory plus the
+//! profile's settle time in hover is recorded separately so mission totals include everything.
+
+use super::body::demand;
+use super::powertrain::Powertrain;
+use super::profile::{line_limit, s_curve, trapezoid, Schedule};
+use super::rotor::Rotor;
+use super::vehicle::Vehicle;
+use super::{PhysicsError, Profile};
+
+/// The paper's operation-end rule: energy counts until within this distance of the end point.
+pub const ARRIVAL_RADIUS_M: f64 = 4.0;
+
+/// One simulated operation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Operation {
+    /// Battery energy from the start until first within 4 m of the end point.
+    pub energy_j: f64,
+    /// Time from the start until first within 4 m of the end point.
+    pub duration_s: f64,
+    /// Energy from there until settled in hover at the end point.
+    pub settle_energy_j: f64,
+    /// Time from there until settled in hover at the end point.
+    pub settle_duration_s: f64,
+    /// Largest speed along the path.
+    pub peak_speed_m_s: f64,
+}
+
+impl Operation {
+    /// Energy of the whole operation, start to settled hover.
+    pub fn total_energy_j(&self) -> f64 {
+        self.energy_j + self.settle_energy_j
+    }
+
+    /// Duration of the whole operation.
+    pub fn total_duration_s(&self) -> f64 {
+        self.duration_s + self.settle_duration_s
+    }
+}
+
+/// How the vehicle moves in the leg's plane.
+#[derive(Debug, Clone, PartialEq)]
+enum Path {
+    /// Along the straight line to the end point, unit direction `dir` = (ux, uz).
+    Line {
+        schedule: Schedule,
+        length_m: f64,
+        dir: (f64, f64),
+    },
+    /// Horizontal and vertical axes each on their own schedule (vertical in |Zf|).
+    Axes {
+        x: Schedule,
+        z: Schedule,
+        xf_m: f64,
+        zf_m: f64,
+    },
+}
+
+impl Path {
+    fn duration_s(&self) -> f64 {
+        match self {
+            Path::Line { schedule, .. } => schedule.duration_s(),
+            Path::Axes { x, z, .. } => x.duration_s().max(z.duration_s()),
+        }
+    }
+
+    /// Velocity and acceleration (vx, vz, ax, az) at `t`.
+    fn kinematics(&self, t: f64) -> (f64, f64, f64, f64) {
+        match self {
+            Path::Line { schedule, dir, .. } => {
+                let st = schedule.at(t);
+                (
+                    dir.0 * st.v_m_s,
+                    dir.1 * st.v_m_s,
+                    dir.0 * st.a_m_s2,
+                    dir.1 * st.a_m_s2,
+                )
+            }
+            Path::Axes { x, z, zf_m, .. } => {
+                let (sx, sz) = (x.at(t), z.at(t));
+                let sign = if *zf_m < 0.0 { -1.0 } else { 1.0 };
+                (sx.v_m_s, sign * sz.v_m_s, sx.a_m_s2, sign * sz.a_m_s2)
+            }
+        }
+    }
+
+    /// Straight-line distance to the end point at `t`.
+    fn remaining_m(&self, t: f64) -> f64 {
+        match self {
+            Path::Line {
+                schedule, length_m, ..
+            } => length_m - schedule.at(t).s_m,
+            Path::Axes { x, z, xf_m, zf_m } => (xf_m - x.at(t).s_m).hypot(zf_m.abs() - z.at(t).s_m),
+        }
+    }
+}
+
+/// A vehicle's models, built once and reused for many operations (table builds).
+#[derive(Debug, Clone)]
+pub struct Model<'a> {
+    vehicle: &'a Vehicle,
+    rotor: Rotor,
+    powertrain: Powertrain,
+    max_tilt_rad: f64,
+}
+
+impl<'a> Model<'a> {
+    /// The models of `vehicle` at its table state of charge.
+    pub fn new(vehicle: &'a Vehicle) -> Model<'a> {
+        Model {
+            vehicle,
+            rotor: Rotor::new(vehicle),
+            powertrain: Powertrain::new(vehicle, vehicle.battery.table_state_of_charge),
+            max_tilt_rad: vehicle.body.max_tilt_deg.to_radians(),
+        }
+    }
+
+    /// Battery terminal power at a kinematic state in the leg's plane; also returns the tilt.
+    pub fn power_w(&self, vx: f64, vz: f64, ax: f64, az: f64) -> Result<(f64, f64), PhysicsError> {
+        let d = demand(self.vehicle, vx, vz, ax, az);
+        let rotor = self.rotor.solve(d.thrust_n, d.v_x_m_s, d.v_z_m_s)?;
+        let electrical = self.powertrain.electrical(&rotor)?;
+        Ok((electrical.power_w, d.pitch_rad.abs()))
+    }
+
+    /// Hover power.
+    pub fn hover_power_w(&self) -> Result<f64, PhysicsError> {
+        Ok(self.power_w(0.0, 0.0, 0.0, 0.0)?.0)
+    }
+
+    /// Energy of a path from `t0` to `t1`, `n` midpoint steps; errors when the tilt limit is
+    /// exceeded (if `check_tilt`) or a state is infeasible.
+    fn energy_j(
+        &self,
+        path: &Path,
+        (t0, t1): (f64, f64),
+        n: usize,
+        check_tilt: bool,
+    ) -> Result<f64, PhysicsError> {
+        if t1 <= t0 {
+            return Ok(0.0);
+        }
+        let dt = (t1 - t0) / n as f64;
+        let mut total = 0.0;
+        for k in 0..n {
+            let (vx, vz, ax, az) = path.kinematics(t0 + (k as f64 + 0.5) * dt);
+            let (p, tilt) = self.power_w(vx, vz, ax, az)?;
+            if check_tilt && tilt > self.max_tilt_rad {
+                return Err(PhysicsError::TiltLimit {
+                    tilt_deg: tilt.to_degrees(),
+                    max_deg: self.vehicle.body.max_tilt_deg,
+                });
+            }
+            total += p * dt;
+        }
+        Ok(total)
+    }
+
+    /// Simulates flying `path`, then hovering `settle_s`.
+    fn fly(&self, path: &Path, steps: usize, settle_s: f64) -> Result<Operation, PhysicsError> {
+        let duration = path.duration_s();
+        // First time within the arrival radius (the remaining distance never grows:
+        // bisection on time).
+        let t_arrive = if path.remaining_m(0.0) <= ARRIVAL_RADIUS_M {
+            0.0
+        } else {
+            let (mut lo, mut hi) = (0.0, duration);
+            for _ in 0..80 {
+                let mid = 0.5 * (lo + hi);
+                if path.remaining_m(mid) <= ARRIVAL_RADIUS_M {
+                    hi = mid;
+                } else {
+                    lo = mid;
+                }
+            }
+            hi
+        };
+        let n1 = ((steps as f64 * t_arrive / duration.max(1e-9)).round() as usize).max(8);
+        let n2 = steps.saturating_sub(n1).max(8);
+        // Tilt is a planning limit: the PTF search enforces it; HVB and PX4 fly what they fly.
+        let energy = self.energy_j(path, (0.0, t_arrive), n1, false)?;
+        let rest = self.energy_j(path, (t_arrive, duration), n2, false)?;
+        let peak = (0..=steps)
+            .map(|k| {
+                let (vx, vz, _, _) = path.kinematics(duration * k as f64 / steps as f64);
+                vx.hypot(vz)
+            })
+            .fold(0.0, f64::max);
+        Ok(Operation {
+            energy_j: energy,
+            duration_s: t_arrive,
+            settle_energy_j: rest + self.hover_power_w()? * settle_s,
+            settle_duration_s: duration - t_arrive + settle_s,
+            peak_speed_m_s: peak,
+        })
+    }
+
+    /// The operation from hover to hover over horizontal distance `xf_m` and signed vertical
+    /// displacement `zf_m`, flown with `profile`.
+    pub fn operation(
+        &self,
+        profile: Profile,
+        xf_m: f64,
+        zf_m: f64,
+    ) -> Result<Operation, PhysicsError> {
+        for (what, value) in [("xf_m", xf_m), ("zf_m", zf_m)] {
+            if !value.is_finite() {
+                return Err(PhysicsError::NotFinite { what, value });
+            }
+        }
+        let no_trajectory = |reason: String| PhysicsError::NoTrajectory {
+            xf_m,
+            zf_m,
+            profile,
+            reason,
+        };
+        if xf_m < 0.0 {
+            return Err(no_trajectory(
+                "the horizontal distance must not be negative".into(),
+            ));
+        }
+        let length = xf_m.hypot(zf_m);
+        if length < 1e-9 {
+            return Ok(Operation {
+                energy_j: 0.0,
+                duration_s: 0.0,
+                settle_energy_j: 0.0,
+                settle_duration_s: 0.0,
+                peak_speed_m_s: 0.0,
+            });
+        }
+        let dir = (xf_m / length, zf_m / length);
+        let v = self.vehicle;
+        match profile {
+            Profile::Ptf => {
+                let p = &v.ptf;
+                // Peak speed of the quintic is 15/8 L / T.
+                let v_line = line_limit(
+                    dir.0,
+                    dir.1,
+                    p.max_speed_xy_m_s,
+                    p.max_speed_up_m_s,
+                    p.max_speed_down_m_s,
+                )
+                .min(p.max_speed_m_s);
+                let t_min = (1.875 * length / v_line).max(0.2);
+                let steps = p.steps as usize;
+                let quintic = |t: f64| Path::Line {
+                    schedule: Schedule::Quintic {
+                        length_m: length,
+                        duration_s: t,
+                    },
+                    length_m: length,
+                    dir,
+                };
+                let cost = |t: f64| {
+                    self.energy_j(&quintic(t), (0.0, t), steps, true)
+                        .unwrap_or(f64::INFINITY)
+                };
+                // Golden-section search of the duration (E(T) is unimodal: infeasible or
+                // expensive when short, hover-dominated when long).
+                let (mut a, mut b) = (t_min, t_min * 4.0 + 20.0);
+                let ratio = (5f64.sqrt() - 1.0) / 2.0;
+                let mut c = b - ratio * (b - a);
+                let mut d = a + ratio * (b - a);
+                let (mut fc, mut fd) = (cost(c), cost(d));
+                for _ in 0..60 {
+                    if fc <= fd {
+                        b = d;
+                        d = c;
+                        fd = fc;
+                        c = b - ratio * (b - a);
+                        fc = cost(c);
+                    } else {
+                        a = c;
+                        c = d;
+                        fc = fd;
+                        d = a + ratio * (b - a);
+                        fd = cost(d);
+                    }
+                    if b - a < 1e-5 {
+                        break;
+                    }
+                }
+                let t_best = if fc <= fd { c } else { d };
+                if !cost(t_best).is_finite() {
+                    return Err(no_trajectory(
+                        "every duration breaks the tilt, motor or battery limits".into(),
+                    ));
+                }
+                self.fly(&quintic(t_best), steps, 0.0)
+            }
+            Profile::Hvb => {
+                // A stock position controller: each axis runs to its target at its own
+                // limits, so a climbing leg finishes horizontally first and climbs on.
+                let h = &v.hvb;
+                let vertical = if zf_m >= 0.0 {
+                    h.speed_up_m_s
+                } else {
+                    h.speed_down_m_s
+                };
+                let path = Path::Axes {
+                    x: trapezoid(xf_m, h.speed_xy_m_s, h.acceleration_m_s2),
+                    z: trapezoid(zf_m.abs(), vertical, h.acceleration_m_s2),
+                    xf_m,
+                    zf_m,
+                };
+                self.fly(&path, h.steps as usize, h.settle_s)
+            }
+            Profile::Px4 => {
+                let x = &v.px4;
+                let v_line = line_limit(
+                    dir.0,
+                    dir.1,
+                    x.mpc_xy_cruise_m_s,
+                    x.mpc_z_v_auto_up_m_s,
+                    x.mpc_z_v_auto_dn_m_s,
+                );
+                let a_line = line_limit(
+                    dir.0,
+                    dir.1,
+                    x.mpc_acc_hor_m_s2,
+                    x.mpc_acc_up_max_m_s2,
+                    x.mpc_acc_down_max_m_s2,
+                );
+                // PX4 limits jerk per axis: the line's jerk is bounded by the larger component.
+                let j_line = x.mpc_jerk_auto_m_s3 / dir.0.abs().max(dir.1.abs());
+                let path = Path::Line {
+                    schedule: s_curve(length, v_line, a_line, j_line),
+                    length_m: length,
+                    dir,
+                };
+                self.fly(&path, x.steps as usize, x.settle_s)
+            }
+        }
+        .map_err(|e| match e {
+            PhysicsError::NoTrajectory { .. } => e,
+            other => no_trajectory(other.to_string()),
+        })
+    }
+}
+
+/// One operation of `vehicle` flown with `profile` (direct simulation, not the table).
+pub fn simulate_operation(
+    vehicle: &Vehicle,
+    profile: Profile,
+    xf_m: f64,
+    zf_m: f64,
+) -> Result<Operation, PhysicsError> {
+    Model::new(vehicle).operation(profile, xf_m, zf_m)
+}
+
+/// Battery terminal power in hover.
+pub fn hover_power_w(vehicle: &Vehicle) -> Result<f64, PhysicsError> {
+    Model::new(vehicle).hover_power_w()
+}
+
+/// Battery terminal power in steady level flight at `speed_m_s`.
+pub fn level_flight_power_w(vehicle: &Vehicle, speed_m_s: f64) -> Result<f64, PhysicsError> {
+    Ok(Model::new(vehicle).power_w(speed_m_s, 0.0, 0.0, 0.0)?.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::physics::vehicle::shipped;
+
+    #[test]
+    fn hover_power_is_plausible_for_a_five_and_a_half_kilogram_octorotor() {
+        // Ideal (momentum) hover power (mg)^1.5 / sqrt(2 rho 8 A) is 263 W at 5.5 kg; a figure
+        // of merit near 0.6 and motor/ESC efficiency near 0.8 put the electrical power near
+        // 500-560 W (DJI: 1500 W at 9.5 kg, which scales as m^1.5 to 640 W at 5.5 kg).
+        let p = hover_power_w(&shipped()).unwrap();
+        assert!((450.0..650.0).contains(&p), "hover {p} W");
+    }
+
+    #[test]
+    fn level_flight_power_has_its_minimum_between_five_and_twelve_metres_per_second() {
+        let v = shipped();
+        // Up to 12 m/s: beyond about 13 m/s the calibrated body drag saturates the motors.
+        let speeds: Vec<f64> = (0..=24).map(|k| 0.5 * k as f64).collect();
+        let powers: Vec<f64> = speeds
+            .iter()
+            .map(|&s| level_flight_power_w(&v, s).unwrap())
+            .collect();
+        let (k_min, p_min) = powers
+            .iter()
+            .enumerate()
+            .min_by(|a, b| a.1.total_cmp(b.1))
+            .map(|(k, &p)| (k, p))
+            .unwrap();
+        assert!(
+            (5.0..=12.0).contains(&speeds[k_min]),
+            "minimum at {} m/s",
+            speeds[k_min]
+        );
+        // A bucket: cheaper than hover at the minimum, dearer again at high speed.
+        assert!(
+            p_min < 0.95 * powers[0] && powers[24] > p_min * 1.2,
+            "{powers:?}"
+        );
+    }
+
+    fn energy(x: f64, z: f64) -> f64 {
+        simulate_operation(&shipped(), Profile::Ptf, x, z)
+            .unwrap()
+            .energy_j
+    }
+
+    #[test]
+    fn climbing_costs_more_per_metre_than_level_flight_which_costs_more_than_descending() {
+        // Marginal costs from a 40 m level leg, as the paper's table gives them (research
+        // section 5.1: climbing 105 J/m, level 76 J/m, descending -49 J/m).
+        let base = energy(40.0, 0.0);
+        let climb = (energy(40.0, 25.0) - base) / 25.0;
+        let level = (energy(56.6, 0.0) - base) / 16.6;
+        let descent = (energy(40.0, -25.0) - base) / 25.0;
+        assert!(
+            climb > level && level > descent,
+            "{climb} {level} {descent} J/m"
+        );
+        assert!(descent < 0.0, "descending saves energy: {descent} J/m");
+        assert!(energy(40.0, -25.0) < energy(40.0, -1.0));
+        assert!(energy(40.0, -1.0) < energy(40.0, 1.0));
+        assert!(energy(40.0, 1.0) < energy(40.0, 25.0));
+    }
+
+    #[test]
+    fn a_diagonal_leg_costs_far_less_than_its_horizontal_and_vertical_parts_flown_apart() {
+        let diagonal = energy(50.0, 30.0);
+        let apart = energy(50.0, 0.0) + energy(0.0, 30.0);
+        assert!(diagonal < 0.8 * apart, "{diagonal} vs {apart}");
+    }
+
+    #[test]
+    fn climbing_and_descending_the_same_leg_cost_different_energies() {
+        for (x, z) in [(40.0, 25.0), (0.0, 24.0), (40.0, 1.0)] {
+            let (up, down) = (energy(x, z), energy(x, -z));
+            assert!(up > down * 1.02, "E({x},{z}) {up} vs E({x},-{z}) {down}");
+        }
+    }
+
+    #[test]
+    fn every_profile_ends_settled_and_reports_the_four_metre_rule() {
+        let v = shipped();
+        for profile in Profile::ALL {
+            let op = simulate_operation(&v, profile, 40.0, 10.0).unwrap();
+            assert!(
+                op.energy_j > 0.0 && op.settle_energy_j > 0.0,
+                "{profile}: {op:?}"
+            );
+            assert!(op.duration_s > 0.0 && op.total_duration_s() > op.duration_s);
+            // Within 4 m already: all the energy is settling.
+            let short = simulate_operation(&v, profile, 3.0, 0.0).unwrap();
+            assert_eq!(short.energy_j, 0.0);
+            assert!(short.settle_energy_j > 0.0);
+        }
+    }
+
+    #[test]
+    fn infeasible_inputs_are_typed_errors() {
+        let v = shipped();
+        assert!(matches!(
+            simulate_operation(&v, Profile::Ptf, f64::NAN, 0.0),
+            Err(PhysicsError::NotFinite { .. })
+        ));
+        assert!(matches!(
+            simulate_operation(&v, Profile::Px4, -1.0, 0.0),
+            Err(PhysicsError::NoTrajectory { .. })
+        ));
+        // Four times the vehicle's mass is beyond what the motors can lift at this battery voltage.
+        let mut heavy = v.clone();
+        heavy.body.mass_kg *= 4.0;
+        assert!(matches!(
+            hover_power_w(&heavy),
+            Err(PhysicsError::MotorSaturated { .. })
+        ));
+        let err = simulate_operation(&heavy, Profile::Hvb, 40.0, 25.0).unwrap_err();
+        assert!(matches!(err, PhysicsError::NoTrajectory { .. }), "{err}");
+        assert!(err.to_string().contains("motors saturated"), "{err}");
+    }
+}

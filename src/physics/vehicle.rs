@@ -1,0 +1,391 @@
+//! Vehicle parameters (`models/<vehicle>/vehicle.toml`): every key carries its unit, every value
+//! its source in a comment. Loading validates ranges and names the offending key.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use super::{PhysicsError, Profile};
+
+/// Mission-planning settings (not physics: they do not affect the energy tables).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Planning {
+    pub default_profile: Profile,
+    pub usable_energy_wh: f64,
+    pub reserve_pct: f64,
+}
+
+/// Rigid body and environment.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Body {
+    pub mass_kg: f64,
+    pub gravity_m_s2: f64,
+    pub air_density_kg_m3: f64,
+    pub drag_coefficient_n_s2_m2: f64,
+    pub avionics_power_w: f64,
+    pub max_tilt_deg: f64,
+}
+
+/// Rotor and propeller geometry and aerodynamics.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RotorParams {
+    pub count: u32,
+    pub blades: u32,
+    pub radius_m: f64,
+    pub root_cutout_m: f64,
+    pub tip_loss_factor: f64,
+    pub chord_m: f64,
+    pub geometric_pitch_m: f64,
+    pub collective_offset_deg: f64,
+    pub lift_slope_per_rad: f64,
+    pub drag_coefficient: f64,
+}
+
+/// Brushless motor and ESC.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MotorParams {
+    pub kv_rpm_per_v: f64,
+    pub resistance_ohm: f64,
+    pub no_load_current_a: f64,
+    pub esc_efficiency: f64,
+}
+
+/// Lumped battery.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BatteryParams {
+    pub cells: u32,
+    pub capacity_ah: f64,
+    pub internal_resistance_ohm: f64,
+    pub table_state_of_charge: f64,
+    pub ocv_soc: Vec<f64>,
+    pub ocv_cell_v: Vec<f64>,
+}
+
+/// The energy-optimal polynomial trajectory (PTF) limits.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PtfParams {
+    /// Limit on the speed along the path (3D).
+    pub max_speed_m_s: f64,
+    pub max_speed_xy_m_s: f64,
+    pub max_speed_up_m_s: f64,
+    pub max_speed_down_m_s: f64,
+    pub steps: u32,
+}
+
+/// The high-velocity baseline (HVB).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HvbParams {
+    pub speed_xy_m_s: f64,
+    pub speed_up_m_s: f64,
+    pub speed_down_m_s: f64,
+    pub acceleration_m_s2: f64,
+    pub settle_s: f64,
+    pub steps: u32,
+}
+
+/// PX4 mission-mode trajectory parameters (PX4 parameter names, units in the key).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Px4Params {
+    pub mpc_xy_cruise_m_s: f64,
+    pub mpc_z_v_auto_up_m_s: f64,
+    pub mpc_z_v_auto_dn_m_s: f64,
+    pub mpc_acc_hor_m_s2: f64,
+    pub mpc_acc_up_max_m_s2: f64,
+    pub mpc_acc_down_max_m_s2: f64,
+    pub mpc_jerk_auto_m_s3: f64,
+    pub settle_s: f64,
+    pub steps: u32,
+}
+
+/// A vehicle: everything the energy model needs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Vehicle {
+    pub name: String,
+    pub planning: Planning,
+    pub body: Body,
+    pub rotor: RotorParams,
+    pub motor: MotorParams,
+    pub battery: BatteryParams,
+    pub ptf: PtfParams,
+    pub hvb: HvbParams,
+    pub px4: Px4Params,
+}
+
+fn line_of(text: &str, offset: usize) -> usize {
+    text.as_bytes()
+        .iter()
+        .take(offset)
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
+}
+
+impl Vehicle {
+    /// Reads and validates `<dir>/vehicle.toml`.
+    pub fn load(dir: &Path) -> Result<Vehicle, PhysicsError> {
+        let path = dir.join("vehicle.toml");
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(&path).map_err(|e| PhysicsError::Io {
+            file: file.clone(),
+            source_text: e.to_string(),
+        })?;
+        Self::from_toml(&text, &file)
+    }
+
+    /// Parses and validates vehicle TOML; `file` names it in errors.
+    pub fn from_toml(text: &str, file: &str) -> Result<Vehicle, PhysicsError> {
+        let vehicle: Vehicle = toml::from_str(text).map_err(|e| PhysicsError::VehicleFile {
+            file: file.to_string(),
+            line: e.span().map_or(String::new(), |s| {
+                format!(" line {}:", line_of(text, s.start))
+            }),
+            key: "toml".to_string(),
+            problem: e.message().trim().to_string(),
+        })?;
+        vehicle.validate(file)?;
+        Ok(vehicle)
+    }
+
+    fn validate(&self, file: &str) -> Result<(), PhysicsError> {
+        let fail = |key: &str, problem: String| PhysicsError::VehicleFile {
+            file: file.to_string(),
+            line: String::new(),
+            key: key.to_string(),
+            problem,
+        };
+        let check = |key: &str, value: f64, lo: f64, hi: f64| {
+            if value.is_finite() && value >= lo && value <= hi {
+                Ok(())
+            } else {
+                Err(fail(
+                    key,
+                    format!("{value} is out of range (allowed: {lo} to {hi})"),
+                ))
+            }
+        };
+        let p = &self.planning;
+        check(
+            "planning.usable_energy_wh",
+            p.usable_energy_wh,
+            1.0,
+            100_000.0,
+        )?;
+        check("planning.reserve_pct", p.reserve_pct, 0.0, 90.0)?;
+        let b = &self.body;
+        check("body.mass_kg", b.mass_kg, 0.1, 200.0)?;
+        check("body.gravity_m_s2", b.gravity_m_s2, 9.7, 9.9)?;
+        check("body.air_density_kg_m3", b.air_density_kg_m3, 0.5, 1.5)?;
+        check(
+            "body.drag_coefficient_n_s2_m2",
+            b.drag_coefficient_n_s2_m2,
+            0.0,
+            10.0,
+        )?;
+        check("body.avionics_power_w", b.avionics_power_w, 0.0, 1000.0)?;
+        check("body.max_tilt_deg", b.max_tilt_deg, 5.0, 70.0)?;
+        let r = &self.rotor;
+        check("rotor.count", f64::from(r.count), 1.0, 32.0)?;
+        check("rotor.blades", f64::from(r.blades), 2.0, 8.0)?;
+        check("rotor.radius_m", r.radius_m, 0.01, 5.0)?;
+        check(
+            "rotor.root_cutout_m",
+            r.root_cutout_m,
+            0.0,
+            0.5 * r.radius_m,
+        )?;
+        check("rotor.tip_loss_factor", r.tip_loss_factor, 0.8, 1.0)?;
+        check("rotor.chord_m", r.chord_m, 0.001, 0.5 * r.radius_m)?;
+        check(
+            "rotor.geometric_pitch_m",
+            r.geometric_pitch_m,
+            0.001,
+            10.0 * r.radius_m,
+        )?;
+        check(
+            "rotor.collective_offset_deg",
+            r.collective_offset_deg,
+            -10.0,
+            10.0,
+        )?;
+        check("rotor.lift_slope_per_rad", r.lift_slope_per_rad, 1.0, 7.0)?;
+        check("rotor.drag_coefficient", r.drag_coefficient, 0.0, 0.2)?;
+        let m = &self.motor;
+        check("motor.kv_rpm_per_v", m.kv_rpm_per_v, 10.0, 10_000.0)?;
+        check("motor.resistance_ohm", m.resistance_ohm, 0.0, 10.0)?;
+        check("motor.no_load_current_a", m.no_load_current_a, 0.0, 20.0)?;
+        check("motor.esc_efficiency", m.esc_efficiency, 0.5, 1.0)?;
+        let bat = &self.battery;
+        check("battery.cells", f64::from(bat.cells), 1.0, 24.0)?;
+        check("battery.capacity_ah", bat.capacity_ah, 0.1, 1000.0)?;
+        check(
+            "battery.internal_resistance_ohm",
+            bat.internal_resistance_ohm,
+            0.0,
+            1.0,
+        )?;
+        check(
+            "battery.table_state_of_charge",
+            bat.table_state_of_charge,
+            0.0,
+            1.0,
+        )?;
+        if bat.ocv_soc.len() < 2 || bat.ocv_soc.len() != bat.ocv_cell_v.len() {
+            return Err(fail(
+                "battery.ocv_soc",
+                "needs at least 2 points and as many as battery.ocv_cell_v".into(),
+            ));
+        }
+        if !bat.ocv_soc.windows(2).all(|w| w[0] < w[1]) {
+            return Err(fail(
+                "battery.ocv_soc",
+                "must be strictly increasing".into(),
+            ));
+        }
+        for &v in &bat.ocv_cell_v {
+            check("battery.ocv_cell_v", v, 2.5, 4.5)?;
+        }
+        let t = &self.ptf;
+        check("ptf.max_speed_m_s", t.max_speed_m_s, 0.5, 40.0)?;
+        check("ptf.max_speed_xy_m_s", t.max_speed_xy_m_s, 0.5, 40.0)?;
+        check("ptf.max_speed_up_m_s", t.max_speed_up_m_s, 0.2, 20.0)?;
+        check("ptf.max_speed_down_m_s", t.max_speed_down_m_s, 0.2, 20.0)?;
+        check("ptf.steps", f64::from(t.steps), 20.0, 100_000.0)?;
+        let h = &self.hvb;
+        check("hvb.speed_xy_m_s", h.speed_xy_m_s, 0.5, 40.0)?;
+        check("hvb.speed_up_m_s", h.speed_up_m_s, 0.2, 20.0)?;
+        check("hvb.speed_down_m_s", h.speed_down_m_s, 0.2, 20.0)?;
+        check("hvb.acceleration_m_s2", h.acceleration_m_s2, 0.2, 20.0)?;
+        check("hvb.settle_s", h.settle_s, 0.0, 60.0)?;
+        check("hvb.steps", f64::from(h.steps), 20.0, 100_000.0)?;
+        let x = &self.px4;
+        check("px4.mpc_xy_cruise_m_s", x.mpc_xy_cruise_m_s, 0.5, 40.0)?;
+        check("px4.mpc_z_v_auto_up_m_s", x.mpc_z_v_auto_up_m_s, 0.2, 20.0)?;
+        check("px4.mpc_z_v_auto_dn_m_s", x.mpc_z_v_auto_dn_m_s, 0.2, 20.0)?;
+        check("px4.mpc_acc_hor_m_s2", x.mpc_acc_hor_m_s2, 0.2, 20.0)?;
+        check("px4.mpc_acc_up_max_m_s2", x.mpc_acc_up_max_m_s2, 0.2, 20.0)?;
+        check(
+            "px4.mpc_acc_down_max_m_s2",
+            x.mpc_acc_down_max_m_s2,
+            0.2,
+            20.0,
+        )?;
+        check("px4.mpc_jerk_auto_m_s3", x.mpc_jerk_auto_m_s3, 0.2, 100.0)?;
+        check("px4.settle_s", x.settle_s, 0.0, 60.0)?;
+        check("px4.steps", f64::from(x.steps), 20.0, 100_000.0)?;
+        Ok(())
+    }
+
+    /// The profile planning uses unless the user overrides it.
+    pub fn default_profile(&self) -> Profile {
+        self.planning.default_profile
+    }
+
+    /// Usable battery energy after the reserve, in joules.
+    pub fn mission_budget_j(&self) -> f64 {
+        self.planning.usable_energy_wh * 3600.0 * (1.0 - self.planning.reserve_pct / 100.0)
+    }
+
+    /// Open-circuit pack voltage at a state of charge (linear interpolation of the cell curve).
+    pub fn open_circuit_voltage_v(&self, soc: f64) -> f64 {
+        let b = &self.battery;
+        let soc = soc.clamp(b.ocv_soc[0], b.ocv_soc[b.ocv_soc.len() - 1]);
+        let k = b
+            .ocv_soc
+            .windows(2)
+            .position(|w| soc <= w[1])
+            .unwrap_or(b.ocv_soc.len() - 2);
+        let (s0, s1) = (b.ocv_soc[k], b.ocv_soc[k + 1]);
+        let (v0, v1) = (b.ocv_cell_v[k], b.ocv_cell_v[k + 1]);
+        f64::from(b.cells) * (v0 + (v1 - v0) * (soc - s0) / (s1 - s0))
+    }
+
+    /// A fingerprint of everything a `profile` table depends on (FNV-1a over the canonical JSON
+    /// of the physics sections and that profile's section), recorded in table headers.
+    pub fn parameter_hash(&self, profile: Profile) -> String {
+        let profile_json = match profile {
+            Profile::Ptf => serde_json::to_string(&self.ptf),
+            Profile::Hvb => serde_json::to_string(&self.hvb),
+            Profile::Px4 => serde_json::to_string(&self.px4),
+        };
+        let canonical =
+            serde_json::to_string(&(&self.body, &self.rotor, &self.motor, &self.battery))
+                .unwrap_or_default()
+                + &profile_json.unwrap_or_default();
+        let mut hash: u64 = 0xcbf2_9ce4_8422_2325;
+        for byte in canonical.bytes() {
+            hash ^= u64::from(byte);
+            hash = hash.wrapping_mul(0x0100_0000_01b3);
+        }
+        format!("{hash:016x}")
+    }
+}
+
+#[cfg(test)]
+pub(crate) fn shipped() -> Vehicle {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/s1000");
+    Vehicle::load(&dir).expect("the shipped vehicle loads")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_shipped_vehicle_loads_and_plans_with_px4_by_default() {
+        let v = shipped();
+        assert_eq!(v.default_profile(), Profile::Px4);
+        assert!((v.open_circuit_voltage_v(1.0) - 25.2).abs() < 1e-9);
+        assert!((v.open_circuit_voltage_v(0.55) - 6.0 * 3.855).abs() < 1e-9);
+    }
+
+    #[test]
+    fn an_out_of_range_parameter_is_rejected_naming_its_key() {
+        let text = std::fs::read_to_string(
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("models/s1000/vehicle.toml"),
+        )
+        .unwrap();
+        let bad = text.replace("radius_m = 0.1905", "radius_m = -1.0");
+        let err = Vehicle::from_toml(&bad, "v.toml").unwrap_err().to_string();
+        assert!(
+            err.contains("rotor.radius_m") && err.contains("out of range"),
+            "{err}"
+        );
+        let bad = text.replace("[body]\n", "[body]\nmass_lb = 13.2\n");
+        let err = Vehicle::from_toml(&bad, "v.toml").unwrap_err().to_string();
+        assert!(
+            err.contains("v.toml") && err.contains("unknown field"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn the_parameter_hash_changes_with_physics_but_not_with_planning_or_other_profiles() {
+        let v = shipped();
+        let mut heavier = v.clone();
+        heavier.body.mass_kg += 0.1;
+        assert_ne!(
+            v.parameter_hash(Profile::Ptf),
+            heavier.parameter_hash(Profile::Ptf)
+        );
+        let mut planning = v.clone();
+        planning.planning.reserve_pct = 30.0;
+        planning.hvb.settle_s = 3.0;
+        assert_eq!(
+            v.parameter_hash(Profile::Ptf),
+            planning.parameter_hash(Profile::Ptf)
+        );
+        assert_ne!(
+            v.parameter_hash(Profile::Hvb),
+            planning.parameter_hash(Profile::Hvb)
+        );
+    }
+}

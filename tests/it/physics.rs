@@ -1,0 +1,145 @@
+//! The energy model against the paper through the CLI, and the committed energy tables against
+//! direct simulation: off-grid interpolation error, reproducibility, freshness.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use emplan::physics::{simulate_operation, EnergyTable, Profile, Vehicle};
+
+fn vehicle_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("models/s1000")
+}
+
+fn energy_kj(xf: f64, zf: f64, profile: &str) -> f64 {
+    let out = Command::new(env!("CARGO_BIN_EXE_emplan"))
+        .args([
+            "energy",
+            "--xf",
+            &xf.to_string(),
+            "--zf",
+            &zf.to_string(),
+            "--profile",
+            profile,
+            "--json",
+        ])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("emplan runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    assert_eq!(doc["profile"], profile);
+    assert_eq!(doc["xf_m"].as_f64(), Some(xf));
+    doc["energy_kj"].as_f64().expect("energy_kj")
+}
+
+/// The paper's simulated operation energies (NOTES.md section 3), kJ.
+const PTF: [(f64, f64, f64); 9] = [
+    (40.0, 25.0, 7.04),
+    (40.0, 1.0, 4.52),
+    (40.0, -1.0, 4.36),
+    (40.0, -25.0, 3.19),
+    (56.6, 0.0, 5.74),
+    (0.0, -24.0, 2.99),
+    (50.0, 30.0, 8.2),
+    (0.0, 30.0, 7.3),
+    (50.0, 0.0, 5.2),
+];
+const HVB: [(f64, f64, f64); 6] = [
+    (40.0, 25.0, 8.10),
+    (40.0, 1.0, 5.67),
+    (40.0, -1.0, 5.53),
+    (40.0, -25.0, 4.77),
+    (56.6, 0.0, 6.62),
+    (0.0, -24.0, 4.97),
+];
+
+#[test]
+fn emplan_energy_is_within_ten_percent_of_every_ptf_value_and_six_percent_rms() {
+    let errors: Vec<f64> = PTF
+        .iter()
+        .map(|&(x, z, paper)| energy_kj(x, z, "ptf") / paper - 1.0)
+        .collect();
+    for (e, (x, z, _)) in errors.iter().zip(PTF) {
+        assert!(e.abs() <= 0.10, "PTF ({x}, {z}) off by {:.1}%", 100.0 * e);
+    }
+    let rms = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt();
+    assert!(rms <= 0.06, "PTF rms {:.2}%", 100.0 * rms);
+}
+
+#[test]
+fn emplan_energy_is_within_fifteen_percent_of_every_hvb_value() {
+    for (x, z, paper) in HVB {
+        let e = energy_kj(x, z, "hvb") / paper - 1.0;
+        assert!(e.abs() <= 0.15, "HVB ({x}, {z}) off by {:.1}%", 100.0 * e);
+    }
+}
+
+/// A small deterministic generator (SplitMix64) for reproducible random points.
+fn splitmix(state: &mut u64) -> f64 {
+    *state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    let mut z = *state;
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+}
+
+#[test]
+fn table_interpolation_is_within_half_a_percent_of_direct_simulation_off_grid() {
+    let vehicle = Vehicle::load(&vehicle_dir()).unwrap();
+    let mut state = 2024;
+    for profile in Profile::ALL {
+        let table = EnergyTable::load(&vehicle_dir(), profile, &vehicle).unwrap();
+        let (mut worst_total, mut worst_rule, mut sum, mut n) = (0.0f64, 0.0f64, 0.0, 0);
+        for _ in 0..250 {
+            // Off-grid by construction: fractional parts avoid 0.
+            let x = 150.0 * splitmix(&mut state);
+            let z = -60.0 + 120.0 * splitmix(&mut state);
+            if x.fract() == 0.0 || z.fract() == 0.0 || x.hypot(z) < 10.0 {
+                continue;
+            }
+            let direct = simulate_operation(&vehicle, profile, x, z).unwrap();
+            let looked = table.lookup(x, z).unwrap();
+            let total = (looked.total_energy_j() / direct.total_energy_j() - 1.0).abs();
+            let rule = (looked.energy_j / direct.energy_j - 1.0).abs();
+            worst_total = worst_total.max(total);
+            worst_rule = worst_rule.max(rule);
+            sum += total;
+            n += 1;
+        }
+        assert!(n >= 200, "only {n} points");
+        println!(
+            "{profile}: {n} random off-grid legs: total energy worst {:.3}% mean {:.4}%, 4 m rule energy worst {:.3}%",
+            100.0 * worst_total,
+            100.0 * sum / n as f64,
+            100.0 * worst_rule
+        );
+        assert!(worst_total < 0.005, "{profile}: {worst_total}");
+        assert!(worst_rule < 0.005, "{profile}: {worst_rule}");
+    }
+}
+
+#[test]
+fn the_committed_tables_are_fresh_and_reproducible_cell_by_cell() {
+    let vehicle = Vehicle::load(&vehicle_dir()).unwrap();
+    for profile in Profile::ALL {
+        let table =
+            EnergyTable::load(&vehicle_dir(), profile, &vehicle).unwrap_or_else(|e| panic!("{e}"));
+        for (i, j) in [(0, 0), (40, 170), (40, 70), (57, 121), (150, 240), (13, 7)] {
+            let cell = table.cell(i, j).unwrap();
+            let (x, z) = (i as f64, -60.0 + 0.5 * j as f64);
+            let op = simulate_operation(&vehicle, profile, x, z).unwrap();
+            assert!(
+                (cell.energy_j - op.energy_j).abs() < 2e-3,
+                "{profile} ({x},{z}): {} vs {}",
+                cell.energy_j,
+                op.energy_j
+            );
+            assert!((cell.settle_energy_j - op.settle_energy_j).abs() < 2e-3);
+            assert!((cell.duration_s - op.duration_s).abs() < 2e-4);
+        }
+    }
+}
