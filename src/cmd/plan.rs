@@ -1,67 +1,206 @@
-//! `emplan plan`: order a mission's waypoints and report every order's metrics, as a table or as
-//! the JSON of DESIGN.md.
+//! `emplan plan`: order a mission's waypoints by minimum energy and by the distance baselines,
+//! report every order's metrics and energies (table or the JSON of DESIGN.md), and check the
+//! mission against the battery.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::Context;
-use emplan::plan::{plan_orders, Geometry, OrderReport};
+use emplan::mission::Mission;
+use emplan::physics::{hover_power_w, simulate_operation, EnergyTable, Profile, Vehicle};
+use emplan::plan::energy::energy_matrix;
+use emplan::plan::{plan_orders, Geometry, Objective, OrderReport};
 use serde::Serialize;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Mission file: emplan .toml, QGroundControl .plan or .waypoints
     mission: PathBuf,
+    /// Vehicle directory holding vehicle.toml and its energy tables
+    #[arg(long, default_value = "models/s1000")]
+    vehicle: PathBuf,
+    /// Flight profile pricing the legs: ptf, hvb or px4 (default: the vehicle's)
+    #[arg(long)]
+    profile: Option<Profile>,
     /// Print one JSON document instead of a table
     #[arg(long)]
     json: bool,
 }
 
+/// The mission flown in the energy order against the battery.
+#[derive(Debug, Serialize)]
+struct Battery {
+    takeoff_kj: f64,
+    legs_kj: f64,
+    hover_kj: f64,
+    landing_kj: f64,
+    total_kj: f64,
+    budget_kj: f64,
+    reserve_pct: f64,
+    feasible: bool,
+}
+
 #[derive(Serialize)]
 struct PlanJson<'a> {
     mission: &'a str,
+    profile: Profile,
     orders: &'a [OrderReport],
+    battery: &'a Battery,
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let mission = emplan::mission::load(&args.mission)?;
+    let vehicle = Vehicle::load(&args.vehicle)?;
+    let profile = args.profile.unwrap_or(vehicle.default_profile());
+    let table = EnergyTable::load(&args.vehicle, profile, &vehicle)?;
     let geometry = Geometry::from_mission(&mission);
     let names: Vec<String> = std::iter::once("origin".to_string())
         .chain(mission.waypoints.iter().map(|w| w.name.clone()))
         .collect();
-    let orders = plan_orders(&geometry, &names, None)
+    // Legs are priced start to settled hover: everything the battery pays.
+    let energy = energy_matrix(&geometry, &names, |x, z| {
+        table.lookup(x, z).map(|leg| leg.total_energy_j())
+    })
+    .with_context(|| format!("pricing the legs of {}", args.mission.display()))?;
+    let orders = plan_orders(&geometry, &names, Some(&energy))
         .with_context(|| format!("planning {}", args.mission.display()))?;
+    let battery = battery(&mission, &vehicle, profile, &orders[0])?;
     if args.json {
         let doc = PlanJson {
             mission: &mission.name,
+            profile,
             orders: &orders,
+            battery: &battery,
         };
         println!("{}", serde_json::to_string_pretty(&doc)?);
     } else {
-        print_table(&mission.name, mission.waypoints.len(), &orders);
+        print_table(&mission, profile, &orders, &battery);
     }
     Ok(ExitCode::SUCCESS)
 }
 
-fn print_table(name: &str, waypoints: usize, orders: &[OrderReport]) {
-    println!("mission {name}: {waypoints} waypoints, tours start and end at the origin");
+fn battery(
+    mission: &Mission,
+    vehicle: &Vehicle,
+    profile: Profile,
+    energy_order: &OrderReport,
+) -> anyhow::Result<Battery> {
+    let h = mission.origin.height_above_home_m;
+    let takeoff = simulate_operation(vehicle, profile, 0.0, h).context("pricing the take-off")?;
+    let landing = simulate_operation(vehicle, profile, 0.0, -h).context("pricing the landing")?;
+    let hover_s: f64 = mission.waypoints.iter().map(|w| w.hover_s).sum();
+    let hover_j = hover_power_w(vehicle)? * hover_s;
+    let legs_kj = energy_order.energy_kj.unwrap_or(0.0);
+    let total_kj = takeoff.total_energy_j() / 1000.0
+        + legs_kj
+        + hover_j / 1000.0
+        + landing.total_energy_j() / 1000.0;
+    let budget_kj = vehicle.mission_budget_j() / 1000.0;
+    Ok(Battery {
+        takeoff_kj: takeoff.total_energy_j() / 1000.0,
+        legs_kj,
+        hover_kj: hover_j / 1000.0,
+        landing_kj: landing.total_energy_j() / 1000.0,
+        total_kj,
+        budget_kj,
+        reserve_pct: vehicle.planning.reserve_pct,
+        feasible: total_kj <= budget_kj,
+    })
+}
+
+fn print_table(mission: &Mission, profile: Profile, orders: &[OrderReport], battery: &Battery) {
+    println!(
+        "mission {}: {} waypoints, legs priced with the {profile} profile (start to settled hover)",
+        mission.name,
+        mission.waypoints.len()
+    );
     println!(
         "{:<10} {:<9} {:>10} {:>12} {:>10} {:>9}  sequence",
         "objective", "direction", "distance_m", "horizontal_m", "vertical_m", "energy_kj"
     );
     for o in orders {
-        let energy = o
-            .energy_kj
-            .map_or_else(|| "-".to_string(), |e| format!("{e:.2}"));
         println!(
-            "{:<10} {:<9} {:>10.1} {:>12.1} {:>10.1} {:>9}  {}",
+            "{:<10} {:<9} {:>10.1} {:>12.1} {:>10.1} {:>9.2}  {}",
             format!("{:?}", o.objective).to_lowercase(),
             format!("{:?}", o.direction).to_lowercase(),
             o.distance_m,
             o.horizontal_m,
             o.vertical_m,
-            energy,
+            o.energy_kj.unwrap_or(f64::NAN),
             o.sequence.join(" "),
         );
     }
+    explain(orders);
+    println!(
+        "battery: take-off {:.1} + legs {:.1} + hovering {:.1} + landing {:.1} = {:.1} kJ of {:.1} kJ usable after the {}% reserve: {}",
+        battery.takeoff_kj,
+        battery.legs_kj,
+        battery.hover_kj,
+        battery.landing_kj,
+        battery.total_kj,
+        battery.budget_kj,
+        battery.reserve_pct,
+        if battery.feasible { "feasible" } else { "NOT FEASIBLE on one battery" }
+    );
+}
+
+/// Where the energy order saves against the better direction of the distance order.
+fn explain(orders: &[OrderReport]) {
+    let energy = &orders[0];
+    let Some(distance) = orders
+        .iter()
+        .filter(|o| o.objective == Objective::Distance)
+        .min_by(|a, b| {
+            a.energy_kj
+                .unwrap_or(f64::INFINITY)
+                .total_cmp(&b.energy_kj.unwrap_or(f64::INFINITY))
+        })
+    else {
+        return;
+    };
+    let (e, d) = (
+        energy.energy_kj.unwrap_or(0.0),
+        distance.energy_kj.unwrap_or(0.0),
+    );
+    if d - e <= 1e-9 * d.abs() {
+        println!(
+            "the minimum-energy order is the minimum-distance order flown {:?}: nothing to gain",
+            distance.direction
+        );
+        return;
+    }
+    let climbed = |o: &OrderReport| o.legs.iter().map(|l| l.vertical_m.max(0.0)).sum::<f64>();
+    let steep = |o: &OrderReport| {
+        o.legs
+            .iter()
+            .filter(|l| l.vertical_m > 2.0 * l.horizontal_m.max(0.1))
+            .count()
+    };
+    let shared: usize = energy
+        .legs
+        .iter()
+        .filter(|l| {
+            distance
+                .legs
+                .iter()
+                .any(|m| m.from == l.from && m.to == l.to)
+        })
+        .count();
+    println!(
+        "the energy order saves {:.2} kJ ({:.1}%) against the distance order flown {}: {} of its {} legs differ; \
+         it climbs {:.0} m in total (distance order {:.0} m) over {:.0} m of horizontal travel ({:.0} m), \
+         with {} steep climbs or descents (distance order {}), flying {:.1} m further",
+        d - e,
+        100.0 * (d - e) / d,
+        format!("{:?}", distance.direction).to_lowercase(),
+        energy.legs.len() - shared,
+        energy.legs.len(),
+        climbed(energy),
+        climbed(distance),
+        energy.horizontal_m,
+        distance.horizontal_m,
+        steep(energy),
+        steep(distance),
+        energy.distance_m - distance.distance_m,
+    );
 }

@@ -5,6 +5,7 @@
 //! Invariant: pure and deterministic (seeded); no IO, no tokio, no MAVLink.
 
 pub mod brute;
+pub mod energy;
 pub mod geometry;
 pub mod held_karp;
 pub mod orders;

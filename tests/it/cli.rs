@@ -115,3 +115,108 @@ fn convert_writes_a_plan_that_plans_like_its_source() {
     let plan = json(&["plan", out.to_str().unwrap(), "--json"]);
     assert_metrics(order(&plan, "distance", "forward"), 284.4, 189.5, 174.0);
 }
+
+#[test]
+fn plan_json_includes_the_energy_order_once_and_it_beats_every_baseline_for_both_samples() {
+    for mission in [
+        "missions/paper-sample-8wp.toml",
+        "missions/paper-sample-3wp.toml",
+    ] {
+        for profile in ["px4", "ptf", "hvb"] {
+            let plan = json(&["plan", mission, "--profile", profile, "--json"]);
+            assert_eq!(plan["profile"], profile);
+            let orders = plan["orders"].as_array().unwrap();
+            let energy: Vec<&Value> = orders
+                .iter()
+                .filter(|o| o["objective"] == "energy")
+                .collect();
+            assert_eq!(energy.len(), 1, "{mission}");
+            assert_eq!(energy[0]["direction"], "forward");
+            let best = energy[0]["energy_kj"].as_f64().unwrap();
+            for o in orders {
+                let e = o["energy_kj"].as_f64().unwrap();
+                assert!(
+                    e >= best - 1e-9,
+                    "{mission} {profile}: {} {} {e} < {best}",
+                    o["objective"],
+                    o["direction"]
+                );
+                let legs: f64 = o["legs"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|l| l["energy_kj"].as_f64().unwrap())
+                    .sum();
+                assert!((legs - e).abs() < 1e-9);
+            }
+            assert_eq!(plan["battery"]["feasible"], true);
+        }
+    }
+}
+
+#[test]
+fn the_energy_order_of_the_eight_waypoint_sample_differs_from_the_distance_order_and_climbs_less() {
+    let plan = json(&["plan", "missions/paper-sample-8wp.toml", "--json"]);
+    let climbed = |o: &Value| -> f64 {
+        o["legs"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|l| l["vertical_m"].as_f64().unwrap().max(0.0))
+            .sum()
+    };
+    let energy = order(&plan, "energy", "forward");
+    for direction in ["forward", "reverse"] {
+        let distance = order(&plan, "distance", direction);
+        assert_ne!(energy["sequence"], distance["sequence"]);
+        assert!(climbed(energy) < climbed(distance));
+        assert!(energy["energy_kj"].as_f64().unwrap() < distance["energy_kj"].as_f64().unwrap());
+    }
+}
+
+#[test]
+fn energy_json_has_the_design_keys_and_a_stale_or_missing_table_is_refused_by_plan() {
+    let e = json(&[
+        "energy",
+        "--xf",
+        "40",
+        "--zf",
+        "-25",
+        "--profile",
+        "ptf",
+        "--json",
+    ]);
+    for key in ["xf_m", "zf_m", "profile", "energy_kj", "duration_s"] {
+        assert!(e.get(key).is_some(), "{key} missing from {e}");
+    }
+    assert_eq!(e["zf_m"], -25.0);
+    let dir = tempfile::tempdir().unwrap();
+    let vehicle = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("models/s1000/vehicle.toml"),
+    )
+    .unwrap()
+    .replace("avionics_power_w = 10.0", "avionics_power_w = 12.0");
+    std::fs::write(dir.path().join("vehicle.toml"), vehicle).unwrap();
+    let (ok, _, stderr) = emplan(&[
+        "plan",
+        "missions/paper-sample-3wp.toml",
+        "--vehicle",
+        dir.path().to_str().unwrap(),
+    ]);
+    assert!(!ok && stderr.contains("px4.table"), "{stderr}");
+    std::fs::copy(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("models/s1000/px4.table"),
+        dir.path().join("px4.table"),
+    )
+    .unwrap();
+    let (ok, _, stderr) = emplan(&[
+        "plan",
+        "missions/paper-sample-3wp.toml",
+        "--vehicle",
+        dir.path().to_str().unwrap(),
+    ]);
+    assert!(
+        !ok && stderr.contains("emplan table build --profile px4"),
+        "{stderr}"
+    );
+}
