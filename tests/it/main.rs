@@ -4,3 +4,4 @@ mod cli;
 mod mission;
 mod physics;
 mod tidy;
+mod upload;

@@ -1,0 +1,190 @@
+//! The link: one task owns the MAVLink connection (any rust-mavlink URL: `udpin:`, `udpout:`,
+//! `tcpin:`, `tcpout:`, `serial:DEV:BAUD`), receives with timeouts and fans messages out to
+//! subscribers; another sends the ground station's HEARTBEAT at 1 Hz (PX4's data-link-loss
+//! failsafe watches it). The autopilot is discovered from its first HEARTBEAT.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use mavlink::{AsyncMavConnection, MavHeader};
+use tokio::sync::{broadcast, watch};
+
+use super::mav::{MavAutopilot, MavMessage, MavModeFlag, MavState, MavType, HEARTBEAT_DATA};
+use super::{Flavour, LinkError};
+
+/// Who we are on the link (MAVLink GCS convention: system 255, component 190 = mission planner).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Identity {
+    pub system_id: u8,
+    pub component_id: u8,
+}
+
+impl Default for Identity {
+    fn default() -> Self {
+        Identity {
+            system_id: 255,
+            component_id: 190,
+        }
+    }
+}
+
+/// The autopilot found on the link.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub struct Autopilot {
+    pub system_id: u8,
+    pub component_id: u8,
+    pub flavour: Flavour,
+}
+
+type Connection = mavlink::AsyncConnection<MavMessage>;
+
+/// A running link. Dropping it stops its tasks.
+pub struct Link {
+    url: String,
+    conn: Arc<Connection>,
+    header: MavHeader,
+    incoming: broadcast::Sender<(MavHeader, MavMessage)>,
+    shutdown: watch::Sender<bool>,
+}
+
+impl Drop for Link {
+    fn drop(&mut self) {
+        let _ = self.shutdown.send(true);
+    }
+}
+
+impl Link {
+    /// Connects to `url`, optionally with MAVLink 2 signing, and starts the receive and
+    /// heartbeat tasks.
+    pub async fn connect(
+        url: &str,
+        identity: Identity,
+        signing: Option<mavlink::SigningConfig>,
+    ) -> Result<Link, LinkError> {
+        let mut conn = mavlink::connect_async::<MavMessage>(url)
+            .await
+            .map_err(|e| LinkError::Connect {
+                url: url.to_string(),
+                reason: e.to_string(),
+            })?;
+        conn.set_allow_recv_any_version(true);
+        conn.setup_signing(signing);
+        let conn = Arc::new(conn);
+        let (incoming, _) = broadcast::channel(4096);
+        let (shutdown, _) = watch::channel(false);
+        let header = MavHeader {
+            system_id: u32::from(identity.system_id),
+            component_id: identity.component_id,
+            sequence: 0,
+        };
+        tokio::spawn(receive(
+            conn.clone(),
+            incoming.clone(),
+            shutdown.subscribe(),
+        ));
+        tokio::spawn(heartbeat(conn.clone(), header, shutdown.subscribe()));
+        Ok(Link {
+            url: url.to_string(),
+            conn,
+            header,
+            incoming,
+            shutdown,
+        })
+    }
+
+    /// A receiver of every message that arrives from now on.
+    pub fn subscribe(&self) -> broadcast::Receiver<(MavHeader, MavMessage)> {
+        self.incoming.subscribe()
+    }
+
+    /// Sends one message.
+    pub async fn send(&self, message: &MavMessage) -> Result<(), LinkError> {
+        self.conn
+            .send(&self.header, message)
+            .await
+            .map(|_| ())
+            .map_err(|e| LinkError::Send {
+                what: format!("{message:?}").chars().take(40).collect(),
+                reason: e.to_string(),
+            })
+    }
+
+    /// Waits for the first autopilot HEARTBEAT (MAV_AUTOPILOT_INVALID ones are other ground
+    /// stations or peripherals).
+    pub async fn discover(&self, timeout: Duration) -> Result<Autopilot, LinkError> {
+        let mut rx = self.subscribe();
+        let found = tokio::time::timeout(timeout, async {
+            loop {
+                match rx.recv().await {
+                    Ok((h, MavMessage::HEARTBEAT(hb)))
+                        if hb.autopilot != MavAutopilot::MAV_AUTOPILOT_INVALID =>
+                    {
+                        return Ok(Autopilot {
+                            system_id: u8::try_from(h.system_id).unwrap_or(u8::MAX),
+                            component_id: h.component_id,
+                            flavour: Flavour::from_autopilot(hb.autopilot),
+                        });
+                    }
+                    Ok(_) | Err(broadcast::error::RecvError::Lagged(_)) => {}
+                    Err(broadcast::error::RecvError::Closed) => {
+                        return Err(LinkError::Closed(self.url.clone()))
+                    }
+                }
+            }
+        })
+        .await;
+        found.unwrap_or(Err(LinkError::NoAutopilot {
+            url: self.url.clone(),
+            seconds: timeout.as_secs_f64(),
+        }))
+    }
+}
+
+fn gcs_heartbeat() -> MavMessage {
+    MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+        custom_mode: 0,
+        mavtype: MavType::MAV_TYPE_GCS,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
+        base_mode: MavModeFlag::empty(),
+        system_status: MavState::MAV_STATE_ACTIVE,
+        mavlink_version: 3,
+    })
+}
+
+async fn heartbeat(conn: Arc<Connection>, header: MavHeader, mut shutdown: watch::Receiver<bool>) {
+    let mut every = tokio::time::interval(Duration::from_secs(1));
+    loop {
+        tokio::select! {
+            _ = shutdown.changed() => return,
+            _ = every.tick() => {
+                if let Err(e) = conn.send(&header, &gcs_heartbeat()).await {
+                    tracing::warn!("heartbeat not sent: {e}");
+                }
+            }
+        }
+    }
+}
+
+async fn receive(
+    conn: Arc<Connection>,
+    incoming: broadcast::Sender<(MavHeader, MavMessage)>,
+    mut shutdown: watch::Receiver<bool>,
+) {
+    loop {
+        tokio::select! {
+            _ = shutdown.changed() => return,
+            received = tokio::time::timeout(Duration::from_secs(1), conn.recv()) => match received {
+                Ok(Ok(message)) => {
+                    let _ = incoming.send(message);
+                }
+                Ok(Err(mavlink::error::MessageReadError::Io(e))) => {
+                    // Never swallowed: a transport that fails is reported and the link ends.
+                    tracing::error!("link receive failed: {e}");
+                    return;
+                }
+                Ok(Err(e)) => tracing::debug!("unparsable frame skipped: {e}"),
+                Err(_) => {}
+            },
+        }
+    }
+}

@@ -1,0 +1,227 @@
+//! Mission items from a mission and a visiting order: optional NAV_TAKEOFF to the origin height,
+//! one NAV_WAYPOINT per waypoint (latitude/longitude as degE7, altitude relative to home, param1
+//! hover seconds, param2 acceptance radius), optional DO_CHANGE_SPEED, and NAV_RETURN_TO_LAUNCH
+//! or NAV_LAND at the end. Frames PX4 accepts: GLOBAL_RELATIVE_ALT (3) for navigation items,
+//! MISSION (2) for commands (research notes mavlink.md section 2.6, recommendation 6). ArduPilot
+//! gets its home item at seq 0.
+
+use super::mav::{MavCmd, MavFrame, MavMissionType, MISSION_ITEM_INT_DATA};
+use super::Flavour;
+use crate::mission::Mission;
+
+/// How a mission ends.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Ending {
+    ReturnToLaunch,
+    Land,
+}
+
+/// Options for building items.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ItemOptions {
+    pub flavour: Flavour,
+    pub takeoff: bool,
+    pub acceptance_radius_m: f32,
+    /// Cruise speed to command with DO_CHANGE_SPEED before the first waypoint, if any.
+    pub cruise_speed_m_s: Option<f32>,
+    pub ending: Ending,
+}
+
+impl Default for ItemOptions {
+    fn default() -> Self {
+        ItemOptions {
+            flavour: Flavour::Px4,
+            takeoff: true,
+            acceptance_radius_m: 2.0,
+            cruise_speed_m_s: None,
+            ending: Ending::ReturnToLaunch,
+        }
+    }
+}
+
+/// Degrees to MAVLink's degE7 integers (round to nearest).
+pub fn deg_e7(deg: f64) -> i32 {
+    (deg * 1e7).round() as i32
+}
+
+fn item(
+    command: MavCmd,
+    frame: MavFrame,
+    params: [f32; 4],
+    x: i32,
+    y: i32,
+    z: f32,
+) -> MISSION_ITEM_INT_DATA {
+    MISSION_ITEM_INT_DATA {
+        param1: params[0],
+        param2: params[1],
+        param3: params[2],
+        param4: params[3],
+        x,
+        y,
+        z,
+        seq: 0,
+        command,
+        target_system: 0,
+        target_component: 0,
+        frame,
+        current: 0,
+        autocontinue: 1,
+        mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
+    }
+}
+
+/// The items that fly `mission` in `order` (indices into `mission.waypoints`), numbered from 0.
+/// Returns None when `order` names a waypoint the mission does not have.
+pub fn mission_items(
+    mission: &Mission,
+    order: &[usize],
+    opts: &ItemOptions,
+) -> Option<Vec<MISSION_ITEM_INT_DATA>> {
+    let home = mission.origin.home;
+    let (lat, lon) = (deg_e7(home.lat_deg), deg_e7(home.lon_deg));
+    let relative = MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT;
+    let mut items = Vec::new();
+    if opts.flavour == Flavour::ArduPilot {
+        // ArduPilot's seq 0 is home (AMSL), overwritten by the vehicle's own home.
+        items.push(item(
+            MavCmd::MAV_CMD_NAV_WAYPOINT,
+            MavFrame::MAV_FRAME_GLOBAL,
+            [0.0; 4],
+            lat,
+            lon,
+            home.alt_m as f32,
+        ));
+    }
+    if opts.takeoff {
+        items.push(item(
+            MavCmd::MAV_CMD_NAV_TAKEOFF,
+            relative,
+            [0.0, 0.0, 0.0, f32::NAN],
+            lat,
+            lon,
+            mission.origin.height_above_home_m as f32,
+        ));
+    }
+    if let Some(speed) = opts.cruise_speed_m_s {
+        // param1 1 = ground speed, param2 speed, param3 -1 = no throttle change.
+        items.push(item(
+            MavCmd::MAV_CMD_DO_CHANGE_SPEED,
+            MavFrame::MAV_FRAME_MISSION,
+            [1.0, speed, -1.0, 0.0],
+            0,
+            0,
+            0.0,
+        ));
+    }
+    for &k in order {
+        let (wlat, wlon, alt) = mission.waypoint_relative(k)?;
+        let hover = mission.waypoints[k].hover_s as f32;
+        items.push(item(
+            MavCmd::MAV_CMD_NAV_WAYPOINT,
+            relative,
+            [hover, opts.acceptance_radius_m, 0.0, f32::NAN],
+            deg_e7(wlat),
+            deg_e7(wlon),
+            alt as f32,
+        ));
+    }
+    items.push(match opts.ending {
+        Ending::ReturnToLaunch => item(
+            MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH,
+            MavFrame::MAV_FRAME_MISSION,
+            [0.0; 4],
+            0,
+            0,
+            0.0,
+        ),
+        Ending::Land => item(
+            MavCmd::MAV_CMD_NAV_LAND,
+            relative,
+            [0.0, 0.0, 0.0, f32::NAN],
+            lat,
+            lon,
+            0.0,
+        ),
+    });
+    for (seq, it) in items.iter_mut().enumerate() {
+        it.seq = seq as u16;
+    }
+    Some(items)
+}
+
+/// Whether two items are the same mission item: integers exact, floats within `1e-4` relative
+/// (a NaN matches a NaN), as a read-back must be.
+pub fn same_item(a: &MISSION_ITEM_INT_DATA, b: &MISSION_ITEM_INT_DATA) -> bool {
+    let close = |x: f32, y: f32| {
+        (x.is_nan() && y.is_nan()) || (x - y).abs() <= 1e-4 * x.abs().max(y.abs()).max(1.0)
+    };
+    a.seq == b.seq
+        && a.command == b.command
+        && a.frame == b.frame
+        && a.x == b.x
+        && a.y == b.y
+        && a.autocontinue == b.autocontinue
+        && close(a.z, b.z)
+        && close(a.param1, b.param1)
+        && close(a.param2, b.param2)
+        && close(a.param3, b.param3)
+        && close(a.param4, b.param4)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mission::{load, Format};
+
+    fn sample() -> Mission {
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("missions/paper-sample-3wp.toml");
+        let _ = Format::Toml;
+        load(&path).unwrap()
+    }
+
+    #[test]
+    fn px4_items_are_takeoff_waypoints_in_order_then_return_to_launch() {
+        let m = sample();
+        let items = mission_items(&m, &[2, 0, 1], &ItemOptions::default()).unwrap();
+        assert_eq!(items.len(), 5);
+        assert_eq!(items[0].command, MavCmd::MAV_CMD_NAV_TAKEOFF);
+        assert_eq!(items[0].z, 30.0);
+        assert_eq!(items[4].command, MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH);
+        assert_eq!(items[4].frame, MavFrame::MAV_FRAME_MISSION);
+        let (lat, lon, alt) = m.waypoint_relative(2).unwrap();
+        assert_eq!((items[1].x, items[1].y), (deg_e7(lat), deg_e7(lon)));
+        assert!((items[1].z as f64 - alt).abs() < 1e-3 && (alt - 54.0).abs() < 0.01);
+        assert_eq!(items[1].param1, 5.0);
+        assert!(items.iter().enumerate().all(|(k, it)| it.seq as usize == k));
+        assert!(items[1..4]
+            .iter()
+            .all(|it| it.frame == MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT));
+    }
+
+    #[test]
+    fn ardupilot_gets_its_home_item_at_seq_zero() {
+        let m = sample();
+        let opts = ItemOptions {
+            flavour: Flavour::ArduPilot,
+            cruise_speed_m_s: Some(5.0),
+            ending: Ending::Land,
+            ..ItemOptions::default()
+        };
+        let items = mission_items(&m, &[0, 1, 2], &opts).unwrap();
+        assert_eq!(items[0].frame, MavFrame::MAV_FRAME_GLOBAL);
+        assert_eq!(items[0].z, 16.0);
+        assert_eq!(items[1].command, MavCmd::MAV_CMD_NAV_TAKEOFF);
+        assert_eq!(items[2].command, MavCmd::MAV_CMD_DO_CHANGE_SPEED);
+        assert_eq!(items.last().unwrap().command, MavCmd::MAV_CMD_NAV_LAND);
+        assert_eq!(items.len(), 7);
+    }
+
+    #[test]
+    fn degrees_become_rounded_e7_integers_and_a_bad_order_is_refused() {
+        assert_eq!(deg_e7(38.536_200_04), 385_362_000);
+        assert_eq!(deg_e7(-121.787_500_06), -1_217_875_001);
+        assert!(mission_items(&sample(), &[0, 7], &ItemOptions::default()).is_none());
+    }
+}
