@@ -29,6 +29,12 @@ enum Command {
     Table(cmd::table::Args),
     /// Compare the model with the paper's published energies (and refit with --fit).
     Calibrate(cmd::calibrate::Args),
+    /// Upload a planned mission to the autopilot and verify it by reading it back.
+    Upload(cmd::upload::Args),
+    /// Read the autopilot's mission.
+    Download(cmd::download::Args),
+    /// Run the built-in mock autopilot.
+    MockAutopilot(cmd::mock_autopilot::Args),
 }
 
 fn main() -> ExitCode {
@@ -47,6 +53,9 @@ fn main() -> ExitCode {
         Command::Energy(args) => cmd::energy::run(args),
         Command::Table(args) => cmd::table::run(args),
         Command::Calibrate(args) => cmd::calibrate::run(args),
+        Command::Upload(args) => cmd::upload::run(args),
+        Command::Download(args) => cmd::download::run(args),
+        Command::MockAutopilot(args) => cmd::mock_autopilot::run(args),
     };
     match result {
         Ok(code) => code,

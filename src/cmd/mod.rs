@@ -2,7 +2,10 @@
 
 pub mod calibrate;
 pub mod convert;
+pub mod download;
 pub mod energy;
+pub mod mock_autopilot;
 pub mod plan;
 pub mod table;
 pub mod tsp;
+pub mod upload;

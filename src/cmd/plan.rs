@@ -2,7 +2,7 @@
 //! report every order's metrics and energies (table or the JSON of DESIGN.md), and check the
 //! mission against the battery.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::Context;
@@ -29,15 +29,15 @@ pub struct Args {
 
 /// The mission flown in the energy order against the battery.
 #[derive(Debug, Serialize)]
-struct Battery {
-    takeoff_kj: f64,
-    legs_kj: f64,
-    hover_kj: f64,
-    landing_kj: f64,
-    total_kj: f64,
-    budget_kj: f64,
-    reserve_pct: f64,
-    feasible: bool,
+pub struct Battery {
+    pub takeoff_kj: f64,
+    pub legs_kj: f64,
+    pub hover_kj: f64,
+    pub landing_kj: f64,
+    pub total_kj: f64,
+    pub budget_kj: f64,
+    pub reserve_pct: f64,
+    pub feasible: bool,
 }
 
 #[derive(Serialize)]
@@ -48,12 +48,26 @@ struct PlanJson<'a> {
     battery: &'a Battery,
 }
 
-pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let mission = emplan::mission::load(&args.mission)?;
-    let vehicle = Vehicle::load(&args.vehicle)?;
-    let profile = args.profile.unwrap_or(vehicle.default_profile());
-    let table = EnergyTable::load(&args.vehicle, profile, &vehicle)?;
-    let geometry = Geometry::from_mission(&mission);
+/// A mission planned with a vehicle: every order, and the energy order against the battery.
+pub struct Planned {
+    pub profile: Profile,
+    pub orders: Vec<OrderReport>,
+    pub battery: Battery,
+    /// Energy of every leg (J), node 0 = origin.
+    pub energy: emplan::plan::CostMatrix,
+}
+
+/// Plans `mission` with the vehicle in `vehicle_dir` (its energy table for `profile`, or the
+/// vehicle's default profile). `orders[0]` is the energy order.
+pub fn plan_mission(
+    mission: &Mission,
+    vehicle_dir: &Path,
+    profile: Option<Profile>,
+) -> anyhow::Result<Planned> {
+    let vehicle = Vehicle::load(vehicle_dir)?;
+    let profile = profile.unwrap_or(vehicle.default_profile());
+    let table = EnergyTable::load(vehicle_dir, profile, &vehicle)?;
+    let geometry = Geometry::from_mission(mission);
     let names: Vec<String> = std::iter::once("origin".to_string())
         .chain(mission.waypoints.iter().map(|w| w.name.clone()))
         .collect();
@@ -61,10 +75,26 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let energy = energy_matrix(&geometry, &names, |x, z| {
         table.lookup(x, z).map(|leg| leg.total_energy_j())
     })
-    .with_context(|| format!("pricing the legs of {}", args.mission.display()))?;
+    .with_context(|| format!("pricing the legs of mission {}", mission.name))?;
     let orders = plan_orders(&geometry, &names, Some(&energy))
-        .with_context(|| format!("planning {}", args.mission.display()))?;
-    let battery = battery(&mission, &vehicle, profile, &orders[0])?;
+        .with_context(|| format!("planning mission {}", mission.name))?;
+    let battery = battery(mission, &vehicle, profile, &orders[0])?;
+    Ok(Planned {
+        profile,
+        orders,
+        battery,
+        energy,
+    })
+}
+
+pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    let mission = emplan::mission::load(&args.mission)?;
+    let Planned {
+        profile,
+        orders,
+        battery,
+        ..
+    } = plan_mission(&mission, &args.vehicle, args.profile)?;
     if args.json {
         let doc = PlanJson {
             mission: &mission.name,

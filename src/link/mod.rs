@@ -46,3 +46,70 @@ pub enum LinkError {
     #[error("signing key {file}: {reason}")]
     SigningKey { file: String, reason: String },
 }
+
+/// Reads a MAVLink 2 signing key file: 32 raw bytes, or 64 hexadecimal characters (optionally
+/// surrounded by whitespace), the secret shared with the vehicle.
+pub fn read_signing_key(path: &std::path::Path) -> Result<[u8; 32], LinkError> {
+    let file = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|e| LinkError::SigningKey {
+        file: file.clone(),
+        reason: e.to_string(),
+    })?;
+    if bytes.len() == 32 {
+        let mut key = [0u8; 32];
+        key.copy_from_slice(&bytes);
+        return Ok(key);
+    }
+    let text = String::from_utf8_lossy(&bytes);
+    let hex = text.trim();
+    if hex.len() != 64 || !hex.bytes().all(|b| b.is_ascii_hexdigit()) {
+        return Err(LinkError::SigningKey {
+            file,
+            reason: "expected 32 raw bytes or 64 hexadecimal characters".into(),
+        });
+    }
+    let mut key = [0u8; 32];
+    for (k, byte) in key.iter_mut().enumerate() {
+        *byte =
+            u8::from_str_radix(&hex[2 * k..2 * k + 2], 16).map_err(|e| LinkError::SigningKey {
+                file: file.clone(),
+                reason: e.to_string(),
+            })?;
+    }
+    Ok(key)
+}
+
+/// Every MAV_MISSION_RESULT, for parsing names given on the command line.
+pub const MISSION_RESULTS: [mav::MavMissionResult; 16] = {
+    use mav::MavMissionResult::*;
+    [
+        MAV_MISSION_ACCEPTED,
+        MAV_MISSION_ERROR,
+        MAV_MISSION_UNSUPPORTED_FRAME,
+        MAV_MISSION_UNSUPPORTED,
+        MAV_MISSION_NO_SPACE,
+        MAV_MISSION_INVALID,
+        MAV_MISSION_INVALID_PARAM1,
+        MAV_MISSION_INVALID_PARAM2,
+        MAV_MISSION_INVALID_PARAM3,
+        MAV_MISSION_INVALID_PARAM4,
+        MAV_MISSION_INVALID_PARAM5_X,
+        MAV_MISSION_INVALID_PARAM6_Y,
+        MAV_MISSION_INVALID_PARAM7,
+        MAV_MISSION_INVALID_SEQUENCE,
+        MAV_MISSION_DENIED,
+        MAV_MISSION_OPERATION_CANCELLED,
+    ]
+};
+
+/// A MAV_MISSION_RESULT from its name (`MAV_MISSION_DENIED` or `DENIED`, any case) or number.
+pub fn parse_mission_result(text: &str) -> Option<mav::MavMissionResult> {
+    let upper = text.trim().to_ascii_uppercase();
+    if let Ok(n) = upper.parse::<usize>() {
+        return MISSION_RESULTS.get(n).copied();
+    }
+    MISSION_RESULTS.iter().copied().find(|r| {
+        let name = format!("{r:?}");
+        name == upper || name.strip_prefix("MAV_MISSION_") == Some(upper.as_str())
+    })
+}

@@ -125,9 +125,9 @@ impl MockHandle {
         self.task.await.unwrap_or(Ok(()))
     }
 
-    /// Runs until the task ends (an IO error) or `shutdown` is sent.
-    pub async fn wait(self) -> Result<(), SimError> {
-        self.task.await.unwrap_or(Ok(()))
+    /// Resolves when the mock's task ends by itself (a socket error, which it returns).
+    pub async fn stopped(&mut self) -> Result<(), SimError> {
+        (&mut self.task).await.unwrap_or(Ok(()))
     }
 }
 

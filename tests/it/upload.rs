@@ -196,3 +196,48 @@ async fn an_ardupilot_mock_gets_its_home_item_and_verifies() {
     assert_eq!(stored[0].frame, items[0].frame);
     assert_eq!(stored.len(), 8 + 3);
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_five_hundred_item_mission_uploads_and_verifies_over_loopback() {
+    let mock = MockAutopilot::spawn("udpin:127.0.0.1:0", MockConfig::default())
+        .await
+        .unwrap();
+    let link = Link::connect(
+        &format!("udpout:{}", mock.local_addr()),
+        Identity::default(),
+        None,
+    )
+    .await
+    .unwrap();
+    let target = link.discover(Duration::from_secs(10)).await.unwrap();
+    let mut items = sample_items(Flavour::Px4);
+    let waypoint = items[1].clone();
+    items.truncate(1);
+    for k in 0..498 {
+        let mut it = waypoint.clone();
+        it.x += k * 10;
+        items.push(it);
+    }
+    items.push(sample_items(Flavour::Px4).last().unwrap().clone());
+    for (seq, it) in items.iter_mut().enumerate() {
+        it.seq = seq as u16;
+    }
+    assert_eq!(items.len(), 500);
+    let cfg = TransferConfig {
+        target_system: target.system_id,
+        target_component: target.component_id,
+        ..TransferConfig::default()
+    };
+    let started = std::time::Instant::now();
+    let report = upload_verified(&link, &target, &items, cfg, |_, _| {})
+        .await
+        .unwrap();
+    println!(
+        "500 items: upload {:.3} s, read-back {:.3} s, total {:.3} s",
+        report.upload_s,
+        report.verify_s,
+        started.elapsed().as_secs_f64()
+    );
+    assert!(report.acked && report.verified);
+    assert_eq!(mock.mission().len(), 500);
+}

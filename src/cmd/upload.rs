@@ -1,0 +1,161 @@
+//! `emplan upload`: plan a mission, check it against the battery, upload it to the autopilot and
+//! prove it arrived by reading it back. Exit 0 only when the autopilot took the mission and the
+//! read-back matched; otherwise the message names the stage (count, item N, ack, verify).
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Duration;
+
+use anyhow::{bail, Context};
+use emplan::link::connection::{Identity, Link};
+use emplan::link::driver::upload_verified;
+use emplan::link::items::{mission_items, ItemOptions};
+use emplan::link::transfer::TransferConfig;
+use emplan::physics::Profile;
+use emplan::plan::Objective;
+use serde::Serialize;
+
+/// Which visiting order to fly.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Order {
+    /// The minimum-energy order
+    Energy,
+    /// The minimum-distance order, in its cheaper direction
+    Distance,
+    /// The order the mission file lists
+    Listed,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Mission file: emplan .toml, QGroundControl .plan or .waypoints
+    mission: PathBuf,
+    /// MAVLink connection: udpin:HOST:PORT, udpout:HOST:PORT, tcpin:, tcpout:, serial:DEV:BAUD
+    #[arg(long)]
+    connect: String,
+    #[arg(long, value_enum, default_value = "energy")]
+    order: Order,
+    /// Vehicle directory holding vehicle.toml and its energy tables
+    #[arg(long, default_value = "models/s1000")]
+    vehicle: PathBuf,
+    /// Flight profile pricing the legs (default: the vehicle's)
+    #[arg(long)]
+    profile: Option<Profile>,
+    /// Upload even when the model says the battery cannot fly the mission with its reserve
+    #[arg(long)]
+    allow_infeasible: bool,
+    /// Waypoint acceptance radius sent as param2 (m)
+    #[arg(long, default_value_t = 2.0)]
+    acceptance_radius_m: f32,
+    /// Wait this long for the autopilot before resending (ms; raise it for slow radios)
+    #[arg(long, default_value_t = 1500)]
+    timeout_ms: u64,
+    /// Resends before giving up
+    #[arg(long, default_value_t = 5)]
+    retries: u32,
+    /// Seconds to wait for the autopilot's heartbeat
+    #[arg(long, default_value_t = 10.0)]
+    discover_s: f64,
+    /// MAVLink 2 signing key file (32 raw bytes or 64 hex characters)
+    #[arg(long)]
+    signing_key: Option<PathBuf>,
+    /// Print one JSON document instead of text
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Serialize)]
+struct UploadJson<'a> {
+    mission: &'a str,
+    order: Order,
+    sequence: Vec<String>,
+    predicted_mission_kj: f64,
+    budget_kj: f64,
+    autopilot: emplan::link::connection::Autopilot,
+    report: &'a emplan::link::driver::UploadReport,
+}
+
+pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    let mission = emplan::mission::load(&args.mission)?;
+    let planned = super::plan::plan_mission(&mission, &args.vehicle, args.profile)?;
+    let order: Vec<usize> = match args.order {
+        Order::Energy => planned.orders[0].nodes.iter().map(|n| n - 1).collect(),
+        Order::Distance => planned
+            .orders
+            .iter()
+            .filter(|o| o.objective == Objective::Distance)
+            .min_by(|a, b| {
+                a.energy_kj
+                    .unwrap_or(f64::INFINITY)
+                    .total_cmp(&b.energy_kj.unwrap_or(f64::INFINITY))
+            })
+            .map(|o| o.nodes.iter().map(|n| n - 1).collect())
+            .unwrap_or_default(),
+        Order::Listed => (0..mission.waypoints.len()).collect(),
+    };
+    let nodes: Vec<usize> = order.iter().map(|k| k + 1).collect();
+    let b = &planned.battery;
+    let predicted_kj = b.total_kj - b.legs_kj + planned.energy.tour_cost(&nodes) / 1000.0;
+    if predicted_kj > b.budget_kj && !args.allow_infeasible {
+        bail!(
+            "the model predicts {predicted_kj:.1} kJ for this mission but the battery has {:.1} kJ usable after its {}% reserve: \
+             not uploaded (split it with `emplan plan --sorties`, or pass --allow-infeasible to override)",
+            b.budget_kj,
+            b.reserve_pct
+        );
+    }
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()?;
+    runtime.block_on(async {
+        let signing = match &args.signing_key {
+            Some(path) => Some(mavlink::SigningConfig::new(emplan::link::read_signing_key(path)?, 0, true, false)),
+            None => None,
+        };
+        let link = Link::connect(&args.connect, Identity::default(), signing).await?;
+        let target = link.discover(Duration::from_secs_f64(args.discover_s)).await?;
+        let opts = ItemOptions { flavour: target.flavour, acceptance_radius_m: args.acceptance_radius_m, ..ItemOptions::default() };
+        let items = mission_items(&mission, &order, &opts).context("building mission items")?;
+        let cfg = TransferConfig {
+            timeout: Duration::from_millis(args.timeout_ms),
+            retries: args.retries,
+            target_system: target.system_id,
+            target_component: target.component_id,
+        };
+        if !args.json {
+            eprintln!("uploading {} items to {:?} autopilot {} on {}", items.len(), target.flavour, target.system_id, args.connect);
+        }
+        let report = upload_verified(&link, &target, &items, cfg, |done, total| {
+            if !args.json {
+                eprint!("\ritem {done}/{total}");
+            }
+        })
+        .await
+        .with_context(|| format!("uploading {} to {}", args.mission.display(), args.connect))?;
+        if args.json {
+            let doc = UploadJson {
+                mission: &mission.name,
+                order: args.order,
+                sequence: order.iter().map(|&k| mission.waypoints[k].name.clone()).collect(),
+                predicted_mission_kj: predicted_kj,
+                budget_kj: b.budget_kj,
+                autopilot: target,
+                report: &report,
+            };
+            println!("{}", serde_json::to_string_pretty(&doc)?);
+        } else {
+            eprintln!();
+            println!(
+                "verified: {} items uploaded in {:.2} s ({}), read back and matched in {:.2} s; predicted mission energy {predicted_kj:.1} kJ of {:.1} kJ usable",
+                report.items,
+                report.upload_s,
+                if report.acked { "accepted" } else { "final ack lost, settled by read-back" },
+                report.verify_s,
+                b.budget_kj
+            );
+        }
+        Ok(ExitCode::SUCCESS)
+    })
+}
