@@ -45,6 +45,10 @@ pub struct Args {
     /// Reboot (lose the transfer) when this item arrives
     #[arg(long)]
     reboot_at_item: Option<u16>,
+    /// MAVLink 2 signing key file (32 raw bytes or 64 hex characters): sign everything sent,
+    /// drop frames not signed with this key
+    #[arg(long)]
+    signing_key: Option<std::path::PathBuf>,
     /// Seed of the fault generator
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -92,6 +96,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             reboot_at_item: args.reboot_at_item,
         },
         seed: args.seed,
+        signing_key: match &args.signing_key {
+            Some(path) => Some(emplan::link::read_signing_key(path)?),
+            None => None,
+        },
         ..MockConfig::default()
     };
     let runtime = tokio::runtime::Builder::new_multi_thread()

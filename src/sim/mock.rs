@@ -8,7 +8,7 @@ use std::net::SocketAddr;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use mavlink::{MavHeader, MavlinkReader};
+use mavlink::{MavHeader, MavlinkReader, SigningConfig, SigningData};
 use tokio::net::UdpSocket;
 use tokio::sync::watch;
 use tokio::time::Instant;
@@ -47,6 +47,9 @@ pub struct MockConfig {
     pub seed: u64,
     pub system_id: u8,
     pub component_id: u8,
+    /// MAVLink 2 signing key: when set, every frame sent is signed and frames that are unsigned
+    /// or signed with another key are dropped.
+    pub signing_key: Option<[u8; 32]>,
 }
 
 impl Default for MockConfig {
@@ -57,6 +60,7 @@ impl Default for MockConfig {
             seed: 1,
             system_id: 1,
             component_id: 1,
+            signing_key: None,
         }
     }
 }
@@ -163,6 +167,7 @@ impl MockAutopilot {
 
 struct Outbox {
     socket: Arc<UdpSocket>,
+    signing: Option<Arc<SigningData>>,
     header: MavHeader,
     rng: Rng,
     faults: Faults,
@@ -172,7 +177,9 @@ struct Outbox {
 impl Outbox {
     async fn send(&mut self, peer: SocketAddr, message: &MavMessage) -> Result<(), SimError> {
         let mut bytes = Vec::with_capacity(64);
-        if mavlink::write_v2_msg(&mut bytes, self.header, message).is_err() {
+        if mavlink::write_v2_msg_signed(&mut bytes, self.header, message, self.signing.as_deref())
+            .is_err()
+        {
             return Ok(());
         }
         self.header.sequence = self.header.sequence.wrapping_add(1);
@@ -228,8 +235,14 @@ async fn run(
         },
     );
     let mut rng_up = Rng(config.seed ^ 0x005e_ed0f_u64);
+    let signing = config.signing_key.map(|key| {
+        Arc::new(SigningData::from_config(SigningConfig::new(
+            key, 0, true, false,
+        )))
+    });
     let mut out = Outbox {
         socket: socket.clone(),
+        signing: signing.clone(),
         header: MavHeader {
             system_id: u32::from(config.system_id),
             component_id: config.component_id,
@@ -267,7 +280,7 @@ async fn run(
                 let now = start.elapsed();
                 let mut reader = MavlinkReader::new(&buf[..n]);
                 let mut replies = Vec::new();
-                while let Ok((header, message)) = reader.read_any_message::<MavMessage>() {
+                while let Ok((header, message)) = reader.read_any_message_signed::<MavMessage>(signing.as_deref()) {
                     let from = (u8::try_from(header.system_id).unwrap_or(u8::MAX), header.component_id);
                     replies.extend(server.handle(now, from, &message));
                 }

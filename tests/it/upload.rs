@@ -241,3 +241,61 @@ async fn a_five_hundred_item_mission_uploads_and_verifies_over_loopback() {
     assert!(report.acked && report.verified);
     assert_eq!(mock.mission().len(), 500);
 }
+
+#[tokio::test]
+async fn a_signed_link_accepts_the_correctly_signed_mock_and_a_wrong_key_or_no_key_is_rejected() {
+    let key = [7u8; 32];
+    let config = MockConfig {
+        signing_key: Some(key),
+        ..MockConfig::default()
+    };
+    let mock = MockAutopilot::spawn("udpin:127.0.0.1:0", config)
+        .await
+        .unwrap();
+    let url = format!("udpout:{}", mock.local_addr());
+    let signed = |key: [u8; 32]| Some(mavlink::SigningConfig::new(key, 0, true, false));
+
+    let link = Link::connect(&url, Identity::default(), signed(key))
+        .await
+        .unwrap();
+    let target = link.discover(Duration::from_secs(5)).await.unwrap();
+    let items = sample_items(Flavour::Px4);
+    let cfg = TransferConfig {
+        target_system: target.system_id,
+        target_component: target.component_id,
+        ..TransferConfig::default()
+    };
+    assert!(
+        upload_verified(&link, &target, &items, cfg, |_, _| {})
+            .await
+            .unwrap()
+            .verified
+    );
+    drop(link);
+
+    // A wrong key: the mock's signed heartbeats fail verification here, and ours are dropped there.
+    let wrong = Link::connect(&url, Identity::default(), signed([8u8; 32]))
+        .await
+        .unwrap();
+    assert!(wrong.discover(Duration::from_millis(2500)).await.is_err());
+    drop(wrong);
+    // No key at all: the mock drops unsigned frames, so nothing we send reaches its server.
+    let unsigned = Link::connect(&url, Identity::default(), None)
+        .await
+        .unwrap();
+    let before = mock.stats();
+    let target = unsigned.discover(Duration::from_secs(3)).await.unwrap();
+    let cfg = TransferConfig {
+        timeout: Duration::from_millis(200),
+        retries: 2,
+        target_system: target.system_id,
+        target_component: target.component_id,
+    };
+    let err = upload_verified(&unsigned, &target, &items, cfg, |_, _| {})
+        .await
+        .unwrap_err();
+    assert!(err.to_string().starts_with("count:"), "{err}");
+    assert_eq!(mock.stats(), before);
+    drop(unsigned);
+    mock.shutdown().await.unwrap();
+}
