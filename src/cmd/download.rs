@@ -44,17 +44,8 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         let items = download(&link, &target, cfg)
             .await
             .with_context(|| format!("downloading from {}", args.connect))?;
-        let json: Vec<serde_json::Value> = items
-            .iter()
-            .map(|i| {
-                serde_json::json!({
-                    "seq": i.seq, "frame": i.frame as u32, "command": i.command as u32,
-                    "current": i.current, "autocontinue": i.autocontinue,
-                    "param1": i.param1, "param2": i.param2, "param3": i.param3, "param4": i.param4,
-                    "x": i.x, "y": i.y, "z": i.z,
-                })
-            })
-            .collect();
+        let json: Vec<serde_json::Value> =
+            items.iter().map(emplan::link::items::item_json).collect();
         std::fs::write(&args.out, serde_json::to_string_pretty(&json)?)
             .with_context(|| format!("writing {}", args.out.display()))?;
         println!(

@@ -74,6 +74,8 @@ struct UploadJson<'a> {
     budget_kj: f64,
     autopilot: emplan::link::connection::Autopilot,
     report: &'a emplan::link::driver::UploadReport,
+    /// The items sent (and read back), as MISSION_ITEM_INT fields.
+    items: Vec<serde_json::Value>,
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
@@ -143,6 +145,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                 budget_kj: b.budget_kj,
                 autopilot: target,
                 report: &report,
+                items: items.iter().map(emplan::link::items::item_json).collect(),
             };
             println!("{}", serde_json::to_string_pretty(&doc)?);
         } else {

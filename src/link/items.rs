@@ -150,6 +150,25 @@ pub fn mission_items(
     Some(items)
 }
 
+/// An item as JSON: MISSION_ITEM_INT fields, frame and command as MAVLink numbers, x/y in
+/// degE7, NaN params as null (what `upload --json` and `download` write).
+pub fn item_json(item: &MISSION_ITEM_INT_DATA) -> serde_json::Value {
+    serde_json::json!({
+        "seq": item.seq,
+        "frame": item.frame as u32,
+        "command": item.command as u32,
+        "current": item.current,
+        "autocontinue": item.autocontinue,
+        "param1": item.param1,
+        "param2": item.param2,
+        "param3": item.param3,
+        "param4": item.param4,
+        "x": item.x,
+        "y": item.y,
+        "z": item.z,
+    })
+}
+
 /// Whether two items are the same mission item: integers exact, floats within `1e-4` relative
 /// (a NaN matches a NaN), as a read-back must be.
 pub fn same_item(a: &MISSION_ITEM_INT_DATA, b: &MISSION_ITEM_INT_DATA) -> bool {
