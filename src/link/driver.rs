@@ -75,6 +75,22 @@ impl Machine for Download {
     }
 }
 
+impl Machine for super::transfer::Command {
+    type Output = ();
+    fn start(&mut self, now: Duration) -> Vec<Action> {
+        super::transfer::Command::start(self, now)
+    }
+    fn handle(&mut self, now: Duration, message: &MavMessage) -> Vec<Action> {
+        super::transfer::Command::handle(self, now, message)
+    }
+    fn tick(&mut self, now: Duration) -> Vec<Action> {
+        super::transfer::Command::tick(self, now)
+    }
+    fn outcome(&self) -> Option<Result<(), TransferError>> {
+        self.finished().cloned()
+    }
+}
+
 /// Runs a machine against the autopilot `target` until it finishes.
 pub async fn run<M: Machine>(
     link: &Link,

@@ -51,7 +51,7 @@ pub enum TransferError {
     Rejected { seq: u16, result: String },
     #[error("item {seq}: the autopilot requested item {seq} of a {count}-item mission")]
     BadRequest { seq: u16, count: usize },
-    #[error("download {stage}: no answer after {attempts} requests")]
+    #[error("{stage}: no answer after {attempts} requests")]
     DownloadTimeout { stage: String, attempts: u32 },
     #[error("download: the autopilot refused: {result}")]
     DownloadRefused { result: String },
@@ -412,6 +412,127 @@ impl Download {
     }
 }
 
+/// A one-message command that waits for its confirmation: MISSION_CLEAR_ALL (confirmed by an
+/// ACK; a refusal is surfaced by name) or MISSION_SET_CURRENT (confirmed by MISSION_CURRENT with
+/// that seq). Resent on timeout up to the retry limit.
+#[derive(Debug, Clone)]
+pub struct Command {
+    cfg: TransferConfig,
+    kind: CommandKind,
+    attempts: u32,
+    deadline: Duration,
+    result: Option<Result<(), TransferError>>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum CommandKind {
+    ClearAll,
+    SetCurrent(u16),
+}
+
+impl Command {
+    /// Clears the autopilot's mission.
+    pub fn clear_all(cfg: TransferConfig) -> Command {
+        Command {
+            cfg,
+            kind: CommandKind::ClearAll,
+            attempts: 0,
+            deadline: Duration::ZERO,
+            result: None,
+        }
+    }
+
+    /// Makes item `seq` the current one.
+    pub fn set_current(cfg: TransferConfig, seq: u16) -> Command {
+        Command {
+            cfg,
+            kind: CommandKind::SetCurrent(seq),
+            attempts: 0,
+            deadline: Duration::ZERO,
+            result: None,
+        }
+    }
+
+    /// The outcome, once finished.
+    pub fn finished(&self) -> Option<&Result<(), TransferError>> {
+        self.result.as_ref()
+    }
+
+    // MISSION_SET_CURRENT is superseded by MAV_CMD_DO_SET_MISSION_CURRENT (2022) but PX4 and
+    // ArduPilot still answer it with MISSION_CURRENT, and older firmware knows only it.
+    #[allow(deprecated)]
+    fn message(&self) -> Action {
+        let (target_system, target_component) = (self.cfg.target_system, self.cfg.target_component);
+        Action::Send(match self.kind {
+            CommandKind::ClearAll => {
+                MavMessage::MISSION_CLEAR_ALL(super::mav::MISSION_CLEAR_ALL_DATA {
+                    target_system,
+                    target_component,
+                    mission_type: MISSION,
+                })
+            }
+            CommandKind::SetCurrent(seq) => {
+                MavMessage::MISSION_SET_CURRENT(super::mav::MISSION_SET_CURRENT_DATA {
+                    seq,
+                    target_system,
+                    target_component,
+                })
+            }
+        })
+    }
+
+    /// Sends the command.
+    pub fn start(&mut self, now: Duration) -> Vec<Action> {
+        self.deadline = now + self.cfg.timeout;
+        vec![self.message()]
+    }
+
+    /// Reacts to the autopilot's answer.
+    pub fn handle(&mut self, _now: Duration, message: &MavMessage) -> Vec<Action> {
+        if self.result.is_some() {
+            return Vec::new();
+        }
+        match (self.kind, message) {
+            (CommandKind::ClearAll, MavMessage::MISSION_ACK(a)) if a.mission_type == MISSION => {
+                self.result = Some(if a.mavtype == MavMissionResult::MAV_MISSION_ACCEPTED {
+                    Ok(())
+                } else {
+                    Err(TransferError::Rejected {
+                        seq: 0,
+                        result: result_name(a.mavtype),
+                    })
+                });
+            }
+            (CommandKind::SetCurrent(seq), MavMessage::MISSION_CURRENT(c)) if c.seq == seq => {
+                self.result = Some(Ok(()))
+            }
+            _ => {}
+        }
+        Vec::new()
+    }
+
+    /// Resends, or gives up.
+    pub fn tick(&mut self, now: Duration) -> Vec<Action> {
+        if self.result.is_some() || now < self.deadline {
+            return Vec::new();
+        }
+        self.attempts += 1;
+        self.deadline = now + self.cfg.timeout;
+        if self.attempts > self.cfg.retries {
+            let stage = match self.kind {
+                CommandKind::ClearAll => "clear".to_string(),
+                CommandKind::SetCurrent(seq) => format!("set current {seq}"),
+            };
+            self.result = Some(Err(TransferError::DownloadTimeout {
+                stage,
+                attempts: self.attempts,
+            }));
+            return Vec::new();
+        }
+        vec![self.message()]
+    }
+}
+
 /// Compares a read-back with what was sent.
 pub fn verify(
     sent: &[MISSION_ITEM_INT_DATA],
@@ -682,6 +803,55 @@ mod tests {
         up.handle(ms(10), &request(0));
         up.handle(ms(20), &ack(MavMissionResult::MAV_MISSION_ACCEPTED));
         assert!(up.finished().is_none());
+    }
+
+    #[test]
+    fn clear_all_resends_until_acked_and_surfaces_a_refusal_by_name() {
+        let mut clear = Command::clear_all(TransferConfig::default());
+        assert!(matches!(
+            clear.start(ms(0)).as_slice(),
+            [Action::Send(MavMessage::MISSION_CLEAR_ALL(_))]
+        ));
+        assert!(matches!(
+            clear.tick(ms(1500)).as_slice(),
+            [Action::Send(MavMessage::MISSION_CLEAR_ALL(_))]
+        ));
+        clear.handle(ms(1600), &ack(MavMissionResult::MAV_MISSION_ACCEPTED));
+        assert_eq!(clear.finished(), Some(&Ok(())));
+        let mut refused = Command::clear_all(TransferConfig::default());
+        refused.start(ms(0));
+        refused.handle(ms(5), &ack(MavMissionResult::MAV_MISSION_DENIED));
+        assert!(
+            matches!(refused.finished(), Some(Err(TransferError::Rejected { result, .. })) if result == "MAV_MISSION_DENIED")
+        );
+    }
+
+    #[test]
+    fn set_current_waits_for_mission_current_with_that_seq() {
+        let cfg = TransferConfig {
+            retries: 1,
+            ..TransferConfig::default()
+        };
+        let mut set = Command::set_current(cfg, 3);
+        set.start(ms(0));
+        let current = |seq| {
+            MavMessage::MISSION_CURRENT(crate::link::mav::MISSION_CURRENT_DATA {
+                seq,
+                ..Default::default()
+            })
+        };
+        set.handle(ms(5), &current(2));
+        assert!(set.finished().is_none());
+        set.handle(ms(6), &current(3));
+        assert_eq!(set.finished(), Some(&Ok(())));
+        let mut lost = Command::set_current(cfg, 3);
+        lost.start(ms(0));
+        lost.tick(ms(1500));
+        lost.tick(ms(3000));
+        assert_eq!(
+            lost.finished().unwrap().clone().unwrap_err().to_string(),
+            "set current 3: no answer after 2 requests"
+        );
     }
 
     #[test]

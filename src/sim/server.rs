@@ -67,6 +67,8 @@ pub struct MissionServer {
     receiving: Option<Receiving>,
     /// (system, component) of the ground station being answered.
     gcs: (u8, u8),
+    /// The current item (MISSION_SET_CURRENT), where a flight would resume.
+    current: u16,
     pub stats: ServerStats,
 }
 
@@ -126,8 +128,14 @@ impl MissionServer {
             mission: Vec::new(),
             receiving: None,
             gcs: (255, 190),
+            current: 0,
             stats: ServerStats::default(),
         }
+    }
+
+    /// The current item (where a flight would resume).
+    pub fn current(&self) -> u16 {
+        self.current
     }
 
     /// The stored mission.
@@ -280,6 +288,21 @@ impl MissionServer {
                         vec![MavMessage::MISSION_ITEM_INT(item)]
                     }
                     None => vec![self.ack(MavMissionResult::MAV_MISSION_INVALID_SEQUENCE, mission)],
+                }
+            }
+            MavMessage::MISSION_SET_CURRENT(c) => {
+                self.gcs = from;
+                if (c.seq as usize) < self.mission.len() {
+                    self.current = c.seq;
+                    vec![MavMessage::MISSION_CURRENT(
+                        crate::link::mav::MISSION_CURRENT_DATA {
+                            seq: c.seq,
+                            total: self.mission.len() as u16,
+                            ..Default::default()
+                        },
+                    )]
+                } else {
+                    vec![self.ack(MavMissionResult::MAV_MISSION_INVALID_SEQUENCE, mission)]
                 }
             }
             MavMessage::MISSION_CLEAR_ALL(c) => {

@@ -299,3 +299,38 @@ async fn a_signed_link_accepts_the_correctly_signed_mock_and_a_wrong_key_or_no_k
     drop(unsigned);
     mock.shutdown().await.unwrap();
 }
+
+#[tokio::test]
+async fn set_current_and_clear_all_are_confirmed_by_the_mock() {
+    use emplan::link::driver::{download, run};
+    use emplan::link::transfer::Command;
+    let mock = MockAutopilot::spawn("udpin:127.0.0.1:0", MockConfig::default())
+        .await
+        .unwrap();
+    let link = Link::connect(
+        &format!("udpout:{}", mock.local_addr()),
+        Identity::default(),
+        None,
+    )
+    .await
+    .unwrap();
+    let target = link.discover(Duration::from_secs(5)).await.unwrap();
+    let cfg = TransferConfig {
+        target_system: target.system_id,
+        target_component: target.component_id,
+        ..TransferConfig::default()
+    };
+    upload_verified(&link, &target, &sample_items(Flavour::Px4), cfg, |_, _| {})
+        .await
+        .unwrap();
+    run(&link, &target, &mut Command::set_current(cfg, 4), |_, _| {})
+        .await
+        .unwrap();
+    run(&link, &target, &mut Command::clear_all(cfg), |_, _| {})
+        .await
+        .unwrap();
+    assert!(mock.mission().is_empty());
+    assert!(download(&link, &target, cfg).await.unwrap().is_empty());
+    drop(link);
+    mock.shutdown().await.unwrap();
+}
