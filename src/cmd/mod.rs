@@ -9,3 +9,57 @@ pub mod plan;
 pub mod table;
 pub mod tsp;
 pub mod upload;
+
+/// Options of every command that talks to an autopilot.
+#[derive(Debug, clap::Args)]
+pub struct LinkArgs {
+    /// MAVLink connection: udpin:HOST:PORT, udpout:HOST:PORT, tcpin:, tcpout:, serial:DEV:BAUD
+    #[arg(long)]
+    pub connect: String,
+    /// Wait this long for the autopilot before resending (ms; raise it for slow radios)
+    #[arg(long, default_value_t = 1500)]
+    pub timeout_ms: u64,
+    /// Resends before giving up
+    #[arg(long, default_value_t = 5)]
+    pub retries: u32,
+    /// Seconds to wait for the autopilot's heartbeat
+    #[arg(long, default_value_t = 10.0)]
+    pub discover_s: f64,
+    /// MAVLink 2 signing key file (32 raw bytes or 64 hex characters)
+    #[arg(long)]
+    pub signing_key: Option<std::path::PathBuf>,
+}
+
+impl LinkArgs {
+    /// Connects, discovers the autopilot and returns the link with the transfer settings.
+    pub async fn open(
+        &self,
+    ) -> anyhow::Result<(
+        emplan::link::connection::Link,
+        emplan::link::connection::Autopilot,
+        emplan::link::transfer::TransferConfig,
+    )> {
+        let signing = match &self.signing_key {
+            Some(path) => Some(mavlink::SigningConfig::new(
+                emplan::link::read_signing_key(path)?,
+                0,
+                true,
+                false,
+            )),
+            None => None,
+        };
+        let link =
+            emplan::link::connection::Link::connect(&self.connect, Default::default(), signing)
+                .await?;
+        let target = link
+            .discover(std::time::Duration::from_secs_f64(self.discover_s))
+            .await?;
+        let cfg = emplan::link::transfer::TransferConfig {
+            timeout: std::time::Duration::from_millis(self.timeout_ms),
+            retries: self.retries,
+            target_system: target.system_id,
+            target_component: target.component_id,
+        };
+        Ok((link, target, cfg))
+    }
+}

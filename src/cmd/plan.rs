@@ -9,7 +9,7 @@ use anyhow::Context;
 use emplan::mission::Mission;
 use emplan::physics::{hover_power_w, simulate_operation, EnergyTable, Profile, Vehicle};
 use emplan::plan::energy::energy_matrix;
-use emplan::plan::{plan_orders, Geometry, Objective, OrderReport};
+use emplan::plan::{cheapest, plan_orders, Geometry, Objective, OrderReport};
 use serde::Serialize;
 
 #[derive(Debug, clap::Args)]
@@ -177,15 +177,7 @@ fn print_table(mission: &Mission, profile: Profile, orders: &[OrderReport], batt
 /// Where the energy order saves against the better direction of the distance order.
 fn explain(orders: &[OrderReport]) {
     let energy = &orders[0];
-    let Some(distance) = orders
-        .iter()
-        .filter(|o| o.objective == Objective::Distance)
-        .min_by(|a, b| {
-            a.energy_kj
-                .unwrap_or(f64::INFINITY)
-                .total_cmp(&b.energy_kj.unwrap_or(f64::INFINITY))
-        })
-    else {
+    let Some(distance) = cheapest(orders, Objective::Distance) else {
         return;
     };
     let (e, d) = (

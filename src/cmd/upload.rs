@@ -2,18 +2,14 @@
 //! prove it arrived by reading it back. Exit 0 only when the autopilot took the mission and the
 //! read-back matched; otherwise the message names the stage (count, item N, ack, verify).
 
-use std::path::PathBuf;
-use std::process::ExitCode;
-use std::time::Duration;
-
 use anyhow::{bail, Context};
-use emplan::link::connection::{Identity, Link};
 use emplan::link::driver::upload_verified;
 use emplan::link::items::{mission_items, ItemOptions};
-use emplan::link::transfer::TransferConfig;
 use emplan::physics::Profile;
-use emplan::plan::Objective;
+use emplan::plan::{cheapest, Objective};
 use serde::Serialize;
+use std::path::PathBuf;
+use std::process::ExitCode;
 
 /// Which visiting order to fly.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
@@ -31,9 +27,8 @@ pub enum Order {
 pub struct Args {
     /// Mission file: emplan .toml, QGroundControl .plan or .waypoints
     mission: PathBuf,
-    /// MAVLink connection: udpin:HOST:PORT, udpout:HOST:PORT, tcpin:, tcpout:, serial:DEV:BAUD
-    #[arg(long)]
-    connect: String,
+    #[command(flatten)]
+    link: super::LinkArgs,
     #[arg(long, value_enum, default_value = "energy")]
     order: Order,
     /// Vehicle directory holding vehicle.toml and its energy tables
@@ -48,18 +43,6 @@ pub struct Args {
     /// Waypoint acceptance radius sent as param2 (m)
     #[arg(long, default_value_t = 2.0)]
     acceptance_radius_m: f32,
-    /// Wait this long for the autopilot before resending (ms; raise it for slow radios)
-    #[arg(long, default_value_t = 1500)]
-    timeout_ms: u64,
-    /// Resends before giving up
-    #[arg(long, default_value_t = 5)]
-    retries: u32,
-    /// Seconds to wait for the autopilot's heartbeat
-    #[arg(long, default_value_t = 10.0)]
-    discover_s: f64,
-    /// MAVLink 2 signing key file (32 raw bytes or 64 hex characters)
-    #[arg(long)]
-    signing_key: Option<PathBuf>,
     /// Print one JSON document instead of text
     #[arg(long)]
     json: bool,
@@ -83,15 +66,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let planned = super::plan::plan_mission(&mission, &args.vehicle, args.profile)?;
     let order: Vec<usize> = match args.order {
         Order::Energy => planned.orders[0].nodes.iter().map(|n| n - 1).collect(),
-        Order::Distance => planned
-            .orders
-            .iter()
-            .filter(|o| o.objective == Objective::Distance)
-            .min_by(|a, b| {
-                a.energy_kj
-                    .unwrap_or(f64::INFINITY)
-                    .total_cmp(&b.energy_kj.unwrap_or(f64::INFINITY))
-            })
+        Order::Distance => cheapest(&planned.orders, Objective::Distance)
             .map(|o| o.nodes.iter().map(|n| n - 1).collect())
             .unwrap_or_default(),
         Order::Listed => (0..mission.waypoints.len()).collect(),
@@ -112,22 +87,11 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         .enable_all()
         .build()?;
     runtime.block_on(async {
-        let signing = match &args.signing_key {
-            Some(path) => Some(mavlink::SigningConfig::new(emplan::link::read_signing_key(path)?, 0, true, false)),
-            None => None,
-        };
-        let link = Link::connect(&args.connect, Identity::default(), signing).await?;
-        let target = link.discover(Duration::from_secs_f64(args.discover_s)).await?;
+        let (link, target, cfg) = args.link.open().await?;
         let opts = ItemOptions { flavour: target.flavour, acceptance_radius_m: args.acceptance_radius_m, ..ItemOptions::default() };
         let items = mission_items(&mission, &order, &opts).context("building mission items")?;
-        let cfg = TransferConfig {
-            timeout: Duration::from_millis(args.timeout_ms),
-            retries: args.retries,
-            target_system: target.system_id,
-            target_component: target.component_id,
-        };
         if !args.json {
-            eprintln!("uploading {} items to {:?} autopilot {} on {}", items.len(), target.flavour, target.system_id, args.connect);
+            eprintln!("uploading {} items to {:?} autopilot {} on {}", items.len(), target.flavour, target.system_id, args.link.connect);
         }
         let report = upload_verified(&link, &target, &items, cfg, |done, total| {
             if !args.json {
@@ -135,7 +99,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             }
         })
         .await
-        .with_context(|| format!("uploading {} to {}", args.mission.display(), args.connect))?;
+        .with_context(|| format!("uploading {} to {}", args.mission.display(), args.link.connect))?;
         if args.json {
             let doc = UploadJson {
                 mission: &mission.name,

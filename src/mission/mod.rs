@@ -147,6 +147,16 @@ impl MissionError {
     }
 }
 
+/// The 1-based line of a byte offset in `text` (for errors from parsers that give spans).
+pub(crate) fn line_of(text: &str, offset: usize) -> usize {
+    text.as_bytes()
+        .iter()
+        .take(offset)
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
+}
+
 /// Reads and validates a mission file, choosing the format by extension.
 pub fn load(path: &Path) -> Result<Mission, MissionError> {
     let format = Format::from_path(path)?;

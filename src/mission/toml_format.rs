@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 use toml::Spanned;
 
 use super::{
-    Enu, Geodetic, Mission, MissionError, Place, RawMission, RawPosition, RawWaypoint,
+    line_of, Enu, Geodetic, Mission, MissionError, Place, RawMission, RawPosition, RawWaypoint,
     DEFAULT_MIN_HEIGHT_ABOVE_HOME_M,
 };
 
@@ -47,15 +47,6 @@ struct FileWaypoint {
     alt_above_home_m: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     hover_s: Option<f64>,
-}
-
-fn line_of(text: &str, offset: usize) -> usize {
-    text.as_bytes()
-        .iter()
-        .take(offset)
-        .filter(|&&b| b == b'\n')
-        .count()
-        + 1
 }
 
 pub(super) fn parse(text: &str, file: &str) -> Result<RawMission, MissionError> {

@@ -6,6 +6,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use super::{PhysicsError, Profile};
+use crate::mission::line_of;
 
 /// Mission-planning settings (not physics: they do not affect the energy tables).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -118,15 +119,6 @@ pub struct Vehicle {
     pub ptf: PtfParams,
     pub hvb: HvbParams,
     pub px4: Px4Params,
-}
-
-fn line_of(text: &str, offset: usize) -> usize {
-    text.as_bytes()
-        .iter()
-        .take(offset)
-        .filter(|&&b| b == b'\n')
-        .count()
-        + 1
 }
 
 impl Vehicle {

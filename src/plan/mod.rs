@@ -12,7 +12,9 @@ pub mod orders;
 pub mod tsplib;
 
 pub use geometry::Geometry;
-pub use orders::{order_waypoints, plan_orders, Direction, LegReport, Objective, OrderReport};
+pub use orders::{
+    cheapest, order_waypoints, plan_orders, Direction, LegReport, Objective, OrderReport,
+};
 
 /// A square matrix of leg costs between `n` nodes, row-major: `cost(i, j)` is the cost of flying
 /// from node `i` to node `j`. Node 0 is the origin (depot); the diagonal is never used.

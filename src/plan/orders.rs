@@ -153,6 +153,17 @@ pub fn plan_orders(
     Ok(reports)
 }
 
+/// The order of `objective` with the least energy (the better direction of a baseline).
+pub fn cheapest(orders: &[OrderReport], objective: Objective) -> Option<&OrderReport> {
+    orders
+        .iter()
+        .filter(|o| o.objective == objective)
+        .min_by(|a, b| {
+            let energy = |o: &OrderReport| o.energy_kj.unwrap_or(f64::INFINITY);
+            energy(a).total_cmp(&energy(b))
+        })
+}
+
 /// Metrics of the closed tour `0 -> nodes... -> 0`.
 pub fn report(
     geometry: &Geometry,
