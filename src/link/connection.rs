@@ -1,7 +1,9 @@
 //! The link: one task owns the MAVLink connection (any rust-mavlink URL: `udpin:`, `udpout:`,
 //! `tcpin:`, `tcpout:`, `serial:DEV:BAUD`), receives with timeouts and fans messages out to
 //! subscribers; another sends the ground station's HEARTBEAT at 1 Hz (PX4's data-link-loss
-//! failsafe watches it). The autopilot is discovered from its first HEARTBEAT.
+//! failsafe watches it). The autopilot is discovered from its first HEARTBEAT. When the
+//! transport fails (TCP closed, serial unplugged; UDP never fails) the error is logged and the
+//! receive task reconnects every second until it succeeds or the link is dropped.
 
 use std::sync::Arc;
 use std::time::Duration;
@@ -37,11 +39,29 @@ pub struct Autopilot {
 }
 
 type Connection = mavlink::AsyncConnection<MavMessage>;
+/// The current connection, replaced when the receive task reconnects.
+type Shared = Arc<std::sync::RwLock<Arc<Connection>>>;
+
+fn current(conn: &Shared) -> Option<Arc<Connection>> {
+    conn.read().ok().map(|c| c.clone())
+}
+
+async fn open(url: &str, signing: Option<mavlink::SigningConfig>) -> Result<Connection, LinkError> {
+    let mut conn = mavlink::connect_async::<MavMessage>(url)
+        .await
+        .map_err(|e| LinkError::Connect {
+            url: url.to_string(),
+            reason: e.to_string(),
+        })?;
+    conn.set_allow_recv_any_version(true);
+    conn.setup_signing(signing);
+    Ok(conn)
+}
 
 /// A running link. Dropping it stops its tasks.
 pub struct Link {
     url: String,
-    conn: Arc<Connection>,
+    conn: Shared,
     header: MavHeader,
     incoming: broadcast::Sender<(MavHeader, MavMessage)>,
     shutdown: watch::Sender<bool>,
@@ -61,15 +81,9 @@ impl Link {
         identity: Identity,
         signing: Option<mavlink::SigningConfig>,
     ) -> Result<Link, LinkError> {
-        let mut conn = mavlink::connect_async::<MavMessage>(url)
-            .await
-            .map_err(|e| LinkError::Connect {
-                url: url.to_string(),
-                reason: e.to_string(),
-            })?;
-        conn.set_allow_recv_any_version(true);
-        conn.setup_signing(signing);
-        let conn = Arc::new(conn);
+        let conn: Shared = Arc::new(std::sync::RwLock::new(Arc::new(
+            open(url, signing.clone()).await?,
+        )));
         let (incoming, _) = broadcast::channel(4096);
         let (shutdown, _) = watch::channel(false);
         let header = MavHeader {
@@ -78,6 +92,8 @@ impl Link {
             sequence: 0,
         };
         tokio::spawn(receive(
+            url.to_string(),
+            signing,
             conn.clone(),
             incoming.clone(),
             shutdown.subscribe(),
@@ -99,8 +115,8 @@ impl Link {
 
     /// Sends one message.
     pub async fn send(&self, message: &MavMessage) -> Result<(), LinkError> {
-        self.conn
-            .send(&self.header, message)
+        let conn = current(&self.conn).ok_or_else(|| LinkError::Closed(self.url.clone()))?;
+        conn.send(&self.header, message)
             .await
             .map(|_| ())
             .map_err(|e| LinkError::Send {
@@ -151,12 +167,13 @@ fn gcs_heartbeat() -> MavMessage {
     })
 }
 
-async fn heartbeat(conn: Arc<Connection>, header: MavHeader, mut shutdown: watch::Receiver<bool>) {
+async fn heartbeat(conn: Shared, header: MavHeader, mut shutdown: watch::Receiver<bool>) {
     let mut every = tokio::time::interval(Duration::from_secs(1));
     loop {
         tokio::select! {
             _ = shutdown.changed() => return,
             _ = every.tick() => {
+                let Some(conn) = current(&conn) else { return };
                 if let Err(e) = conn.send(&header, &gcs_heartbeat()).await {
                     tracing::warn!("heartbeat not sent: {e}");
                 }
@@ -166,21 +183,39 @@ async fn heartbeat(conn: Arc<Connection>, header: MavHeader, mut shutdown: watch
 }
 
 async fn receive(
-    conn: Arc<Connection>,
+    url: String,
+    signing: Option<mavlink::SigningConfig>,
+    conn: Shared,
     incoming: broadcast::Sender<(MavHeader, MavMessage)>,
     mut shutdown: watch::Receiver<bool>,
 ) {
     loop {
+        let Some(active) = current(&conn) else { return };
         tokio::select! {
             _ = shutdown.changed() => return,
-            received = tokio::time::timeout(Duration::from_secs(1), conn.recv()) => match received {
+            received = tokio::time::timeout(Duration::from_secs(1), active.recv()) => match received {
                 Ok(Ok(message)) => {
                     let _ = incoming.send(message);
                 }
                 Ok(Err(mavlink::error::MessageReadError::Io(e))) => {
-                    // Never swallowed: a transport that fails is reported and the link ends.
-                    tracing::error!("link receive failed: {e}");
-                    return;
+                    // Never swallowed: reported, then the transport is reopened.
+                    tracing::error!("link {url}: receive failed: {e}; reconnecting");
+                    loop {
+                        tokio::select! {
+                            _ = shutdown.changed() => return,
+                            _ = tokio::time::sleep(Duration::from_secs(1)) => {}
+                        }
+                        match open(&url, signing.clone()).await {
+                            Ok(fresh) => {
+                                if let Ok(mut slot) = conn.write() {
+                                    *slot = Arc::new(fresh);
+                                }
+                                tracing::info!("link {url}: reconnected");
+                                break;
+                            }
+                            Err(e) => tracing::warn!("{e}; retrying"),
+                        }
+                    }
                 }
                 Ok(Err(e)) => tracing::debug!("unparsable frame skipped: {e}"),
                 Err(_) => {}

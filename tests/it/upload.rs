@@ -334,3 +334,62 @@ async fn set_current_and_clear_all_are_confirmed_by_the_mock() {
     drop(link);
     mock.shutdown().await.unwrap();
 }
+
+#[tokio::test]
+async fn a_tcp_link_reconnects_after_the_autopilot_closes_the_connection() {
+    use tokio::io::AsyncWriteExt;
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let url = format!("tcpout:{}", listener.local_addr().unwrap());
+    let link = Link::connect(&url, Identity::default(), None)
+        .await
+        .unwrap();
+    let heartbeat = |autopilot| {
+        let mut bytes = Vec::new();
+        let hb = emplan::link::mav::MavMessage::HEARTBEAT(emplan::link::mav::HEARTBEAT_DATA {
+            autopilot,
+            mavtype: emplan::link::mav::MavType::MAV_TYPE_OCTOROTOR,
+            ..Default::default()
+        });
+        mavlink::write_v2_msg(
+            &mut bytes,
+            mavlink::MavHeader {
+                system_id: 1,
+                component_id: 1,
+                sequence: 0,
+            },
+            &hb,
+        )
+        .unwrap();
+        bytes
+    };
+    let (mut first, _) = listener.accept().await.unwrap();
+    first
+        .write_all(&heartbeat(
+            emplan::link::mav::MavAutopilot::MAV_AUTOPILOT_PX4,
+        ))
+        .await
+        .unwrap();
+    assert_eq!(
+        link.discover(Duration::from_secs(5)).await.unwrap().flavour,
+        Flavour::Px4
+    );
+    drop(first);
+    // The link notices the closed stream and dials again.
+    let (mut second, _) = tokio::time::timeout(Duration::from_secs(10), listener.accept())
+        .await
+        .expect("reconnected")
+        .unwrap();
+    let rediscover = tokio::spawn(async move {
+        link.discover(Duration::from_secs(5))
+            .await
+            .map(|a| a.flavour)
+    });
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    second
+        .write_all(&heartbeat(
+            emplan::link::mav::MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+        ))
+        .await
+        .unwrap();
+    assert_eq!(rediscover.await.unwrap().unwrap(), Flavour::ArduPilot);
+}
