@@ -8,7 +8,11 @@ pub mod brute;
 pub mod energy;
 pub mod geometry;
 pub mod held_karp;
+pub mod heuristic;
 pub mod orders;
+pub mod rng;
+pub mod sorties;
+pub mod study;
 pub mod tsplib;
 
 pub use geometry::Geometry;

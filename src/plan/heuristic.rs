@@ -1,0 +1,1 @@
+//! Direction-preserving local search for large asymmetric tours (in progress).

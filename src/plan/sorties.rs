@@ -1,0 +1,1 @@
+//! Splitting a mission one battery cannot fly into sorties (in progress).

@@ -1,0 +1,1 @@
+//! The paper's random-mission study (in progress).
