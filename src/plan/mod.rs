@@ -4,6 +4,8 @@
 //!
 //! Invariant: pure and deterministic (seeded); no IO, no tokio, no MAVLink.
 
+pub mod assignment;
+pub mod branch_cut;
 pub mod brute;
 pub mod energy;
 pub mod geometry;
@@ -88,6 +90,10 @@ pub enum PlanError {
     TooManyForBruteForce { n: usize, max: usize },
     #[error("cost of leg {from} -> {to} is not finite")]
     NonFiniteCost { from: usize, to: usize },
+    #[error("no tour exists: {0}")]
+    Infeasible(String),
+    #[error("the LP solver failed: {0}")]
+    Lp(String),
     #[error("the energy order needs an energy model (none was given)")]
     NoEnergyModel,
     #[error("energy of leg {from} -> {to}: {reason}")]
