@@ -6,6 +6,7 @@ pub mod download;
 pub mod energy;
 pub mod mock_autopilot;
 pub mod plan;
+pub mod sorties;
 pub mod table;
 pub mod tsp;
 pub mod upload;

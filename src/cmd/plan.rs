@@ -25,6 +25,10 @@ pub struct Args {
     /// Print one JSON document instead of a table
     #[arg(long)]
     json: bool,
+    /// Split the mission into sorties of least total energy, one battery each (a single sortie
+    /// when one battery suffices)
+    #[arg(long)]
+    sorties: bool,
 }
 
 /// The mission flown in the energy order against the battery.
@@ -38,6 +42,8 @@ pub struct Battery {
     pub budget_kj: f64,
     pub reserve_pct: f64,
     pub feasible: bool,
+    /// Energy over the budget (0 when feasible).
+    pub excess_kj: f64,
 }
 
 #[derive(Serialize)]
@@ -46,6 +52,8 @@ struct PlanJson<'a> {
     profile: Profile,
     orders: &'a [OrderReport],
     battery: &'a Battery,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    sorties: Option<&'a super::sorties::SortiesReport>,
 }
 
 /// A mission planned with a vehicle: every order, and the energy order against the battery.
@@ -89,22 +97,37 @@ pub fn plan_mission(
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let mission = emplan::mission::load(&args.mission)?;
+    let planned = plan_mission(&mission, &args.vehicle, args.profile)?;
+    let sorties = if args.sorties {
+        Some(super::sorties::split_mission(
+            &mission,
+            &args.vehicle,
+            &planned,
+        )?)
+    } else {
+        super::sorties::warn_if_over_budget(&args.mission, &planned.battery);
+        None
+    };
     let Planned {
         profile,
         orders,
         battery,
         ..
-    } = plan_mission(&mission, &args.vehicle, args.profile)?;
+    } = planned;
     if args.json {
         let doc = PlanJson {
             mission: &mission.name,
             profile,
             orders: &orders,
             battery: &battery,
+            sorties: sorties.as_ref(),
         };
         println!("{}", serde_json::to_string_pretty(&doc)?);
     } else {
         print_table(&mission, profile, &orders, &battery);
+        if let Some(sorties) = &sorties {
+            super::sorties::print(sorties);
+        }
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -135,6 +158,7 @@ fn battery(
         budget_kj,
         reserve_pct: vehicle.planning.reserve_pct,
         feasible: total_kj <= budget_kj,
+        excess_kj: (total_kj - budget_kj).max(0.0),
     })
 }
 

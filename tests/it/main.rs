@@ -3,5 +3,6 @@
 mod cli;
 mod mission;
 mod physics;
+mod sorties;
 mod tidy;
 mod upload;
