@@ -35,6 +35,10 @@ enum Command {
     Download(cmd::download::Args),
     /// Run the built-in mock autopilot.
     MockAutopilot(cmd::mock_autopilot::Args),
+    /// The paper's random-mission study: energy order vs distance orders over many missions.
+    Study(cmd::study::Args),
+    /// Write one random mission (the study's distribution) as a mission file.
+    Generate(cmd::generate::Args),
 }
 
 fn main() -> ExitCode {
@@ -56,6 +60,8 @@ fn main() -> ExitCode {
         Command::Upload(args) => cmd::upload::run(args),
         Command::Download(args) => cmd::download::run(args),
         Command::MockAutopilot(args) => cmd::mock_autopilot::run(args),
+        Command::Study(args) => cmd::study::run(args),
+        Command::Generate(args) => cmd::generate::run(args),
     };
     match result {
         Ok(code) => code,

@@ -25,6 +25,9 @@ pub struct Args {
     /// Print one JSON document instead of a table
     #[arg(long)]
     json: bool,
+    /// Draw the energy order and the min-distance order (top and side views) to this SVG file
+    #[arg(long, value_name = "FILE.svg")]
+    plot: Option<PathBuf>,
 }
 
 /// The mission flown in the energy order against the battery.
@@ -95,6 +98,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         battery,
         ..
     } = plan_mission(&mission, &args.vehicle, args.profile)?;
+    if let Some(path) = &args.plot {
+        super::plot::plan_svg(path, &mission, profile, &orders)?;
+        eprintln!("wrote {}", path.display());
+    }
     if args.json {
         let doc = PlanJson {
             mission: &mission.name,
