@@ -3,5 +3,6 @@
 mod cli;
 mod mission;
 mod physics;
+mod study;
 mod tidy;
 mod upload;
