@@ -16,10 +16,7 @@ const MAX_WAYPOINTS: usize = 1_000_000;
 /// 2 m).
 const CLEARANCE_M: f64 = 5.0;
 
-/// Waypoints W1..WN uniform in [-XY, XY] m east and north and [-Z, Z] m up around the origin,
-/// written in local x_m/y_m/z_m. The origin hovers Z + 5 m above home, so the lowest waypoint
-/// is 5 m above home. With the same N, XY, Z and seed, `--mission K` is mission K of
-/// `emplan study`.
+/// Arguments of `emplan generate` (its help text is on the subcommand in main.rs).
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Mission file to write; its extension chooses the format (.toml, .plan, .waypoints)
@@ -30,7 +27,8 @@ pub struct Args {
     /// Horizontal half-width: waypoints uniform in [-XY, XY] m east and north of the origin
     #[arg(long, value_name = "M", allow_negative_numbers = true)]
     xy: f64,
-    /// Vertical half-height: waypoints uniform in [-Z, Z] m around the origin's height
+    /// Vertical half-height: waypoints uniform in [-Z, Z] m around the origin, which hovers
+    /// Z + 5 m above home
     #[arg(long, value_name = "M", allow_negative_numbers = true)]
     z: f64,
     /// Seed of the random mission

@@ -210,8 +210,8 @@ pub fn plan_svg(
                     .filter_map(|w| arrow(&chart, at(w[0]), at(w[1]), along))
                     .collect();
                 chart
-                    .draw_series(arrows.into_iter().map(|(anchor, corners)| {
-                        EmptyElement::at(anchor) + Polygon::new(corners, colour.filled())
+                    .draw_series(arrows.into_iter().map(|a| {
+                        EmptyElement::at(a.anchor) + Polygon::new(a.corners_px, colour.filled())
                     }))
                     .map_err(&err)?;
             }
@@ -233,15 +233,21 @@ pub fn plan_svg(
     write_svg(path, &svg)
 }
 
+/// An arrowhead: its anchor in data coordinates and its corners in pixels around the anchor.
+struct Arrowhead {
+    anchor: (f64, f64),
+    corners_px: Vec<(i32, i32)>,
+}
+
 /// A small arrowhead at fraction `along` of the leg `from -> to`, pointing the way the leg is
-/// flown: its anchor in data coordinates and its corners in pixels around the anchor (screen
-/// space, so unequal axis scales do not distort it); none for legs a few pixels long in this view.
+/// flown, drawn in screen space so unequal axis scales do not distort it; none for legs a few
+/// pixels long in this view.
 fn arrow<'a>(
     chart: &ChartContext<'a, SVGBackend<'a>, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
     from: (f64, f64),
     to: (f64, f64),
     along: f64,
-) -> Option<((f64, f64), Vec<(i32, i32)>)> {
+) -> Option<Arrowhead> {
     let (a, b) = (chart.backend_coord(&from), chart.backend_coord(&to));
     let (dx, dy) = (f64::from(b.0 - a.0), f64::from(b.1 - a.1));
     let len = dx.hypot(dy);
@@ -259,7 +265,10 @@ fn arrow<'a>(
         from.0 + along * (to.0 - from.0),
         from.1 + along * (to.1 - from.1),
     );
-    Some((anchor, vec![px(7.0, 0.0), px(-5.0, 5.0), px(-5.0, -5.0)]))
+    Some(Arrowhead {
+        anchor,
+        corners_px: vec![px(7.0, 0.0), px(-5.0, 5.0), px(-5.0, -5.0)],
+    })
 }
 
 fn baseline_label(baseline: Objective) -> &'static str {

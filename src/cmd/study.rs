@@ -12,12 +12,7 @@ use emplan::plan::study::{run_study, Study, StudyError, StudySettings, Summary, 
 use emplan::plan::Objective;
 use serde::Serialize;
 
-/// Random missions: N waypoints uniform in [-XY, XY] m east and north and [-Z, Z] m up around
-/// the origin; for each, the minimum-energy order against the min-distance (D), min-horizontal
-/// (X) and min-vertical (Z) orders in their better direction. Reports each baseline's energy
-/// increase over the minimum-energy order: mean, 90th percentile (nearest rank: the
-/// ceil(0.9 K)-th smallest of the K missions) and maximum. Mission k of a study is
-/// `emplan generate --waypoints N --xy XY --z Z --seed S --mission k`.
+/// Arguments of `emplan study` (its help text is on the subcommand in main.rs).
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Waypoints per mission (1 to 20: the energy order is solved exactly)
