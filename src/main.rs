@@ -35,6 +35,24 @@ enum Command {
     Download(cmd::download::Args),
     /// Run the built-in mock autopilot.
     MockAutopilot(cmd::mock_autopilot::Args),
+    /// The paper's random-mission study: energy order vs distance orders over many missions.
+    ///
+    /// Each mission has N waypoints uniform in [-XY, XY] m east and north and [-Z, Z] m up around
+    /// the origin. For each, the minimum-energy order (exact) is compared with the min-distance
+    /// (D), min-horizontal (X) and min-vertical (Z, ties by X) orders, each in its better
+    /// direction. Reported per baseline: the energy increase over the minimum-energy order, mean,
+    /// 90th percentile (nearest rank: the ceil(0.9 K)-th smallest of K missions) and maximum; and
+    /// the shares of missions where the min-D order differs from the energy order and where min-Z
+    /// or min-X beats min-D. Mission K of a study is
+    /// `emplan generate --waypoints N --xy XY --z Z --seed S --mission K`.
+    Study(cmd::study::Args),
+    /// Write one random mission (the study's distribution) as a mission file.
+    ///
+    /// Waypoints W1..WN uniform in [-XY, XY] m east and north and [-Z, Z] m up around the origin,
+    /// written in local x_m/y_m/z_m. The origin hovers Z + 5 m above home, so every waypoint is
+    /// at least 5 m above home (the mission minimum is 2 m). With the same N, XY, Z and seed,
+    /// `--mission K` writes mission K of `emplan study`.
+    Generate(cmd::generate::Args),
 }
 
 fn main() -> ExitCode {
@@ -56,6 +74,8 @@ fn main() -> ExitCode {
         Command::Upload(args) => cmd::upload::run(args),
         Command::Download(args) => cmd::download::run(args),
         Command::MockAutopilot(args) => cmd::mock_autopilot::run(args),
+        Command::Study(args) => cmd::study::run(args),
+        Command::Generate(args) => cmd::generate::run(args),
     };
     match result {
         Ok(code) => code,

@@ -29,6 +29,9 @@ pub struct Args {
     /// when one battery suffices)
     #[arg(long)]
     sorties: bool,
+    /// Draw the energy order and the min-distance order (top and side views) to this SVG file
+    #[arg(long, value_name = "FILE.svg")]
+    plot: Option<PathBuf>,
 }
 
 /// The mission flown in the energy order against the battery.
@@ -114,6 +117,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         battery,
         ..
     } = planned;
+    if let Some(path) = &args.plot {
+        super::plot::plan_svg(path, &mission, profile, &orders)?;
+        eprintln!("wrote {}", path.display());
+    }
     if args.json {
         let doc = PlanJson {
             mission: &mission.name,

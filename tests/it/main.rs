@@ -4,5 +4,6 @@ mod cli;
 mod mission;
 mod physics;
 mod sorties;
+mod study;
 mod tidy;
 mod upload;

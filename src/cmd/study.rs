@@ -1,0 +1,302 @@
+//! `emplan study`: the paper's random-mission study (NOTES.md section 4) with the vehicle's
+//! energy table: the JSON of DESIGN.md or a table, a progress bar on stderr, and optionally a
+//! histogram of the baseline/minimum-energy energy ratios.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+use anyhow::{bail, Context};
+use emplan::physics::{EnergyTable, Profile, Vehicle};
+use emplan::plan::study::{run_study, Study, StudyError, StudySettings, Summary, PAPER_SETTINGS};
+use emplan::plan::Objective;
+use serde::Serialize;
+
+/// Arguments of `emplan study` (its help text is on the subcommand in main.rs).
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Waypoints per mission (1 to 20: the energy order is solved exactly)
+    #[arg(
+        long,
+        value_name = "N",
+        required_unless_present = "all_paper_settings",
+        conflicts_with = "all_paper_settings"
+    )]
+    waypoints: Option<usize>,
+    /// Horizontal half-width: waypoints uniform in [-XY, XY] m east and north of the origin
+    #[arg(
+        long,
+        value_name = "M",
+        allow_negative_numbers = true,
+        required_unless_present = "all_paper_settings",
+        conflicts_with = "all_paper_settings"
+    )]
+    xy: Option<f64>,
+    /// Vertical half-height: waypoints uniform in [-Z, Z] m around the origin's height
+    #[arg(
+        long,
+        value_name = "M",
+        allow_negative_numbers = true,
+        required_unless_present = "all_paper_settings",
+        conflicts_with = "all_paper_settings"
+    )]
+    z: Option<f64>,
+    /// Random missions per setting
+    #[arg(long, value_name = "K", default_value_t = 1000)]
+    missions: usize,
+    /// Seed: the same seed gives the same missions and results, whatever the thread count
+    #[arg(long, value_name = "S", default_value_t = 1)]
+    seed: u64,
+    /// Vehicle directory holding vehicle.toml and its energy tables
+    #[arg(long, default_value = "models/s1000")]
+    vehicle: PathBuf,
+    /// Flight profile pricing the legs: ptf, hvb or px4 (default: the vehicle's)
+    #[arg(long)]
+    profile: Option<Profile>,
+    /// Print one JSON document (an array of them with --all-paper-settings)
+    #[arg(long)]
+    json: bool,
+    /// Write a histogram of the baseline/minimum-energy energy ratios to this SVG file (with
+    /// --all-paper-settings, one file per setting, suffixed -N-XY-Z)
+    #[arg(long, value_name = "FILE.svg")]
+    histogram: Option<PathBuf>,
+    /// Run the paper's six settings (N, XY, Z) = (6,30,25) (8,20,25) (8,30,25) (8,40,25)
+    /// (8,30,15) (10,30,25) with the given --missions and --seed
+    #[arg(long)]
+    all_paper_settings: bool,
+}
+
+/// Which mission of the study had the largest increase, per baseline.
+#[derive(Serialize)]
+struct Worst {
+    distance: Option<u64>,
+    horizontal: Option<u64>,
+    vertical: Option<u64>,
+}
+
+/// The JSON of DESIGN.md (the summary, flattened) plus the setting, profile, the worst missions
+/// and the wall time.
+#[derive(Serialize)]
+struct StudyJson {
+    waypoints: usize,
+    xy_m: f64,
+    z_m: f64,
+    seed: u64,
+    profile: Profile,
+    #[serde(flatten)]
+    summary: Summary,
+    worst_mission: Worst,
+    seconds: f64,
+}
+
+/// The command-line option behind a study setting, for error messages.
+fn option_of(setting: &str) -> &'static str {
+    match setting {
+        "waypoints" => "--waypoints",
+        "xy_m" => "--xy",
+        "z_m" => "--z",
+        "missions" => "--missions",
+        _ => "a setting",
+    }
+}
+
+/// Every leg of every mission of `s` must lie inside the table: refuse up front, naming the
+/// option, rather than fail on the first unlucky mission.
+fn check_envelope(s: &StudySettings, table: &EnergyTable) -> anyhow::Result<()> {
+    let max_xf_m = table.xf.end_m;
+    let reach_x_m = s.max_horizontal_leg_m();
+    if reach_x_m > max_xf_m {
+        bail!(
+            "--xy {}: legs between opposite corners reach {reach_x_m:.1} m horizontally \
+             (2 sqrt(2) XY) but the {} energy table covers Xf 0..{max_xf_m} m \
+             (allowed: --xy up to {:.2})",
+            s.xy_m,
+            table.profile,
+            max_xf_m / (2.0 * std::f64::consts::SQRT_2)
+        );
+    }
+    let max_zf_m = table.zf.end_m.min(-table.zf.start_m);
+    let reach_z_m = s.max_vertical_leg_m();
+    if reach_z_m > max_zf_m {
+        bail!(
+            "--z {}: legs from the bottom to the top of the box climb {reach_z_m:.1} m (2 Z) \
+             but the {} energy table covers Zf {}..{} m (allowed: --z up to {:.2})",
+            s.z_m,
+            table.profile,
+            table.zf.start_m,
+            table.zf.end_m,
+            max_zf_m / 2.0
+        );
+    }
+    Ok(())
+}
+
+fn histogram_path(base: &Path, s: &StudySettings, many: bool) -> PathBuf {
+    if !many {
+        return base.to_path_buf();
+    }
+    let stem = base.file_stem().and_then(|s| s.to_str()).unwrap_or("study");
+    base.with_file_name(format!("{stem}-{}-{}-{}.svg", s.waypoints, s.xy_m, s.z_m))
+}
+
+pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    let settings: Vec<StudySettings> = if args.all_paper_settings {
+        PAPER_SETTINGS
+            .iter()
+            .map(|&(waypoints, xy_m, z_m)| StudySettings {
+                waypoints,
+                xy_m,
+                z_m,
+                missions: args.missions,
+                seed: args.seed,
+            })
+            .collect()
+    } else {
+        // clap requires all three unless --all-paper-settings.
+        let (Some(waypoints), Some(xy_m), Some(z_m)) = (args.waypoints, args.xy, args.z) else {
+            bail!("--waypoints, --xy and --z are required (or --all-paper-settings)");
+        };
+        vec![StudySettings {
+            waypoints,
+            xy_m,
+            z_m,
+            missions: args.missions,
+            seed: args.seed,
+        }]
+    };
+    for s in &settings {
+        s.validate().map_err(|e| match e {
+            StudyError::Setting {
+                setting,
+                value,
+                problem,
+            } => anyhow::anyhow!("{} {value}: {problem}", option_of(setting)),
+            other => other.into(),
+        })?;
+    }
+
+    let vehicle = Vehicle::load(&args.vehicle)?;
+    let profile = args.profile.unwrap_or(vehicle.default_profile());
+    let table = EnergyTable::load(&args.vehicle, profile, &vehicle)?;
+    for s in &settings {
+        check_envelope(s, &table)?;
+    }
+    // Legs are priced start to settled hover, as `emplan plan` prices them.
+    let leg_energy_j = |xf_m: f64, zf_m: f64| table.lookup(xf_m, zf_m).map(|l| l.total_energy_j());
+
+    let mut docs = Vec::with_capacity(settings.len());
+    for s in &settings {
+        let bar = if args.json {
+            indicatif::ProgressBar::hidden()
+        } else {
+            indicatif::ProgressBar::new(s.missions as u64)
+        };
+        bar.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{prefix} [{bar:40}] {pos}/{len} missions, {eta} left",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        bar.set_prefix(format!("N={} XY={} Z={}", s.waypoints, s.xy_m, s.z_m));
+        let started = Instant::now();
+        let study = run_study(s, leg_energy_j, &|| bar.inc(1)).with_context(|| {
+            format!(
+                "study of {} waypoints, XY {} m, Z {} m, seed {} ({profile} profile)",
+                s.waypoints, s.xy_m, s.z_m, s.seed
+            )
+        })?;
+        let seconds = started.elapsed().as_secs_f64();
+        bar.finish_and_clear();
+        if let Some(base) = &args.histogram {
+            let path = histogram_path(base, s, settings.len() > 1);
+            super::plot::study_histogram_svg(&path, &study, profile)?;
+            eprintln!("wrote {}", path.display());
+        }
+        docs.push(document(&study, profile, seconds));
+    }
+
+    if args.json {
+        if args.all_paper_settings {
+            println!("{}", serde_json::to_string_pretty(&docs)?);
+        } else if let Some(doc) = docs.first() {
+            println!("{}", serde_json::to_string_pretty(doc)?);
+        }
+    } else {
+        print_table(&docs, profile, &args);
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn document(study: &Study, profile: Profile, seconds: f64) -> StudyJson {
+    let s = &study.settings;
+    StudyJson {
+        waypoints: s.waypoints,
+        xy_m: s.xy_m,
+        z_m: s.z_m,
+        seed: s.seed,
+        profile,
+        summary: study.summary,
+        worst_mission: Worst {
+            distance: study.worst_mission(Objective::Distance),
+            horizontal: study.worst_mission(Objective::Horizontal),
+            vertical: study.worst_mission(Objective::Vertical),
+        },
+        seconds,
+    }
+}
+
+fn print_table(docs: &[StudyJson], profile: Profile, args: &Args) {
+    println!(
+        "random-mission study: {} missions per setting, seed {}, legs priced with the {profile} \
+         profile",
+        args.missions, args.seed
+    );
+    println!(
+        "energy increase of each baseline (better direction) over the minimum-energy order, %: \
+         mean / p90 / max"
+    );
+    println!(
+        "{:>3} {:>5} {:>5} | {:^20} | {:^20} | {:^20} | {:>9} {:>9} {:>9} {:>8}",
+        "N",
+        "XY_m",
+        "Z_m",
+        "min-D",
+        "min-X",
+        "min-Z",
+        "D_differs",
+        "Z_beats_D",
+        "X_beats_D",
+        "seconds"
+    );
+    let cell = |s: &emplan::plan::study::Stats| {
+        format!("{:>5.2} {:>6.2} {:>6.2}", s.mean_pct, s.p90_pct, s.max_pct)
+    };
+    for d in docs {
+        println!(
+            "{:>3} {:>5} {:>5} | {:^20} | {:^20} | {:^20} | {:>8.1}% {:>8.1}% {:>8.1}% {:>8.2}",
+            d.waypoints,
+            d.xy_m,
+            d.z_m,
+            cell(&d.summary.distance),
+            cell(&d.summary.horizontal),
+            cell(&d.summary.vertical),
+            d.summary.distance_differs_pct,
+            d.summary.vertical_beats_distance_pct,
+            d.summary.horizontal_beats_distance_pct,
+            d.seconds
+        );
+    }
+    if let [d] = docs {
+        println!(
+            "worst missions (emplan generate --waypoints {} --xy {} --z {} --seed {} --mission K): \
+             min-D K={}, min-X K={}, min-Z K={}",
+            d.waypoints,
+            d.xy_m,
+            d.z_m,
+            d.seed,
+            d.worst_mission.distance.unwrap_or(0),
+            d.worst_mission.horizontal.unwrap_or(0),
+            d.worst_mission.vertical.unwrap_or(0)
+        );
+    }
+}

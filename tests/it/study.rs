@@ -1,0 +1,288 @@
+//! The random-mission study, the generator and the plots through the `emplan` binary: the study
+//! JSON of DESIGN.md and its reproducibility, the SVG files, and generated missions that
+//! `emplan plan` loads.
+
+use std::process::Command;
+
+use serde_json::Value;
+
+fn emplan(args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_emplan"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("emplan runs");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn json(args: &[&str]) -> Value {
+    let (ok, stdout, stderr) = emplan(args);
+    assert!(ok, "emplan {args:?} failed: {stderr}");
+    serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("not JSON ({e}): {stdout}"))
+}
+
+const STUDY: [&str; 13] = [
+    "study",
+    "--waypoints",
+    "7",
+    "--xy",
+    "30",
+    "--z",
+    "25",
+    "--missions",
+    "50",
+    "--seed",
+    "4",
+    "--json",
+    "--profile=ptf",
+];
+
+fn pct(doc: &Value, key: &str) -> f64 {
+    doc[key]
+        .as_f64()
+        .unwrap_or_else(|| panic!("{key} is not a number in {doc}"))
+}
+
+#[test]
+fn study_json_has_the_design_keys_and_ordered_statistics() {
+    let doc = json(&STUDY);
+    assert_eq!(doc["missions"], 50);
+    for baseline in ["distance", "horizontal", "vertical"] {
+        let stats = &doc[baseline];
+        let (mean, p90, max) = (
+            pct(stats, "mean_pct"),
+            pct(stats, "p90_pct"),
+            pct(stats, "max_pct"),
+        );
+        assert!(
+            0.0 <= mean && mean <= p90 && p90 <= max,
+            "{baseline}: {stats}"
+        );
+    }
+    for share in [
+        "distance_differs_pct",
+        "vertical_beats_distance_pct",
+        "horizontal_beats_distance_pct",
+    ] {
+        let v = pct(&doc, share);
+        assert!((0.0..=100.0).contains(&v), "{share} = {v}");
+        // 50 missions: every share is a whole number of 2% steps.
+        assert!((v / 2.0 - (v / 2.0).round()).abs() < 1e-9, "{share} = {v}");
+    }
+    assert_eq!(doc["profile"], "ptf");
+    assert_eq!(doc["waypoints"], 7);
+}
+
+#[test]
+fn the_same_seed_gives_the_same_study_and_another_seed_another() {
+    let without_time = |mut doc: Value| {
+        doc.as_object_mut().unwrap().remove("seconds");
+        doc
+    };
+    let a = without_time(json(&STUDY));
+    let b = without_time(json(&STUDY));
+    assert_eq!(a, b);
+    let mut other = STUDY;
+    other[10] = "5";
+    let c = without_time(json(&other));
+    assert_ne!(a["distance"], c["distance"]);
+}
+
+#[test]
+fn all_paper_settings_give_one_document_per_setting() {
+    let docs = json(&[
+        "study",
+        "--all-paper-settings",
+        "--missions",
+        "10",
+        "--json",
+    ]);
+    let docs = docs.as_array().expect("an array");
+    let settings: Vec<(u64, f64, f64)> = docs
+        .iter()
+        .map(|d| {
+            (
+                d["waypoints"].as_u64().unwrap(),
+                pct(d, "xy_m"),
+                pct(d, "z_m"),
+            )
+        })
+        .collect();
+    assert_eq!(
+        settings,
+        vec![
+            (6, 30.0, 25.0),
+            (8, 20.0, 25.0),
+            (8, 30.0, 25.0),
+            (8, 40.0, 25.0),
+            (8, 30.0, 15.0),
+            (10, 30.0, 25.0)
+        ]
+    );
+    assert!(docs.iter().all(|d| d["missions"] == 10));
+}
+
+#[test]
+fn study_refuses_bad_settings_naming_the_option() {
+    for (args, option) in [
+        (
+            ["--waypoints", "0", "--xy", "30", "--z", "25"],
+            "--waypoints",
+        ),
+        (["--waypoints", "8", "--xy", "-1", "--z", "25"], "--xy"),
+        // Legs from -Z to +Z would climb 90 m: beyond the table's +-60 m.
+        (["--waypoints", "8", "--xy", "30", "--z", "45"], "--z"),
+        (["--waypoints", "8", "--xy", "80", "--z", "25"], "--xy"),
+    ] {
+        let mut full = vec!["study", "--missions", "5"];
+        full.extend(args);
+        let (ok, _, stderr) = emplan(&full);
+        assert!(!ok, "{full:?} succeeded");
+        assert!(stderr.contains(option), "{full:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{full:?}: {stderr}");
+    }
+}
+
+#[test]
+fn study_histogram_is_an_svg_of_the_three_baselines() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("ratios.svg");
+    let (ok, _, stderr) = emplan(&[
+        "study",
+        "--waypoints",
+        "6",
+        "--xy",
+        "30",
+        "--z",
+        "25",
+        "--missions",
+        "40",
+        "--histogram",
+        path.to_str().unwrap(),
+    ]);
+    assert!(ok, "{stderr}");
+    let svg = std::fs::read_to_string(&path).unwrap();
+    assert!(svg.contains("<svg"));
+    for label in ["min-D", "min-X", "min-Z", "energy / minimum energy"] {
+        assert!(svg.contains(label), "no {label:?} in the histogram");
+    }
+}
+
+/// The contents of every `<text>` element of an SVG, trimmed.
+fn texts(svg: &str) -> Vec<&str> {
+    svg.split("</text>")
+        .filter_map(|chunk| chunk.rsplit_once('>').map(|(_, text)| text.trim()))
+        .collect()
+}
+
+#[test]
+fn plan_plot_draws_the_orders_with_every_waypoint_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("orders.svg");
+    let (ok, stdout, stderr) = emplan(&[
+        "plan",
+        "missions/paper-sample-8wp.toml",
+        "--json",
+        "--plot",
+        path.to_str().unwrap(),
+    ]);
+    assert!(ok, "{stderr}");
+    // --plot leaves stdout one JSON document.
+    serde_json::from_str::<Value>(&stdout).expect("plan --json still prints JSON");
+    let svg = std::fs::read_to_string(&path).unwrap();
+    assert!(svg.contains("<svg"));
+    let labels = texts(&svg);
+    for name in ["origin", "A", "B", "C", "D", "E", "F", "G", "H"] {
+        // Each point is labelled in each of the three views.
+        let count = labels.iter().filter(|t| **t == name).count();
+        assert_eq!(count, 3, "label {name} appears {count} times in {labels:?}");
+    }
+    for text in [
+        "top view",
+        "x east (m)",
+        "z up (m)",
+        "kJ",
+        "minimum distance",
+    ] {
+        assert!(svg.contains(text), "no {text:?} in the plot");
+    }
+}
+
+#[test]
+fn generated_missions_load_in_plan_and_match_the_study_mission() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("random.toml");
+    let (ok, _, stderr) = emplan(&[
+        "generate",
+        path.to_str().unwrap(),
+        "--waypoints",
+        "6",
+        "--xy",
+        "30",
+        "--z",
+        "25",
+        "--seed",
+        "4",
+        "--mission",
+        "2",
+    ]);
+    assert!(ok, "{stderr}");
+    let plan = json(&["plan", path.to_str().unwrap(), "--json"]);
+    let orders = plan["orders"].as_array().unwrap();
+    assert_eq!(orders[0]["objective"], "energy");
+    assert_eq!(orders[0]["sequence"].as_array().unwrap().len(), 6);
+    let mission = emplan::mission::load(&path).unwrap();
+    assert_eq!(mission.origin.height_above_home_m, 30.0);
+    let names: Vec<&str> = mission.waypoints.iter().map(|w| w.name.as_str()).collect();
+    assert_eq!(names, ["W1", "W2", "W3", "W4", "W5", "W6"]);
+    // The file holds mission 2 of the study with the same seed, to full precision.
+    let settings = emplan::plan::study::StudySettings {
+        waypoints: 6,
+        xy_m: 30.0,
+        z_m: 25.0,
+        missions: 1,
+        seed: 4,
+    };
+    let points = emplan::plan::study::random_points(&settings, 2);
+    for (w, p) in mission.waypoints.iter().zip(&points) {
+        assert_eq!(w.position, *p);
+    }
+}
+
+#[test]
+fn a_thousand_waypoint_mission_is_generated_above_the_minimum_height() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("big.toml");
+    let (ok, _, stderr) = emplan(&[
+        "generate",
+        path.to_str().unwrap(),
+        "--waypoints",
+        "1000",
+        "--xy",
+        "300",
+        "--z",
+        "40",
+    ]);
+    assert!(ok, "{stderr}");
+    let mission = emplan::mission::load(&path).unwrap();
+    assert_eq!(mission.waypoints.len(), 1000);
+    for w in &mission.waypoints {
+        let height = mission.origin.height_above_home_m(w.position);
+        assert!(height >= 5.0 - 1e-6, "{} at {height} m above home", w.name);
+    }
+    let (ok, _, stderr) = emplan(&[
+        "generate",
+        path.to_str().unwrap(),
+        "--waypoints",
+        "0",
+        "--xy",
+        "30",
+        "--z",
+        "25",
+    ]);
+    assert!(!ok && stderr.contains("--waypoints"), "{stderr}");
+}
