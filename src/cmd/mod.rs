@@ -14,6 +14,43 @@ pub mod table;
 pub mod tsp;
 pub mod upload;
 
+/// Options of every command that orders waypoints.
+#[derive(Debug, Clone, clap::Args)]
+pub struct SolverArgs {
+    /// Tour solver: auto (Held-Karp up to 12 waypoints, branch-and-cut up to 500 nodes, the
+    /// heuristic beyond), held-karp, branch-cut or heuristic
+    #[arg(long, default_value = "auto")]
+    pub solver: emplan::plan::solver::Solver,
+    /// Wall-clock budget per tour solve (s); a solve cut short reports its best tour and a
+    /// proven lower bound
+    #[arg(long, default_value_t = 60.0)]
+    pub time_limit: f64,
+    /// Seed of the heuristic (same seed and kick budget: same tour)
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Kick budget of the heuristic (default: grows with the size)
+    #[arg(long)]
+    pub kicks: Option<u64>,
+}
+
+impl SolverArgs {
+    /// The library's solver options.
+    pub fn options(&self) -> anyhow::Result<emplan::plan::solver::Options> {
+        if !(self.time_limit.is_finite() && self.time_limit >= 0.0) {
+            anyhow::bail!(
+                "--time-limit {}: expected a non-negative number of seconds",
+                self.time_limit
+            );
+        }
+        Ok(emplan::plan::solver::Options {
+            solver: self.solver,
+            time_limit: std::time::Duration::from_secs_f64(self.time_limit.min(1e9)),
+            seed: self.seed,
+            kicks: self.kicks,
+        })
+    }
+}
+
 /// Options of every command that talks to an autopilot.
 #[derive(Debug, clap::Args)]
 pub struct LinkArgs {

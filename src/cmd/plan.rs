@@ -32,6 +32,12 @@ pub struct Args {
     /// Draw the energy order and the min-distance order (top and side views) to this SVG file
     #[arg(long, value_name = "FILE.svg")]
     plot: Option<PathBuf>,
+    /// Write the energy cost matrix as a TSPLIB ATSP file (integer millijoules; node 1 is the
+    /// origin), for other solvers
+    #[arg(long, value_name = "FILE.atsp")]
+    export_atsp: Option<PathBuf>,
+    #[command(flatten)]
+    solver: super::SolverArgs,
 }
 
 /// The mission flown in the energy order against the battery.
@@ -74,6 +80,7 @@ pub fn plan_mission(
     mission: &Mission,
     vehicle_dir: &Path,
     profile: Option<Profile>,
+    solver: &emplan::plan::solver::Options,
 ) -> anyhow::Result<Planned> {
     let vehicle = Vehicle::load(vehicle_dir)?;
     let profile = profile.unwrap_or(vehicle.default_profile());
@@ -87,7 +94,7 @@ pub fn plan_mission(
         table.lookup(x, z).map(|leg| leg.total_energy_j())
     })
     .with_context(|| format!("pricing the legs of mission {}", mission.name))?;
-    let orders = plan_orders(&geometry, &names, Some(&energy))
+    let orders = plan_orders(&geometry, &names, Some(&energy), solver)
         .with_context(|| format!("planning mission {}", mission.name))?;
     let battery = battery(mission, &vehicle, profile, &orders[0])?;
     Ok(Planned {
@@ -100,7 +107,17 @@ pub fn plan_mission(
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let mission = emplan::mission::load(&args.mission)?;
-    let planned = plan_mission(&mission, &args.vehicle, args.profile)?;
+    let planned = plan_mission(
+        &mission,
+        &args.vehicle,
+        args.profile,
+        &args.solver.options()?,
+    )?;
+    if let Some(path) = &args.export_atsp {
+        let text = emplan::plan::tsplib::to_text(&mission.name, &planned.energy, 1000.0)
+            .with_context(|| format!("exporting {}", path.display()))?;
+        std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))?;
+    }
     let sorties = if args.sorties {
         Some(super::sorties::split_mission(
             &mission,

@@ -46,6 +46,8 @@ pub struct Args {
     /// Print one JSON document instead of text
     #[arg(long)]
     json: bool,
+    #[command(flatten)]
+    solver: super::SolverArgs,
 }
 
 #[derive(Serialize)]
@@ -63,7 +65,12 @@ struct UploadJson<'a> {
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let mission = emplan::mission::load(&args.mission)?;
-    let planned = super::plan::plan_mission(&mission, &args.vehicle, args.profile)?;
+    let planned = super::plan::plan_mission(
+        &mission,
+        &args.vehicle,
+        args.profile,
+        &args.solver.options()?,
+    )?;
     let order: Vec<usize> = match args.order {
         Order::Energy => planned.orders[0].nodes.iter().map(|n| n - 1).collect(),
         Order::Distance => cheapest(&planned.orders, Objective::Distance)

@@ -986,6 +986,7 @@ mod tests {
             &identity_order(12),
             &Options {
                 time_limit: Duration::ZERO,
+                ..Default::default()
             },
         )
         .unwrap();

@@ -13,13 +13,14 @@ pub mod held_karp;
 pub mod heuristic;
 pub mod orders;
 pub mod rng;
+pub mod solver;
 pub mod sorties;
 pub mod study;
 pub mod tsplib;
 
 pub use geometry::Geometry;
 pub use orders::{
-    cheapest, order_waypoints, plan_orders, Direction, LegReport, Objective, OrderReport,
+    cheapest, order_waypoints, plan_orders, Direction, LegReport, Objective, OrderReport, Proof,
 };
 
 /// A square matrix of leg costs between `n` nodes, row-major: `cost(i, j)` is the cost of flying

@@ -6,6 +6,7 @@
 use serde::Serialize;
 
 use super::held_karp::{self, Lexicographic};
+use super::solver::{self, Solved};
 use super::{CostMatrix, Geometry, PlanError};
 
 /// What an order minimises.
@@ -57,33 +58,93 @@ pub struct OrderReport {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub energy_kj: Option<f64>,
     pub legs: Vec<LegReport>,
+    /// How the order was solved and what is proven about it (the order that minimises its
+    /// objective; absent on reversed baselines, which are not solved for).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub proof: Option<Proof>,
 }
 
-/// The optimal order of nodes (1-based waypoint ids) for one objective. The energy objective
-/// needs `energy` (joules per leg, node 0 = origin); the distance objectives are canonicalised to
-/// their forward direction.
+/// What the solver proved about an order, in the objective's units (kJ for energy, metres for
+/// the distance baselines).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Proof {
+    pub solver: solver::Solver,
+    pub optimal: bool,
+    pub lower_bound: f64,
+    pub gap_pct: f64,
+    pub seconds: f64,
+}
+
+impl Proof {
+    fn of(solved: &Solved, scale: f64) -> Proof {
+        Proof {
+            solver: solved.solver,
+            optimal: solved.tour.optimal,
+            lower_bound: solved.tour.lower_bound * scale,
+            gap_pct: solved.gap_pct,
+            seconds: solved.seconds,
+        }
+    }
+}
+
+/// The optimal order of nodes (1-based waypoint ids) for one objective, with the default solver
+/// options. The energy objective needs `energy` (joules per leg, node 0 = origin); the distance
+/// objectives are canonicalised to their forward direction.
 pub fn solve_order(
     geometry: &Geometry,
     objective: Objective,
     energy: Option<&CostMatrix>,
 ) -> Result<Vec<usize>, PlanError> {
+    Ok(solve_order_with(geometry, objective, energy, &solver::Options::default())?.0)
+}
+
+/// [`solve_order`] with chosen solver options; also returns what the solver proved. Beyond
+/// Held-Karp's size the min-vertical baseline minimises `|dz| + 1e-4 * horizontal` (its
+/// lexicographic tie-break is exact only up to [`held_karp::MAX_NODES`] waypoints).
+pub fn solve_order_with(
+    geometry: &Geometry,
+    objective: Objective,
+    energy: Option<&CostMatrix>,
+    options: &solver::Options,
+) -> Result<(Vec<usize>, Solved), PlanError> {
     let n = geometry.len();
-    let order = match objective {
+    let solved = match objective {
         Objective::Energy => {
             let m = energy.ok_or(PlanError::NoEnergyModel)?;
-            return Ok(held_karp::solve(m)?.order);
+            let solved = solver::solve(m, options)?;
+            return Ok((solved.tour.order.clone(), solved));
         }
-        Objective::Distance => held_karp::solve(&geometry.distance_matrix())?.order,
-        Objective::Horizontal => held_karp::solve(&geometry.horizontal_matrix())?.order,
-        Objective::Vertical => {
-            held_karp::solve_with(n, |i, j| Lexicographic {
+        Objective::Distance => solver::solve(&geometry.distance_matrix(), options)?,
+        Objective::Horizontal => solver::solve(&geometry.horizontal_matrix(), options)?,
+        Objective::Vertical if n <= held_karp::MAX_NODES + 1 => {
+            let started = std::time::Instant::now();
+            let (order, cost) = held_karp::solve_with(n, |i, j| Lexicographic {
                 primary: geometry.vertical_m(i, j).abs(),
                 secondary: geometry.horizontal_m(i, j),
-            })?
-            .0
+            })?;
+            Solved {
+                tour: super::Tour {
+                    order,
+                    cost: cost.primary,
+                    lower_bound: cost.primary,
+                    optimal: true,
+                },
+                solver: solver::Solver::HeldKarp,
+                heuristic_cost: None,
+                nodes: None,
+                gap_pct: 0.0,
+                seconds: started.elapsed().as_secs_f64(),
+            }
+        }
+        Objective::Vertical => {
+            let m = CostMatrix::from_fn(n, |i, j| {
+                geometry.vertical_m(i, j).abs() + 1e-4 * geometry.horizontal_m(i, j)
+            });
+            solver::solve(&m, options)?
         }
     };
-    Ok(forward(order))
+    let order = forward(solved.tour.order.clone());
+    Ok((order, solved))
 }
 
 /// The optimal visiting order of a mission's waypoints for one objective, as 0-based indices into
@@ -113,34 +174,39 @@ pub fn plan_orders(
     geometry: &Geometry,
     names: &[String],
     energy: Option<&CostMatrix>,
+    options: &solver::Options,
 ) -> Result<Vec<OrderReport>, PlanError> {
     let mut reports = Vec::new();
     if energy.is_some() {
-        let order = solve_order(geometry, Objective::Energy, energy)?;
-        reports.push(report(
+        let (order, solved) = solve_order_with(geometry, Objective::Energy, energy, options)?;
+        let mut r = report(
             geometry,
             names,
             energy,
             Objective::Energy,
             Direction::Forward,
             order,
-        ));
+        );
+        r.proof = Some(Proof::of(&solved, 1e-3));
+        reports.push(r);
     }
     for objective in [
         Objective::Distance,
         Objective::Horizontal,
         Objective::Vertical,
     ] {
-        let order = solve_order(geometry, objective, energy)?;
+        let (order, solved) = solve_order_with(geometry, objective, energy, options)?;
         let reversed: Vec<usize> = order.iter().rev().copied().collect();
-        reports.push(report(
+        let mut forward = report(
             geometry,
             names,
             energy,
             objective,
             Direction::Forward,
             order,
-        ));
+        );
+        forward.proof = Some(Proof::of(&solved, 1.0));
+        reports.push(forward);
         reports.push(report(
             geometry,
             names,
@@ -200,6 +266,7 @@ pub fn report(
         energy_kj: energy.map(|_| legs.iter().filter_map(|l| l.energy_kj).sum()),
         legs,
         nodes,
+        proof: None,
     }
 }
 
@@ -246,7 +313,7 @@ mod tests {
     #[test]
     fn the_paper_sample_mission_baselines_have_the_published_metrics() {
         let (g, names) = sample_8wp();
-        let orders = plan_orders(&g, &names, None).unwrap();
+        let orders = plan_orders(&g, &names, None, &solver::Options::default()).unwrap();
         assert_eq!(orders.len(), 6);
         let find = |o: Objective| orders.iter().find(|r| r.objective == o).unwrap();
         assert_eq!(metrics(find(Objective::Distance)), (284.4, 189.5, 174.0));
@@ -257,7 +324,7 @@ mod tests {
     #[test]
     fn reverse_baselines_fly_the_same_tour_backwards_with_mirrored_legs() {
         let (g, names) = sample_8wp();
-        let orders = plan_orders(&g, &names, None).unwrap();
+        let orders = plan_orders(&g, &names, None, &solver::Options::default()).unwrap();
         let fwd = &orders[0];
         let rev = &orders[1];
         assert_eq!(rev.direction, Direction::Reverse);
@@ -276,7 +343,7 @@ mod tests {
             let dz = g.vertical_m(i, j);
             1000.0 * (g.horizontal_m(i, j) + if dz > 0.0 { 10.0 * dz } else { -dz })
         });
-        let orders = plan_orders(&g, &names, Some(&e)).unwrap();
+        let orders = plan_orders(&g, &names, Some(&e), &solver::Options::default()).unwrap();
         assert_eq!(orders.len(), 7);
         let energy = &orders[0];
         assert_eq!(energy.objective, Objective::Energy);

@@ -115,6 +115,44 @@ pub fn parse(text: &str) -> Result<Instance, TsplibError> {
     })
 }
 
+/// Writes `matrix` as a TSPLIB ATSP instance with every cost multiplied by `scale` and rounded
+/// to an integer (TSPLIB solvers such as LKH-3 take integers only); the diagonal is written as 0.
+/// Refuses a cost that is negative or non-finite, or whose scaled value does not fit in
+/// 2^53 (so that the integers stay exact).
+pub fn to_text(name: &str, matrix: &CostMatrix, scale: f64) -> Result<String, TsplibError> {
+    use std::fmt::Write;
+    let n = matrix.len();
+    let mut out = format!(
+        "NAME: {name}\nTYPE: ATSP\nCOMMENT: written by emplan; costs x {scale}\nDIMENSION: {n}\n\
+         EDGE_WEIGHT_TYPE: EXPLICIT\nEDGE_WEIGHT_FORMAT: FULL_MATRIX\nEDGE_WEIGHT_SECTION\n"
+    );
+    for i in 0..n {
+        let mut row = Vec::with_capacity(n);
+        for j in 0..n {
+            let c = if i == j {
+                0.0
+            } else {
+                (matrix.cost(i, j) * scale).round()
+            };
+            if !(c.is_finite() && (0.0..=9.0e15).contains(&c)) {
+                return Err(TsplibError::Invalid {
+                    line: 8 + i,
+                    problem: format!(
+                        "cost {} -> {} ({}) cannot be written as a non-negative integer",
+                        i + 1,
+                        j + 1,
+                        matrix.cost(i, j)
+                    ),
+                });
+            }
+            row.push(format!("{c:.0}"));
+        }
+        let _ = writeln!(out, "{}", row.join(" "));
+    }
+    out.push_str("EOF\n");
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -156,6 +194,18 @@ mod tests {
                 expected: 9
             })
         );
+    }
+
+    #[test]
+    fn a_written_instance_reads_back_with_its_scaled_costs() {
+        let m = CostMatrix::from_fn(4, |i, j| (i * 10 + j) as f64 + 0.1234);
+        let text = to_text("four", &m, 1000.0).unwrap();
+        let back = parse(&text).unwrap();
+        assert_eq!(back.dimension, 4);
+        assert_eq!(back.matrix.cost(2, 3), 23123.0);
+        assert_eq!(back.matrix.cost(3, 0), 30123.0);
+        let bad = CostMatrix::from_fn(2, |_, _| -1.0);
+        assert!(to_text("bad", &bad, 1.0).is_err());
     }
 
     #[test]

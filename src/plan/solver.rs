@@ -1,0 +1,271 @@
+//! Solver selection for the asymmetric TSP through the origin: Held-Karp for small tours,
+//! branch-and-cut (started from the heuristic's tour) up to a few hundred nodes, and the
+//! iterated local search with the assignment lower bound beyond. Every answer carries a proven
+//! lower bound; `optimal` is set only when the bound meets the tour.
+
+use std::time::{Duration, Instant};
+
+use serde::Serialize;
+
+use super::{assignment, branch_cut, held_karp, heuristic, CostMatrix, PlanError, Tour};
+
+/// Which solver to run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Solver {
+    /// Chosen by size: Held-Karp, then branch-and-cut, then the heuristic.
+    Auto,
+    /// Held-Karp dynamic programming (at most [`held_karp::MAX_NODES`] waypoints).
+    HeldKarp,
+    /// Branch-and-cut from the heuristic's tour.
+    BranchCut,
+    /// Iterated local search with the assignment lower bound.
+    Heuristic,
+}
+
+impl std::fmt::Display for Solver {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Solver::Auto => "auto",
+            Solver::HeldKarp => "held-karp",
+            Solver::BranchCut => "branch-cut",
+            Solver::Heuristic => "heuristic",
+        })
+    }
+}
+
+impl std::str::FromStr for Solver {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "auto" => Ok(Solver::Auto),
+            "held-karp" => Ok(Solver::HeldKarp),
+            "branch-cut" => Ok(Solver::BranchCut),
+            "heuristic" => Ok(Solver::Heuristic),
+            _ => Err(format!(
+                "unknown solver {s:?} (allowed: auto, held-karp, branch-cut, heuristic)"
+            )),
+        }
+    }
+}
+
+/// How to solve.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Options {
+    pub solver: Solver,
+    /// Wall-clock budget of the whole solve; a run cut short returns its best tour and bound.
+    pub time_limit: Duration,
+    /// Seed of the heuristic's kicks.
+    pub seed: u64,
+    /// The heuristic's kick budget (`None`: its default for the size). With a budget the
+    /// heuristic is reproducible whatever the machine, unless the time limit stops it first.
+    pub kicks: Option<u64>,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            solver: Solver::Auto,
+            time_limit: Duration::from_secs(60),
+            seed: 1,
+            kicks: None,
+        }
+    }
+}
+
+/// Waypoints (non-origin nodes) up to which `auto` runs Held-Karp: 2^12 x 12 states, well
+/// under a millisecond, so the study's thousands of missions stay fast.
+pub const AUTO_HELD_KARP_MAX: usize = 12;
+/// Nodes up to which `auto` runs branch-and-cut after the heuristic. Beyond, the LP over the
+/// arcs that survive reduced-cost elimination grows too large for microlp in minutes.
+pub const AUTO_BRANCH_CUT_MAX_NODES: usize = 500;
+/// Share of the time limit the heuristic may take before branch-and-cut.
+const HEURISTIC_SHARE: f64 = 0.3;
+
+/// A solved tour and how it was found.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Solved {
+    #[serde(skip)]
+    pub tour: Tour,
+    /// The solver that produced the answer (`auto` resolved).
+    pub solver: Solver,
+    /// The heuristic tour's cost, when the heuristic ran.
+    pub heuristic_cost: Option<f64>,
+    /// Branch-and-bound nodes, when branch-and-cut ran.
+    pub nodes: Option<u64>,
+    /// Relative gap between the tour and its lower bound (0 when optimal).
+    pub gap_pct: f64,
+    pub seconds: f64,
+}
+
+/// Solves the tour of `m` (node 0 = origin) as `options` ask.
+pub fn solve(m: &CostMatrix, options: &Options) -> Result<Solved, PlanError> {
+    let started = Instant::now();
+    let waypoints = m.len().saturating_sub(1);
+    let solver = match options.solver {
+        Solver::Auto if waypoints <= AUTO_HELD_KARP_MAX => Solver::HeldKarp,
+        Solver::Auto if m.len() <= AUTO_BRANCH_CUT_MAX_NODES => Solver::BranchCut,
+        Solver::Auto => Solver::Heuristic,
+        chosen => chosen,
+    };
+    let finish = |tour: Tour, heuristic_cost, nodes| {
+        let gap_pct = if tour.optimal || tour.cost == 0.0 {
+            0.0
+        } else {
+            100.0 * (tour.cost - tour.lower_bound) / tour.cost.abs()
+        };
+        Solved {
+            tour,
+            solver,
+            heuristic_cost,
+            nodes,
+            gap_pct,
+            seconds: started.elapsed().as_secs_f64(),
+        }
+    };
+    match solver {
+        Solver::HeldKarp => Ok(finish(held_karp::solve(m)?, None, None)),
+        Solver::BranchCut => {
+            let ils = run_heuristic(m, options, options.time_limit.mul_f64(HEURISTIC_SHARE))?;
+            let left = options.time_limit.saturating_sub(started.elapsed());
+            let out = branch_cut::solve(
+                m,
+                &ils.order,
+                &branch_cut::Options {
+                    time_limit: left,
+                    ..Default::default()
+                },
+            )?;
+            Ok(finish(out.tour, Some(ils.cost), Some(out.nodes)))
+        }
+        Solver::Heuristic | Solver::Auto => {
+            let ils = run_heuristic(m, options, options.time_limit)?;
+            let bound = if m.len() >= 2 {
+                assignment::solve(m)?.cost.min(ils.cost)
+            } else {
+                ils.cost
+            };
+            let optimal = bound >= ils.cost;
+            let tour = Tour {
+                order: ils.order,
+                cost: ils.cost,
+                lower_bound: bound,
+                optimal,
+            };
+            Ok(finish(tour, Some(ils.cost), None))
+        }
+    }
+}
+
+fn run_heuristic(
+    m: &CostMatrix,
+    options: &Options,
+    budget: Duration,
+) -> Result<heuristic::Outcome, PlanError> {
+    for i in 0..m.len() {
+        for j in 0..m.len() {
+            if i != j && !m.cost(i, j).is_finite() {
+                return Err(PlanError::NonFiniteCost { from: i, to: j });
+            }
+        }
+    }
+    Ok(heuristic::solve(
+        m,
+        None,
+        &heuristic::Options {
+            seed: options.seed,
+            time_limit_s: budget.as_secs_f64(),
+            max_kicks: options.kicks,
+            ..Default::default()
+        },
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plan::rng::Rng;
+
+    fn drone(n: usize, seed: u64) -> CostMatrix {
+        let mut rng = Rng::new(seed);
+        let pts: Vec<(f64, f64, f64)> = (0..n)
+            .map(|_| {
+                (
+                    rng.uniform(-50.0, 50.0),
+                    rng.uniform(-50.0, 50.0),
+                    rng.uniform(-25.0, 25.0),
+                )
+            })
+            .collect();
+        CostMatrix::from_fn(n, |i, j| {
+            let (a, b) = (pts[i], pts[j]);
+            let dz = b.2 - a.2;
+            (b.0 - a.0).hypot(b.1 - a.1) + if dz > 0.0 { 8.0 * dz } else { -0.5 * dz }
+        })
+    }
+
+    #[test]
+    fn every_solver_agrees_with_held_karp_on_random_missions_up_to_fifteen_waypoints() {
+        for (k, n) in (5..=16).enumerate() {
+            let m = drone(n, k as u64);
+            let exact = held_karp::solve(&m).unwrap();
+            for solver in [Solver::Auto, Solver::BranchCut] {
+                let out = solve(
+                    &m,
+                    &Options {
+                        solver,
+                        ..Default::default()
+                    },
+                )
+                .unwrap();
+                assert!(out.tour.optimal, "{solver} n={n}");
+                assert!((out.tour.cost - exact.cost).abs() <= 1e-6 * exact.cost);
+            }
+            let ils = solve(
+                &m,
+                &Options {
+                    solver: Solver::Heuristic,
+                    ..Default::default()
+                },
+            )
+            .unwrap();
+            assert!(ils.tour.lower_bound <= exact.cost + 1e-9);
+            assert!(ils.tour.cost >= exact.cost - 1e-9);
+        }
+    }
+
+    #[test]
+    fn auto_picks_held_karp_when_small_and_branch_and_cut_above() {
+        let small = solve(&drone(10, 1), &Options::default()).unwrap();
+        assert_eq!(small.solver, Solver::HeldKarp);
+        let medium = solve(&drone(30, 1), &Options::default()).unwrap();
+        assert_eq!(medium.solver, Solver::BranchCut);
+        assert!(medium.tour.optimal);
+        assert_eq!(medium.gap_pct, 0.0);
+    }
+
+    #[test]
+    fn held_karp_forced_beyond_its_size_is_a_typed_error() {
+        let out = solve(
+            &drone(25, 1),
+            &Options {
+                solver: Solver::HeldKarp,
+                ..Default::default()
+            },
+        );
+        assert!(matches!(out, Err(PlanError::TooManyForHeldKarp { .. })));
+    }
+
+    #[test]
+    fn solver_names_round_trip() {
+        for s in [
+            Solver::Auto,
+            Solver::HeldKarp,
+            Solver::BranchCut,
+            Solver::Heuristic,
+        ] {
+            assert_eq!(s.to_string().parse::<Solver>(), Ok(s));
+        }
+        assert!("simplex".parse::<Solver>().is_err());
+    }
+}
