@@ -795,16 +795,16 @@ fn components(n: usize, arcs: &[(usize, usize, f64)]) -> Vec<usize> {
     }
     let mut label = vec![usize::MAX; n];
     let mut next = 0;
-    let mut out = vec![0; n];
-    for v in 0..n {
-        let r = find(&mut parent, v);
-        if label[r] == usize::MAX {
-            label[r] = next;
-            next += 1;
-        }
-        out[v] = label[r];
-    }
-    out
+    (0..n)
+        .map(|v| {
+            let r = find(&mut parent, v);
+            if label[r] == usize::MAX {
+                label[r] = next;
+                next += 1;
+            }
+            label[r]
+        })
+        .collect()
 }
 
 /// Dinic's maximum flow on a small graph with real capacities.
