@@ -9,7 +9,7 @@ use anyhow::Context;
 use emplan::mission::Mission;
 use emplan::physics::{hover_power_w, simulate_operation, EnergyTable, Profile, Vehicle};
 use emplan::plan::energy::energy_matrix;
-use emplan::plan::{cheapest, plan_orders, Geometry, Objective, OrderReport};
+use emplan::plan::{cheapest, plan_orders, Geometry, LegReport, Objective, OrderReport};
 use serde::Serialize;
 
 #[derive(Debug, clap::Args)]
@@ -208,6 +208,19 @@ fn print_table(mission: &Mission, profile: Profile, orders: &[OrderReport], batt
             o.sequence.join(" "),
         );
     }
+    if let Some(proof) = &orders[0].proof {
+        if proof.optimal {
+            println!(
+                "the energy order is proven optimal ({}, {:.3} s)",
+                proof.solver, proof.seconds
+            );
+        } else {
+            println!(
+                "the energy order is the best found ({}, {:.1} s): at least {:.2} kJ is needed, gap {:.2}%",
+                proof.solver, proof.seconds, proof.lower_bound, proof.gap_pct
+            );
+        }
+    }
     explain(orders);
     println!(
         "battery: take-off {:.1} + legs {:.1} + hovering {:.1} + landing {:.1} = {:.1} kJ of {:.1} kJ usable after the {}% reserve: {}",
@@ -240,37 +253,78 @@ fn explain(orders: &[OrderReport]) {
         return;
     }
     let climbed = |o: &OrderReport| o.legs.iter().map(|l| l.vertical_m.max(0.0)).sum::<f64>();
+    // Horizontal metres flown per metre climbed, over the climbing legs: how diagonal the climbs are.
+    let slope = |o: &OrderReport| {
+        let climbs = o.legs.iter().filter(|l| l.vertical_m > 0.5);
+        let (x, z) = climbs.fold((0.0, 0.0), |(x, z), l| {
+            (x + l.horizontal_m, z + l.vertical_m)
+        });
+        if z > 0.0 {
+            x / z
+        } else {
+            0.0
+        }
+    };
     let steep = |o: &OrderReport| {
         o.legs
             .iter()
-            .filter(|l| l.vertical_m > 2.0 * l.horizontal_m.max(0.1))
+            .filter(|l| l.vertical_m.abs() > 2.0 * l.horizontal_m.max(0.1))
             .count()
     };
-    let shared: usize = energy
-        .legs
-        .iter()
-        .filter(|l| {
-            distance
-                .legs
-                .iter()
-                .any(|m| m.from == l.from && m.to == l.to)
-        })
-        .count();
+    let in_other = |l: &LegReport, other: &OrderReport| {
+        other.legs.iter().any(|m| m.from == l.from && m.to == l.to)
+    };
+    let shared = energy.legs.iter().filter(|l| in_other(l, distance)).count();
     println!(
-        "the energy order saves {:.2} kJ ({:.1}%) against the distance order flown {}: {} of its {} legs differ; \
-         it climbs {:.0} m in total (distance order {:.0} m) over {:.0} m of horizontal travel ({:.0} m), \
-         with {} steep climbs or descents (distance order {}), flying {:.1} m further",
+        "the energy order saves {:.2} kJ ({:.1}%) against the distance order flown {}: {} of its {} legs differ, \
+         flying {:.1} m further",
         d - e,
         100.0 * (d - e) / d,
         format!("{:?}", distance.direction).to_lowercase(),
         energy.legs.len() - shared,
         energy.legs.len(),
-        climbed(energy),
-        climbed(distance),
-        energy.horizontal_m,
-        distance.horizontal_m,
-        steep(energy),
-        steep(distance),
         energy.distance_m - distance.distance_m,
     );
+    println!(
+        "  climbing: {:.0} m in all against {:.0} m ({:.0} m of climb avoided); climbs are flown \
+         {:.1} m across per metre up against {:.1} m (more diagonal is cheaper); steep legs (over \
+         2:1) {} against {}",
+        climbed(energy),
+        climbed(distance),
+        climbed(distance) - climbed(energy),
+        slope(energy),
+        slope(distance),
+        steep(energy),
+        steep(distance),
+    );
+    let mut dropped: Vec<&LegReport> = distance
+        .legs
+        .iter()
+        .filter(|l| !in_other(l, energy))
+        .collect();
+    dropped.sort_by(|a, b| {
+        b.energy_kj
+            .unwrap_or(0.0)
+            .total_cmp(&a.energy_kj.unwrap_or(0.0))
+    });
+    let costliest: Vec<String> = dropped
+        .iter()
+        .take(3)
+        .map(|l| {
+            format!(
+                "{} -> {} ({:+.0} m over {:.0} m, {:.2} kJ)",
+                l.from,
+                l.to,
+                l.vertical_m,
+                l.horizontal_m,
+                l.energy_kj.unwrap_or(0.0)
+            )
+        })
+        .collect();
+    if !costliest.is_empty() {
+        println!(
+            "  costliest distance-order legs the energy order avoids: {}",
+            costliest.join(", ")
+        );
+    }
 }
