@@ -32,8 +32,8 @@ pub struct Args {
     /// Draw the energy order and the min-distance order (top and side views) to this SVG file
     #[arg(long, value_name = "FILE.svg")]
     plot: Option<PathBuf>,
-    /// Write the energy cost matrix as a TSPLIB ATSP file (integer millijoules; node 1 is the
-    /// origin), for other solvers
+    /// Write the energy cost matrix as a TSPLIB ATSP file (integer units of 0.1 J; node 1 is
+    /// the origin), for other solvers
     #[arg(long, value_name = "FILE.atsp")]
     export_atsp: Option<PathBuf>,
     #[command(flatten)]
@@ -74,14 +74,25 @@ pub struct Planned {
     pub energy: emplan::plan::CostMatrix,
 }
 
-/// Plans `mission` with the vehicle in `vehicle_dir` (its energy table for `profile`, or the
-/// vehicle's default profile). `orders[0]` is the energy order.
-pub fn plan_mission(
+/// A mission's legs priced with a vehicle's energy table.
+pub struct Priced {
+    pub vehicle: Vehicle,
+    pub profile: Profile,
+    pub geometry: Geometry,
+    /// `names[k]` names node `k`; node 0 is the origin.
+    pub names: Vec<String>,
+    /// Energy of every leg (J), node 0 = origin.
+    pub energy: emplan::plan::CostMatrix,
+}
+
+/// Prices every leg of `mission` with the vehicle in `vehicle_dir` (its energy table for
+/// `profile`, or the vehicle's default profile), start to settled hover: everything the battery
+/// pays.
+pub fn price_mission(
     mission: &Mission,
     vehicle_dir: &Path,
     profile: Option<Profile>,
-    solver: &emplan::plan::solver::Options,
-) -> anyhow::Result<Planned> {
+) -> anyhow::Result<Priced> {
     let vehicle = Vehicle::load(vehicle_dir)?;
     let profile = profile.unwrap_or(vehicle.default_profile());
     let table = EnergyTable::load(vehicle_dir, profile, &vehicle)?;
@@ -89,11 +100,46 @@ pub fn plan_mission(
     let names: Vec<String> = std::iter::once("origin".to_string())
         .chain(mission.waypoints.iter().map(|w| w.name.clone()))
         .collect();
-    // Legs are priced start to settled hover: everything the battery pays.
     let energy = energy_matrix(&geometry, &names, |x, z| {
         table.lookup(x, z).map(|leg| leg.total_energy_j())
     })
     .with_context(|| format!("pricing the legs of mission {}", mission.name))?;
+    Ok(Priced {
+        vehicle,
+        profile,
+        geometry,
+        names,
+        energy,
+    })
+}
+
+/// Plans `mission` with the vehicle in `vehicle_dir`. `orders[0]` is the energy order.
+pub fn plan_mission(
+    mission: &Mission,
+    vehicle_dir: &Path,
+    profile: Option<Profile>,
+    solver: &emplan::plan::solver::Options,
+) -> anyhow::Result<Planned> {
+    plan_priced(
+        mission,
+        price_mission(mission, vehicle_dir, profile)?,
+        solver,
+    )
+}
+
+/// Plans a priced mission: every order, and the energy order against the battery.
+pub fn plan_priced(
+    mission: &Mission,
+    priced: Priced,
+    solver: &emplan::plan::solver::Options,
+) -> anyhow::Result<Planned> {
+    let Priced {
+        vehicle,
+        profile,
+        geometry,
+        names,
+        energy,
+    } = priced;
     let orders = plan_orders(&geometry, &names, Some(&energy), solver)
         .with_context(|| format!("planning mission {}", mission.name))?;
     let battery = battery(mission, &vehicle, profile, &orders[0])?;
@@ -105,19 +151,20 @@ pub fn plan_mission(
     })
 }
 
+/// TSPLIB export scale: costs in units of 0.1 J, so that a tour of thousands of legs stays
+/// well inside the 32-bit integers some TSPLIB solvers use.
+const ATSP_UNITS_PER_J: f64 = 10.0;
+
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let mission = emplan::mission::load(&args.mission)?;
-    let planned = plan_mission(
-        &mission,
-        &args.vehicle,
-        args.profile,
-        &args.solver.options()?,
-    )?;
+    let priced = price_mission(&mission, &args.vehicle, args.profile)?;
     if let Some(path) = &args.export_atsp {
-        let text = emplan::plan::tsplib::to_text(&mission.name, &planned.energy, 1000.0)
+        let text = emplan::plan::tsplib::to_text(&mission.name, &priced.energy, ATSP_UNITS_PER_J)
             .with_context(|| format!("exporting {}", path.display()))?;
         std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))?;
+        eprintln!("wrote {}", path.display());
     }
+    let planned = plan_priced(&mission, priced, &args.solver.options()?)?;
     let sorties = if args.sorties {
         Some(super::sorties::split_mission(
             &mission,
