@@ -3,6 +3,7 @@
 mod cli;
 mod mission;
 mod physics;
+mod solvers;
 mod sorties;
 mod study;
 mod tidy;
