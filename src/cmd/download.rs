@@ -20,10 +20,11 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         .enable_all()
         .build()?;
     runtime.block_on(async {
-        let (link, target, cfg) = args.link.open().await?;
-        let items = download(&link, &target, cfg)
+        let opened = args.link.open().await?;
+        let target = opened.target;
+        let items = download(&opened.link, &target, opened.config)
             .await
-            .with_context(|| format!("downloading from {}", args.link.connect))?;
+            .with_context(|| format!("downloading from {}", opened.describe))?;
         let json: Vec<serde_json::Value> =
             items.iter().map(emplan::link::items::item_json).collect();
         std::fs::write(&args.out, serde_json::to_string_pretty(&json)?)

@@ -54,9 +54,11 @@ impl SolverArgs {
 /// Options of every command that talks to an autopilot.
 #[derive(Debug, clap::Args)]
 pub struct LinkArgs {
-    /// MAVLink connection: udpin:HOST:PORT, udpout:HOST:PORT, tcpin:, tcpout:, serial:DEV:BAUD
+    /// MAVLink connection: udpin:HOST:PORT, udpout:HOST:PORT, tcpin:, tcpout:, serial:DEV:BAUD.
+    /// Without it, emplan starts its built-in mock autopilot (PX4 flavour) on loopback and
+    /// talks to that
     #[arg(long)]
-    pub connect: String,
+    pub connect: Option<String>,
     /// Wait this long for the autopilot before resending (ms; raise it for slow radios)
     #[arg(long, default_value_t = 1500)]
     pub timeout_ms: u64,
@@ -71,36 +73,59 @@ pub struct LinkArgs {
     pub signing_key: Option<std::path::PathBuf>,
 }
 
+/// An open link to the autopilot (and the built-in mock, when that is the autopilot).
+pub struct Opened {
+    pub link: emplan::link::connection::Link,
+    pub target: emplan::link::connection::Autopilot,
+    pub config: emplan::link::transfer::TransferConfig,
+    /// Where the autopilot is, for messages.
+    pub describe: String,
+    /// Kept alive as long as the link; dropped (and stopped) with it.
+    pub _mock: Option<emplan::sim::MockHandle>,
+}
+
 impl LinkArgs {
-    /// Connects, discovers the autopilot and returns the link with the transfer settings.
-    pub async fn open(
-        &self,
-    ) -> anyhow::Result<(
-        emplan::link::connection::Link,
-        emplan::link::connection::Autopilot,
-        emplan::link::transfer::TransferConfig,
-    )> {
-        let signing = match &self.signing_key {
-            Some(path) => Some(mavlink::SigningConfig::new(
-                emplan::link::read_signing_key(path)?,
-                0,
-                true,
-                false,
-            )),
+    /// Connects (starting the built-in mock when no `--connect` is given), discovers the
+    /// autopilot and returns the link with the transfer settings.
+    pub async fn open(&self) -> anyhow::Result<Opened> {
+        let signing_key = match &self.signing_key {
+            Some(path) => Some(emplan::link::read_signing_key(path)?),
             None => None,
         };
-        let link =
-            emplan::link::connection::Link::connect(&self.connect, Default::default(), signing)
+        let (url, describe, mock) = match &self.connect {
+            Some(url) => (url.clone(), url.clone(), None),
+            None => {
+                let mock = emplan::sim::MockAutopilot::spawn(
+                    "udpin:127.0.0.1:0",
+                    emplan::sim::MockConfig {
+                        signing_key,
+                        ..Default::default()
+                    },
+                )
                 .await?;
+                let url = format!("udpout:{}", mock.local_addr());
+                let describe = format!("the built-in mock autopilot ({url}; no --connect given)");
+                (url, describe, Some(mock))
+            }
+        };
+        let signing = signing_key.map(|key| mavlink::SigningConfig::new(key, 0, true, false));
+        let link =
+            emplan::link::connection::Link::connect(&url, Default::default(), signing).await?;
         let target = link
             .discover(std::time::Duration::from_secs_f64(self.discover_s))
             .await?;
-        let cfg = emplan::link::transfer::TransferConfig {
+        let config = emplan::link::transfer::TransferConfig {
             timeout: std::time::Duration::from_millis(self.timeout_ms),
             retries: self.retries,
             target_system: target.system_id,
             target_component: target.component_id,
         };
-        Ok((link, target, cfg))
+        Ok(Opened {
+            link,
+            target,
+            config,
+            describe,
+            _mock: mock,
+        })
     }
 }

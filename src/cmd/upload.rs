@@ -94,19 +94,20 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         .enable_all()
         .build()?;
     runtime.block_on(async {
-        let (link, target, cfg) = args.link.open().await?;
+        let opened = args.link.open().await?;
+        let (link, target, cfg) = (&opened.link, opened.target, opened.config);
         let opts = ItemOptions { flavour: target.flavour, acceptance_radius_m: args.acceptance_radius_m, ..ItemOptions::default() };
         let items = mission_items(&mission, &order, &opts).context("building mission items")?;
         if !args.json {
-            eprintln!("uploading {} items to {:?} autopilot {} on {}", items.len(), target.flavour, target.system_id, args.link.connect);
+            eprintln!("uploading {} items to {:?} autopilot {} on {}", items.len(), target.flavour, target.system_id, opened.describe);
         }
-        let report = upload_verified(&link, &target, &items, cfg, |done, total| {
+        let report = upload_verified(link, &target, &items, cfg, |done, total| {
             if !args.json {
                 eprint!("\ritem {done}/{total}");
             }
         })
         .await
-        .with_context(|| format!("uploading {} to {}", args.mission.display(), args.link.connect))?;
+        .with_context(|| format!("uploading {} to {}", args.mission.display(), opened.describe))?;
         if args.json {
             let doc = UploadJson {
                 mission: &mission.name,
