@@ -46,7 +46,10 @@ fn bench_heuristic(c: &mut Criterion) {
     let mut group = c.benchmark_group("heuristic");
     group.sample_size(10);
 
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/tsplib-atsp/rbg443.atsp");
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../shared/tsplib-atsp/rbg443.atsp"
+    );
     match std::fs::read_to_string(path).map(|text| tsplib::parse(&text)) {
         Ok(Ok(instance)) => {
             group.bench_function("rbg443", |b| {

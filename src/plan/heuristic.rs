@@ -166,7 +166,7 @@ pub fn solve(m: &CostMatrix, initial: Option<&[usize]>, opts: &Options) -> Outco
     // current one or than the current one of `LATE_ACCEPTANCE` kicks ago.
     let mut history = vec![s.cost; LATE_ACCEPTANCE];
     while stop == Stop::Kicks && kicks < budget {
-        if kicks % 16 == 0 && out_of_time(&started) {
+        if kicks.is_multiple_of(16) && out_of_time(&started) {
             stop = Stop::TimeLimit;
             break;
         }
@@ -647,7 +647,7 @@ impl<'a> Search<'a> {
         while let Some(v) = self.queue.pop_front() {
             self.queued[v] = false;
             pops = pops.wrapping_add(1);
-            if pops % 1024 == 0 && started.elapsed().as_secs_f64() >= deadline_s {
+            if pops.is_multiple_of(1024) && started.elapsed().as_secs_f64() >= deadline_s {
                 self.queue.clear();
                 self.queued.fill(false);
                 return false;
