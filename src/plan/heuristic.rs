@@ -91,6 +91,9 @@ const ASSIGNMENT_MAX_NODES: usize = 3000;
 /// better-or-equal acceptance on ftv33..ftv170 and on 200- and 1000-node drone instances).
 const LATE_ACCEPTANCE: usize = 300;
 
+/// Longest path reversed by a 2-opt move.
+const REVERSAL_MAX: usize = 30;
+
 /// Longest segment of a double-bridge kick.
 const KICK_SEGMENT_MAX: usize = 50;
 
@@ -450,6 +453,15 @@ fn candidates(n: usize, k: usize, rank: impl Fn(usize, usize) -> f64) -> (Vec<us
     (out, inn)
 }
 
+/// A change of the tour array, kept to undo a rejected kick.
+#[derive(Debug, Clone, Copy)]
+enum Edit {
+    /// Segments of lengths `lx` and `ly` from position `start` swapped: `X Y -> Y X`.
+    Swap { start: usize, lx: usize, ly: usize },
+    /// The `len` nodes from position `start` reversed.
+    Reverse { start: usize, len: usize },
+}
+
 /// The tour as an array with positions, the candidate lists, the queue of active nodes (the
 /// don't-look bits) and the log of segment swaps since the last accepted tour.
 struct Search<'a> {
@@ -469,7 +481,7 @@ struct Search<'a> {
     queue: VecDeque<usize>,
     queued: Vec<bool>,
     /// Swaps `(start, lx, ly)` applied since the last accepted tour.
-    log: Vec<(usize, usize, usize)>,
+    log: Vec<Edit>,
     /// Gains at or below this are float noise, not improvements.
     eps: f64,
     /// Cost of the current tour, kept up to date by the gains.
@@ -583,7 +595,7 @@ impl<'a> Search<'a> {
     /// (cyclically): `X Y -> Y X`. Logged for [`Search::undo`].
     fn swap(&mut self, start: usize, lx: usize, ly: usize) {
         self.swap_unlogged(start, lx, ly);
-        self.log.push((start, lx, ly));
+        self.log.push(Edit::Swap { start, lx, ly });
     }
 
     fn swap_unlogged(&mut self, start: usize, lx: usize, ly: usize) {
@@ -612,10 +624,38 @@ impl<'a> Search<'a> {
         }
     }
 
-    /// Reverts every logged swap, newest first.
+    /// Reverses the `len` nodes from position `start` (cyclically). Logged for
+    /// [`Search::undo`].
+    fn reverse(&mut self, start: usize, len: usize) {
+        self.reverse_unlogged(start, len);
+        self.log.push(Edit::Reverse { start, len });
+    }
+
+    fn reverse_unlogged(&mut self, start: usize, len: usize) {
+        let n = self.n;
+        let wrap = |p: usize| if p >= n { p - n } else { p };
+        for t in 0..len / 2 {
+            let (i, j) = (wrap(start + t), wrap(start + len - 1 - t));
+            let (u, w) = (self.tour[i], self.tour[j]);
+            self.tour[i] = w;
+            self.tour[j] = u;
+            self.pos[w] = i;
+            self.pos[u] = j;
+        }
+        // The node before the segment and every node in it have new successors.
+        for t in 0..=len {
+            let v = self.tour[(start + n - 1 + t) % n];
+            self.next_cost[v] = self.c(v, self.succ(v));
+        }
+    }
+
+    /// Reverts every logged edit, newest first.
     fn undo(&mut self) {
-        while let Some((start, lx, ly)) = self.log.pop() {
-            self.swap_unlogged(start, ly, lx);
+        while let Some(edit) = self.log.pop() {
+            match edit {
+                Edit::Swap { start, lx, ly } => self.swap_unlogged(start, ly, lx),
+                Edit::Reverse { start, len } => self.reverse_unlogged(start, len),
+            }
         }
     }
 
@@ -659,7 +699,34 @@ impl<'a> Search<'a> {
 
     /// Applies the first improving move found around `v`; false if there is none.
     fn improve(&mut self, v: usize) -> bool {
-        self.three_opt_out(v) || self.three_opt_in(v) || self.or_opt(v)
+        self.three_opt_out(v) || self.three_opt_in(v) || self.or_opt(v) || self.two_opt(v)
+    }
+
+    /// 2-opt with reversal: replaces `a -> a'` and `b -> b'` by `a -> b` and `a' -> b'`,
+    /// reversing the path `a' .. b` of at most `REVERSAL_MAX` nodes. The path's cost both ways
+    /// is summed while `b` walks forward, so each `b` costs O(1).
+    fn two_opt(&mut self, a: usize) -> bool {
+        let n = self.n;
+        let a1 = self.succ(a);
+        let base = self.next_cost[a];
+        let mut reversal = 0.0; // cost of a' .. b backwards minus forwards
+        let mut b = a1;
+        for len in 2..=REVERSAL_MAX.min(n - 2) {
+            let next = self.succ(b);
+            reversal += self.c(next, b) - self.next_cost[b];
+            b = next;
+            let b1 = self.succ(b);
+            let gain = base + self.next_cost[b] - self.c(a, b) - self.c(a1, b1) - reversal;
+            if gain > self.eps {
+                self.reverse(self.pos[a1], len);
+                self.cost -= gain;
+                for v in [a, a1, b, b1] {
+                    self.push(v);
+                }
+                return true;
+            }
+        }
+        false
     }
 
     /// Segment exchange searched from the removed arc `a -> a'` over the out-candidates:
