@@ -519,12 +519,14 @@ impl<'a> Search<'a> {
         for p in 0..n {
             next_cost[tour[p]] = m.cost(tour[p], tour[(p + 1) % n]);
         }
-        let mean_arc = (cost / n as f64).abs();
-        let eps = if mean_arc.is_finite() {
-            1e-9 * mean_arc
-        } else {
-            0.0
-        };
+        // Tolerance: 1e-9 of the mean magnitude of the finite arcs of the start tour.
+        let finite: Vec<f64> = next_cost
+            .iter()
+            .copied()
+            .filter(|c| c.is_finite())
+            .collect();
+        let mean_arc = finite.iter().map(|c| c.abs()).sum::<f64>() / finite.len().max(1) as f64;
+        let eps = 1e-9 * mean_arc;
         Search {
             m,
             n,
