@@ -109,7 +109,12 @@ const KICK_SEGMENT_MAX: usize = 50;
 
 /// Minimum-cost tour by iterated local search (see the module documentation). `initial`, when
 /// it is a permutation of `1..n`, replaces the constructed start; otherwise it is ignored.
-/// Deterministic for a fixed `opts.seed` and kick budget unless the time limit stops it first.
+/// Never panics: `n` of 0 to 3 gives the trivial (or, for 3, the cheaper) tour, and non-finite
+/// costs only weaken the search.
+///
+/// Deterministic: the same `opts.seed` and kick budget give the same tour on every run and
+/// machine. `opts.time_limit_s` is only a safety stop; when it ends the search first
+/// ([`Stop::TimeLimit`]), the tour depends on the machine's speed.
 pub fn solve(m: &CostMatrix, initial: Option<&[usize]>, opts: &Options) -> Outcome {
     let started = Instant::now();
     let n = m.len();
