@@ -145,7 +145,7 @@ pub fn solve(m: &CostMatrix, initial: Option<&[usize]>, opts: &Options) -> Outco
 
     let finite = all_finite(m);
     let assignment = if finite && n <= ASSIGNMENT_MAX_NODES {
-        assignment(m)
+        super::assignment::solve(m).ok()
     } else {
         None
     };
@@ -290,93 +290,6 @@ fn nearest_neighbour(m: &CostMatrix) -> Vec<usize> {
     tour
 }
 
-/// An optimal assignment (successor of every node, no self-loops) and its dual potentials,
-/// `cost(i, j) - u[i] - v[j] >= 0` with equality on the assignment.
-struct Assignment {
-    successor: Vec<usize>,
-    u: Vec<f64>,
-    v: Vec<f64>,
-}
-
-/// Hungarian method with shortest augmenting paths (Kuhn 1955; Jonker & Volgenant 1987), in
-/// the O(n^3) row-by-row form; the diagonal is forbidden. `None` if a step finds no finite
-/// augmenting path (only possible with non-finite costs, which the caller excludes).
-fn assignment(m: &CostMatrix) -> Option<Assignment> {
-    let n = m.len();
-    let c = |i: usize, j: usize| {
-        if i == j {
-            f64::INFINITY
-        } else {
-            m.cost(i, j)
-        }
-    };
-    // 1-based rows and columns; column 0 is the virtual start of each augmenting path.
-    let mut u = vec![0.0; n + 1];
-    let mut v = vec![0.0; n + 1];
-    let mut row_of = vec![0usize; n + 1];
-    let mut way = vec![0usize; n + 1];
-    let mut min_slack = vec![f64::INFINITY; n + 1];
-    let mut used = vec![false; n + 1];
-    for i in 1..=n {
-        row_of[0] = i;
-        let mut j0 = 0;
-        min_slack.fill(f64::INFINITY);
-        used.fill(false);
-        loop {
-            used[j0] = true;
-            let i0 = row_of[j0];
-            let mut delta = f64::INFINITY;
-            let mut j1 = None;
-            for j in 1..=n {
-                if used[j] {
-                    continue;
-                }
-                let slack = c(i0 - 1, j - 1) - u[i0] - v[j];
-                if slack < min_slack[j] {
-                    min_slack[j] = slack;
-                    way[j] = j0;
-                }
-                if min_slack[j] < delta {
-                    delta = min_slack[j];
-                    j1 = Some(j);
-                }
-            }
-            let j1 = j1?;
-            for j in 0..=n {
-                if used[j] {
-                    u[row_of[j]] += delta;
-                    v[j] -= delta;
-                } else {
-                    min_slack[j] -= delta;
-                }
-            }
-            j0 = j1;
-            if row_of[j0] == 0 {
-                break;
-            }
-        }
-        loop {
-            let j1 = way[j0];
-            row_of[j0] = row_of[j1];
-            j0 = j1;
-            if j0 == 0 {
-                break;
-            }
-        }
-    }
-    let mut successor = vec![0; n];
-    for j in 1..=n {
-        if row_of[j] == 0 || row_of[j] == j {
-            return None;
-        }
-        successor[row_of[j] - 1] = j - 1;
-    }
-    Some(Assignment {
-        successor,
-        u: u[1..].to_vec(),
-        v: v[1..].to_vec(),
-    })
-}
 
 /// Karp's patching (Karp 1979): merge the smallest cycle of the assignment into another one
 /// by the cheapest exchange of two successors, until one cycle is left. Returns the tour as a
