@@ -2,37 +2,13 @@
 //! and 20 waypoints, and branch-and-cut (started from the heuristic, as `emplan tsp` runs it) on
 //! TSPLIB's ftv70, kro124p and ftv170. Run with `cargo bench --bench solvers`.
 
-use std::path::Path;
+mod common;
+
 use std::time::Duration;
 
+use common::energy_mission;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
-use emplan::physics::{EnergyTable, Vehicle};
-use emplan::plan::study::{random_points, StudySettings};
-use emplan::plan::{held_karp, solver, tsplib, CostMatrix, Geometry};
-
-/// The energy matrix (J) of mission 0 of a study setting, priced with the shipped S1000 table.
-pub fn energy_mission(waypoints: usize, xy_m: f64, z_m: f64) -> CostMatrix {
-    let dir = Path::new("models/s1000");
-    let vehicle = Vehicle::load(dir).expect("shipped vehicle");
-    let table = EnergyTable::load(dir, vehicle.default_profile(), &vehicle).expect("table");
-    let settings = StudySettings {
-        waypoints,
-        xy_m,
-        z_m,
-        missions: 1,
-        seed: 1,
-    };
-    let points = std::iter::once(Default::default())
-        .chain(random_points(&settings, 0))
-        .collect();
-    let g = Geometry::from_points(points);
-    CostMatrix::from_fn(g.len(), |i, j| {
-        table
-            .lookup(g.horizontal_m(i, j), g.vertical_m(i, j))
-            .map(|leg| leg.total_energy_j())
-            .expect("leg inside the table")
-    })
-}
+use emplan::plan::{held_karp, solver, tsplib};
 
 fn held_karp_bench(c: &mut Criterion) {
     let mut group = c.benchmark_group("held_karp");

@@ -290,7 +290,6 @@ fn nearest_neighbour(m: &CostMatrix) -> Vec<usize> {
     tour
 }
 
-
 /// Karp's patching (Karp 1979): merge the smallest cycle of the assignment into another one
 /// by the cheapest exchange of two successors, until one cycle is left. Returns the tour as a
 /// rotation of all nodes starting at 0.
