@@ -1,6 +1,5 @@
 //! `emplan energy`: one hover-to-hover operation simulated directly (not from the table).
 
-use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::Context;
@@ -15,12 +14,8 @@ pub struct Args {
     /// Signed vertical displacement Zf (m, positive = climb)
     #[arg(long, allow_hyphen_values = true)]
     zf: f64,
-    /// Vehicle directory holding vehicle.toml
-    #[arg(long, default_value = "models/s1000")]
-    vehicle: PathBuf,
-    /// Flight profile: ptf, hvb or px4 (default: the vehicle's)
-    #[arg(long)]
-    profile: Option<Profile>,
+    #[command(flatten)]
+    model: super::VehicleArgs,
     /// Print one JSON document instead of text
     #[arg(long)]
     json: bool,
@@ -39,8 +34,8 @@ struct EnergyJson {
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let vehicle = Vehicle::load(&args.vehicle)?;
-    let profile = args.profile.unwrap_or(vehicle.default_profile());
+    let vehicle = Vehicle::load(&args.model.vehicle)?;
+    let profile = args.model.profile.unwrap_or(vehicle.default_profile());
     let op = simulate_operation(&vehicle, profile, args.xf, args.zf)
         .with_context(|| format!("simulating Xf {} m, Zf {} m", args.xf, args.zf))?;
     let report = EnergyJson {

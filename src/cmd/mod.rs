@@ -14,6 +14,18 @@ pub mod table;
 pub mod tsp;
 pub mod upload;
 
+/// Options of every command that prices legs with a vehicle model.
+#[derive(Debug, Clone, clap::Args)]
+pub struct VehicleArgs {
+    /// Vehicle directory holding vehicle.toml and its energy tables
+    #[arg(long, default_value = "models/s1000")]
+    pub vehicle: std::path::PathBuf,
+    /// Flight profile pricing the legs: ptf, hvb or px4 (default: the vehicle's, px4 for the
+    /// shipped S1000 since that is what an uploaded mission flies)
+    #[arg(long)]
+    pub profile: Option<emplan::physics::Profile>,
+}
+
 /// Options of every command that orders waypoints.
 #[derive(Debug, Clone, clap::Args)]
 pub struct SolverArgs {

@@ -16,12 +16,8 @@ use serde::Serialize;
 pub struct Args {
     /// Mission file: emplan .toml, QGroundControl .plan or .waypoints
     mission: PathBuf,
-    /// Vehicle directory holding vehicle.toml and its energy tables
-    #[arg(long, default_value = "models/s1000")]
-    vehicle: PathBuf,
-    /// Flight profile pricing the legs: ptf, hvb or px4 (default: the vehicle's)
-    #[arg(long)]
-    profile: Option<Profile>,
+    #[command(flatten)]
+    model: super::VehicleArgs,
     /// Print one JSON document instead of a table
     #[arg(long)]
     json: bool,
@@ -157,7 +153,7 @@ const ATSP_UNITS_PER_J: f64 = 10.0;
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let mission = emplan::mission::load(&args.mission)?;
-    let priced = price_mission(&mission, &args.vehicle, args.profile)?;
+    let priced = price_mission(&mission, &args.model.vehicle, args.model.profile)?;
     if let Some(path) = &args.export_atsp {
         let text = emplan::plan::tsplib::to_text(&mission.name, &priced.energy, ATSP_UNITS_PER_J)
             .with_context(|| format!("exporting {}", path.display()))?;
@@ -168,7 +164,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let sorties = if args.sorties {
         Some(super::sorties::split_mission(
             &mission,
-            &args.vehicle,
+            &args.model.vehicle,
             &planned,
         )?)
     } else {

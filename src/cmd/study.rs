@@ -47,12 +47,8 @@ pub struct Args {
     /// Seed: the same seed gives the same missions and results, whatever the thread count
     #[arg(long, value_name = "S", default_value_t = 1)]
     seed: u64,
-    /// Vehicle directory holding vehicle.toml and its energy tables
-    #[arg(long, default_value = "models/s1000")]
-    vehicle: PathBuf,
-    /// Flight profile pricing the legs: ptf, hvb or px4 (default: the vehicle's)
-    #[arg(long)]
-    profile: Option<Profile>,
+    #[command(flatten)]
+    model: super::VehicleArgs,
     /// Print one JSON document (an array of them with --all-paper-settings)
     #[arg(long)]
     json: bool,
@@ -175,9 +171,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         })?;
     }
 
-    let vehicle = Vehicle::load(&args.vehicle)?;
-    let profile = args.profile.unwrap_or(vehicle.default_profile());
-    let table = EnergyTable::load(&args.vehicle, profile, &vehicle)?;
+    let vehicle = Vehicle::load(&args.model.vehicle)?;
+    let profile = args.model.profile.unwrap_or(vehicle.default_profile());
+    let table = EnergyTable::load(&args.model.vehicle, profile, &vehicle)?;
     for s in &settings {
         check_envelope(s, &table)?;
     }

@@ -5,7 +5,6 @@
 use anyhow::{bail, Context};
 use emplan::link::driver::upload_verified;
 use emplan::link::items::{mission_items, ItemOptions};
-use emplan::physics::Profile;
 use emplan::plan::{cheapest, Objective};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -31,12 +30,8 @@ pub struct Args {
     link: super::LinkArgs,
     #[arg(long, value_enum, default_value = "energy")]
     order: Order,
-    /// Vehicle directory holding vehicle.toml and its energy tables
-    #[arg(long, default_value = "models/s1000")]
-    vehicle: PathBuf,
-    /// Flight profile pricing the legs (default: the vehicle's)
-    #[arg(long)]
-    profile: Option<Profile>,
+    #[command(flatten)]
+    model: super::VehicleArgs,
     /// Upload even when the model says the battery cannot fly the mission with its reserve
     #[arg(long)]
     allow_infeasible: bool,
@@ -67,8 +62,8 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let mission = emplan::mission::load(&args.mission)?;
     let planned = super::plan::plan_mission(
         &mission,
-        &args.vehicle,
-        args.profile,
+        &args.model.vehicle,
+        args.model.profile,
         &args.solver.options()?,
     )?;
     let order: Vec<usize> = match args.order {

@@ -429,6 +429,22 @@ impl Search<'_> {
         }
     }
 
+    /// The degree equations (one successor and one predecessor per node) and every cut so far.
+    fn add_rows(&self, problem: &mut Problem, vars: &[Variable]) {
+        let mut out: Vec<LinearExpr> = (0..self.n).map(|_| LinearExpr::empty()).collect();
+        let mut inn: Vec<LinearExpr> = (0..self.n).map(|_| LinearExpr::empty()).collect();
+        for (k, &(i, j)) in self.arcs.iter().enumerate() {
+            out[i].add(vars[k], 1.0);
+            inn[j].add(vars[k], 1.0);
+        }
+        for expr in out.into_iter().chain(inn) {
+            problem.add_constraint(expr, ComparisonOp::Eq, 1.0);
+        }
+        for cut in &self.cuts {
+            problem.add_constraint(cut.vars.iter().map(|&k| (vars[k], 1.0)), cut.op, cut.rhs);
+        }
+    }
+
     /// A fresh LP with every cut so far and `fixed` applied as bounds.
     fn build(
         &self,
@@ -448,18 +464,7 @@ impl Search<'_> {
                 problem.add_var(self.m.cost(i, j), bounds)
             })
             .collect();
-        let mut out: Vec<LinearExpr> = (0..self.n).map(|_| LinearExpr::empty()).collect();
-        let mut inn: Vec<LinearExpr> = (0..self.n).map(|_| LinearExpr::empty()).collect();
-        for (k, &(i, j)) in self.arcs.iter().enumerate() {
-            out[i].add(vars[k], 1.0);
-            inn[j].add(vars[k], 1.0);
-        }
-        for expr in out.into_iter().chain(inn) {
-            problem.add_constraint(expr, ComparisonOp::Eq, 1.0);
-        }
-        for cut in &self.cuts {
-            problem.add_constraint(cut.vars.iter().map(|&k| (vars[k], 1.0)), cut.op, cut.rhs);
-        }
+        self.add_rows(&mut problem, &vars);
         problem.set_time_limit(self.remaining());
         match problem.solve() {
             Ok(outcome) => match outcome.into_solution() {
@@ -607,18 +612,7 @@ impl Search<'_> {
                 .iter()
                 .map(|&(i, j)| problem.add_binary_var(self.m.cost(i, j)))
                 .collect();
-            let mut out: Vec<LinearExpr> = (0..self.n).map(|_| LinearExpr::empty()).collect();
-            let mut inn: Vec<LinearExpr> = (0..self.n).map(|_| LinearExpr::empty()).collect();
-            for (k, &(i, j)) in self.arcs.iter().enumerate() {
-                out[i].add(vars[k], 1.0);
-                inn[j].add(vars[k], 1.0);
-            }
-            for expr in out.into_iter().chain(inn) {
-                problem.add_constraint(expr, ComparisonOp::Eq, 1.0);
-            }
-            for cut in &self.cuts {
-                problem.add_constraint(cut.vars.iter().map(|&k| (vars[k], 1.0)), cut.op, cut.rhs);
-            }
+            self.add_rows(&mut problem, &vars);
             let mut successor = vec![usize::MAX; self.n];
             let mut prev = 0;
             for &node in best_order.iter() {

@@ -18,12 +18,14 @@ pub fn energy_matrix<E: std::fmt::Display>(
             if i == j {
                 continue;
             }
-            let energy = leg_energy(geometry.horizontal_m(i, j), geometry.vertical_m(i, j))
-                .map_err(|e| PlanError::LegEnergy {
-                    from: names.get(i).cloned().unwrap_or_else(|| i.to_string()),
-                    to: names.get(j).cloned().unwrap_or_else(|| j.to_string()),
-                    reason: e.to_string(),
-                })?;
+            let (xf_m, zf_m) = (geometry.horizontal_m(i, j), geometry.vertical_m(i, j));
+            let energy = leg_energy(xf_m, zf_m).map_err(|e| PlanError::LegEnergy {
+                from: names.get(i).cloned().unwrap_or_else(|| i.to_string()),
+                to: names.get(j).cloned().unwrap_or_else(|| j.to_string()),
+                xf_m,
+                zf_m,
+                reason: e.to_string(),
+            })?;
             costs[i * n + j] = energy;
         }
     }
@@ -64,7 +66,7 @@ mod tests {
         .unwrap_err();
         assert_eq!(
             err.to_string(),
-            "energy of leg origin -> far: outside the table"
+            "energy of leg origin -> far (Xf 500.00 m, Zf 5.00 m): outside the table"
         );
         let m = energy_matrix(&g, &names, |x, z| Ok::<f64, String>(x + 10.0 * z.max(0.0))).unwrap();
         assert_eq!(m.cost(0, 1), 60.0);

@@ -97,10 +97,12 @@ pub enum PlanError {
     Lp(String),
     #[error("the energy order needs an energy model (none was given)")]
     NoEnergyModel,
-    #[error("energy of leg {from} -> {to}: {reason}")]
+    #[error("energy of leg {from} -> {to} (Xf {xf_m:.2} m, Zf {zf_m:.2} m): {reason}")]
     LegEnergy {
         from: String,
         to: String,
+        xf_m: f64,
+        zf_m: f64,
         reason: String,
     },
 }

@@ -15,10 +15,11 @@ use std::fmt::Display;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use super::energy::energy_matrix;
 use super::held_karp;
 use super::orders::{solve_order, Objective};
 use super::rng::Rng;
-use super::{CostMatrix, Geometry, PlanError};
+use super::{Geometry, PlanError};
 use crate::mission::Enu;
 
 /// Most missions one study runs (each keeps a small record for the statistics).
@@ -307,25 +308,24 @@ pub fn run_mission<E: Display>(
         .chain(random_points(settings, mission))
         .collect();
     let geometry = Geometry::from_points(points);
-    let n = geometry.len();
-    let mut costs = vec![0.0; n * n];
-    for i in 0..n {
-        for j in 0..n {
-            if i == j {
-                continue;
-            }
-            let (xf_m, zf_m) = (geometry.horizontal_m(i, j), geometry.vertical_m(i, j));
-            costs[i * n + j] = leg_energy_j(xf_m, zf_m).map_err(|e| StudyError::LegEnergy {
-                mission,
-                from: node_name(i),
-                to: node_name(j),
-                xf_m,
-                zf_m,
-                reason: e.to_string(),
-            })?;
-        }
-    }
-    let energy = CostMatrix::from_fn(n, |i, j| costs[i * n + j]);
+    let names: Vec<String> = (0..geometry.len()).map(node_name).collect();
+    let energy = energy_matrix(&geometry, &names, leg_energy_j).map_err(|e| match e {
+        PlanError::LegEnergy {
+            from,
+            to,
+            xf_m,
+            zf_m,
+            reason,
+        } => StudyError::LegEnergy {
+            mission,
+            from,
+            to,
+            xf_m,
+            zf_m,
+            reason,
+        },
+        source => StudyError::Plan { mission, source },
+    })?;
     let plan_err = |source| StudyError::Plan { mission, source };
     let energy_order =
         solve_order(&geometry, Objective::Energy, Some(&energy)).map_err(plan_err)?;

@@ -2,28 +2,10 @@
 //! and on TSPLIB's br17, and clear failures on bad input.
 
 use std::path::Path;
-use std::process::Command;
 
 use serde_json::Value;
 
-fn emplan(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_emplan"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("emplan runs");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
-fn json(args: &[&str]) -> Value {
-    let (ok, stdout, stderr) = emplan(args);
-    assert!(ok, "emplan {args:?} failed: {stderr}");
-    serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("not JSON ({e}): {stdout}"))
-}
+use crate::{emplan, json};
 
 fn order<'a>(plan: &'a Value, objective: &str, direction: &str) -> &'a Value {
     plan["orders"]

@@ -8,3 +8,24 @@ mod sorties;
 mod study;
 mod tidy;
 mod upload;
+
+/// Runs the `emplan` binary from the crate root: (success, stdout, stderr).
+pub fn emplan(args: &[&str]) -> (bool, String, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_emplan"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("emplan runs");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// Runs `emplan` and parses the one JSON document it prints; fails the test if it fails.
+pub fn json(args: &[&str]) -> serde_json::Value {
+    let (ok, stdout, stderr) = emplan(args);
+    assert!(ok, "emplan {args:?} failed: {stderr}");
+    serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("not JSON ({e}): {stdout}"))
+}

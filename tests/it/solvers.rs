@@ -109,22 +109,8 @@ fn rbg323_is_solved_within_one_percent_with_a_lower_bound() {
 fn plan_orders_a_forty_waypoint_mission_beyond_held_karp_and_proves_it() {
     let dir = tempfile::tempdir().unwrap();
     let mission = dir.path().join("m40.toml");
-    let bin = env!("CARGO_BIN_EXE_emplan");
-    let run = |args: &[&str]| {
-        let out = std::process::Command::new(bin)
-            .args(args)
-            .current_dir(env!("CARGO_MANIFEST_DIR"))
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{args:?}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        String::from_utf8_lossy(&out.stdout).into_owned()
-    };
     let m = mission.to_str().unwrap();
-    run(&[
+    let (ok, _, stderr) = crate::emplan(&[
         "generate",
         m,
         "--waypoints",
@@ -136,7 +122,8 @@ fn plan_orders_a_forty_waypoint_mission_beyond_held_karp_and_proves_it() {
         "--seed",
         "3",
     ]);
-    let plan: serde_json::Value = serde_json::from_str(&run(&["plan", m, "--json"])).unwrap();
+    assert!(ok, "generate failed: {stderr}");
+    let plan = crate::json(&["plan", m, "--json"]);
     let energy = &plan["orders"][0];
     assert_eq!(energy["objective"], "energy");
     assert_eq!(energy["sequence"].as_array().unwrap().len(), 40);

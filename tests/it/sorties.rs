@@ -3,30 +3,12 @@
 //! upload; a smaller battery (planning parameters are outside the tables' hash) splits a sample.
 
 use std::path::Path;
-use std::process::Command;
 
 use serde_json::Value;
 
+use crate::{emplan, json};
+
 const LONG: &str = "missions/long-inspection.toml";
-
-fn emplan(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_emplan"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("emplan runs");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
-fn json(args: &[&str]) -> Value {
-    let (ok, stdout, stderr) = emplan(args);
-    assert!(ok, "emplan {args:?} failed: {stderr}");
-    serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("not JSON ({e}): {stdout}"))
-}
 
 fn f(v: &Value) -> f64 {
     v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"))

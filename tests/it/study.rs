@@ -2,28 +2,9 @@
 //! JSON of DESIGN.md and its reproducibility, the SVG files, and generated missions that
 //! `emplan plan` loads.
 
-use std::process::Command;
-
 use serde_json::Value;
 
-fn emplan(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_emplan"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("emplan runs");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
-fn json(args: &[&str]) -> Value {
-    let (ok, stdout, stderr) = emplan(args);
-    assert!(ok, "emplan {args:?} failed: {stderr}");
-    serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("not JSON ({e}): {stdout}"))
-}
+use crate::{emplan, json};
 
 const STUDY: [&str; 13] = [
     "study",
