@@ -30,6 +30,10 @@ pub struct Args {
     link: super::LinkArgs,
     #[arg(long, value_enum, default_value = "energy")]
     order: Order,
+    /// Upload only sortie K (1-based) of the split `emplan plan --sorties` prints: the mission
+    /// flown on one battery of several, in its own minimum-energy order
+    #[arg(long, value_name = "K", conflicts_with = "order")]
+    sortie: Option<usize>,
     #[command(flatten)]
     model: super::VehicleArgs,
     /// Upload even when the model says the battery cannot fly the mission with its reserve
@@ -49,6 +53,8 @@ pub struct Args {
 struct UploadJson<'a> {
     mission: &'a str,
     order: Order,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    sortie: Option<usize>,
     sequence: Vec<String>,
     predicted_mission_kj: f64,
     budget_kj: f64,
@@ -66,20 +72,41 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         args.model.profile,
         &args.solver.options()?,
     )?;
-    let order: Vec<usize> = match args.order {
-        Order::Energy => planned.orders[0].nodes.iter().map(|n| n - 1).collect(),
-        Order::Distance => cheapest(&planned.orders, Objective::Distance)
-            .map(|o| o.nodes.iter().map(|n| n - 1).collect())
-            .unwrap_or_default(),
-        Order::Listed => (0..mission.waypoints.len()).collect(),
-    };
-    let nodes: Vec<usize> = order.iter().map(|k| k + 1).collect();
     let b = &planned.battery;
-    let predicted_kj = b.total_kj - b.legs_kj + planned.energy.tour_cost(&nodes) / 1000.0;
+    let (order, predicted_kj): (Vec<usize>, f64) = match args.sortie {
+        Some(k) => {
+            let split = super::sorties::split_mission(&mission, &args.model.vehicle, &planned)?;
+            let count = split.sorties.len();
+            let sortie = k
+                .checked_sub(1)
+                .and_then(|i| split.sorties.get(i))
+                .with_context(|| {
+                    format!("--sortie {k}: the mission splits into {count} sorties (1 to {count})")
+                })?;
+            let order = sortie
+                .sequence
+                .iter()
+                .filter_map(|name| mission.waypoints.iter().position(|w| &w.name == name))
+                .collect();
+            (order, sortie.total_kj)
+        }
+        None => {
+            let order: Vec<usize> = match args.order {
+                Order::Energy => planned.orders[0].nodes.iter().map(|n| n - 1).collect(),
+                Order::Distance => cheapest(&planned.orders, Objective::Distance)
+                    .map(|o| o.nodes.iter().map(|n| n - 1).collect())
+                    .unwrap_or_default(),
+                Order::Listed => (0..mission.waypoints.len()).collect(),
+            };
+            let nodes: Vec<usize> = order.iter().map(|k| k + 1).collect();
+            let predicted = b.total_kj - b.legs_kj + planned.energy.tour_cost(&nodes) / 1000.0;
+            (order, predicted)
+        }
+    };
     if predicted_kj > b.budget_kj && !args.allow_infeasible {
         bail!(
             "the model predicts {predicted_kj:.1} kJ for this mission but the battery has {:.1} kJ usable after its {}% reserve: \
-             not uploaded (split it with `emplan plan --sorties`, or pass --allow-infeasible to override)",
+             not uploaded (split it with `emplan plan --sorties` and upload one with --sortie K, or pass --allow-infeasible to override)",
             b.budget_kj,
             b.reserve_pct
         );
@@ -107,6 +134,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             let doc = UploadJson {
                 mission: &mission.name,
                 order: args.order,
+                sortie: args.sortie,
                 sequence: order.iter().map(|&k| mission.waypoints[k].name.clone()).collect(),
                 predicted_mission_kj: predicted_kj,
                 budget_kj: b.budget_kj,

@@ -186,3 +186,22 @@ fn upload_refuses_the_long_mission_before_connecting() {
         "{stderr}"
     );
 }
+
+#[test]
+fn each_sortie_of_the_long_mission_uploads_to_the_built_in_mock_and_verifies() {
+    let split = json(&["plan", LONG, "--sorties", "--json"]);
+    let sorties = split["sorties"]["sorties"].as_array().unwrap();
+    for (k, sortie) in sorties.iter().enumerate() {
+        let number = (k + 1).to_string();
+        let up = json(&["upload", LONG, "--sortie", &number, "--json"]);
+        assert_eq!(up["report"]["verified"], true, "{up}");
+        assert_eq!(up["sequence"], sortie["sequence"], "sortie {number}");
+        let predicted = up["predicted_mission_kj"].as_f64().unwrap();
+        assert!((predicted - sortie["total_kj"].as_f64().unwrap()).abs() < 1e-9);
+        assert!(predicted <= up["budget_kj"].as_f64().unwrap());
+    }
+    let beyond = (sorties.len() + 1).to_string();
+    let (ok, _, stderr) = emplan(&["upload", LONG, "--sortie", &beyond]);
+    assert!(!ok);
+    assert!(stderr.contains(&format!("--sortie {beyond}")), "{stderr}");
+}
