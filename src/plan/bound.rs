@@ -102,8 +102,8 @@ const MAX_CUTS_PER_ROUND: usize = 100;
 const REBUILD_CUTS: usize = 40;
 /// Share of the LP time left that a round's cut loop may take before the duals are computed.
 const PRIMAL_SHARE: f64 = 0.6;
-/// Time kept for a round's dense assignment, as a multiple of the first one's.
-const FINAL_AP_RESERVE: f64 = 1.5;
+/// Time kept for a round's dense assignment, as a multiple of the slowest one so far.
+const AP_RESERVE: f64 = 1.5;
 /// The cut loop of a round stops when its last [`TAILOFF_ITERATIONS`] LP solves raised the
 /// value by less than this share (the cuts still missing are worth less than the solves).
 const TAILOFF_REL: f64 = 1e-5;
@@ -145,9 +145,6 @@ pub fn dfj_bound(m: &CostMatrix, tour: &[usize], time_limit: Duration) -> Result
         // Every assignment of at most three nodes without fixed points is a tour.
         return Ok(finish(assignment_bound, 0, 0, 0, Stop::Optimal));
     }
-    let lp_deadline = deadline
-        .checked_sub(Duration::from_secs_f64(FINAL_AP_RESERVE * ap_seconds))
-        .unwrap_or(started);
 
     let proves_tour = |bound: f64| {
         if integer {
@@ -164,8 +161,13 @@ pub fn dfj_bound(m: &CostMatrix, tour: &[usize], time_limit: Duration) -> Result
     let mut keys: HashSet<Vec<bool>> = HashSet::new();
     let mut best = assignment_bound;
     let mut rounds = 0;
+    // The slowest dense assignment so far: the LP work stops early enough to leave room for one.
+    let mut ap_seconds = ap_seconds;
     let stop = loop {
         let now = Instant::now();
+        let lp_deadline = deadline
+            .checked_sub(Duration::from_secs_f64(AP_RESERVE * ap_seconds))
+            .unwrap_or(started);
         if now >= lp_deadline {
             break Stop::TimeLimit;
         }
@@ -200,12 +202,19 @@ pub fn dfj_bound(m: &CostMatrix, tour: &[usize], time_limit: Duration) -> Result
         };
         let lagrangian = Lagrangian::new(m, &cuts, &duals.multipliers);
         let pricing = lagrangian.price(m, &duals, &candidates);
-        // The dense assignment costs about as much as the first one, which the LP deadline
-        // left room for.
-        let dense = match lagrangian.assignment_value(m) {
-            Ok(value) => value,
-            Err(e) => break Stop::LpFailure(format!("assignment of the lagrangian costs: {e}")),
+        // The LP deadline left room for the dense assignment, unless this one is slower.
+        let dense_started = Instant::now();
+        let dense = if dense_started + Duration::from_secs_f64(ap_seconds) <= deadline {
+            match lagrangian.assignment_value(m) {
+                Ok(value) => value,
+                Err(e) => {
+                    break Stop::LpFailure(format!("assignment of the lagrangian costs: {e}"))
+                }
+            }
+        } else {
+            f64::NEG_INFINITY
         };
+        ap_seconds = ap_seconds.max(dense_started.elapsed().as_secs_f64());
         best = best.max(pricing.bound).max(dense);
         tracing::debug!(
             round = rounds,
