@@ -455,7 +455,7 @@ fn solve_primal(
 ) -> Result<Option<Primal>, String> {
     let n = m.len();
     let built = Instant::now();
-    let Some((mut solution, vars, mut forms)) = solve_built(m, arcs, cuts, deadline)? else {
+    let Some((mut solution, mut vars, mut forms)) = solve_built(m, arcs, cuts, deadline)? else {
         return Ok(None);
     };
     tracing::trace!(
@@ -501,8 +501,9 @@ fn solve_primal(
         if fresh.len() >= REBUILD_CUTS {
             cuts.extend(fresh);
             match solve_built(m, arcs, cuts, deadline)? {
-                Some((s, _, f)) => {
+                Some((s, v, f)) => {
                     solution = s;
+                    vars = v;
                     forms = f;
                 }
                 None => return Ok(None),
