@@ -89,6 +89,8 @@ const CUT_TOL: f64 = 1e-4;
 /// Relative optimality tolerance for real-valued costs (the LP solver's own accuracy is about
 /// 1e-9 relative): a tour within this of the lower bound is called optimal.
 const REL_GAP: f64 = 1e-7;
+/// Minimum cuts separated per round (components are all taken).
+const MAX_CUTS_PER_ROUND: usize = 50;
 /// Cut rounds at a node other than the root before branching anyway.
 const MAX_NODE_ROUNDS: usize = 30;
 
@@ -278,7 +280,7 @@ pub fn solve(m: &CostMatrix, incumbent: &[usize], options: &Options) -> Result<O
     })
 }
 
-fn check_permutation(n: usize, order: &[usize]) -> Result<(), PlanError> {
+pub(crate) fn check_permutation(n: usize, order: &[usize]) -> Result<(), PlanError> {
     let mut seen = vec![false; n];
     let ok = order.len() + 1 == n.max(1)
         && order.iter().all(|&k| {
@@ -299,7 +301,7 @@ fn check_permutation(n: usize, order: &[usize]) -> Result<(), PlanError> {
 }
 
 /// Whether every arc cost is an integer (TSPLIB), so bounds can be rounded up.
-fn integer_costs(m: &CostMatrix) -> bool {
+pub(crate) fn integer_costs(m: &CostMatrix) -> bool {
     let n = m.len();
     (0..n).all(|i| {
         (0..n).all(|j| {
@@ -696,46 +698,14 @@ impl Search<'_> {
 
     /// Violated subtour cuts of `x`: components of the support graph, then minimum cuts.
     fn separate(&mut self, x: &[f64]) -> Vec<Cut> {
-        let n = self.n;
         let support: Vec<(usize, usize, f64)> = x
             .iter()
             .enumerate()
             .filter(|(_, &v)| v > INTEGRAL_TOL)
             .map(|(k, &v)| (self.arcs[k].0, self.arcs[k].1, v))
             .collect();
-        let mut sides: Vec<Vec<bool>> = Vec::new();
-        // Weakly connected components: every one without the origin is a violated cut.
-        let component = components(n, &support);
-        let count = component.iter().copied().max().map_or(0, |c| c + 1);
-        if count > 1 {
-            for c in 0..count {
-                if c != component[0] {
-                    sides.push(component.iter().map(|&k| k != c).collect());
-                }
-            }
-        } else {
-            let mut flow = MaxFlow::new(n, &support);
-            let mut covered = vec![false; n];
-            for t in 1..n {
-                if covered[t] {
-                    continue;
-                }
-                let (value, source_side) = flow.min_cut(0, t);
-                if value < 1.0 - CUT_TOL {
-                    for v in 0..n {
-                        if !source_side[v] {
-                            covered[v] = true;
-                        }
-                    }
-                    sides.push(source_side);
-                    if sides.len() >= 50 {
-                        break;
-                    }
-                }
-            }
-        }
         let mut cuts = Vec::new();
-        for side in sides {
+        for side in violated_sides(self.n, &support, MAX_CUTS_PER_ROUND) {
             if self.cut_keys.insert(side.clone()) {
                 cuts.push(self.cut_for(&side));
             }
@@ -771,8 +741,51 @@ impl Search<'_> {
     }
 }
 
+/// Node sets `S` holding the origin whose subtour cuts `x(delta+(S)) >= 1` the fractional point
+/// `support` (arcs `(i, j, x_ij)` with `x_ij > 0`) violates: every weakly connected component
+/// without the origin when there are several, else the source sides of the minimum cuts from
+/// the origin below one (at most `max_cuts` per call). `S` is given as membership per node.
+pub(crate) fn violated_sides(
+    n: usize,
+    support: &[(usize, usize, f64)],
+    max_cuts: usize,
+) -> Vec<Vec<bool>> {
+    let mut sides: Vec<Vec<bool>> = Vec::new();
+    // Weakly connected components: every one without the origin is a violated cut.
+    let component = components(n, support);
+    let count = component.iter().copied().max().map_or(0, |c| c + 1);
+    if count > 1 {
+        for c in 0..count {
+            if c != component[0] {
+                sides.push(component.iter().map(|&k| k != c).collect());
+            }
+        }
+    } else {
+        let mut flow = MaxFlow::new(n, support);
+        let mut covered = vec![false; n];
+        for t in 1..n {
+            if covered[t] {
+                continue;
+            }
+            let (value, source_side) = flow.min_cut(0, t);
+            if value < 1.0 - CUT_TOL {
+                for v in 0..n {
+                    if !source_side[v] {
+                        covered[v] = true;
+                    }
+                }
+                sides.push(source_side);
+                if sides.len() >= max_cuts {
+                    break;
+                }
+            }
+        }
+    }
+    sides
+}
+
 /// Weakly connected component of every node in the graph of `arcs`.
-fn components(n: usize, arcs: &[(usize, usize, f64)]) -> Vec<usize> {
+pub(crate) fn components(n: usize, arcs: &[(usize, usize, f64)]) -> Vec<usize> {
     let mut parent: Vec<usize> = (0..n).collect();
     fn find(parent: &mut [usize], mut a: usize) -> usize {
         while parent[a] != a {

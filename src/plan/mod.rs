@@ -5,6 +5,7 @@
 //! Invariant: pure and deterministic (seeded); no IO, no tokio, no MAVLink.
 
 pub mod assignment;
+pub mod bound;
 pub mod branch_cut;
 pub mod brute;
 pub mod energy;
