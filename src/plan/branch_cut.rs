@@ -949,20 +949,7 @@ mod tests {
         let mut rng = Rng::new(5);
         for trial in 0..20 {
             let n = 6 + trial % 10;
-            let pts: Vec<(f64, f64, f64)> = (0..n)
-                .map(|_| {
-                    (
-                        rng.uniform(-30.0, 30.0),
-                        rng.uniform(-30.0, 30.0),
-                        rng.uniform(-25.0, 25.0),
-                    )
-                })
-                .collect();
-            let m = CostMatrix::from_fn(n, |i, j| {
-                let (a, b) = (pts[i], pts[j]);
-                let dz = b.2 - a.2;
-                ((b.0 - a.0).hypot(b.1 - a.1)) + if dz > 0.0 { 8.0 * dz } else { -0.5 * dz }
-            });
+            let m = crate::plan::testing::drone(n, rng.next_u64());
             let hk = held_karp::solve(&m).unwrap();
             let bc = solve(&m, &identity_order(n), &Options::default()).unwrap();
             assert!(bc.tour.optimal);

@@ -813,31 +813,12 @@ impl<'a> Search<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plan::{held_karp, tsplib};
+    use crate::plan::held_karp;
+    use crate::plan::testing::{drone, tsplib_instance};
 
     fn random_matrix(n: usize, rng: &mut Rng) -> CostMatrix {
         let costs: Vec<f64> = (0..n * n).map(|_| rng.uniform(1.0, 100.0)).collect();
         CostMatrix::from_fn(n, |i, j| costs[i * n + j])
-    }
-
-    /// Random 3-D points, the origin at (0, 0, 0); cost = horizontal distance + 8 x climb +
-    /// 0.5 x descent (the shape of a multirotor's energy, not its scale).
-    fn drone_matrix(n: usize, seed: u64) -> CostMatrix {
-        let mut rng = Rng::new(seed);
-        let mut points = vec![[0.0; 3]];
-        for _ in 1..n {
-            points.push([
-                rng.uniform(-50.0, 50.0),
-                rng.uniform(-50.0, 50.0),
-                rng.uniform(-25.0, 25.0),
-            ]);
-        }
-        CostMatrix::from_fn(n, |i, j| {
-            let (a, b) = (points[i], points[j]);
-            let horizontal_m = (b[0] - a[0]).hypot(b[1] - a[1]);
-            let climb_m = b[2] - a[2];
-            horizontal_m + 8.0 * climb_m.max(0.0) + 0.5 * (-climb_m).max(0.0)
-        })
     }
 
     fn budget(kicks: u64) -> Options {
@@ -855,17 +836,6 @@ mod tests {
         );
     }
 
-    fn tsplib_instance(name: &str) -> CostMatrix {
-        let path = format!(
-            "{}/../shared/tsplib-atsp/{name}.atsp",
-            env!("CARGO_MANIFEST_DIR")
-        );
-        let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
-        tsplib::parse(&text)
-            .unwrap_or_else(|e| panic!("{path}: {e}"))
-            .matrix
-    }
-
     #[test]
     fn the_heuristic_finds_the_held_karp_optimum_on_small_random_instances() {
         let mut rng = Rng::new(42);
@@ -874,7 +844,7 @@ mod tests {
         for trial in 0..trials {
             let n = 4 + trial % 10; // 3 to 12 waypoints
             let m = if trial % 3 == 2 {
-                drone_matrix(n, trial as u64)
+                drone(n, trial as u64)
             } else {
                 random_matrix(n, &mut rng)
             };
@@ -904,7 +874,7 @@ mod tests {
 
     #[test]
     fn the_same_seed_and_kick_budget_give_the_same_tour() {
-        let m = drone_matrix(150, 7);
+        let m = drone(150, 7);
         let first = solve(&m, None, &budget(1500));
         let second = solve(&m, None, &budget(1500));
         assert_eq!(first.order, second.order);
@@ -943,7 +913,7 @@ mod tests {
                 assert_eq!(found.cost, exact.cost, "n = {n}");
             }
         }
-        let m = drone_matrix(6, 3);
+        let m = drone(6, 3);
         let bad: [&[usize]; 5] = [
             &[],
             &[1, 2, 3, 4, 4],
@@ -973,7 +943,7 @@ mod tests {
         };
         assert_valid(&solve(&m, None, &odd).order, n);
         let stopped = solve(
-            &drone_matrix(50, 1),
+            &drone(50, 1),
             None,
             &Options {
                 time_limit_s: -1.0,
@@ -986,7 +956,7 @@ mod tests {
 
     #[test]
     fn a_valid_initial_order_is_never_made_worse() {
-        let m = drone_matrix(80, 5);
+        let m = drone(80, 5);
         let initial: Vec<usize> = (1..80).collect();
         let found = solve(&m, Some(&initial), &budget(0));
         assert_valid(&found.order, 80);
@@ -1014,7 +984,7 @@ mod tests {
 
     #[test]
     fn running_costs_stay_equal_to_recomputed_ones_through_moves_kicks_and_undos() {
-        let m = drone_matrix(120, 11);
+        let m = drone(120, 11);
         let n = m.len();
         let (out, inn) = candidates(n, 8, |i, j| m.cost(i, j));
         let mut s = Search::new(&m, 8, out, inn, nearest_neighbour(&m));

@@ -17,6 +17,8 @@ pub mod rng;
 pub mod solver;
 pub mod sorties;
 pub mod study;
+#[cfg(test)]
+pub(crate) mod testing;
 pub mod tsplib;
 
 pub use geometry::Geometry;

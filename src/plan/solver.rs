@@ -202,25 +202,7 @@ fn run_heuristic(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plan::rng::Rng;
-
-    fn drone(n: usize, seed: u64) -> CostMatrix {
-        let mut rng = Rng::new(seed);
-        let pts: Vec<(f64, f64, f64)> = (0..n)
-            .map(|_| {
-                (
-                    rng.uniform(-50.0, 50.0),
-                    rng.uniform(-50.0, 50.0),
-                    rng.uniform(-25.0, 25.0),
-                )
-            })
-            .collect();
-        CostMatrix::from_fn(n, |i, j| {
-            let (a, b) = (pts[i], pts[j]);
-            let dz = b.2 - a.2;
-            (b.0 - a.0).hypot(b.1 - a.1) + if dz > 0.0 { 8.0 * dz } else { -0.5 * dz }
-        })
-    }
+    use crate::plan::testing::drone;
 
     #[test]
     fn every_solver_agrees_with_held_karp_on_random_missions_up_to_fifteen_waypoints() {
