@@ -56,6 +56,15 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    // A reader that closes the pipe early (`emplan plan ... | head`) ends the process quietly, as
+    // for other command-line tools, instead of a panic on the next print: Rust ignores SIGPIPE
+    // by default.
+    #[cfg(unix)]
+    // SAFETY: restoring the default disposition of SIGPIPE at start-up, before any thread
+    // exists, has no other effect.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     tracing_subscriber::fmt()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_default_env()
