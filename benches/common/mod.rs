@@ -4,8 +4,9 @@
 use std::path::Path;
 
 use emplan::physics::{EnergyTable, Vehicle};
-use emplan::plan::study::{random_points, StudySettings};
-use emplan::plan::{CostMatrix, Geometry};
+use emplan::plan::energy::energy_matrix;
+use emplan::plan::study::{mission_geometry, StudySettings};
+use emplan::plan::CostMatrix;
 
 /// The energy matrix (J) of mission 0 of the study setting (`waypoints`, `xy_m`, `z_m`, seed 1).
 pub fn energy_mission(waypoints: usize, xy_m: f64, z_m: f64) -> CostMatrix {
@@ -19,14 +20,9 @@ pub fn energy_mission(waypoints: usize, xy_m: f64, z_m: f64) -> CostMatrix {
         missions: 1,
         seed: 1,
     };
-    let points = std::iter::once(Default::default())
-        .chain(random_points(&settings, 0))
-        .collect();
-    let g = Geometry::from_points(points);
-    CostMatrix::from_fn(g.len(), |i, j| {
-        table
-            .lookup(g.horizontal_m(i, j), g.vertical_m(i, j))
-            .map(|leg| leg.total_energy_j())
-            .expect("leg inside the table")
+    let g = mission_geometry(&settings, 0);
+    energy_matrix(&g, &[], |x, z| {
+        table.lookup(x, z).map(|leg| leg.total_energy_j())
     })
+    .expect("every leg inside the table")
 }

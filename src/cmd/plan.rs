@@ -63,6 +63,7 @@ struct PlanJson<'a> {
 
 /// A mission planned with a vehicle: every order, and the energy order against the battery.
 pub struct Planned {
+    pub vehicle: Vehicle,
     pub profile: Profile,
     pub orders: Vec<OrderReport>,
     pub battery: Battery,
@@ -140,6 +141,7 @@ pub fn plan_priced(
         .with_context(|| format!("planning mission {}", mission.name))?;
     let battery = battery(mission, &vehicle, profile, &orders[0])?;
     Ok(Planned {
+        vehicle,
         profile,
         orders,
         battery,
@@ -162,11 +164,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     }
     let planned = plan_priced(&mission, priced, &args.solver.options()?)?;
     let sorties = if args.sorties {
-        Some(super::sorties::split_mission(
-            &mission,
-            &args.model.vehicle,
-            &planned,
-        )?)
+        Some(super::sorties::split_mission(&mission, &planned)?)
     } else {
         super::sorties::warn_if_over_budget(&args.mission, &planned.battery);
         None

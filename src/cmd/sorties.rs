@@ -7,7 +7,7 @@ use std::path::Path;
 
 use anyhow::Context;
 use emplan::mission::Mission;
-use emplan::physics::{hover_power_w, Vehicle};
+use emplan::physics::hover_power_w;
 use emplan::plan::orders::report;
 use emplan::plan::sorties::{split, Method, SortieError, SortieOptions, SortieProblem};
 use emplan::plan::{Direction, Geometry, LegReport, Objective};
@@ -47,16 +47,10 @@ pub struct SortieReport {
     pub legs: Vec<LegReport>,
 }
 
-/// Splits `mission`, planned by [`super::plan::plan_mission`] with the vehicle in
-/// `vehicle_dir`, into sorties. The energy order seeds the heuristic when the mission is too
+/// Splits `mission`, planned by [`super::plan::plan_mission`], into sorties. The energy order seeds the heuristic when the mission is too
 /// large to split exactly.
-pub fn split_mission(
-    mission: &Mission,
-    vehicle_dir: &Path,
-    planned: &Planned,
-) -> anyhow::Result<SortiesReport> {
-    let vehicle = Vehicle::load(vehicle_dir)?;
-    let hover_w = hover_power_w(&vehicle).context("pricing the hover")?;
+pub fn split_mission(mission: &Mission, planned: &Planned) -> anyhow::Result<SortiesReport> {
+    let hover_w = hover_power_w(&planned.vehicle).context("pricing the hover")?;
     let hover_j: Vec<f64> = mission
         .waypoints
         .iter()

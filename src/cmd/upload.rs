@@ -75,7 +75,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let b = &planned.battery;
     let (order, predicted_kj): (Vec<usize>, f64) = match args.sortie {
         Some(k) => {
-            let split = super::sorties::split_mission(&mission, &args.model.vehicle, &planned)?;
+            let split = super::sorties::split_mission(&mission, &planned)?;
             let count = split.sorties.len();
             let sortie = k
                 .checked_sub(1)

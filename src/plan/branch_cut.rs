@@ -961,6 +961,30 @@ mod tests {
     }
 
     #[test]
+    fn every_tree_search_proves_the_held_karp_optimum() {
+        let mut rng = Rng::new(17);
+        for trial in 0..12 {
+            let n = 8 + trial % 6;
+            let m = crate::plan::testing::drone(n, rng.next_u64());
+            let hk = held_karp::solve(&m).unwrap();
+            for tree in [TreeSearch::Own, TreeSearch::Milp, TreeSearch::Hybrid] {
+                let options = Options {
+                    tree,
+                    ..Default::default()
+                };
+                let out = solve(&m, &identity_order(n), &options).unwrap();
+                assert!(out.tour.optimal, "{tree:?} trial {trial}");
+                assert!(
+                    (out.tour.cost - hk.cost).abs() <= 1e-6 * hk.cost,
+                    "{tree:?} trial {trial}: {} vs {}",
+                    out.tour.cost,
+                    hk.cost
+                );
+            }
+        }
+    }
+
+    #[test]
     fn a_starting_tour_that_is_not_a_permutation_is_refused() {
         let m = CostMatrix::from_fn(4, |_, _| 1.0);
         assert!(matches!(

@@ -129,6 +129,15 @@ pub fn random_points(settings: &StudySettings, mission: u64) -> Vec<Enu> {
         .collect()
 }
 
+/// Mission `mission` of a study as legs: the origin (node 0) and its random waypoints.
+pub fn mission_geometry(settings: &StudySettings, mission: u64) -> Geometry {
+    Geometry::from_points(
+        std::iter::once(Enu::default())
+            .chain(random_points(settings, mission))
+            .collect(),
+    )
+}
+
 /// What one mission of the study found. Energies are whole tours (origin to origin), each
 /// baseline in its better direction.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -304,10 +313,7 @@ pub fn run_mission<E: Display>(
     mission: u64,
     leg_energy_j: &(impl Fn(f64, f64) -> Result<f64, E> + ?Sized),
 ) -> Result<MissionOutcome, StudyError> {
-    let points: Vec<Enu> = std::iter::once(Enu::default())
-        .chain(random_points(settings, mission))
-        .collect();
-    let geometry = Geometry::from_points(points);
+    let geometry = mission_geometry(settings, mission);
     let names: Vec<String> = (0..geometry.len()).map(node_name).collect();
     let energy = energy_matrix(&geometry, &names, leg_energy_j).map_err(|e| match e {
         PlanError::LegEnergy {

@@ -207,19 +207,8 @@ fn energy_json_has_the_design_keys_and_a_stale_or_missing_table_is_refused_by_pl
 fn a_reader_that_closes_the_pipe_early_ends_emplan_without_a_panic() {
     use std::io::Read;
     let dir = tempfile::tempdir().unwrap();
-    let mission = dir.path().join("m60.toml");
-    let m = mission.to_str().unwrap();
-    let (ok, _, stderr) = emplan(&[
-        "generate",
-        m,
-        "--waypoints",
-        "60",
-        "--xy",
-        "40",
-        "--z",
-        "20",
-    ]);
-    assert!(ok, "{stderr}");
+    let m = crate::generated_mission(dir.path(), 60, 40, 20, 1);
+    let m = m.as_str();
     // The plan JSON of 60 waypoints is far larger than a pipe's buffer.
     let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_emplan"))
         .args(["plan", m, "--json", "--time-limit", "5"])

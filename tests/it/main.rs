@@ -29,3 +29,30 @@ pub fn json(args: &[&str]) -> serde_json::Value {
     assert!(ok, "emplan {args:?} failed: {stderr}");
     serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("not JSON ({e}): {stdout}"))
 }
+
+/// Writes a random mission (`emplan generate`, seed `seed`) of `waypoints` waypoints in
+/// +-`xy` m x +-`z` m to `dir` and returns its path as a string.
+pub fn generated_mission(
+    dir: &std::path::Path,
+    waypoints: u32,
+    xy: u32,
+    z: u32,
+    seed: u64,
+) -> String {
+    let path = dir.join(format!("random-{waypoints}.toml"));
+    let path = path.to_str().expect("a UTF-8 temp path").to_string();
+    let (ok, _, stderr) = emplan(&[
+        "generate",
+        &path,
+        "--waypoints",
+        &waypoints.to_string(),
+        "--xy",
+        &xy.to_string(),
+        "--z",
+        &z.to_string(),
+        "--seed",
+        &seed.to_string(),
+    ]);
+    assert!(ok, "generate failed: {stderr}");
+    path
+}

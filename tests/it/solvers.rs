@@ -6,8 +6,9 @@ use std::path::Path;
 use std::time::Duration;
 
 use emplan::physics::{EnergyTable, Vehicle};
-use emplan::plan::study::{random_points, StudySettings};
-use emplan::plan::{held_karp, solver, tsplib, CostMatrix, Geometry};
+use emplan::plan::energy::energy_matrix;
+use emplan::plan::study::{mission_geometry, StudySettings};
+use emplan::plan::{held_karp, solver, tsplib, CostMatrix};
 
 fn energy_mission(waypoints: usize, seed: u64) -> CostMatrix {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/s1000");
@@ -20,16 +21,11 @@ fn energy_mission(waypoints: usize, seed: u64) -> CostMatrix {
         missions: 1,
         seed,
     };
-    let points = std::iter::once(Default::default())
-        .chain(random_points(&settings, 0))
-        .collect();
-    let g = Geometry::from_points(points);
-    CostMatrix::from_fn(g.len(), |i, j| {
-        table
-            .lookup(g.horizontal_m(i, j), g.vertical_m(i, j))
-            .unwrap()
-            .total_energy_j()
+    let g = mission_geometry(&settings, 0);
+    energy_matrix(&g, &[], |x, z| {
+        table.lookup(x, z).map(|leg| leg.total_energy_j())
     })
+    .expect("every leg inside the table")
 }
 
 fn options(solver: solver::Solver) -> solver::Options {
@@ -108,21 +104,8 @@ fn rbg323_is_solved_within_one_percent_with_a_lower_bound() {
 #[test]
 fn plan_orders_a_forty_waypoint_mission_beyond_held_karp_and_proves_it() {
     let dir = tempfile::tempdir().unwrap();
-    let mission = dir.path().join("m40.toml");
-    let m = mission.to_str().unwrap();
-    let (ok, _, stderr) = crate::emplan(&[
-        "generate",
-        m,
-        "--waypoints",
-        "40",
-        "--xy",
-        "40",
-        "--z",
-        "20",
-        "--seed",
-        "3",
-    ]);
-    assert!(ok, "generate failed: {stderr}");
+    let m = crate::generated_mission(dir.path(), 40, 40, 20, 3);
+    let m = m.as_str();
     let plan = crate::json(&["plan", m, "--json"]);
     let energy = &plan["orders"][0];
     assert_eq!(energy["objective"], "energy");
