@@ -7,6 +7,7 @@
 
 pub mod connection;
 pub mod driver;
+pub mod flight;
 pub mod items;
 pub mod transfer;
 

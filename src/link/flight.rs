@@ -1,0 +1,524 @@
+//! Starting an uploaded mission the way each autopilot wants it, as a sans-IO machine
+//! (`start(now)`, `handle(now, message)`, `tick(now)` return the messages to send):
+//! - PX4: arm (MAV_CMD_COMPONENT_ARM_DISARM), then MAV_CMD_MISSION_START; PX4 switches to
+//!   AUTO.MISSION, takes off and flies (../shared/sitl/px4/README.md, "Flying a mission").
+//! - ArduPilot: mode GUIDED (MAV_CMD_DO_SET_MODE, custom mode 4), arm, mode AUTO (custom mode
+//!   3), MAV_CMD_MISSION_START (../shared/sitl/ardupilot/README.md; ArduCopter refuses to arm in
+//!   AUTO: `Copter::ModeAuto::allows_arming` is false without AUTO_OPTIONS).
+//!
+//! Every command is resent until its COMMAND_ACK. An autopilot that is not ready yet (pre-arm
+//! checks still failing at boot: TEMPORARILY_REJECTED, DENIED or FAILED) is asked again every
+//! retry period until the time budget runs out; the STATUSTEXTs it sent meanwhile ("PreArm: ...")
+//! go into the error. A step is done when it is acknowledged AND, for arming and mode changes,
+//! the autopilot's HEARTBEAT shows it (an ack alone is not proof: a later disarm or failsafe can
+//! undo it).
+
+use std::time::Duration;
+
+use super::connection::Autopilot;
+use super::mav::{
+    MavCmd, MavMessage, MavModeFlag, MavResult, COMMAND_ACK_DATA, COMMAND_LONG_DATA, HEARTBEAT_DATA,
+};
+use super::Flavour;
+
+/// ArduCopter's flight modes we use (`custom_mode` numbers, ArduCopter/mode.h `Mode::Number`).
+pub mod ardupilot_mode {
+    pub const AUTO: u32 = 3;
+    pub const GUIDED: u32 = 4;
+    pub const LAND: u32 = 9;
+}
+
+/// One step of starting a mission.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Step {
+    /// ArduPilot: switch to GUIDED so that arming is allowed.
+    Guided,
+    Arm,
+    /// ArduPilot: switch to AUTO.
+    Auto,
+    MissionStart,
+}
+
+impl std::fmt::Display for Step {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Step::Guided => "mode GUIDED",
+            Step::Arm => "arming",
+            Step::Auto => "mode AUTO",
+            Step::MissionStart => "mission start",
+        })
+    }
+}
+
+/// Why a mission could not be started.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum StartError {
+    #[error("{step}: refused by the autopilot ({result:?}){}", statustext_suffix(.statustext))]
+    Refused {
+        step: Step,
+        result: MavResult,
+        /// The autopilot's last STATUSTEXT, often the reason ("PreArm: ...").
+        statustext: Option<String>,
+    },
+    #[error(
+        "{step}: not done within {budget_s:.0} s ({attempts} commands sent, last answer: {}){}",
+        .last.map(|r| format!("{r:?}")).unwrap_or_else(|| "none".into()),
+        statustext_suffix(.statustext)
+    )]
+    Timeout {
+        step: Step,
+        budget_s: f64,
+        attempts: u32,
+        last: Option<MavResult>,
+        statustext: Option<String>,
+    },
+}
+
+fn statustext_suffix(text: &Option<String>) -> String {
+    text.as_ref()
+        .map(|t| format!("; the autopilot said: {t:?}"))
+        .unwrap_or_default()
+}
+
+/// Timing of [`Start`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StartConfig {
+    /// Resend a command not acknowledged within this time.
+    pub retry: Duration,
+    /// Give up a step that is not done within this time (SITL pre-arm checks take seconds
+    /// after boot).
+    pub budget: Duration,
+}
+
+impl Default for StartConfig {
+    fn default() -> Self {
+        StartConfig {
+            retry: Duration::from_secs(1),
+            budget: Duration::from_secs(60),
+        }
+    }
+}
+
+/// Starts the uploaded mission on `target`.
+#[derive(Debug, Clone)]
+pub struct Start {
+    target: Autopilot,
+    cfg: StartConfig,
+    steps: Vec<Step>,
+    index: usize,
+    step_started: Duration,
+    next_send: Duration,
+    attempts: u32,
+    acked: bool,
+    last_result: Option<MavResult>,
+    statustext: Option<String>,
+    armed: bool,
+    mode: Option<u32>,
+    result: Option<Result<(), StartError>>,
+}
+
+impl Start {
+    /// The steps for `target`'s flavour (PX4 and unknown autopilots: arm, mission start).
+    pub fn new(target: Autopilot, cfg: StartConfig) -> Start {
+        let steps = match target.flavour {
+            Flavour::ArduPilot => vec![Step::Guided, Step::Arm, Step::Auto, Step::MissionStart],
+            Flavour::Px4 | Flavour::Generic => vec![Step::Arm, Step::MissionStart],
+        };
+        Start {
+            target,
+            cfg,
+            steps,
+            index: 0,
+            step_started: Duration::ZERO,
+            next_send: Duration::ZERO,
+            attempts: 0,
+            acked: false,
+            last_result: None,
+            statustext: None,
+            armed: false,
+            mode: None,
+            result: None,
+        }
+    }
+
+    /// The outcome, once finished.
+    pub fn finished(&self) -> Option<&Result<(), StartError>> {
+        self.result.as_ref()
+    }
+
+    /// The step in progress (None when finished).
+    pub fn step(&self) -> Option<Step> {
+        if self.result.is_some() {
+            None
+        } else {
+            self.steps.get(self.index).copied()
+        }
+    }
+
+    fn command(&self, step: Step) -> MavMessage {
+        let (command, param1, param2) = match step {
+            Step::Guided => (
+                MavCmd::MAV_CMD_DO_SET_MODE,
+                MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED.bits() as f32,
+                ardupilot_mode::GUIDED as f32,
+            ),
+            Step::Auto => (
+                MavCmd::MAV_CMD_DO_SET_MODE,
+                MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED.bits() as f32,
+                ardupilot_mode::AUTO as f32,
+            ),
+            Step::Arm => (MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, 1.0, 0.0),
+            // param1/param2 = 0: from the first item to the last.
+            Step::MissionStart => (MavCmd::MAV_CMD_MISSION_START, 0.0, 0.0),
+        };
+        MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+            param1,
+            param2,
+            command,
+            target_system: self.target.system_id,
+            target_component: self.target.component_id,
+            confirmation: self.attempts.min(255) as u8,
+            ..Default::default()
+        })
+    }
+
+    fn command_of(step: Step) -> MavCmd {
+        match step {
+            Step::Guided | Step::Auto => MavCmd::MAV_CMD_DO_SET_MODE,
+            Step::Arm => MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+            Step::MissionStart => MavCmd::MAV_CMD_MISSION_START,
+        }
+    }
+
+    /// Whether the heartbeat shows the step done (only steps whose effect a heartbeat shows).
+    fn visible(&self, step: Step) -> bool {
+        match step {
+            Step::Guided => self.mode == Some(ardupilot_mode::GUIDED),
+            Step::Auto => self.mode == Some(ardupilot_mode::AUTO),
+            Step::Arm => self.armed,
+            Step::MissionStart => true,
+        }
+    }
+
+    fn send(&mut self, now: Duration) -> Vec<MavMessage> {
+        let Some(step) = self.step() else {
+            return Vec::new();
+        };
+        self.attempts += 1;
+        self.next_send = now + self.cfg.retry;
+        vec![self.command(step)]
+    }
+
+    fn begin_step(&mut self, now: Duration) -> Vec<MavMessage> {
+        self.step_started = now;
+        self.attempts = 0;
+        self.acked = false;
+        self.last_result = None;
+        if self.index >= self.steps.len() {
+            self.result = Some(Ok(()));
+            return Vec::new();
+        }
+        self.send(now)
+    }
+
+    /// Sends the first command.
+    pub fn start(&mut self, now: Duration) -> Vec<MavMessage> {
+        self.begin_step(now)
+    }
+
+    /// Moves on when the current step is acknowledged and visible.
+    fn advance(&mut self, now: Duration) -> Vec<MavMessage> {
+        match self.step() {
+            Some(step) if self.acked && self.visible(step) => {
+                self.index += 1;
+                self.begin_step(now)
+            }
+            _ => Vec::new(),
+        }
+    }
+
+    fn on_heartbeat(&mut self, hb: &HEARTBEAT_DATA) {
+        self.armed = hb
+            .base_mode
+            .contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED);
+        if hb
+            .base_mode
+            .contains(MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED)
+        {
+            self.mode = Some(hb.custom_mode);
+        }
+    }
+
+    fn on_ack(&mut self, now: Duration, ack: &COMMAND_ACK_DATA) {
+        let Some(step) = self.step() else { return };
+        if ack.command != Self::command_of(step) {
+            return;
+        }
+        self.last_result = Some(ack.result);
+        match ack.result {
+            MavResult::MAV_RESULT_ACCEPTED => self.acked = true,
+            // Still working on it: wait without resending until the retry period again.
+            MavResult::MAV_RESULT_IN_PROGRESS => self.next_send = now + self.cfg.retry,
+            // Not ready yet (pre-arm checks, EKF settling after boot): asked again on the next
+            // retry, within the budget.
+            MavResult::MAV_RESULT_TEMPORARILY_REJECTED
+            | MavResult::MAV_RESULT_DENIED
+            | MavResult::MAV_RESULT_FAILED => {}
+            // Never going to work: stop now.
+            other => {
+                self.result = Some(Err(StartError::Refused {
+                    step,
+                    result: other,
+                    statustext: self.statustext.clone(),
+                }));
+            }
+        }
+    }
+
+    /// Reacts to a message from the target autopilot (the driver filters other systems).
+    pub fn handle(&mut self, now: Duration, message: &MavMessage) -> Vec<MavMessage> {
+        if self.result.is_some() {
+            return Vec::new();
+        }
+        match message {
+            MavMessage::HEARTBEAT(hb)
+                if hb.autopilot != super::mav::MavAutopilot::MAV_AUTOPILOT_INVALID =>
+            {
+                self.on_heartbeat(hb)
+            }
+            MavMessage::COMMAND_ACK(ack) => self.on_ack(now, ack),
+            MavMessage::STATUSTEXT(text) => {
+                let t = String::from_utf8_lossy(&text.text.to_vec())
+                    .trim_end_matches('\0')
+                    .to_string();
+                if !t.is_empty() {
+                    self.statustext = Some(t);
+                }
+            }
+            _ => {}
+        }
+        if self.result.is_some() {
+            return Vec::new();
+        }
+        self.advance(now)
+    }
+
+    /// Resends an unacknowledged command; gives up when the step's budget is spent.
+    pub fn tick(&mut self, now: Duration) -> Vec<MavMessage> {
+        let Some(step) = self.step() else {
+            return Vec::new();
+        };
+        if now.saturating_sub(self.step_started) >= self.cfg.budget {
+            self.result = Some(Err(StartError::Timeout {
+                step,
+                budget_s: self.cfg.budget.as_secs_f64(),
+                attempts: self.attempts,
+                last: self.last_result,
+                statustext: self.statustext.clone(),
+            }));
+            return Vec::new();
+        }
+        let advanced = self.advance(now);
+        if !advanced.is_empty() || self.result.is_some() {
+            return advanced;
+        }
+        // Acked but not yet visible in a heartbeat: wait for it; resend only when the ack
+        // did not come (or said "not now").
+        if now >= self.next_send && !self.acked {
+            return self.send(now);
+        }
+        // Acked long ago and still not visible (a heartbeat lost, or the change undone):
+        // ask again.
+        if self.acked && now >= self.next_send + 2 * self.cfg.retry {
+            self.acked = false;
+            return self.send(now);
+        }
+        Vec::new()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::link::mav::{MavAutopilot, MavState, MavType, STATUSTEXT_DATA};
+
+    fn ms(t: u64) -> Duration {
+        Duration::from_millis(t)
+    }
+
+    fn target(flavour: Flavour) -> Autopilot {
+        Autopilot {
+            system_id: 1,
+            component_id: 1,
+            flavour,
+        }
+    }
+
+    fn commands(out: &[MavMessage]) -> Vec<(MavCmd, f32, f32)> {
+        out.iter()
+            .filter_map(|m| match m {
+                MavMessage::COMMAND_LONG(c) => Some((c.command, c.param1, c.param2)),
+                _ => None,
+            })
+            .collect()
+    }
+
+    fn ack(command: MavCmd, result: MavResult) -> MavMessage {
+        MavMessage::COMMAND_ACK(COMMAND_ACK_DATA {
+            command,
+            result,
+            ..Default::default()
+        })
+    }
+
+    fn heartbeat(armed: bool, custom_mode: u32) -> MavMessage {
+        let mut base_mode = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
+        if armed {
+            base_mode |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
+        }
+        MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+            custom_mode,
+            mavtype: MavType::MAV_TYPE_OCTOROTOR,
+            autopilot: MavAutopilot::MAV_AUTOPILOT_PX4,
+            base_mode,
+            system_status: MavState::MAV_STATE_STANDBY,
+            mavlink_version: 3,
+        })
+    }
+
+    const ARM: MavCmd = MavCmd::MAV_CMD_COMPONENT_ARM_DISARM;
+    const START: MavCmd = MavCmd::MAV_CMD_MISSION_START;
+    const MODE: MavCmd = MavCmd::MAV_CMD_DO_SET_MODE;
+    const OK: MavResult = MavResult::MAV_RESULT_ACCEPTED;
+
+    #[test]
+    fn px4_is_armed_then_sent_mission_start_and_each_step_waits_for_its_ack_and_heartbeat() {
+        let mut s = Start::new(target(Flavour::Px4), StartConfig::default());
+        assert_eq!(commands(&s.start(ms(0))), vec![(ARM, 1.0, 0.0)]);
+        // Acked but the heartbeat does not show it armed yet: nothing more.
+        assert!(s.handle(ms(10), &ack(ARM, OK)).is_empty());
+        assert_eq!(s.step(), Some(Step::Arm));
+        assert_eq!(
+            commands(&s.handle(ms(20), &heartbeat(true, 0))),
+            vec![(START, 0.0, 0.0)]
+        );
+        assert!(s.handle(ms(30), &ack(START, OK)).is_empty());
+        assert_eq!(s.finished(), Some(&Ok(())));
+    }
+
+    #[test]
+    fn ardupilot_is_put_in_guided_armed_put_in_auto_then_started() {
+        let mut s = Start::new(target(Flavour::ArduPilot), StartConfig::default());
+        let guided = ardupilot_mode::GUIDED as f32;
+        let auto = ardupilot_mode::AUTO as f32;
+        assert_eq!(commands(&s.start(ms(0))), vec![(MODE, 1.0, guided)]);
+        s.handle(ms(5), &ack(MODE, OK));
+        assert_eq!(
+            commands(&s.handle(ms(6), &heartbeat(false, ardupilot_mode::GUIDED))),
+            vec![(ARM, 1.0, 0.0)]
+        );
+        s.handle(ms(7), &ack(ARM, OK));
+        assert_eq!(
+            commands(&s.handle(ms(8), &heartbeat(true, ardupilot_mode::GUIDED))),
+            vec![(MODE, 1.0, auto)]
+        );
+        s.handle(ms(9), &ack(MODE, OK));
+        assert_eq!(
+            commands(&s.handle(ms(10), &heartbeat(true, ardupilot_mode::AUTO))),
+            vec![(START, 0.0, 0.0)]
+        );
+        s.handle(ms(11), &ack(START, OK));
+        assert_eq!(s.finished(), Some(&Ok(())));
+    }
+
+    #[test]
+    fn an_unanswered_command_is_resent_every_retry_period() {
+        let mut s = Start::new(target(Flavour::Px4), StartConfig::default());
+        s.start(ms(0));
+        assert!(s.tick(ms(900)).is_empty());
+        assert_eq!(commands(&s.tick(ms(1000))), vec![(ARM, 1.0, 0.0)]);
+        assert_eq!(commands(&s.tick(ms(2000))), vec![(ARM, 1.0, 0.0)]);
+    }
+
+    #[test]
+    fn arming_refused_while_prearm_checks_fail_is_retried_until_they_pass() {
+        let mut s = Start::new(target(Flavour::Px4), StartConfig::default());
+        s.start(ms(0));
+        let text = MavMessage::STATUSTEXT(STATUSTEXT_DATA {
+            text: "PreArm: EKF not ready".into(),
+            ..Default::default()
+        });
+        s.handle(ms(5), &text);
+        s.handle(
+            ms(10),
+            &ack(ARM, MavResult::MAV_RESULT_TEMPORARILY_REJECTED),
+        );
+        assert!(s.finished().is_none());
+        assert_eq!(commands(&s.tick(ms(1000))), vec![(ARM, 1.0, 0.0)]);
+        s.handle(ms(1010), &ack(ARM, OK));
+        assert_eq!(
+            commands(&s.handle(ms(1020), &heartbeat(true, 0))),
+            vec![(START, 0.0, 0.0)]
+        );
+    }
+
+    #[test]
+    fn a_step_not_done_within_the_budget_fails_naming_the_step_and_the_autopilots_reason() {
+        let cfg = StartConfig {
+            retry: Duration::from_secs(1),
+            budget: Duration::from_secs(3),
+        };
+        let mut s = Start::new(target(Flavour::Px4), cfg);
+        s.start(ms(0));
+        let text = MavMessage::STATUSTEXT(STATUSTEXT_DATA {
+            text: "PreArm: GPS not healthy".into(),
+            ..Default::default()
+        });
+        s.handle(ms(5), &text);
+        s.handle(ms(10), &ack(ARM, MavResult::MAV_RESULT_DENIED));
+        for t in 1..=3 {
+            s.tick(ms(1000 * t));
+        }
+        let err = s.finished().cloned().unwrap().unwrap_err();
+        assert!(matches!(
+            err,
+            StartError::Timeout {
+                step: Step::Arm,
+                attempts: 3,
+                ..
+            }
+        ));
+        let text = err.to_string();
+        assert!(
+            text.contains("arming") && text.contains("PreArm: GPS not healthy"),
+            "{text}"
+        );
+    }
+
+    #[test]
+    fn an_unsupported_command_fails_at_once() {
+        let mut s = Start::new(target(Flavour::Px4), StartConfig::default());
+        s.start(ms(0));
+        s.handle(ms(5), &ack(ARM, OK));
+        s.handle(ms(6), &heartbeat(true, 0));
+        s.handle(ms(7), &ack(START, MavResult::MAV_RESULT_UNSUPPORTED));
+        assert!(matches!(
+            s.finished(),
+            Some(Err(StartError::Refused {
+                step: Step::MissionStart,
+                result: MavResult::MAV_RESULT_UNSUPPORTED,
+                ..
+            }))
+        ));
+    }
+
+    #[test]
+    fn an_ack_for_another_command_is_not_taken_for_this_step() {
+        let mut s = Start::new(target(Flavour::Px4), StartConfig::default());
+        s.start(ms(0));
+        s.handle(ms(5), &ack(MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL, OK));
+        assert!(s.handle(ms(6), &heartbeat(true, 0)).is_empty());
+        assert_eq!(s.step(), Some(Step::Arm));
+    }
+}
