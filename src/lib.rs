@@ -9,4 +9,5 @@ pub mod link;
 pub mod mission;
 pub mod physics;
 pub mod plan;
+pub mod rng;
 pub mod sim;

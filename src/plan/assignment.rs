@@ -154,7 +154,7 @@ pub fn solve(m: &CostMatrix) -> Result<Assignment, PlanError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plan::rng::Rng;
+    use crate::rng::Rng;
 
     /// Every assignment by brute force over permutations without fixed points.
     fn brute(m: &CostMatrix) -> f64 {

@@ -1028,7 +1028,7 @@ impl Lagrangian {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plan::rng::Rng;
+    use crate::rng::Rng;
     use crate::plan::testing::{drone, tsplib_instance};
     use crate::plan::{branch_cut, held_karp};
 

@@ -923,7 +923,7 @@ impl MaxFlow {
 mod tests {
     use super::*;
     use crate::plan::held_karp;
-    use crate::plan::rng::Rng;
+    use crate::rng::Rng;
 
     fn identity_order(n: usize) -> Vec<usize> {
         (1..n).collect()

@@ -34,7 +34,7 @@
 use std::collections::VecDeque;
 use std::time::Instant;
 
-use super::rng::Rng;
+use crate::rng::Rng;
 use super::CostMatrix;
 
 /// Settings of [`solve`].

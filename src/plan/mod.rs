@@ -13,7 +13,6 @@ pub mod geometry;
 pub mod held_karp;
 pub mod heuristic;
 pub mod orders;
-pub mod rng;
 pub mod solver;
 pub mod sorties;
 pub mod study;

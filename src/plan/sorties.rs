@@ -24,7 +24,7 @@
 use serde::Serialize;
 
 use super::held_karp;
-use super::rng::Rng;
+use crate::rng::Rng;
 use super::CostMatrix;
 
 /// Default largest number of waypoints split exactly. Measured on random 3-5 sortie instances

@@ -18,7 +18,7 @@ use serde::Serialize;
 use super::energy::energy_matrix;
 use super::held_karp;
 use super::orders::{solve_order, Objective};
-use super::rng::Rng;
+use crate::rng::Rng;
 use super::{Geometry, PlanError};
 use crate::mission::Enu;
 

@@ -1,7 +1,7 @@
 //! Test fixtures shared by the solver tests: climb-averse random missions and the TSPLIB
 //! instances beside the project.
 
-use super::rng::Rng;
+use crate::rng::Rng;
 use super::{tsplib, CostMatrix};
 
 /// The origin at (0, 0, 0) and `n - 1` random points uniform in [-50, 50]^2 x [-25, 25] m; leg
