@@ -57,13 +57,7 @@ impl Assignment {
 /// Solves the assignment problem of `m` with the diagonal forbidden. Needs at least two nodes.
 pub fn solve(m: &CostMatrix) -> Result<Assignment, PlanError> {
     let n = m.len();
-    for i in 0..n {
-        for j in 0..n {
-            if i != j && !m.cost(i, j).is_finite() {
-                return Err(PlanError::NonFiniteCost { from: i, to: j });
-            }
-        }
-    }
+    m.check_finite()?;
     if n < 2 {
         return Ok(Assignment {
             successor: vec![0; n],

@@ -24,8 +24,8 @@
 use serde::Serialize;
 
 use super::held_karp;
+use super::{is_tour_order, CostMatrix};
 use crate::rng::Rng;
-use super::CostMatrix;
 
 /// Default largest number of waypoints split exactly. Measured on random 3-5 sortie instances
 /// (release, one core of a shared 2-core machine): 12 waypoints take 2-10 ms, 14 take 16-21 ms,
@@ -379,18 +379,8 @@ pub fn heuristic(
     let p = check(problem)?;
     let m = p.m.len().saturating_sub(1);
     let giant = match &options.giant_tour {
-        Some(tour) => {
-            let mut seen = vec![false; m + 1];
-            for &k in tour {
-                if k == 0 || k > m || std::mem::replace(&mut seen[k], true) {
-                    return Err(SortieError::NotATour { n: m });
-                }
-            }
-            if tour.len() != m {
-                return Err(SortieError::NotATour { n: m });
-            }
-            tour.clone()
-        }
+        Some(tour) if is_tour_order(m + 1, tour) => tour.clone(),
+        Some(_) => return Err(SortieError::NotATour { n: m }),
         None => giant_tour(&p),
     };
     let mut best = improve(&p, prins_split(&p, &giant));

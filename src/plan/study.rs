@@ -18,9 +18,9 @@ use serde::Serialize;
 use super::energy::energy_matrix;
 use super::held_karp;
 use super::orders::{solve_order, Objective};
-use crate::rng::Rng;
 use super::{Geometry, PlanError};
 use crate::mission::Enu;
+use crate::rng::Rng;
 
 /// Most missions one study runs (each keeps a small record for the statistics).
 pub const MAX_MISSIONS: usize = 10_000_000;

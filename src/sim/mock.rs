@@ -14,11 +14,11 @@ use tokio::sync::watch;
 use tokio::time::Instant;
 
 use super::server::{Flavour, MissionServer, ProtocolFaults, ServerStats};
-use crate::rng::Rng;
 use crate::link::mav::{
     MavAutopilot, MavMessage, MavMissionResult, MavModeFlag, MavState, MavType, HEARTBEAT_DATA,
     MISSION_ITEM_INT_DATA,
 };
+use crate::rng::Rng;
 
 /// Transport and protocol faults to inject.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
