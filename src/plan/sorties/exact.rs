@@ -1,7 +1,7 @@
 //! The exact sortie split (up to [`super::EXACT_MAX_WAYPOINTS`] waypoints by default): one
 //! Held-Karp DP (Held & Karp 1962) over every subset gives every subset's optimal closed tour,
-//! then a set-partition DP over subsets, f(mask) = min over feasible S containing mask's lowest waypoint of
-//! tour(S) + f(mask \ S), picks the cheapest partition in O(3^N).
+//! then a set-partition DP over subsets, f(mask) = min over feasible S containing mask's lowest
+//! waypoint of tour(S) + f(mask \ S), picks the cheapest partition in O(3^N).
 
 use super::{check, Method, SortieError, SortiePlan, SortieProblem, EXACT_LIMIT};
 
