@@ -21,10 +21,8 @@ pub(crate) mod subtour;
 pub(crate) mod testing;
 pub mod tsplib;
 
-pub use geometry::Geometry;
-pub use orders::{
-    cheapest, order_waypoints, plan_orders, Direction, LegReport, Objective, OrderReport, Proof,
-};
+pub use geometry::{Geometry, TourLength};
+pub use orders::{order_waypoints, plan_orders, Direction, Objective, Proof, SolvedOrder};
 
 /// A square matrix of leg costs between `n` nodes, row-major: `cost(i, j)` is the cost of flying
 /// from node `i` to node `j`. Node 0 is the origin (depot); the diagonal is never used.
