@@ -14,6 +14,15 @@ pub mod table;
 pub mod tsp;
 pub mod upload;
 
+/// The tokio runtime of every command that talks to an autopilot: two worker threads (the
+/// link's receive and heartbeat tasks and the command itself), timers and sockets enabled.
+pub fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
+    Ok(tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()?)
+}
+
 /// Options of every command that prices legs with a vehicle model.
 #[derive(Debug, Clone, clap::Args)]
 pub struct VehicleArgs {
