@@ -17,6 +17,7 @@
 
 pub mod explain;
 pub mod json;
+pub mod study;
 
 use serde::Serialize;
 
