@@ -5,9 +5,9 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::{anyhow, Context};
+use anyhow::Context;
 use emplan::mission::{Format, Geodetic};
-use emplan::plan::study::{random_mission, Site, StudyError, StudySettings};
+use emplan::plan::study::{random_mission, Site, StudySettings};
 
 /// Arguments of `emplan generate` (its help text is on the subcommand in main.rs).
 #[derive(Debug, clap::Args)]
@@ -47,20 +47,6 @@ pub struct Args {
     name: Option<String>,
 }
 
-/// The command-line option behind a generator setting, for error messages.
-fn option_of(setting: &str) -> &'static str {
-    match setting {
-        "waypoints" => "--waypoints",
-        "xy_m" => "--xy",
-        "z_m" => "--z",
-        "lat_deg" => "--origin-lat",
-        "lon_deg" => "--origin-lon",
-        "home_alt_amsl_m" => "--home-alt-amsl",
-        "hover_s" => "--hover-s",
-        _ => "a setting",
-    }
-}
-
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let settings = StudySettings {
         waypoints: args.waypoints,
@@ -78,14 +64,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         hover_s: args.hover_s,
         name: args.name.clone(),
     };
-    let mission = random_mission(&settings, args.mission, &site).map_err(|e| match e {
-        StudyError::Setting {
-            setting,
-            value,
-            problem,
-        } => anyhow!("{} {value}: {problem}", option_of(setting)),
-        other => other.into(),
-    })?;
+    let mission = random_mission(&settings, args.mission, &site).map_err(super::setting_error)?;
     let format = Format::from_path(&args.out)?;
     // Read it back before writing, so a file we write always loads.
     let text = emplan::mission::to_string(&mission, format)?;

@@ -7,7 +7,7 @@ use std::process::ExitCode;
 
 use anyhow::{anyhow, bail};
 use emplan::physics::{Profile, VehicleModel};
-use emplan::plan::study::{StudyError, StudySettings};
+use emplan::plan::study::StudySettings;
 use emplan::planner::study::{self, check_envelope, study_document, StudyJson, StudyRunError};
 
 /// Arguments of `emplan study` (its help text is on the subcommand in main.rs).
@@ -58,17 +58,6 @@ pub struct Args {
     /// (8,30,15) (10,30,25) with the given --missions and --seed
     #[arg(long)]
     all_paper_settings: bool,
-}
-
-/// The command-line option behind a study setting, for error messages.
-fn option_of(setting: &str) -> &'static str {
-    match setting {
-        "waypoints" => "--waypoints",
-        "xy_m" => "--xy",
-        "z_m" => "--z",
-        "missions" => "--missions",
-        _ => "a setting",
-    }
 }
 
 /// A refusal in the words of the command line.
@@ -125,14 +114,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }]
     };
     for s in &settings {
-        s.validate().map_err(|e| match e {
-            StudyError::Setting {
-                setting,
-                value,
-                problem,
-            } => anyhow!("{} {value}: {problem}", option_of(setting)),
-            other => other.into(),
-        })?;
+        s.validate().map_err(super::setting_error)?;
     }
     let model = VehicleModel::load(&args.model.vehicle, args.model.profile)?;
     for s in &settings {

@@ -23,7 +23,11 @@ const TIMING_KEYS: [&str; 5] = [
 
 const TSPLIB: &str = "../shared/tsplib-atsp";
 const LONG: &str = "missions/long-inspection.toml";
+const SAMPLE_3: &str = "missions/paper-sample-3wp.toml";
 const SAMPLE_8: &str = "missions/paper-sample-8wp.toml";
+const DAVIS: &str = "missions/davis-orchard-survey.toml";
+const DAVIS_PLAN: &str = "missions/davis-orchard-survey.plan";
+const DAVIS_WPL: &str = "missions/davis-orchard-survey.waypoints";
 
 fn snapshot_path(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -166,64 +170,68 @@ fn fnv1a(bytes: &[u8]) -> u64 {
     })
 }
 
-#[test]
-fn plan_json_of_every_shipped_mission_matches_its_snapshot() {
-    for (name, file) in [
-        ("plan-json-davis-toml", "missions/davis-orchard-survey.toml"),
-        ("plan-json-davis-plan", "missions/davis-orchard-survey.plan"),
-        (
-            "plan-json-davis-waypoints",
-            "missions/davis-orchard-survey.waypoints",
-        ),
-        ("plan-json-sample-3", "missions/paper-sample-3wp.toml"),
-        ("plan-json-sample-8", SAMPLE_8),
-        ("plan-json-long", LONG),
-    ] {
-        check(name, &["plan", file, "--json"]);
+/// Checks every `(snapshot, command line)`; command lines are split at spaces.
+fn check_all(cases: &[(&str, &str)]) {
+    for (name, command) in cases {
+        let args: Vec<&str> = command.split(' ').collect();
+        check(name, &args);
     }
 }
 
 #[test]
+fn plan_json_of_every_shipped_mission_matches_its_snapshot() {
+    check_all(&[
+        ("plan-json-davis-toml", &format!("plan {DAVIS} --json")),
+        ("plan-json-davis-plan", &format!("plan {DAVIS_PLAN} --json")),
+        (
+            "plan-json-davis-waypoints",
+            &format!("plan {DAVIS_WPL} --json"),
+        ),
+        ("plan-json-sample-3", &format!("plan {SAMPLE_3} --json")),
+        ("plan-json-sample-8", &format!("plan {SAMPLE_8} --json")),
+        ("plan-json-long", &format!("plan {LONG} --json")),
+    ]);
+}
+
+#[test]
 fn plan_json_with_sorties_and_other_profiles_matches_its_snapshot() {
-    check(
-        "plan-json-sorties-long",
-        &["plan", LONG, "--json", "--sorties"],
-    );
-    check(
-        "plan-json-sorties-sample-8",
-        &["plan", SAMPLE_8, "--json", "--sorties"],
-    );
-    check(
-        "plan-json-ptf-sample-8",
-        &["plan", SAMPLE_8, "--json", "--profile", "ptf"],
-    );
-    check(
-        "plan-json-hvb-sample-8",
-        &["plan", SAMPLE_8, "--json", "--profile", "hvb"],
-    );
-    check(
-        "plan-json-heuristic-sample-8",
-        &["plan", SAMPLE_8, "--json", "--solver", "heuristic"],
-    );
+    check_all(&[
+        (
+            "plan-json-sorties-long",
+            &format!("plan {LONG} --json --sorties"),
+        ),
+        (
+            "plan-json-sorties-sample-8",
+            &format!("plan {SAMPLE_8} --json --sorties"),
+        ),
+        (
+            "plan-json-ptf-sample-8",
+            &format!("plan {SAMPLE_8} --json --profile ptf"),
+        ),
+        (
+            "plan-json-hvb-sample-8",
+            &format!("plan {SAMPLE_8} --json --profile hvb"),
+        ),
+        (
+            "plan-json-heuristic-sample-8",
+            &format!("plan {SAMPLE_8} --json --solver heuristic"),
+        ),
+    ]);
 }
 
 #[test]
 fn plan_text_matches_its_snapshot() {
-    check(
-        "plan-text-sample-3",
-        &["plan", "missions/paper-sample-3wp.toml"],
-    );
-    check("plan-text-sample-8", &["plan", SAMPLE_8]);
-    check(
-        "plan-text-davis",
-        &["plan", "missions/davis-orchard-survey.toml"],
-    );
-    check("plan-text-long", &["plan", LONG]);
-    check("plan-text-sorties-long", &["plan", LONG, "--sorties"]);
-    check(
-        "plan-text-branch-cut-sample-8",
-        &["plan", SAMPLE_8, "--solver", "branch-cut"],
-    );
+    check_all(&[
+        ("plan-text-sample-3", &format!("plan {SAMPLE_3}")),
+        ("plan-text-sample-8", &format!("plan {SAMPLE_8}")),
+        ("plan-text-davis", &format!("plan {DAVIS}")),
+        ("plan-text-long", &format!("plan {LONG}")),
+        ("plan-text-sorties-long", &format!("plan {LONG} --sorties")),
+        (
+            "plan-text-branch-cut-sample-8",
+            &format!("plan {SAMPLE_8} --solver branch-cut"),
+        ),
+    ]);
 }
 
 #[test]
@@ -236,46 +244,16 @@ fn files_written_by_plan_study_and_generate_match_their_snapshots() {
         at("hist.svg"),
         at("gen.toml"),
     );
-    let (ok, _, stderr) = emplan(&[
-        "plan",
-        SAMPLE_8,
-        "--plot",
-        &svg,
-        "--export-atsp",
-        &atsp,
-        "--json",
-    ]);
-    assert!(ok, "{stderr}");
-    let (ok, _, stderr) = emplan(&[
-        "study",
-        "--waypoints",
-        "8",
-        "--xy",
-        "30",
-        "--z",
-        "25",
-        "--missions",
-        "100",
-        "--histogram",
-        &hist,
-        "--json",
-    ]);
-    assert!(ok, "{stderr}");
-    let (ok, _, stderr) = emplan(&[
-        "generate",
-        &generated,
-        "--waypoints",
-        "6",
-        "--xy",
-        "30",
-        "--z",
-        "20",
-        "--seed",
-        "3",
-        "--mission",
-        "2",
-    ]);
-    assert!(ok, "{stderr}");
+    // Temporary paths hold no spaces.
+    for command in [
+        format!("plan {SAMPLE_8} --plot {svg} --export-atsp {atsp} --json"),
+        format!("study --waypoints 8 --xy 30 --z 25 --missions 100 --histogram {hist} --json"),
+        format!("generate {generated} --waypoints 6 --xy 30 --z 20 --seed 3 --mission 2"),
+    ] {
+        let args: Vec<&str> = command.split(' ').collect();
+        let (ok, _, stderr) = emplan(&args);
+        assert!(ok, "{command}: {stderr}");
+    }
     let read = |p: &str| std::fs::read(p).unwrap();
     let fingerprint = |p: &str| {
         let bytes = read(p);
@@ -292,160 +270,94 @@ fn files_written_by_plan_study_and_generate_match_their_snapshots() {
 
 #[test]
 fn energy_json_and_text_of_a_few_legs_match_their_snapshots() {
-    for (name, xf, zf, profile) in [
-        ("energy-json-40-25", "40", "25", None),
-        ("energy-json-30-minus-20", "30", "-20", None),
-        ("energy-json-0-30", "0", "30", None),
-        ("energy-json-56.6-0-ptf", "56.6", "0", Some("ptf")),
-        ("energy-json-40-minus-25-hvb", "40", "-25", Some("hvb")),
-    ] {
-        let mut args = vec!["energy", "--xf", xf, "--zf", zf, "--json"];
-        if let Some(p) = profile {
-            args.extend(["--profile", p]);
-        }
-        check(name, &args);
-    }
-    check("energy-text-40-25", &["energy", "--xf", "40", "--zf", "25"]);
+    check_all(&[
+        ("energy-json-40-25", "energy --xf 40 --zf 25 --json"),
+        ("energy-json-30-minus-20", "energy --xf 30 --zf -20 --json"),
+        ("energy-json-0-30", "energy --xf 0 --zf 30 --json"),
+        (
+            "energy-json-56.6-0-ptf",
+            "energy --xf 56.6 --zf 0 --json --profile ptf",
+        ),
+        (
+            "energy-json-40-minus-25-hvb",
+            "energy --xf 40 --zf -25 --json --profile hvb",
+        ),
+        ("energy-text-40-25", "energy --xf 40 --zf 25"),
+    ]);
 }
 
 #[test]
 fn study_json_and_text_match_their_snapshots() {
-    let one = [
-        "study",
-        "--waypoints",
-        "8",
-        "--xy",
-        "30",
-        "--z",
-        "25",
-        "--missions",
-        "200",
-        "--seed",
-        "1",
-    ];
-    check("study-json-8-30-25", &[&one[..], &["--json"]].concat());
-    check(
-        "study-json-6-30-25-ptf",
-        &[
-            "study",
-            "--waypoints",
-            "6",
-            "--xy",
-            "30",
-            "--z",
-            "25",
-            "--missions",
-            "200",
-            "--seed",
-            "7",
-            "--profile",
-            "ptf",
-            "--json",
-        ],
-    );
-    check(
-        "study-json-all-paper-settings",
-        &[
-            "study",
-            "--all-paper-settings",
-            "--missions",
-            "40",
-            "--seed",
-            "2",
-            "--json",
-        ],
-    );
-    check("study-text-8-30-25", &one);
-    check(
-        "study-text-all-paper-settings",
-        &[
-            "study",
-            "--all-paper-settings",
-            "--missions",
-            "40",
-            "--seed",
-            "2",
-        ],
-    );
-    check(
-        "study-error-xy-too-wide",
-        &[
-            "study",
-            "--waypoints",
-            "8",
-            "--xy",
-            "60",
-            "--z",
-            "25",
-            "--json",
-        ],
-    );
+    let one = "study --waypoints 8 --xy 30 --z 25 --missions 200 --seed 1";
+    let ptf = "study --waypoints 6 --xy 30 --z 25 --missions 200 --seed 7 --profile ptf";
+    let all = "study --all-paper-settings --missions 40 --seed 2";
+    check_all(&[
+        ("study-json-8-30-25", &format!("{one} --json")),
+        ("study-json-6-30-25-ptf", &format!("{ptf} --json")),
+        ("study-json-all-paper-settings", &format!("{all} --json")),
+        ("study-text-8-30-25", one),
+        ("study-text-all-paper-settings", all),
+        (
+            "study-error-xy-too-wide",
+            "study --waypoints 8 --xy 60 --z 25 --json",
+        ),
+    ]);
 }
 
 #[test]
 fn tsp_json_and_text_of_br17_and_ftv33_match_their_snapshots() {
-    let br17 = format!("{TSPLIB}/br17.atsp");
-    let ftv33 = format!("{TSPLIB}/ftv33.atsp");
-    check("tsp-json-br17", &["tsp", &br17, "--json"]);
-    check("tsp-json-ftv33", &["tsp", &ftv33, "--json"]);
-    check("tsp-text-br17", &["tsp", &br17]);
+    check_all(&[
+        ("tsp-json-br17", &format!("tsp {TSPLIB}/br17.atsp --json")),
+        ("tsp-json-ftv33", &format!("tsp {TSPLIB}/ftv33.atsp --json")),
+        ("tsp-text-br17", &format!("tsp {TSPLIB}/br17.atsp")),
+    ]);
 }
 
 #[test]
 fn calibrate_json_and_text_match_their_snapshots() {
-    check("calibrate-json", &["calibrate", "--json"]);
-    check("calibrate-text", &["calibrate"]);
+    check_all(&[
+        ("calibrate-json", "calibrate --json"),
+        ("calibrate-text", "calibrate"),
+    ]);
 }
 
 #[test]
 fn upload_json_to_the_built_in_mock_matches_its_snapshot_for_every_order_and_a_sortie() {
-    for order in ["energy", "distance", "listed"] {
-        check(
-            &format!("upload-json-sample-8-{order}"),
-            &["upload", SAMPLE_8, "--order", order, "--json"],
-        );
-    }
-    check(
-        "upload-json-sample-3-listed",
-        &[
-            "upload",
-            "missions/paper-sample-3wp.toml",
-            "--order",
-            "listed",
-            "--json",
-        ],
-    );
-    check(
-        "upload-json-long-sortie-1",
-        &["upload", LONG, "--sortie", "1", "--json"],
-    );
-    check(
-        "upload-json-long-sortie-2",
-        &["upload", LONG, "--sortie", "2", "--json"],
-    );
-    check(
-        "upload-json-long-listed-allow-infeasible",
-        &[
-            "upload",
-            LONG,
-            "--order",
-            "listed",
-            "--allow-infeasible",
-            "--json",
-        ],
-    );
-    check(
-        "upload-json-davis-distance-ptf",
-        &[
-            "upload",
-            "missions/davis-orchard-survey.plan",
-            "--order",
-            "distance",
-            "--profile",
-            "ptf",
-            "--json",
-        ],
-    );
+    let listed = "--order listed --allow-infeasible";
+    check_all(&[
+        (
+            "upload-json-sample-8-energy",
+            &format!("upload {SAMPLE_8} --order energy --json"),
+        ),
+        (
+            "upload-json-sample-8-distance",
+            &format!("upload {SAMPLE_8} --order distance --json"),
+        ),
+        (
+            "upload-json-sample-8-listed",
+            &format!("upload {SAMPLE_8} --order listed --json"),
+        ),
+        (
+            "upload-json-sample-3-listed",
+            &format!("upload {SAMPLE_3} --order listed --json"),
+        ),
+        (
+            "upload-json-long-sortie-1",
+            &format!("upload {LONG} --sortie 1 --json"),
+        ),
+        (
+            "upload-json-long-sortie-2",
+            &format!("upload {LONG} --sortie 2 --json"),
+        ),
+        (
+            "upload-json-long-listed-allow-infeasible",
+            &format!("upload {LONG} {listed} --json"),
+        ),
+        (
+            "upload-json-davis-distance-ptf",
+            &format!("upload {DAVIS_PLAN} --order distance --profile ptf --json"),
+        ),
+    ]);
 }
 
 #[test]
@@ -455,19 +367,24 @@ fn upload_text_and_refusals_match_their_snapshots() {
         "upload-text-sample-8",
         &format!("success: {ok}\n--- stdout\n{}", redact_text(&stdout)),
     );
-    check("upload-error-long-over-budget", &["upload", LONG, "--json"]);
-    check(
-        "upload-error-long-distance-over-budget",
-        &["upload", LONG, "--order", "distance"],
-    );
-    check(
-        "upload-error-long-sortie-beyond",
-        &["upload", LONG, "--sortie", "3", "--json"],
-    );
-    check(
-        "upload-error-long-sortie-zero",
-        &["upload", LONG, "--sortie", "0"],
-    );
+    check_all(&[
+        (
+            "upload-error-long-over-budget",
+            &format!("upload {LONG} --json"),
+        ),
+        (
+            "upload-error-long-distance-over-budget",
+            &format!("upload {LONG} --order distance"),
+        ),
+        (
+            "upload-error-long-sortie-beyond",
+            &format!("upload {LONG} --sortie 3 --json"),
+        ),
+        (
+            "upload-error-long-sortie-zero",
+            &format!("upload {LONG} --sortie 0"),
+        ),
+    ]);
 }
 
 #[test]
