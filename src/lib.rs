@@ -2,11 +2,14 @@
 //! energy, uploads them over MAVLink with a verified read-back, and measures per-leg energy.
 //!
 //! Layers (dependencies point down only; see ARCHITECTURE.md):
-//! `mission` (files, geodesy) -> `physics` (energy model and table) -> `plan` (cost matrices,
-//! ATSP solvers, baselines) -> `link` (MAVLink) and `sim` (mock autopilot).
+//! `mission` (files, geodesy) -> `physics` (energy model and table) and `plan` (cost matrices,
+//! ATSP solvers, baselines, sorties; never imports `physics`) -> `planner` (a mission and a
+//! vehicle in, a priced and checked `Plan` out) ; `link` (MAVLink) and `sim` (mock autopilot).
 
 pub mod link;
 pub mod mission;
 pub mod physics;
 pub mod plan;
+pub mod planner;
+pub mod rng;
 pub mod sim;

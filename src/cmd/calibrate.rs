@@ -4,11 +4,8 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use emplan::physics::calibration::{
-    compare, fit, marginal_costs, min_power_speed_m_s, rms_pct, Row, PAPER_MARGINAL_J_M,
-};
-use emplan::physics::{hover_power_w, Profile, Vehicle};
-use serde_json::json;
+use emplan::physics::calibration::{calibrate, rms_pct, Row, PAPER_MARGINAL_J_M};
+use emplan::physics::Vehicle;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -25,32 +22,13 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let mut vehicle = Vehicle::load(&args.vehicle)?;
-    let mut fitted = Vec::new();
-    if args.fit {
-        for profile in [Profile::Ptf, Profile::Hvb] {
-            let (v, values) = fit(&vehicle, profile, 300);
-            vehicle = v;
-            fitted.extend(values);
-        }
-    }
-    let ptf = compare(&vehicle, Profile::Ptf)?;
-    let hvb = compare(&vehicle, Profile::Hvb)?;
-    let marginal = marginal_costs(&ptf);
-    let hover_w = hover_power_w(&vehicle)?;
-    let v_min = min_power_speed_m_s(&vehicle);
+    let vehicle = Vehicle::load(&args.vehicle)?;
+    let c = calibrate(&vehicle, args.fit)?;
     if args.json {
-        let doc = json!({
-            "ptf": {"rows": ptf, "rms_pct": rms_pct(&ptf)},
-            "hvb": {"rows": hvb, "rms_pct": rms_pct(&hvb)},
-            "marginal_j_m": {"model": marginal, "paper": PAPER_MARGINAL_J_M},
-            "hover_power_w": hover_w,
-            "min_power_speed_m_s": v_min,
-            "fitted": fitted,
-        });
-        println!("{}", serde_json::to_string_pretty(&doc)?);
+        println!("{}", serde_json::to_string_pretty(&c.to_json())?);
         return Ok(ExitCode::SUCCESS);
     }
+    let (marginal, hover_w, v_min) = (c.marginal_j_m, c.hover_power_w, c.min_power_speed_m_s);
     let print = |rows: &[Row]| {
         for r in rows {
             println!(
@@ -74,16 +52,16 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         "{:<4} {:>6} {:>6} {:>9} {:>9} {:>9}",
         "", "Xf_m", "Zf_m", "paper_kJ", "model_kJ", "error"
     );
-    print(&ptf);
-    print(&hvb);
+    print(&c.ptf);
+    print(&c.hvb);
     println!(
         "PTF marginal cost, J/m (model / paper): climbing {:.0} / {:.0}, level {:.0} / {:.0}, descending saves {:.0} / {:.0}",
         marginal[0], PAPER_MARGINAL_J_M[0], marginal[1], PAPER_MARGINAL_J_M[1], marginal[2], PAPER_MARGINAL_J_M[2]
     );
     println!("hover power {hover_w:.0} W; least-power level speed {v_min:.2} m/s");
-    if !fitted.is_empty() {
+    if !c.fitted.is_empty() {
         println!("fitted values (put them in vehicle.toml):");
-        for f in &fitted {
+        for f in &c.fitted {
             println!(
                 "  {} = {:.4}   (searched {} to {})",
                 f.key, f.value, f.low, f.high

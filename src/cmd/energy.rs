@@ -3,8 +3,7 @@
 use std::process::ExitCode;
 
 use anyhow::Context;
-use emplan::physics::{simulate_operation, Profile, Vehicle};
-use serde::Serialize;
+use emplan::physics::{simulate_operation, Vehicle};
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -21,32 +20,12 @@ pub struct Args {
     json: bool,
 }
 
-/// The JSON of DESIGN.md, plus the settle phase the 4 m rule leaves out.
-#[derive(Serialize)]
-struct EnergyJson {
-    xf_m: f64,
-    zf_m: f64,
-    profile: Profile,
-    energy_kj: f64,
-    duration_s: f64,
-    settle_energy_kj: f64,
-    settle_duration_s: f64,
-}
-
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let vehicle = Vehicle::load(&args.model.vehicle)?;
     let profile = args.model.profile.unwrap_or(vehicle.default_profile());
     let op = simulate_operation(&vehicle, profile, args.xf, args.zf)
         .with_context(|| format!("simulating Xf {} m, Zf {} m", args.xf, args.zf))?;
-    let report = EnergyJson {
-        xf_m: args.xf,
-        zf_m: args.zf,
-        profile,
-        energy_kj: op.energy_j / 1000.0,
-        duration_s: op.duration_s,
-        settle_energy_kj: op.settle_energy_j / 1000.0,
-        settle_duration_s: op.settle_duration_s,
-    };
+    let report = op.to_json(args.xf, args.zf, profile);
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {

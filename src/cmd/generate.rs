@@ -5,16 +5,9 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::{bail, Context};
-use emplan::mission::{Format, Geodetic, Mission, Origin, Waypoint};
-use emplan::plan::study::{random_points, waypoint_name, StudySettings};
-
-/// Most waypoints one generated mission may have.
-const MAX_WAYPOINTS: usize = 1_000_000;
-/// How far the origin hovers above the lowest possible waypoint: the origin's height above home
-/// is Z + this, so every waypoint is at least this high above home (the mission minimum is
-/// 2 m).
-const CLEARANCE_M: f64 = 5.0;
+use anyhow::Context;
+use emplan::mission::{Format, Geodetic};
+use emplan::plan::study::{random_mission, Site, StudySettings};
 
 /// Arguments of `emplan generate` (its help text is on the subcommand in main.rs).
 #[derive(Debug, clap::Args)]
@@ -55,33 +48,6 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    if args.waypoints == 0 || args.waypoints > MAX_WAYPOINTS {
-        bail!(
-            "--waypoints {}: allowed: 1 to {MAX_WAYPOINTS}",
-            args.waypoints
-        );
-    }
-    for (option, value) in [("--xy", args.xy), ("--z", args.z)] {
-        if !(value.is_finite() && value >= 0.0) {
-            bail!("{option} {value}: allowed: a finite half-width of 0 m or more");
-        }
-    }
-    if !(args.origin_lat.is_finite() && (-90.0..=90.0).contains(&args.origin_lat)) {
-        bail!("--origin-lat {}: allowed: -90 to 90", args.origin_lat);
-    }
-    if !(args.origin_lon.is_finite() && (-180.0..=180.0).contains(&args.origin_lon)) {
-        bail!("--origin-lon {}: allowed: -180 to 180", args.origin_lon);
-    }
-    if !args.home_alt_amsl.is_finite() {
-        bail!(
-            "--home-alt-amsl {}: a finite altitude is required",
-            args.home_alt_amsl
-        );
-    }
-    if !(args.hover_s.is_finite() && args.hover_s >= 0.0) {
-        bail!("--hover-s {}: allowed: 0 s or more", args.hover_s);
-    }
-    let format = Format::from_path(&args.out)?;
     let settings = StudySettings {
         waypoints: args.waypoints,
         xy_m: args.xy,
@@ -89,35 +55,17 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         missions: 1,
         seed: args.seed,
     };
-    let name = args.name.clone().unwrap_or_else(|| {
-        format!(
-            "random-{}-{}-{}-s{}-{}",
-            args.waypoints, args.xy, args.z, args.seed, args.mission
-        )
-    });
-    let mission = Mission {
-        name,
-        origin: Origin {
-            home: Geodetic {
-                lat_deg: args.origin_lat,
-                lon_deg: args.origin_lon,
-                alt_m: args.home_alt_amsl,
-            },
-            height_above_home_m: args.z + CLEARANCE_M,
+    let site = Site {
+        home: Geodetic {
+            lat_deg: args.origin_lat,
+            lon_deg: args.origin_lon,
+            alt_m: args.home_alt_amsl,
         },
-        waypoints: random_points(&settings, args.mission)
-            .into_iter()
-            .enumerate()
-            .map(|(k, position)| Waypoint {
-                name: waypoint_name(k),
-                position,
-                hover_s: args.hover_s,
-            })
-            .collect(),
-        default_hover_s: args.hover_s,
-        min_height_above_home_m: emplan::mission::DEFAULT_MIN_HEIGHT_ABOVE_HOME_M,
-        source: None,
+        hover_s: args.hover_s,
+        name: args.name.clone(),
     };
+    let mission = random_mission(&settings, args.mission, &site).map_err(super::setting_error)?;
+    let format = Format::from_path(&args.out)?;
     // Read it back before writing, so a file we write always loads.
     let text = emplan::mission::to_string(&mission, format)?;
     emplan::mission::load_str(&text, format, Some(&args.out))

@@ -102,10 +102,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         },
         ..MockConfig::default()
     };
-    let runtime = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()?;
+    let runtime = super::runtime()?;
     runtime.block_on(async {
         let mut mock = MockAutopilot::spawn(&args.listen, config).await?;
         eprintln!("mock autopilot ({:?}) listening on udpin:{}; Ctrl-C stops it", config.flavour, mock.local_addr());

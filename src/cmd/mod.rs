@@ -14,6 +14,41 @@ pub mod table;
 pub mod tsp;
 pub mod upload;
 
+/// The tokio runtime of every command that talks to an autopilot: two worker threads (the
+/// link's receive and heartbeat tasks and the command itself), timers and sockets enabled.
+pub fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
+    Ok(tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()?)
+}
+
+/// A study or generator setting refused by the library, in the words of the command line
+/// (`--xy 60: ...`).
+pub fn setting_error(e: emplan::plan::study::StudyError) -> anyhow::Error {
+    match e {
+        emplan::plan::study::StudyError::Setting {
+            setting,
+            value,
+            problem,
+        } => {
+            let option = match setting {
+                "waypoints" => "--waypoints",
+                "xy_m" => "--xy",
+                "z_m" => "--z",
+                "missions" => "--missions",
+                "lat_deg" => "--origin-lat",
+                "lon_deg" => "--origin-lon",
+                "home_alt_amsl_m" => "--home-alt-amsl",
+                "hover_s" => "--hover-s",
+                _ => "a setting",
+            };
+            anyhow::anyhow!("{option} {value}: {problem}")
+        }
+        other => other.into(),
+    }
+}
+
 /// Options of every command that prices legs with a vehicle model.
 #[derive(Debug, Clone, clap::Args)]
 pub struct VehicleArgs {

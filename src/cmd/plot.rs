@@ -12,7 +12,9 @@ use anyhow::{anyhow, Context};
 use emplan::mission::{Enu, Mission};
 use emplan::physics::Profile;
 use emplan::plan::study::{Study, BASELINES};
-use emplan::plan::{cheapest, Objective, OrderReport};
+use emplan::plan::Objective;
+use emplan::planner::json::energy_kj;
+use emplan::planner::{Order, Plan};
 use plotters::coord::types::RangedCoordf64;
 use plotters::element::DashedPathElement;
 use plotters::prelude::*;
@@ -73,23 +75,19 @@ fn span(values: impl Iterator<Item = f64> + Clone, symmetric: bool) -> std::ops:
     }
 }
 
-/// Draws `orders` of a planned mission (the energy order first, as `plan_orders` returns them)
-/// to `path`: top view (x-y) and side views (x-z, y-z) of the origin and the named waypoints,
-/// the energy order solid, the min-distance order in its better direction dashed.
-pub fn plan_svg(
-    path: &Path,
-    mission: &Mission,
-    profile: Profile,
-    orders: &[OrderReport],
-) -> anyhow::Result<()> {
-    let energy = orders
-        .iter()
-        .find(|o| o.objective == Objective::Energy)
+/// Draws the orders of `plan` of `mission` to `path`: top view (x-y) and side views (x-z,
+/// y-z) of the origin and the named waypoints, the energy order solid, the min-distance order in
+/// its better direction dashed.
+pub fn plan_svg(path: &Path, mission: &Mission, plan: &Plan) -> anyhow::Result<()> {
+    let profile = plan.profile;
+    let energy = plan
+        .order(Objective::Energy)
         .ok_or_else(|| anyhow!("plotting {}: no energy order to draw", mission.name))?;
-    let distance = cheapest(orders, Objective::Distance)
+    let distance = plan
+        .cheapest(Objective::Distance)
         .ok_or_else(|| anyhow!("plotting {}: no distance order to draw", mission.name))?;
-    let e_kj = energy.energy_kj.unwrap_or(f64::NAN);
-    let d_kj = distance.energy_kj.unwrap_or(f64::NAN);
+    let e_kj = energy_kj(&energy.legs);
+    let d_kj = energy_kj(&distance.legs);
     let direction = format!("{:?}", distance.direction).to_lowercase();
 
     // Node 0 is the origin, node k the k-th waypoint of the file.
@@ -123,9 +121,9 @@ pub fn plan_svg(
             mission.name,
             100.0 * (d_kj - e_kj) / e_kj
         );
-        let sequence = |o: &OrderReport| {
+        let sequence = |o: &Order| {
             std::iter::once("origin")
-                .chain(o.sequence.iter().map(String::as_str))
+                .chain(o.nodes.iter().map(|&n| plan.name(n)))
                 .chain(std::iter::once("origin"))
                 .collect::<Vec<_>>()
                 .join(" > ")

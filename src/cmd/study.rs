@@ -4,13 +4,11 @@
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::time::Instant;
 
-use anyhow::{bail, Context};
-use emplan::physics::{EnergyTable, Profile, Vehicle};
-use emplan::plan::study::{run_study, Study, StudyError, StudySettings, Summary, PAPER_SETTINGS};
-use emplan::plan::Objective;
-use serde::Serialize;
+use anyhow::{anyhow, bail};
+use emplan::physics::{Profile, VehicleModel};
+use emplan::plan::study::StudySettings;
+use emplan::planner::study::{self, check_envelope, study_document, StudyJson, StudyRunError};
 
 /// Arguments of `emplan study` (its help text is on the subcommand in main.rs).
 #[derive(Debug, clap::Args)]
@@ -62,69 +60,33 @@ pub struct Args {
     all_paper_settings: bool,
 }
 
-/// Which mission of the study had the largest increase, per baseline.
-#[derive(Serialize)]
-struct Worst {
-    distance: Option<u64>,
-    horizontal: Option<u64>,
-    vertical: Option<u64>,
-}
-
-/// The JSON of DESIGN.md (the summary, flattened) plus the setting, profile, the worst missions
-/// and the wall time.
-#[derive(Serialize)]
-struct StudyJson {
-    waypoints: usize,
-    xy_m: f64,
-    z_m: f64,
-    seed: u64,
-    profile: Profile,
-    #[serde(flatten)]
-    summary: Summary,
-    worst_mission: Worst,
-    seconds: f64,
-}
-
-/// The command-line option behind a study setting, for error messages.
-fn option_of(setting: &str) -> &'static str {
-    match setting {
-        "waypoints" => "--waypoints",
-        "xy_m" => "--xy",
-        "z_m" => "--z",
-        "missions" => "--missions",
-        _ => "a setting",
+/// A refusal in the words of the command line.
+fn refusal(e: StudyRunError) -> anyhow::Error {
+    match e {
+        StudyRunError::TooWide {
+            xy_m,
+            reach_m,
+            profile,
+            max_xf_m,
+            allowed_xy_m,
+        } => anyhow!(
+            "--xy {xy_m}: legs between opposite corners reach {reach_m:.1} m horizontally \
+             (2 sqrt(2) XY) but the {profile} energy table covers Xf 0..{max_xf_m} m \
+             (allowed: --xy up to {allowed_xy_m:.2})"
+        ),
+        StudyRunError::TooHigh {
+            z_m,
+            reach_m,
+            profile,
+            min_zf_m,
+            max_zf_m,
+            allowed_z_m,
+        } => anyhow!(
+            "--z {z_m}: legs from the bottom to the top of the box climb {reach_m:.1} m (2 Z) \
+             but the {profile} energy table covers Zf {min_zf_m}..{max_zf_m} m (allowed: --z up to {allowed_z_m:.2})"
+        ),
+        other => other.into(),
     }
-}
-
-/// Every leg of every mission of `s` must lie inside the table: refuse up front, naming the
-/// option, rather than fail on the first unlucky mission.
-fn check_envelope(s: &StudySettings, table: &EnergyTable) -> anyhow::Result<()> {
-    let max_xf_m = table.xf.end_m;
-    let reach_x_m = s.max_horizontal_leg_m();
-    if reach_x_m > max_xf_m {
-        bail!(
-            "--xy {}: legs between opposite corners reach {reach_x_m:.1} m horizontally \
-             (2 sqrt(2) XY) but the {} energy table covers Xf 0..{max_xf_m} m \
-             (allowed: --xy up to {:.2})",
-            s.xy_m,
-            table.profile,
-            max_xf_m / (2.0 * std::f64::consts::SQRT_2)
-        );
-    }
-    let max_zf_m = table.zf.end_m.min(-table.zf.start_m);
-    let reach_z_m = s.max_vertical_leg_m();
-    if reach_z_m > max_zf_m {
-        bail!(
-            "--z {}: legs from the bottom to the top of the box climb {reach_z_m:.1} m (2 Z) \
-             but the {} energy table covers Zf {}..{} m (allowed: --z up to {:.2})",
-            s.z_m,
-            table.profile,
-            table.zf.start_m,
-            table.zf.end_m,
-            max_zf_m / 2.0
-        );
-    }
-    Ok(())
 }
 
 fn histogram_path(base: &Path, s: &StudySettings, many: bool) -> PathBuf {
@@ -137,16 +99,7 @@ fn histogram_path(base: &Path, s: &StudySettings, many: bool) -> PathBuf {
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let settings: Vec<StudySettings> = if args.all_paper_settings {
-        PAPER_SETTINGS
-            .iter()
-            .map(|&(waypoints, xy_m, z_m)| StudySettings {
-                waypoints,
-                xy_m,
-                z_m,
-                missions: args.missions,
-                seed: args.seed,
-            })
-            .collect()
+        StudySettings::paper(args.missions, args.seed)
     } else {
         // clap requires all three unless --all-paper-settings.
         let (Some(waypoints), Some(xy_m), Some(z_m)) = (args.waypoints, args.xy, args.z) else {
@@ -161,24 +114,12 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }]
     };
     for s in &settings {
-        s.validate().map_err(|e| match e {
-            StudyError::Setting {
-                setting,
-                value,
-                problem,
-            } => anyhow::anyhow!("{} {value}: {problem}", option_of(setting)),
-            other => other.into(),
-        })?;
+        s.validate().map_err(super::setting_error)?;
     }
-
-    let vehicle = Vehicle::load(&args.model.vehicle)?;
-    let profile = args.model.profile.unwrap_or(vehicle.default_profile());
-    let table = EnergyTable::load(&args.model.vehicle, profile, &vehicle)?;
+    let model = VehicleModel::load(&args.model.vehicle, args.model.profile)?;
     for s in &settings {
-        check_envelope(s, &table)?;
+        check_envelope(s, &model.table).map_err(refusal)?;
     }
-    // Legs are priced start to settled hover, as `emplan plan` prices them.
-    let leg_energy_j = |xf_m: f64, zf_m: f64| table.lookup(xf_m, zf_m).map(|l| l.total_energy_j());
 
     let mut docs = Vec::with_capacity(settings.len());
     for s in &settings {
@@ -194,21 +135,14 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
         );
         bar.set_prefix(format!("N={} XY={} Z={}", s.waypoints, s.xy_m, s.z_m));
-        let started = Instant::now();
-        let study = run_study(s, leg_energy_j, &|| bar.inc(1)).with_context(|| {
-            format!(
-                "study of {} waypoints, XY {} m, Z {} m, seed {} ({profile} profile)",
-                s.waypoints, s.xy_m, s.z_m, s.seed
-            )
-        })?;
-        let seconds = started.elapsed().as_secs_f64();
+        let done = study::run(s, &model, &|| bar.inc(1)).map_err(refusal)?;
         bar.finish_and_clear();
         if let Some(base) = &args.histogram {
             let path = histogram_path(base, s, settings.len() > 1);
-            super::plot::study_histogram_svg(&path, &study, profile)?;
+            super::plot::study_histogram_svg(&path, &done.study, done.profile)?;
             eprintln!("wrote {}", path.display());
         }
-        docs.push(document(&study, profile, seconds));
+        docs.push(study_document(&done));
     }
 
     if args.json {
@@ -218,27 +152,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             println!("{}", serde_json::to_string_pretty(doc)?);
         }
     } else {
-        print_table(&docs, profile, &args);
+        print_table(&docs, model.profile, &args);
     }
     Ok(ExitCode::SUCCESS)
-}
-
-fn document(study: &Study, profile: Profile, seconds: f64) -> StudyJson {
-    let s = &study.settings;
-    StudyJson {
-        waypoints: s.waypoints,
-        xy_m: s.xy_m,
-        z_m: s.z_m,
-        seed: s.seed,
-        profile,
-        summary: study.summary,
-        worst_mission: Worst {
-            distance: study.worst_mission(Objective::Distance),
-            horizontal: study.worst_mission(Objective::Horizontal),
-            vertical: study.worst_mission(Objective::Vertical),
-        },
-        seconds,
-    }
 }
 
 fn print_table(docs: &[StudyJson], profile: Profile, args: &Args) {

@@ -6,7 +6,6 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use emplan::plan::{solver, tsplib};
-use serde::Serialize;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -19,46 +18,13 @@ pub struct Args {
     solver: super::SolverArgs,
 }
 
-/// The JSON of DESIGN.md; `tour` lists TSPLIB's 1-based node ids, starting at node 1.
-#[derive(Serialize)]
-struct TspJson {
-    instance: String,
-    dimension: usize,
-    cost: f64,
-    optimal: bool,
-    lower_bound: f64,
-    tour: Vec<usize>,
-    seconds: f64,
-    solver: solver::Solver,
-    gap_pct: f64,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    heuristic_cost: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    nodes: Option<u64>,
-}
-
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let text = std::fs::read_to_string(&args.file)
         .with_context(|| format!("reading {}", args.file.display()))?;
     let instance = tsplib::parse(&text).with_context(|| format!("{}", args.file.display()))?;
     let solved = solver::solve(&instance.matrix, &args.solver.options()?)
         .with_context(|| format!("solving {}", instance.name))?;
-    let tour = &solved.tour;
-    let report = TspJson {
-        instance: instance.name,
-        dimension: instance.dimension,
-        cost: tour.cost,
-        optimal: tour.optimal,
-        lower_bound: tour.lower_bound,
-        tour: std::iter::once(1)
-            .chain(tour.order.iter().map(|&k| k + 1))
-            .collect(),
-        seconds: solved.seconds,
-        solver: solved.solver,
-        gap_pct: solved.gap_pct,
-        heuristic_cost: solved.heuristic_cost,
-        nodes: solved.nodes,
-    };
+    let report = tsplib::solution_json(&instance, &solved);
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {

@@ -5,14 +5,15 @@
 use anyhow::{bail, Context};
 use emplan::link::driver::upload_verified;
 use emplan::link::items::{mission_items, ItemOptions};
-use emplan::plan::{cheapest, Objective};
+use emplan::physics::VehicleModel;
+use emplan::planner::json::{upload_document, UploadPlanJson};
+use emplan::planner::{plan_mission, Orders, PlanOptions, PlannerError};
 use serde::Serialize;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 /// Which visiting order to fly.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
-#[serde(rename_all = "lowercase")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Order {
     /// The minimum-energy order
     Energy,
@@ -51,13 +52,9 @@ pub struct Args {
 
 #[derive(Serialize)]
 struct UploadJson<'a> {
-    mission: &'a str,
-    order: Order,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    sortie: Option<usize>,
-    sequence: Vec<String>,
-    predicted_mission_kj: f64,
-    budget_kj: f64,
+    /// mission, order, sortie, sequence, predicted_mission_kj, budget_kj.
+    #[serde(flatten)]
+    plan: UploadPlanJson,
     autopilot: emplan::link::connection::Autopilot,
     report: &'a emplan::link::driver::UploadReport,
     /// The items sent (and read back), as MISSION_ITEM_INT fields.
@@ -66,55 +63,38 @@ struct UploadJson<'a> {
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let mission = emplan::mission::load(&args.mission)?;
-    let planned = super::plan::plan_mission(
-        &mission,
-        &args.model.vehicle,
-        args.model.profile,
-        &args.solver.options()?,
-    )?;
-    let b = &planned.battery;
-    let (order, predicted_kj): (Vec<usize>, f64) = match args.sortie {
-        Some(k) => {
-            let split = super::sorties::split_mission(&mission, &planned)?;
-            let count = split.sorties.len();
-            let sortie = k
-                .checked_sub(1)
-                .and_then(|i| split.sorties.get(i))
-                .with_context(|| {
-                    format!("--sortie {k}: the mission splits into {count} sorties (1 to {count})")
-                })?;
-            let order = sortie
-                .sequence
-                .iter()
-                .filter_map(|name| mission.waypoints.iter().position(|w| &w.name == name))
-                .collect();
-            (order, sortie.total_kj)
-        }
-        None => {
-            let order: Vec<usize> = match args.order {
-                Order::Energy => planned.orders[0].nodes.iter().map(|n| n - 1).collect(),
-                Order::Distance => cheapest(&planned.orders, Objective::Distance)
-                    .map(|o| o.nodes.iter().map(|n| n - 1).collect())
-                    .unwrap_or_default(),
-                Order::Listed => (0..mission.waypoints.len()).collect(),
-            };
-            let nodes: Vec<usize> = order.iter().map(|k| k + 1).collect();
-            let predicted = b.total_kj - b.legs_kj + planned.energy.tour_cost(&nodes) / 1000.0;
-            (order, predicted)
-        }
+    let model = VehicleModel::load(&args.model.vehicle, args.model.profile)?;
+    // Only what the upload flies is planned: no baselines for the energy order or a sortie,
+    // no energy solve for the distance or the listed order.
+    let orders = match (args.sortie, args.order) {
+        (Some(_), _) | (None, Order::Energy) => Orders::Energy,
+        (None, Order::Distance) => Orders::Distance,
+        (None, Order::Listed) => Orders::Listed,
     };
-    if predicted_kj > b.budget_kj && !args.allow_infeasible {
-        bail!(
-            "the model predicts {predicted_kj:.1} kJ for this mission but the battery has {:.1} kJ usable after its {}% reserve: \
-             not uploaded (split it with `emplan plan --sorties` and upload one with --sortie K, or pass --allow-infeasible to override)",
-            b.budget_kj,
-            b.reserve_pct
-        );
+    let options = PlanOptions {
+        orders,
+        solver: args.solver.options()?,
+        sorties: args.sortie.is_some(),
+    };
+    let plan = plan_mission(&mission, &model, &options)?;
+    let flight = plan.flight(args.sortie).map_err(|e| match e {
+        PlannerError::NoSuchSortie { sortie, count } => {
+            anyhow::anyhow!(
+                "--sortie {sortie}: the mission splits into {count} sorties (1 to {count})"
+            )
+        }
+        other => other.into(),
+    })?;
+    let planned = upload_document(&plan, &flight);
+    let order = flight.waypoints();
+    if !args.allow_infeasible {
+        if let Err(refused) = flight.require_feasible() {
+            bail!(
+                "{refused}: not uploaded (split it with `emplan plan --sorties` and upload one with --sortie K, or pass --allow-infeasible to override)"
+            );
+        }
     }
-    let runtime = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()?;
+    let runtime = super::runtime()?;
     runtime.block_on(async {
         let opened = args.link.open().await?;
         let (link, target, cfg) = (&opened.link, opened.target, opened.config);
@@ -132,12 +112,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         .with_context(|| format!("uploading {} to {}", args.mission.display(), opened.describe))?;
         if args.json {
             let doc = UploadJson {
-                mission: &mission.name,
-                order: args.order,
-                sortie: args.sortie,
-                sequence: order.iter().map(|&k| mission.waypoints[k].name.clone()).collect(),
-                predicted_mission_kj: predicted_kj,
-                budget_kj: b.budget_kj,
+                plan: planned,
                 autopilot: target,
                 report: &report,
                 items: items.iter().map(emplan::link::items::item_json).collect(),
@@ -146,12 +121,13 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         } else {
             eprintln!();
             println!(
-                "verified: {} items uploaded in {:.2} s ({}), read back and matched in {:.2} s; predicted mission energy {predicted_kj:.1} kJ of {:.1} kJ usable",
+                "verified: {} items uploaded in {:.2} s ({}), read back and matched in {:.2} s; predicted mission energy {:.1} kJ of {:.1} kJ usable",
                 report.items,
                 report.upload_s,
                 if report.acked { "accepted" } else { "final ack lost, settled by read-back" },
                 report.verify_s,
-                b.budget_kj
+                planned.predicted_mission_kj,
+                planned.budget_kj
             );
         }
         Ok(ExitCode::SUCCESS)

@@ -123,6 +123,59 @@ pub struct Fitted {
     pub high: f64,
 }
 
+/// The model against the paper (what `emplan calibrate` reports), after an optional refit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Calibration {
+    /// The PTF operations, model vs paper.
+    pub ptf: Vec<Row>,
+    /// The HVB operations, model vs paper.
+    pub hvb: Vec<Row>,
+    /// PTF marginal costs (J/m): climbing, level, descending saves ([`marginal_costs`]).
+    pub marginal_j_m: [f64; 3],
+    pub hover_power_w: f64,
+    pub min_power_speed_m_s: f64,
+    /// The refitted parameters (empty without a refit).
+    pub fitted: Vec<Fitted>,
+}
+
+/// Compares `vehicle` with the paper; with `refit`, first refits the calibrated parameters
+/// (PTF: mass, drags, speed limits; HVB: its limits; 300 Nelder-Mead iterations each).
+pub fn calibrate(vehicle: &Vehicle, refit: bool) -> Result<Calibration, PhysicsError> {
+    let mut vehicle = vehicle.clone();
+    let mut fitted = Vec::new();
+    if refit {
+        for profile in [Profile::Ptf, Profile::Hvb] {
+            let (v, values) = fit(&vehicle, profile, 300);
+            vehicle = v;
+            fitted.extend(values);
+        }
+    }
+    let ptf = compare(&vehicle, Profile::Ptf)?;
+    let hvb = compare(&vehicle, Profile::Hvb)?;
+    Ok(Calibration {
+        marginal_j_m: marginal_costs(&ptf),
+        ptf,
+        hvb,
+        hover_power_w: super::hover_power_w(&vehicle)?,
+        min_power_speed_m_s: min_power_speed_m_s(&vehicle),
+        fitted,
+    })
+}
+
+impl Calibration {
+    /// `emplan calibrate --json` (keys in alphabetical order).
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "ptf": {"rows": self.ptf, "rms_pct": rms_pct(&self.ptf)},
+            "hvb": {"rows": self.hvb, "rms_pct": rms_pct(&self.hvb)},
+            "marginal_j_m": {"model": self.marginal_j_m, "paper": PAPER_MARGINAL_J_M},
+            "hover_power_w": self.hover_power_w,
+            "min_power_speed_m_s": self.min_power_speed_m_s,
+            "fitted": self.fitted,
+        })
+    }
+}
+
 type Setter = fn(&mut Vehicle, f64);
 
 fn knobs(profile: Profile) -> Vec<(&'static str, f64, f64, Setter)> {

@@ -10,7 +10,9 @@
 //! Invariant: pure; no IO beyond loading a vehicle or table file, no tokio, no MAVLink.
 
 pub mod body;
+pub mod budget;
 pub mod calibration;
+pub mod model;
 pub mod operation;
 pub mod powertrain;
 pub mod profile;
@@ -18,6 +20,8 @@ pub mod rotor;
 pub mod table;
 pub mod vehicle;
 
+pub use budget::{BatteryCheck, Budget};
+pub use model::VehicleModel;
 pub use operation::{hover_power_w, level_flight_power_w, simulate_operation, Operation};
 pub use profile::Profile;
 pub use table::{EnergyTable, LegEnergy};
@@ -28,6 +32,11 @@ pub use vehicle::Vehicle;
 pub enum PhysicsError {
     #[error("{file}: {source_text}")]
     Io { file: String, source_text: String },
+    #[error("pricing the {what}: {source}")]
+    Pricing {
+        what: &'static str,
+        source: Box<PhysicsError>,
+    },
     #[error("{file}:{line} {key}: {problem}")]
     VehicleFile {
         file: String,

@@ -41,6 +41,34 @@ impl Operation {
     }
 }
 
+/// `emplan energy --json`: one operation, the JSON of DESIGN.md plus the settle phase the 4 m
+/// rule leaves out (kJ at this edge only).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct OperationJson {
+    pub xf_m: f64,
+    pub zf_m: f64,
+    pub profile: Profile,
+    pub energy_kj: f64,
+    pub duration_s: f64,
+    pub settle_energy_kj: f64,
+    pub settle_duration_s: f64,
+}
+
+impl Operation {
+    /// The JSON view of this operation, flown over `xf_m`, `zf_m` with `profile`.
+    pub fn to_json(&self, xf_m: f64, zf_m: f64, profile: Profile) -> OperationJson {
+        OperationJson {
+            xf_m,
+            zf_m,
+            profile,
+            energy_kj: self.energy_j / 1000.0,
+            duration_s: self.duration_s,
+            settle_energy_kj: self.settle_energy_j / 1000.0,
+            settle_duration_s: self.settle_duration_s,
+        }
+    }
+}
+
 /// How the vehicle moves in the leg's plane.
 #[derive(Debug, Clone, PartialEq)]
 enum Path {

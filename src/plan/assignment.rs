@@ -57,13 +57,7 @@ impl Assignment {
 /// Solves the assignment problem of `m` with the diagonal forbidden. Needs at least two nodes.
 pub fn solve(m: &CostMatrix) -> Result<Assignment, PlanError> {
     let n = m.len();
-    for i in 0..n {
-        for j in 0..n {
-            if i != j && !m.cost(i, j).is_finite() {
-                return Err(PlanError::NonFiniteCost { from: i, to: j });
-            }
-        }
-    }
+    m.check_finite()?;
     if n < 2 {
         return Ok(Assignment {
             successor: vec![0; n],
@@ -154,7 +148,7 @@ pub fn solve(m: &CostMatrix) -> Result<Assignment, PlanError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plan::rng::Rng;
+    use crate::rng::Rng;
 
     /// Every assignment by brute force over permutations without fixed points.
     fn brute(m: &CostMatrix) -> f64 {

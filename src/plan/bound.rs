@@ -45,7 +45,7 @@ use std::time::{Duration, Instant};
 use microlp::{ComparisonOp, LinearExpr, OptimizationDirection, Problem, Variable};
 use serde::Serialize;
 
-use super::branch_cut::{check_permutation, components, integer_costs, violated_sides};
+use super::subtour::{components, violated_sides, UnionFind, CUT_TOL};
 use super::{assignment, CostMatrix, PlanError};
 
 /// A proven lower bound on every tour and how it was obtained.
@@ -119,13 +119,13 @@ pub fn dfj_bound(m: &CostMatrix, tour: &[usize], time_limit: Duration) -> Result
     // Capped so that the deadline cannot overflow (a year is as good as forever here).
     let deadline = started + time_limit.min(Duration::from_secs(365 * 24 * 3600));
     let n = m.len();
-    check_permutation(n, tour)?;
+    m.check_tour_order(tour)?;
     let ap = assignment::solve(m)?;
     let ap_seconds = started.elapsed().as_secs_f64();
     tracing::debug!(seconds = ap_seconds, bound = ap.cost, "assignment bound");
     let tour_cost = if n == 0 { 0.0 } else { m.tour_cost(tour) };
     let assignment_bound = ap.cost.min(tour_cost);
-    let integer = integer_costs(m);
+    let integer = m.has_integer_costs();
     let finish = |bound: f64, cuts, arcs, rounds, stop| {
         let mut lower_bound = bound.max(assignment_bound);
         if integer {
@@ -531,8 +531,6 @@ fn solve_primal(
     }
 }
 
-/// A subtour cut is violated when its left side falls this far short of one (as branch-and-cut).
-const CUT_TOL: f64 = 1e-4;
 /// Arc values from which an arc counts as one: its ends are shrunk into one node.
 const ONE_TOL: f64 = 1e-6;
 
@@ -545,36 +543,15 @@ const ONE_TOL: f64 = 1e-6;
 /// [`heavy_components`] go first; only when they find nothing does the exact separation of
 /// `violated_sides` run, on the shrunk graph (at 1000 nodes, about 700 remain).
 fn separate(n: usize, support: &[(usize, usize, f64)]) -> Vec<Vec<bool>> {
-    let mut parent: Vec<usize> = (0..n).collect();
-    fn find(parent: &mut [usize], mut a: usize) -> usize {
-        while parent[a] != a {
-            parent[a] = parent[parent[a]];
-            a = parent[a];
-        }
-        a
-    }
+    let mut sets = UnionFind::new(n);
     for &(i, j, x) in support {
         if x >= 1.0 - ONE_TOL {
-            let (a, b) = (find(&mut parent, i), find(&mut parent, j));
-            if a != b {
-                parent[a] = b;
-            }
+            sets.union(i, j);
         }
     }
     // Shrunk node of every node, the origin's being 0.
-    let mut label = vec![usize::MAX; n];
-    let mut shrunk = vec![0usize; n];
-    let origin = find(&mut parent, 0);
-    label[origin] = 0;
-    let mut count = 1;
-    for (v, node) in shrunk.iter_mut().enumerate() {
-        let r = find(&mut parent, v);
-        if label[r] == usize::MAX {
-            label[r] = count;
-            count += 1;
-        }
-        *node = label[r];
-    }
+    let shrunk = sets.labels();
+    let count = shrunk.iter().copied().max().map_or(0, |c| c + 1);
     let arcs: Vec<(usize, usize, f64)> = support
         .iter()
         .filter(|&&(i, j, _)| shrunk[i] != shrunk[j])
@@ -1028,9 +1005,9 @@ impl Lagrangian {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plan::rng::Rng;
     use crate::plan::testing::{drone, tsplib_instance};
     use crate::plan::{branch_cut, held_karp};
+    use crate::rng::Rng;
 
     fn identity_order(n: usize) -> Vec<usize> {
         (1..n).collect()

@@ -25,6 +25,7 @@ use std::time::{Duration, Instant};
 
 use microlp::{ComparisonOp, LinearExpr, OptimizationDirection, Problem, Solution, Variable};
 
+use super::subtour::violated_sides;
 use super::{assignment, CostMatrix, PlanError, Tour};
 
 /// Limits of a branch-and-cut run.
@@ -84,8 +85,6 @@ pub struct Outcome {
 
 /// Values within this distance of 0 or 1 count as integral; LP feasibility is 1e-7.
 const INTEGRAL_TOL: f64 = 1e-6;
-/// A subtour cut is violated when its left side falls this far short.
-const CUT_TOL: f64 = 1e-4;
 /// Relative optimality tolerance for real-valued costs (the LP solver's own accuracy is about
 /// 1e-9 relative): a tour within this of the lower bound is called optimal.
 const REL_GAP: f64 = 1e-7;
@@ -99,7 +98,7 @@ const MAX_NODE_ROUNDS: usize = 30;
 pub fn solve(m: &CostMatrix, incumbent: &[usize], options: &Options) -> Result<Outcome, PlanError> {
     let started = Instant::now();
     let n = m.len();
-    check_permutation(n, incumbent)?;
+    m.check_tour_order(incumbent)?;
     let mut best_order = incumbent.to_vec();
     let mut best_cost = m.tour_cost(&best_order);
     if n <= 3 {
@@ -126,7 +125,7 @@ pub fn solve(m: &CostMatrix, incumbent: &[usize], options: &Options) -> Result<O
             seconds: started.elapsed().as_secs_f64(),
         });
     }
-    let integer = integer_costs(m);
+    let integer = m.has_integer_costs();
     let ap = assignment::solve(m)?;
     let assignment_bound = ap.cost;
 
@@ -277,37 +276,6 @@ pub fn solve(m: &CostMatrix, incumbent: &[usize], options: &Options) -> Result<O
         nodes,
         cuts: search.cuts.len(),
         seconds: started.elapsed().as_secs_f64(),
-    })
-}
-
-pub(crate) fn check_permutation(n: usize, order: &[usize]) -> Result<(), PlanError> {
-    let mut seen = vec![false; n];
-    let ok = order.len() + 1 == n.max(1)
-        && order.iter().all(|&k| {
-            let fresh = k > 0 && k < n && !seen[k];
-            if fresh {
-                seen[k] = true;
-            }
-            fresh
-        });
-    if ok {
-        Ok(())
-    } else {
-        Err(PlanError::Infeasible(format!(
-            "the starting tour is not a permutation of nodes 1..{}",
-            n.saturating_sub(1)
-        )))
-    }
-}
-
-/// Whether every arc cost is an integer (TSPLIB), so bounds can be rounded up.
-pub(crate) fn integer_costs(m: &CostMatrix) -> bool {
-    let n = m.len();
-    (0..n).all(|i| {
-        (0..n).all(|j| {
-            let c = m.cost(i, j);
-            i == j || (c.fract() == 0.0 && c.abs() < 1e15)
-        })
     })
 }
 
@@ -741,189 +709,11 @@ impl Search<'_> {
     }
 }
 
-/// Node sets `S` holding the origin whose subtour cuts `x(delta+(S)) >= 1` the fractional point
-/// `support` (arcs `(i, j, x_ij)` with `x_ij > 0`) violates: every weakly connected component
-/// without the origin when there are several, else the source sides of the minimum cuts from
-/// the origin below one (at most `max_cuts` per call). `S` is given as membership per node.
-pub(crate) fn violated_sides(
-    n: usize,
-    support: &[(usize, usize, f64)],
-    max_cuts: usize,
-) -> Vec<Vec<bool>> {
-    let mut sides: Vec<Vec<bool>> = Vec::new();
-    // Weakly connected components: every one without the origin is a violated cut.
-    let component = components(n, support);
-    let count = component.iter().copied().max().map_or(0, |c| c + 1);
-    if count > 1 {
-        for c in 0..count {
-            if c != component[0] {
-                sides.push(component.iter().map(|&k| k != c).collect());
-            }
-        }
-    } else {
-        let mut flow = MaxFlow::new(n, support);
-        let mut covered = vec![false; n];
-        for t in 1..n {
-            if covered[t] {
-                continue;
-            }
-            let (value, source_side) = flow.min_cut(0, t);
-            if value < 1.0 - CUT_TOL {
-                for v in 0..n {
-                    if !source_side[v] {
-                        covered[v] = true;
-                    }
-                }
-                sides.push(source_side);
-                if sides.len() >= max_cuts {
-                    break;
-                }
-            }
-        }
-    }
-    sides
-}
-
-/// Weakly connected component of every node in the graph of `arcs`.
-pub(crate) fn components(n: usize, arcs: &[(usize, usize, f64)]) -> Vec<usize> {
-    let mut parent: Vec<usize> = (0..n).collect();
-    fn find(parent: &mut [usize], mut a: usize) -> usize {
-        while parent[a] != a {
-            parent[a] = parent[parent[a]];
-            a = parent[a];
-        }
-        a
-    }
-    for &(i, j, _) in arcs {
-        let (a, b) = (find(&mut parent, i), find(&mut parent, j));
-        if a != b {
-            parent[a] = b;
-        }
-    }
-    let mut label = vec![usize::MAX; n];
-    let mut next = 0;
-    (0..n)
-        .map(|v| {
-            let r = find(&mut parent, v);
-            if label[r] == usize::MAX {
-                label[r] = next;
-                next += 1;
-            }
-            label[r]
-        })
-        .collect()
-}
-
-/// Dinic's maximum flow on a small graph with real capacities.
-struct MaxFlow {
-    n: usize,
-    head: Vec<usize>,
-    next: Vec<usize>,
-    to: Vec<usize>,
-    capacity: Vec<f64>,
-    flow: Vec<f64>,
-    level: Vec<i32>,
-    cursor: Vec<usize>,
-}
-
-const NONE: usize = usize::MAX;
-const FLOW_EPS: f64 = 1e-9;
-
-impl MaxFlow {
-    fn new(n: usize, arcs: &[(usize, usize, f64)]) -> MaxFlow {
-        let mut g = MaxFlow {
-            n,
-            head: vec![NONE; n],
-            next: Vec::new(),
-            to: Vec::new(),
-            capacity: Vec::new(),
-            flow: Vec::new(),
-            level: vec![0; n],
-            cursor: vec![0; n],
-        };
-        for &(i, j, c) in arcs {
-            g.edge(i, j, c);
-            g.edge(j, i, 0.0);
-        }
-        g
-    }
-
-    fn edge(&mut self, from: usize, to: usize, capacity: f64) {
-        self.to.push(to);
-        self.capacity.push(capacity);
-        self.flow.push(0.0);
-        self.next.push(self.head[from]);
-        self.head[from] = self.to.len() - 1;
-    }
-
-    fn residual(&self, e: usize) -> f64 {
-        self.capacity[e] - self.flow[e]
-    }
-
-    fn bfs(&mut self, s: usize, t: usize) -> bool {
-        self.level.fill(-1);
-        self.level[s] = 0;
-        let mut queue = std::collections::VecDeque::from([s]);
-        while let Some(v) = queue.pop_front() {
-            let mut e = self.head[v];
-            while e != NONE {
-                let w = self.to[e];
-                if self.level[w] < 0 && self.residual(e) > FLOW_EPS {
-                    self.level[w] = self.level[v] + 1;
-                    queue.push_back(w);
-                }
-                e = self.next[e];
-            }
-        }
-        self.level[t] >= 0
-    }
-
-    fn dfs(&mut self, v: usize, t: usize, pushed: f64) -> f64 {
-        if v == t {
-            return pushed;
-        }
-        while self.cursor[v] != NONE {
-            let e = self.cursor[v];
-            let w = self.to[e];
-            if self.level[w] == self.level[v] + 1 && self.residual(e) > FLOW_EPS {
-                let got = self.dfs(w, t, pushed.min(self.residual(e)));
-                if got > FLOW_EPS {
-                    self.flow[e] += got;
-                    self.flow[e ^ 1] -= got;
-                    return got;
-                }
-            }
-            self.cursor[v] = self.next[e];
-        }
-        0.0
-    }
-
-    /// The maximum flow from `s` to `t` (capped at 1, all a subtour cut needs) and the source
-    /// side of a minimum cut.
-    fn min_cut(&mut self, s: usize, t: usize) -> (f64, Vec<bool>) {
-        self.flow.fill(0.0);
-        let mut total = 0.0;
-        while total < 1.0 && self.bfs(s, t) {
-            self.cursor.clone_from(&self.head);
-            loop {
-                let got = self.dfs(s, t, f64::INFINITY);
-                if got <= FLOW_EPS {
-                    break;
-                }
-                total += got;
-            }
-        }
-        let _ = self.bfs(s, t);
-        let side = (0..self.n).map(|v| self.level[v] >= 0).collect();
-        (total, side)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::plan::held_karp;
-    use crate::plan::rng::Rng;
+    use crate::rng::Rng;
 
     fn identity_order(n: usize) -> Vec<usize> {
         (1..n).collect()
@@ -1010,21 +800,5 @@ mod tests {
         .unwrap();
         assert!(out.tour.lower_bound <= hk.cost);
         assert!(out.tour.cost >= hk.cost);
-    }
-
-    #[test]
-    fn the_max_flow_finds_the_bottleneck_of_a_small_graph() {
-        // 0 -> 1 (0.4) -> 3, 0 -> 2 (0.5) -> 3, 1 -> 2 (1).
-        let arcs = [
-            (0, 1, 0.4),
-            (0, 2, 0.5),
-            (1, 3, 1.0),
-            (2, 3, 1.0),
-            (1, 2, 1.0),
-        ];
-        let mut f = MaxFlow::new(4, &arcs);
-        let (value, side) = f.min_cut(0, 3);
-        assert!((value - 0.9).abs() < 1e-12);
-        assert_eq!(side, vec![true, false, false, false]);
     }
 }

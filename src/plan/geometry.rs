@@ -5,6 +5,16 @@ use crate::mission::{Enu, Mission};
 
 use super::CostMatrix;
 
+/// Lengths of a closed tour origin -> nodes -> origin.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TourLength {
+    /// 3D distance.
+    pub distance_m: f64,
+    pub horizontal_m: f64,
+    /// Total absolute vertical distance.
+    pub vertical_m: f64,
+}
+
 /// The points of a tour in the origin's ENU frame: index 0 is the origin, index `k + 1` is
 /// waypoint `k` of the mission.
 #[derive(Debug, Clone, PartialEq)]
@@ -56,6 +66,20 @@ impl Geometry {
     /// Straight-line 3D distance from point `i` to point `j`.
     pub fn distance_m(&self, i: usize, j: usize) -> f64 {
         self.horizontal_m(i, j).hypot(self.vertical_m(i, j))
+    }
+
+    /// The lengths of the closed tour 0 -> `nodes` -> 0, summed leg by leg in flying order.
+    pub fn tour_length(&self, nodes: &[usize]) -> TourLength {
+        let stops: Vec<usize> = std::iter::once(0)
+            .chain(nodes.iter().copied())
+            .chain(std::iter::once(0))
+            .collect();
+        let legs = || stops.windows(2).map(|w| (w[0], w[1]));
+        TourLength {
+            distance_m: legs().map(|(i, j)| self.distance_m(i, j)).sum(),
+            horizontal_m: legs().map(|(i, j)| self.horizontal_m(i, j)).sum(),
+            vertical_m: legs().map(|(i, j)| self.vertical_m(i, j).abs()).sum(),
+        }
     }
 
     /// 3D distance matrix.

@@ -34,8 +34,8 @@
 use std::collections::VecDeque;
 use std::time::Instant;
 
-use super::rng::Rng;
-use super::CostMatrix;
+use super::{is_tour_order, CostMatrix};
+use crate::rng::Rng;
 
 /// Settings of [`solve`].
 #[derive(Debug, Clone, PartialEq)]
@@ -143,13 +143,13 @@ pub fn solve(m: &CostMatrix, initial: Option<&[usize]>, opts: &Options) -> Outco
         _ => {}
     }
 
-    let finite = all_finite(m);
+    let finite = m.non_finite_arc().is_none();
     let assignment = if finite && n <= ASSIGNMENT_MAX_NODES {
         super::assignment::solve(m).ok()
     } else {
         None
     };
-    let start: Vec<usize> = match initial.filter(|o| is_permutation(o, n)) {
+    let start: Vec<usize> = match initial.filter(|o| is_tour_order(n, o)) {
         Some(order) => std::iter::once(0).chain(order.iter().copied()).collect(),
         None => match &assignment {
             Some(ap) => patch(m, &ap.successor),
@@ -244,25 +244,6 @@ fn m_tour_cost(m: &CostMatrix, tour: &[usize]) -> f64 {
         (Some(&last), Some(&first)) if tour.len() > 1 => total + m.cost(last, first),
         _ => total,
     }
-}
-
-fn all_finite(m: &CostMatrix) -> bool {
-    let n = m.len();
-    (0..n).all(|i| (0..n).all(|j| i == j || m.cost(i, j).is_finite()))
-}
-
-fn is_permutation(order: &[usize], n: usize) -> bool {
-    if order.len() + 1 != n {
-        return false;
-    }
-    let mut seen = vec![false; n];
-    for &v in order {
-        if v == 0 || v >= n || seen[v] {
-            return false;
-        }
-        seen[v] = true;
-    }
-    true
 }
 
 /// Nearest-neighbour tour from the origin, as a rotation of all nodes starting at 0.
@@ -831,7 +812,7 @@ mod tests {
 
     fn assert_valid(order: &[usize], n: usize) {
         assert!(
-            is_permutation(order, n),
+            is_tour_order(n, order),
             "not a permutation of 1..{n}: {order:?}"
         );
     }

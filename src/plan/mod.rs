@@ -13,18 +13,16 @@ pub mod geometry;
 pub mod held_karp;
 pub mod heuristic;
 pub mod orders;
-pub mod rng;
 pub mod solver;
 pub mod sorties;
 pub mod study;
+pub(crate) mod subtour;
 #[cfg(test)]
 pub(crate) mod testing;
 pub mod tsplib;
 
-pub use geometry::Geometry;
-pub use orders::{
-    cheapest, order_waypoints, plan_orders, Direction, LegReport, Objective, OrderReport, Proof,
-};
+pub use geometry::{Geometry, TourLength};
+pub use orders::{order_waypoints, plan_orders, Direction, Objective, Proof, SolvedOrder};
 
 /// A square matrix of leg costs between `n` nodes, row-major: `cost(i, j)` is the cost of flying
 /// from node `i` to node `j`. Node 0 is the origin (depot); the diagonal is never used.
@@ -73,6 +71,53 @@ impl CostMatrix {
         }
         total + self.cost(prev, 0)
     }
+
+    /// The first arc, row by row, whose cost is not finite (the diagonal is never looked at).
+    pub fn non_finite_arc(&self) -> Option<(usize, usize)> {
+        (0..self.n)
+            .flat_map(|i| (0..self.n).map(move |j| (i, j)))
+            .find(|&(i, j)| i != j && !self.cost(i, j).is_finite())
+    }
+
+    /// Refuses a matrix with a cost that is not finite, naming the first such arc.
+    pub fn check_finite(&self) -> Result<(), PlanError> {
+        match self.non_finite_arc() {
+            Some((from, to)) => Err(PlanError::NonFiniteCost { from, to }),
+            None => Ok(()),
+        }
+    }
+
+    /// Refuses an `order` that does not list every node but the origin exactly once.
+    pub fn check_tour_order(&self, order: &[usize]) -> Result<(), PlanError> {
+        if is_tour_order(self.n, order) {
+            Ok(())
+        } else {
+            Err(PlanError::Infeasible(format!(
+                "the starting tour is not a permutation of nodes 1..{}",
+                self.n.saturating_sub(1)
+            )))
+        }
+    }
+
+    /// Whether every arc cost is an integer (TSPLIB), so bounds can be rounded up.
+    pub fn has_integer_costs(&self) -> bool {
+        (0..self.n).all(|i| {
+            (0..self.n).all(|j| {
+                let c = self.cost(i, j);
+                i == j || (c.fract() == 0.0 && c.abs() < 1e15)
+            })
+        })
+    }
+}
+
+/// Whether `order` lists each of the nodes `1..nodes` exactly once (the origin, node 0, is left
+/// out of a tour's order).
+pub fn is_tour_order(nodes: usize, order: &[usize]) -> bool {
+    let mut seen = vec![false; nodes];
+    order.len() + 1 == nodes.max(1)
+        && order
+            .iter()
+            .all(|&k| k > 0 && k < nodes && !std::mem::replace(&mut seen[k], true))
 }
 
 /// A solved tour: the visiting order of the non-origin nodes (origin excluded at both ends),
@@ -108,4 +153,43 @@ pub enum PlanError {
         zf_m: f64,
         reason: String,
     },
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_tour_order_lists_every_node_but_the_origin_exactly_once() {
+        assert!(is_tour_order(4, &[2, 1, 3]));
+        assert!(is_tour_order(1, &[]));
+        for bad in [
+            &[1, 2][..],
+            &[1, 2, 2],
+            &[0, 1, 2],
+            &[1, 2, 4],
+            &[1, 2, 3, 1],
+        ] {
+            assert!(!is_tour_order(4, bad), "{bad:?}");
+        }
+        let m = CostMatrix::from_fn(4, |i, j| (i + j) as f64);
+        assert!(m.check_tour_order(&[3, 1, 2]).is_ok());
+        assert_eq!(
+            m.check_tour_order(&[3, 1]).unwrap_err().to_string(),
+            "no tour exists: the starting tour is not a permutation of nodes 1..3"
+        );
+    }
+
+    #[test]
+    fn the_first_non_finite_arc_is_named_and_the_diagonal_is_ignored() {
+        let m = CostMatrix::from_fn(3, |i, j| if (i, j) == (2, 1) { f64::NAN } else { 1.5 });
+        assert_eq!(m.non_finite_arc(), Some((2, 1)));
+        assert_eq!(
+            m.check_finite(),
+            Err(PlanError::NonFiniteCost { from: 2, to: 1 })
+        );
+        assert!(!m.has_integer_costs());
+        let whole = CostMatrix::from_fn(3, |i, j| (i * 3 + j) as f64);
+        assert!(whole.check_finite().is_ok() && whole.has_integer_costs());
+    }
 }

@@ -1,7 +1,7 @@
-//! The orders `emplan plan` reports: the minimum-energy order (when an energy cost matrix is
+//! The orders `emplan plan` reports, solved: the minimum-energy order (when an energy cost matrix is
 //! given) and the three distance baselines of the paper (notes section 4), min 3D distance D_M,
 //! min horizontal distance X_M and min vertical distance Z_M with ties broken by X_M, each in both
-//! directions, with per-leg metrics.
+//! directions. Pricing them (per-leg energy from a vehicle) is the planner's job.
 
 use serde::Serialize;
 
@@ -29,44 +29,21 @@ pub enum Direction {
     Reverse,
 }
 
-/// One leg of an order.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct LegReport {
-    pub from: String,
-    pub to: String,
-    pub horizontal_m: f64,
-    /// Signed vertical displacement (positive = climb).
-    pub vertical_m: f64,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub energy_kj: Option<f64>,
-}
-
-/// One visiting order and its metrics (the ORDER object of DESIGN.md).
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct OrderReport {
+/// A solved visiting order: which objective chose it, the direction it is flown in, its nodes
+/// (1-based waypoint ids, the origin excluded at both ends) and what the solver proved.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SolvedOrder {
     pub objective: Objective,
     pub direction: Direction,
-    /// Waypoint names in visiting order, origin excluded.
-    pub sequence: Vec<String>,
-    /// Node ids (1-based waypoint indices, 0 = origin) in visiting order.
-    #[serde(skip)]
     pub nodes: Vec<usize>,
-    pub distance_m: f64,
-    pub horizontal_m: f64,
-    /// Total absolute vertical distance.
-    pub vertical_m: f64,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub energy_kj: Option<f64>,
-    pub legs: Vec<LegReport>,
-    /// How the order was solved and what is proven about it (the order that minimises its
-    /// objective; absent on reversed baselines, which are not solved for).
-    #[serde(skip_serializing_if = "Option::is_none")]
+    /// What the solver proved (the order that minimises its objective; absent on reversed
+    /// baselines, which are not solved for).
     pub proof: Option<Proof>,
 }
 
-/// What the solver proved about an order, in the objective's units (kJ for energy, metres for
+/// What the solver proved about an order, in the objective's units (J for energy, metres for
 /// the distance baselines).
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Proof {
     pub solver: solver::Solver,
     pub optimal: bool,
@@ -76,11 +53,11 @@ pub struct Proof {
 }
 
 impl Proof {
-    fn of(solved: &Solved, scale: f64) -> Proof {
+    fn of(solved: &Solved) -> Proof {
         Proof {
             solver: solved.solver,
             optimal: solved.tour.optimal,
-            lower_bound: solved.tour.lower_bound * scale,
+            lower_bound: solved.tour.lower_bound,
             gap_pct: solved.gap_pct,
             seconds: solved.seconds,
         }
@@ -168,106 +145,64 @@ fn forward(mut order: Vec<usize>) -> Vec<usize> {
     order
 }
 
+/// The minimum-energy order of `energy` (joules per leg, node 0 = origin).
+pub fn energy_order(
+    geometry: &Geometry,
+    energy: &CostMatrix,
+    options: &solver::Options,
+) -> Result<SolvedOrder, PlanError> {
+    let (nodes, solved) = solve_order_with(geometry, Objective::Energy, Some(energy), options)?;
+    Ok(SolvedOrder {
+        objective: Objective::Energy,
+        direction: Direction::Forward,
+        nodes,
+        proof: Some(Proof::of(&solved)),
+    })
+}
+
+/// A distance baseline (`objective` other than energy) flown forward, then reverse.
+pub fn baseline(
+    geometry: &Geometry,
+    objective: Objective,
+    options: &solver::Options,
+) -> Result<[SolvedOrder; 2], PlanError> {
+    let (nodes, solved) = solve_order_with(geometry, objective, None, options)?;
+    let reversed: Vec<usize> = nodes.iter().rev().copied().collect();
+    Ok([
+        SolvedOrder {
+            objective,
+            direction: Direction::Forward,
+            nodes,
+            proof: Some(Proof::of(&solved)),
+        },
+        SolvedOrder {
+            objective,
+            direction: Direction::Reverse,
+            nodes: reversed,
+            proof: None,
+        },
+    ])
+}
+
 /// Every order `emplan plan` reports: the energy order (if `energy` is given) once, then each
-/// distance baseline forward and reverse. `names[k]` names node `k` (`names[0]` the origin).
+/// distance baseline forward and reverse.
 pub fn plan_orders(
     geometry: &Geometry,
-    names: &[String],
     energy: Option<&CostMatrix>,
     options: &solver::Options,
-) -> Result<Vec<OrderReport>, PlanError> {
-    let mut reports = Vec::new();
-    if energy.is_some() {
-        let (order, solved) = solve_order_with(geometry, Objective::Energy, energy, options)?;
-        let mut r = report(
-            geometry,
-            names,
-            energy,
-            Objective::Energy,
-            Direction::Forward,
-            order,
-        );
-        r.proof = Some(Proof::of(&solved, 1e-3));
-        reports.push(r);
+) -> Result<Vec<SolvedOrder>, PlanError> {
+    let mut orders = Vec::new();
+    if let Some(energy) = energy {
+        orders.push(energy_order(geometry, energy, options)?);
     }
     for objective in [
         Objective::Distance,
         Objective::Horizontal,
         Objective::Vertical,
     ] {
-        let (order, solved) = solve_order_with(geometry, objective, energy, options)?;
-        let reversed: Vec<usize> = order.iter().rev().copied().collect();
-        let mut forward = report(
-            geometry,
-            names,
-            energy,
-            objective,
-            Direction::Forward,
-            order,
-        );
-        forward.proof = Some(Proof::of(&solved, 1.0));
-        reports.push(forward);
-        reports.push(report(
-            geometry,
-            names,
-            energy,
-            objective,
-            Direction::Reverse,
-            reversed,
-        ));
+        orders.extend(baseline(geometry, objective, options)?);
     }
-    Ok(reports)
-}
-
-/// The order of `objective` with the least energy (the better direction of a baseline).
-pub fn cheapest(orders: &[OrderReport], objective: Objective) -> Option<&OrderReport> {
-    orders
-        .iter()
-        .filter(|o| o.objective == objective)
-        .min_by(|a, b| {
-            let energy = |o: &OrderReport| o.energy_kj.unwrap_or(f64::INFINITY);
-            energy(a).total_cmp(&energy(b))
-        })
-}
-
-/// Metrics of the closed tour `0 -> nodes... -> 0`.
-pub fn report(
-    geometry: &Geometry,
-    names: &[String],
-    energy: Option<&CostMatrix>,
-    objective: Objective,
-    direction: Direction,
-    nodes: Vec<usize>,
-) -> OrderReport {
-    let stops: Vec<usize> = std::iter::once(0)
-        .chain(nodes.iter().copied())
-        .chain(std::iter::once(0))
-        .collect();
-    let legs: Vec<LegReport> = stops
-        .windows(2)
-        .map(|w| LegReport {
-            from: names[w[0]].clone(),
-            to: names[w[1]].clone(),
-            horizontal_m: geometry.horizontal_m(w[0], w[1]),
-            vertical_m: geometry.vertical_m(w[0], w[1]),
-            energy_kj: energy.map(|e| e.cost(w[0], w[1]) / 1000.0),
-        })
-        .collect();
-    OrderReport {
-        objective,
-        direction,
-        sequence: nodes.iter().map(|&k| names[k].clone()).collect(),
-        distance_m: stops
-            .windows(2)
-            .map(|w| geometry.distance_m(w[0], w[1]))
-            .sum(),
-        horizontal_m: legs.iter().map(|l| l.horizontal_m).sum(),
-        vertical_m: legs.iter().map(|l| l.vertical_m.abs()).sum(),
-        energy_kj: energy.map(|_| legs.iter().filter_map(|l| l.energy_kj).sum()),
-        legs,
-        nodes,
-        proof: None,
-    }
+    Ok(orders)
 }
 
 #[cfg(test)]
@@ -276,7 +211,7 @@ mod tests {
     use crate::mission::Enu;
 
     /// Sample mission 1 of the paper notes (section 5): exact published metrics.
-    fn sample_8wp() -> (Geometry, Vec<String>) {
+    fn sample_8wp() -> Geometry {
         let pts = [
             (-20.0, 20.0, 19.0),
             (20.0, -20.0, 19.0),
@@ -294,65 +229,70 @@ mod tests {
                 z_up_m: z,
             }))
             .collect();
-        let names = ["origin", "A", "B", "C", "D", "E", "F", "G", "H"]
-            .iter()
-            .map(|s| s.to_string())
-            .collect();
-        (Geometry::from_points(points), names)
+        Geometry::from_points(points)
     }
 
-    fn metrics(r: &OrderReport) -> (f64, f64, f64) {
+    fn metrics(g: &Geometry, r: &SolvedOrder) -> (f64, f64, f64) {
         let round = |v: f64| (v * 10.0).round() / 10.0;
+        let t = g.tour_length(&r.nodes);
         (
-            round(r.distance_m),
-            round(r.horizontal_m),
-            round(r.vertical_m),
+            round(t.distance_m),
+            round(t.horizontal_m),
+            round(t.vertical_m),
         )
     }
 
     #[test]
     fn the_paper_sample_mission_baselines_have_the_published_metrics() {
-        let (g, names) = sample_8wp();
-        let orders = plan_orders(&g, &names, None, &solver::Options::default()).unwrap();
+        let g = sample_8wp();
+        let orders = plan_orders(&g, None, &solver::Options::default()).unwrap();
         assert_eq!(orders.len(), 6);
         let find = |o: Objective| orders.iter().find(|r| r.objective == o).unwrap();
-        assert_eq!(metrics(find(Objective::Distance)), (284.4, 189.5, 174.0));
-        assert_eq!(metrics(find(Objective::Horizontal)), (311.6, 183.2, 240.0));
-        assert_eq!(metrics(find(Objective::Vertical)), (321.4, 291.3, 76.0));
+        assert_eq!(
+            metrics(&g, find(Objective::Distance)),
+            (284.4, 189.5, 174.0)
+        );
+        assert_eq!(
+            metrics(&g, find(Objective::Horizontal)),
+            (311.6, 183.2, 240.0)
+        );
+        assert_eq!(metrics(&g, find(Objective::Vertical)), (321.4, 291.3, 76.0));
     }
 
     #[test]
     fn reverse_baselines_fly_the_same_tour_backwards_with_mirrored_legs() {
-        let (g, names) = sample_8wp();
-        let orders = plan_orders(&g, &names, None, &solver::Options::default()).unwrap();
+        let g = sample_8wp();
+        let orders = plan_orders(&g, None, &solver::Options::default()).unwrap();
         let fwd = &orders[0];
         let rev = &orders[1];
         assert_eq!(rev.direction, Direction::Reverse);
-        let mut back = fwd.sequence.clone();
+        assert!(fwd.proof.is_some() && rev.proof.is_none());
+        let mut back = fwd.nodes.clone();
         back.reverse();
-        assert_eq!(rev.sequence, back);
-        assert_eq!(rev.legs[0].vertical_m, -fwd.legs.last().unwrap().vertical_m);
+        assert_eq!(rev.nodes, back);
+        let (first, last) = (rev.nodes[0], fwd.nodes[fwd.nodes.len() - 1]);
+        assert_eq!(first, last);
+        assert_eq!(g.vertical_m(0, first), -g.vertical_m(last, 0));
         assert!(fwd.nodes.first() < fwd.nodes.last());
     }
 
     #[test]
     fn the_energy_order_minimises_the_given_energy_matrix_and_reports_it_per_leg() {
-        let (g, names) = sample_8wp();
+        let g = sample_8wp();
         // A climb-averse cost: climbing costs 10 per metre, descending 1, horizontal 1.
         let e = CostMatrix::from_fn(g.len(), |i, j| {
             let dz = g.vertical_m(i, j);
             1000.0 * (g.horizontal_m(i, j) + if dz > 0.0 { 10.0 * dz } else { -dz })
         });
-        let orders = plan_orders(&g, &names, Some(&e), &solver::Options::default()).unwrap();
+        let orders = plan_orders(&g, Some(&e), &solver::Options::default()).unwrap();
         assert_eq!(orders.len(), 7);
         let energy = &orders[0];
         assert_eq!(energy.objective, Objective::Energy);
-        let best = energy.energy_kj.unwrap();
+        let best = e.tour_cost(&energy.nodes);
         for other in &orders[1..] {
-            assert!(other.energy_kj.unwrap() >= best - 1e-9);
+            assert!(e.tour_cost(&other.nodes) >= best - 1e-9);
         }
-        let sum: f64 = energy.legs.iter().map(|l| l.energy_kj.unwrap()).sum();
-        assert!((sum - best).abs() < 1e-9);
-        assert!((best * 1000.0 - e.tour_cost(&energy.nodes)).abs() < 1e-6);
+        let proof = energy.proof.as_ref().unwrap();
+        assert!(proof.optimal && proof.lower_bound == best);
     }
 }

@@ -180,13 +180,7 @@ fn run_heuristic(
     options: &Options,
     budget: Duration,
 ) -> Result<heuristic::Outcome, PlanError> {
-    for i in 0..m.len() {
-        for j in 0..m.len() {
-            if i != j && !m.cost(i, j).is_finite() {
-                return Err(PlanError::NonFiniteCost { from: i, to: j });
-            }
-        }
-    }
+    m.check_finite()?;
     Ok(heuristic::solve(
         m,
         None,

@@ -1,8 +1,8 @@
 //! Test fixtures shared by the solver tests: climb-averse random missions and the TSPLIB
 //! instances beside the project.
 
-use super::rng::Rng;
 use super::{tsplib, CostMatrix};
+use crate::rng::Rng;
 
 /// The origin at (0, 0, 0) and `n - 1` random points uniform in [-50, 50]^2 x [-25, 25] m; leg
 /// cost = horizontal distance + 8 x climb + 0.5 x descent (the shape of a multirotor's energy,

@@ -1,8 +1,12 @@
 //! Reader for TSPLIB asymmetric TSP instances (Reinelt 1991; `TYPE: ATSP`,
 //! `EDGE_WEIGHT_TYPE: EXPLICIT`, `EDGE_WEIGHT_FORMAT: FULL_MATRIX`). Rows may wrap over several
 //! lines, so the N*N weights after `EDGE_WEIGHT_SECTION` are read as one stream; the diagonal is
-//! ignored. Node 1 of the file becomes node 0 (the depot) of the cost matrix.
+//! ignored. Node 1 of the file becomes node 0 (the depot) of the cost matrix. Also the writer
+//! (`emplan plan --export-atsp`) and the JSON view of a solved instance (`emplan tsp --json`).
 
+use serde::Serialize;
+
+use super::solver::{Solved, Solver};
 use super::CostMatrix;
 
 /// A TSPLIB instance.
@@ -20,6 +24,44 @@ pub enum TsplibError {
     Invalid { line: usize, problem: String },
     #[error("the file ends before {missing} of the {expected} edge weights")]
     Truncated { missing: usize, expected: usize },
+}
+
+/// `emplan tsp --json` (DESIGN.md): the tour in TSPLIB's 1-based node ids, from node 1.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SolutionJson {
+    pub instance: String,
+    pub dimension: usize,
+    pub cost: f64,
+    pub optimal: bool,
+    pub lower_bound: f64,
+    pub tour: Vec<usize>,
+    pub seconds: f64,
+    pub solver: Solver,
+    pub gap_pct: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub heuristic_cost: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nodes: Option<u64>,
+}
+
+/// The JSON view of `instance` solved.
+pub fn solution_json(instance: &Instance, solved: &Solved) -> SolutionJson {
+    let tour = &solved.tour;
+    SolutionJson {
+        instance: instance.name.clone(),
+        dimension: instance.dimension,
+        cost: tour.cost,
+        optimal: tour.optimal,
+        lower_bound: tour.lower_bound,
+        tour: std::iter::once(1)
+            .chain(tour.order.iter().map(|&k| k + 1))
+            .collect(),
+        seconds: solved.seconds,
+        solver: solved.solver,
+        gap_pct: solved.gap_pct,
+        heuristic_cost: solved.heuristic_cost,
+        nodes: solved.nodes,
+    }
 }
 
 /// Largest dimension accepted (a 10 000-node matrix is 800 MB of `f64`).

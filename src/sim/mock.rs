@@ -18,6 +18,7 @@ use crate::link::mav::{
     MavAutopilot, MavMessage, MavMissionResult, MavModeFlag, MavState, MavType, HEARTBEAT_DATA,
     MISSION_ITEM_INT_DATA,
 };
+use crate::rng::Rng;
 
 /// Transport and protocol faults to inject.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -72,21 +73,6 @@ pub enum SimError {
     Listen { url: String, reason: String },
     #[error("socket: {0}")]
     Io(#[from] std::io::Error),
-}
-
-/// SplitMix64: a small seeded generator, so fault sequences reproduce.
-#[derive(Debug, Clone)]
-struct Rng(u64);
-
-impl Rng {
-    fn chance(&mut self, p: f64) -> bool {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        let u = ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64;
-        u < p
-    }
 }
 
 #[derive(Debug, Default)]
@@ -234,7 +220,7 @@ async fn run(
             reboot_at_item: f.reboot_at_item,
         },
     );
-    let mut rng_up = Rng(config.seed ^ 0x005e_ed0f_u64);
+    let mut rng_up = Rng::new(config.seed ^ 0x005e_ed0f_u64);
     let signing = config.signing_key.map(|key| {
         Arc::new(SigningData::from_config(SigningConfig::new(
             key, 0, true, false,
@@ -248,7 +234,7 @@ async fn run(
             component_id: config.component_id,
             sequence: 0,
         },
-        rng: Rng(config.seed),
+        rng: Rng::new(config.seed),
         faults: f,
         held: None,
     };

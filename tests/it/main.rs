@@ -3,6 +3,7 @@
 mod cli;
 mod mission;
 mod physics;
+mod snapshots;
 mod solvers;
 mod sorties;
 mod study;

@@ -1,6 +1,7 @@
-//! A small seeded pseudo-random generator (SplitMix64, Steele, Lea and Flood 2014, as in Java's
-//! `SplittableRandom`) so that the heuristics and the random-mission study reproduce exactly
-//! from a seed, on every platform and every version of the dependencies.
+//! The one small seeded pseudo-random generator (SplitMix64, Steele, Lea and Flood 2014, as in
+//! Java's `SplittableRandom`) so that the heuristics, the random-mission study and the mock
+//! autopilot's transport faults reproduce exactly from a seed, on every platform and every
+//! version of the dependencies.
 
 /// SplitMix64: 64-bit state, period 2^64, passes BigCrush; plenty for kicks and sampling.
 #[derive(Debug, Clone)]
@@ -26,6 +27,11 @@ impl Rng {
     /// Uniform in [0, 1) with 53 random bits.
     pub fn next_f64(&mut self) -> f64 {
         (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+    }
+
+    /// True with probability `p` (never for `p <= 0`, always for `p >= 1`).
+    pub fn chance(&mut self, p: f64) -> bool {
+        self.next_f64() < p
     }
 
     /// Uniform in [lo, hi).
@@ -90,5 +96,14 @@ mod tests {
             assert!((-2.0..3.0).contains(&u));
         }
         assert!(seen.iter().all(|&s| s));
+    }
+
+    #[test]
+    fn chance_never_fires_at_zero_always_at_one_and_about_as_often_as_asked_between() {
+        let mut r = Rng::new(3);
+        let hits = (0..10_000).filter(|_| r.chance(0.3)).count();
+        assert!((2_800..3_200).contains(&hits), "{hits}");
+        assert!((0..1000).all(|_| !r.chance(0.0)));
+        assert!((0..1000).all(|_| r.chance(1.0)));
     }
 }

@@ -1,0 +1,267 @@
+//! The JSON views of a [`Plan`] (the shapes of DESIGN.md): the document `emplan plan --json`
+//! prints and the planning fields of `emplan upload --json`. The CLI and the HTTP service
+//! serialise these, so both print the same document. Energies become kJ here, and only here.
+//!
+//! A printed total is the sum of its printed parts: an order's `energy_kj` adds its legs'
+//! `energy_kj`, the battery's `total_kj` adds take-off, legs, hovering and landing in kJ, and
+//! `excess_kj` is `total_kj - budget_kj`. A sortie's energies are converted from its own J.
+
+use serde::Serialize;
+
+use super::{Flight, Leg, Order, Orders, Plan, Sorties};
+use crate::physics::Profile;
+use crate::plan::solver::Solver;
+use crate::plan::sorties::Method;
+use crate::plan::{Direction, Objective};
+
+/// kJ of `j` joules.
+pub fn kj(j: f64) -> f64 {
+    j / 1000.0
+}
+
+/// An order's energy as printed: the sum of its legs' kJ.
+pub fn energy_kj(legs: &[Leg]) -> f64 {
+    legs.iter().map(|l| kj(l.energy_j())).sum()
+}
+
+/// `emplan plan --json`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PlanJson {
+    pub mission: String,
+    pub profile: Profile,
+    pub orders: Vec<OrderJson>,
+    pub battery: BatteryJson,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sorties: Option<SortiesJson>,
+}
+
+/// One order (the ORDER object of DESIGN.md).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct OrderJson {
+    /// "energy", "distance", "horizontal", "vertical", or "listed".
+    pub objective: &'static str,
+    pub direction: Direction,
+    /// Waypoint names in visiting order, origin excluded.
+    pub sequence: Vec<String>,
+    pub distance_m: f64,
+    pub horizontal_m: f64,
+    pub vertical_m: f64,
+    pub energy_kj: f64,
+    pub legs: Vec<LegJson>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub proof: Option<ProofJson>,
+}
+
+/// One leg of an order.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LegJson {
+    pub from: String,
+    pub to: String,
+    pub horizontal_m: f64,
+    pub vertical_m: f64,
+    pub energy_kj: f64,
+}
+
+/// What the solver proved, in the objective's printed units (kJ for energy, metres for the
+/// distance baselines).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ProofJson {
+    pub solver: Solver,
+    pub optimal: bool,
+    pub lower_bound: f64,
+    pub gap_pct: f64,
+    pub seconds: f64,
+}
+
+/// The flown order against the battery.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BatteryJson {
+    pub takeoff_kj: f64,
+    pub legs_kj: f64,
+    pub hover_kj: f64,
+    pub landing_kj: f64,
+    pub total_kj: f64,
+    pub budget_kj: f64,
+    pub reserve_pct: f64,
+    pub feasible: bool,
+    /// Energy over the budget (0 when feasible).
+    pub excess_kj: f64,
+}
+
+/// The `"sorties"` object of `emplan plan --sorties --json`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SortiesJson {
+    /// Number of sorties, one battery each.
+    pub batteries: usize,
+    /// Energy of all sorties together.
+    pub total_kj: f64,
+    /// Whether the total is proven minimal (exact split).
+    pub optimal: bool,
+    pub method: Method,
+    /// Energy one battery may spend on a sortie, after its reserve.
+    pub budget_kj: f64,
+    /// The whole mission flown as one tour (the flown order), for comparison.
+    pub single_tour_kj: f64,
+    pub sorties: Vec<SortieJson>,
+}
+
+/// One sortie: origin -> `sequence` -> origin on a fresh battery.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SortieJson {
+    /// Waypoint names in flying order, origin excluded.
+    pub sequence: Vec<String>,
+    pub takeoff_kj: f64,
+    pub legs_kj: f64,
+    pub hover_kj: f64,
+    pub landing_kj: f64,
+    pub total_kj: f64,
+    /// Share of the battery's budget this sortie uses.
+    pub budget_pct: f64,
+    pub legs: Vec<LegJson>,
+}
+
+/// The planning fields of `emplan upload --json` (the link's fields follow them).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct UploadPlanJson {
+    pub mission: String,
+    /// The order asked for ("energy", "distance" or "listed").
+    pub order: Orders,
+    /// The sortie flown (1-based), if one was chosen.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sortie: Option<usize>,
+    /// Waypoint names in flying order, origin excluded.
+    pub sequence: Vec<String>,
+    pub predicted_mission_kj: f64,
+    pub budget_kj: f64,
+}
+
+fn objective_name(objective: Option<Objective>) -> &'static str {
+    match objective {
+        Some(Objective::Energy) => "energy",
+        Some(Objective::Distance) => "distance",
+        Some(Objective::Horizontal) => "horizontal",
+        Some(Objective::Vertical) => "vertical",
+        None => "listed",
+    }
+}
+
+fn sequence(plan: &Plan, nodes: &[usize]) -> Vec<String> {
+    nodes.iter().map(|&n| plan.name(n).to_string()).collect()
+}
+
+fn legs(plan: &Plan, legs: &[Leg]) -> Vec<LegJson> {
+    legs.iter()
+        .map(|l| LegJson {
+            from: plan.name(l.from).to_string(),
+            to: plan.name(l.to).to_string(),
+            horizontal_m: l.horizontal_m,
+            vertical_m: l.vertical_m,
+            energy_kj: kj(l.energy_j()),
+        })
+        .collect()
+}
+
+/// One order as printed.
+pub fn order_json(plan: &Plan, order: &Order) -> OrderJson {
+    // The energy order's bound is in J, a baseline's in metres.
+    let scale = if order.objective == Some(Objective::Energy) {
+        1e-3
+    } else {
+        1.0
+    };
+    OrderJson {
+        objective: objective_name(order.objective),
+        direction: order.direction,
+        sequence: sequence(plan, &order.nodes),
+        distance_m: order.distance_m,
+        horizontal_m: order.horizontal_m,
+        vertical_m: order.vertical_m,
+        energy_kj: energy_kj(&order.legs),
+        legs: legs(plan, &order.legs),
+        proof: order.proof.as_ref().map(|p| ProofJson {
+            solver: p.solver,
+            optimal: p.optimal,
+            lower_bound: p.lower_bound * scale,
+            gap_pct: p.gap_pct,
+            seconds: p.seconds,
+        }),
+    }
+}
+
+/// The flown order against the battery, as printed.
+pub fn battery_json(plan: &Plan) -> BatteryJson {
+    let b = &plan.battery;
+    let (takeoff_kj, legs_kj, hover_kj, landing_kj) = (
+        kj(b.takeoff_j),
+        energy_kj(&plan.flown().legs),
+        kj(b.hover_j),
+        kj(b.landing_j),
+    );
+    let total_kj = takeoff_kj + legs_kj + hover_kj + landing_kj;
+    let budget_kj = kj(b.usable_j);
+    BatteryJson {
+        takeoff_kj,
+        legs_kj,
+        hover_kj,
+        landing_kj,
+        total_kj,
+        budget_kj,
+        reserve_pct: b.reserve_pct,
+        feasible: b.feasible,
+        excess_kj: (total_kj - budget_kj).max(0.0),
+    }
+}
+
+/// The sorties as printed; `single_tour_kj` is the flown order's total.
+pub fn sorties_json(plan: &Plan, sorties: &Sorties) -> SortiesJson {
+    let usable_j = plan.budget.usable_j;
+    SortiesJson {
+        batteries: sorties.sorties.len(),
+        total_kj: kj(sorties.total_j),
+        optimal: sorties.optimal,
+        method: sorties.method,
+        budget_kj: kj(usable_j),
+        single_tour_kj: battery_json(plan).total_kj,
+        sorties: sorties
+            .sorties
+            .iter()
+            .map(|s| SortieJson {
+                sequence: sequence(plan, &s.nodes),
+                takeoff_kj: kj(s.battery.takeoff_j),
+                legs_kj: kj(s.battery.legs_j),
+                hover_kj: kj(s.battery.hover_j),
+                landing_kj: kj(s.battery.landing_j),
+                total_kj: kj(s.battery.total_j),
+                budget_pct: 100.0 * s.battery.total_j / usable_j,
+                legs: legs(plan, &s.legs),
+            })
+            .collect(),
+    }
+}
+
+/// `emplan plan --json`: every order, the battery check and the sorties (when split).
+pub fn plan_document(plan: &Plan) -> PlanJson {
+    PlanJson {
+        mission: plan.mission.clone(),
+        profile: plan.profile,
+        orders: plan.orders.iter().map(|o| order_json(plan, o)).collect(),
+        battery: battery_json(plan),
+        sorties: plan.sorties.as_ref().map(|s| sorties_json(plan, s)),
+    }
+}
+
+/// The planning fields of `emplan upload --json` for `flight` of `plan`.
+pub fn upload_document(plan: &Plan, flight: &Flight) -> UploadPlanJson {
+    let predicted_mission_kj = match flight.sortie {
+        Some(_) => kj(flight.battery.total_j),
+        None => battery_json(plan).total_kj,
+    };
+    UploadPlanJson {
+        mission: plan.mission.clone(),
+        order: plan.asked,
+        sortie: flight.sortie,
+        sequence: sequence(plan, flight.nodes),
+        predicted_mission_kj,
+        budget_kj: kj(flight.battery.usable_j),
+    }
+}

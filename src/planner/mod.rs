@@ -1,0 +1,501 @@
+//! The planning pipeline as one library call: a mission and a vehicle model in, a [`Plan`] out
+//! (every order asked for with each leg's predicted energy and duration, the battery check of
+//! the order to fly, the sorties when asked, the solver's proof and where the energy order
+//! saves). The CLI (`emplan plan`, `emplan upload`) and the coming `fly` and HTTP service call
+//! [`plan_mission`] and print [`json`]'s views of its result.
+//!
+//! The planner sits above `physics` and `plan` and joins them: it prices legs with the vehicle's
+//! energy table and hands `plan` the resulting cost matrix, so `plan` never imports `physics`.
+//!
+//! Node numbering, as in `plan`: node 0 is the origin, node `k + 1` is waypoint `k` of the
+//! mission file. [`Order::waypoints`] and [`Flight::waypoints`] give 0-based waypoint indices,
+//! what `link::items::mission_items` takes.
+//!
+//! Energies are in J here; [`json`] converts to kJ for output.
+//!
+//! Invariant: pure; no IO, no tokio, no MAVLink.
+
+pub mod explain;
+pub mod json;
+pub mod study;
+
+use serde::Serialize;
+
+use crate::mission::Mission;
+use crate::physics::{BatteryCheck, Budget, LegEnergy, PhysicsError, Profile};
+use crate::plan::energy::energy_matrix;
+use crate::plan::orders::{baseline, energy_order, plan_orders};
+use crate::plan::sorties::{self, Method, SortieError, SortieOptions, SortieProblem};
+use crate::plan::{solver, CostMatrix, Direction, Geometry, Objective, PlanError, Proof};
+
+pub use crate::physics::VehicleModel;
+pub use explain::{Explanation, Saving};
+
+/// Which orders a plan computes; the order it flies (the one its battery check prices) follows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Orders {
+    /// The minimum-energy order and every distance baseline both ways (`emplan plan`); the
+    /// energy order is flown.
+    All,
+    /// The minimum-energy order alone, flown.
+    Energy,
+    /// The minimum-distance baseline both ways; its cheaper direction (in energy) is flown.
+    Distance,
+    /// The order the mission file lists, flown as listed; nothing is solved.
+    Listed,
+}
+
+/// What to plan.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlanOptions {
+    pub orders: Orders,
+    pub solver: solver::Options,
+    /// Also split the mission into sorties of least total energy, one battery each (needs the
+    /// energy order: `All` or `Energy`).
+    pub sorties: bool,
+}
+
+impl Default for PlanOptions {
+    fn default() -> Self {
+        PlanOptions {
+            orders: Orders::All,
+            solver: solver::Options::default(),
+            sorties: false,
+        }
+    }
+}
+
+/// One leg of an order as the model predicts it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Leg {
+    /// Node ids (0 = origin).
+    pub from: usize,
+    pub to: usize,
+    pub horizontal_m: f64,
+    /// Signed vertical displacement (positive = climb).
+    pub vertical_m: f64,
+    /// 3D distance.
+    pub distance_m: f64,
+    /// Energy and time to the paper's 4 m rule (`energy_j`, `duration_s`) and from there to
+    /// settled hover at the next point (`settle_energy_j`, `settle_duration_s`).
+    pub predicted: LegEnergy,
+}
+
+impl Leg {
+    /// Everything the battery pays for the leg, start to settled hover.
+    pub fn energy_j(&self) -> f64 {
+        self.predicted.total_energy_j()
+    }
+
+    /// Start to settled hover.
+    pub fn duration_s(&self) -> f64 {
+        self.predicted.total_duration_s()
+    }
+}
+
+/// One visiting order, priced.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Order {
+    /// What chose it; `None` for the listed order (the mission file's own, not solved).
+    pub objective: Option<Objective>,
+    pub direction: Direction,
+    /// Node ids in visiting order, origin excluded.
+    pub nodes: Vec<usize>,
+    /// origin -> nodes... -> origin.
+    pub legs: Vec<Leg>,
+    pub distance_m: f64,
+    pub horizontal_m: f64,
+    /// Total absolute vertical distance.
+    pub vertical_m: f64,
+    /// Sum of the legs' energies.
+    pub energy_j: f64,
+    /// Sum of the legs' durations.
+    pub duration_s: f64,
+    /// What the solver proved (in J for the energy order, metres for a baseline); absent on
+    /// reversed baselines and the listed order.
+    pub proof: Option<Proof>,
+}
+
+impl Order {
+    /// The order as 0-based indices into the mission's waypoints.
+    pub fn waypoints(&self) -> Vec<usize> {
+        self.nodes.iter().map(|&n| n - 1).collect()
+    }
+}
+
+/// One sortie of a split mission: origin -> its waypoints -> origin on a fresh battery.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sortie {
+    /// Node ids in flying order, origin excluded.
+    pub nodes: Vec<usize>,
+    pub legs: Vec<Leg>,
+    /// Its take-off, legs, hovering and landing against one battery.
+    pub battery: BatteryCheck,
+}
+
+/// A mission split into sorties of least total energy.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sorties {
+    pub method: Method,
+    /// Whether the total is proven minimal (exact split).
+    pub optimal: bool,
+    /// Energy of all sorties together.
+    pub total_j: f64,
+    /// Ordered by their lowest waypoint.
+    pub sorties: Vec<Sortie>,
+}
+
+/// A mission planned with a vehicle.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plan {
+    /// The mission's name.
+    pub mission: String,
+    pub profile: Profile,
+    /// What was asked for.
+    pub asked: Orders,
+    /// `names[node]`: "origin", then the waypoints' names.
+    pub names: Vec<String>,
+    /// The orders computed: with `All`, the energy order, then each distance baseline forward
+    /// and reverse; with `Energy` the energy order; with `Distance` the distance baseline
+    /// forward and reverse; with `Listed` the listed order.
+    pub orders: Vec<Order>,
+    /// Index in `orders` of the order to fly.
+    pub flown: usize,
+    /// Take-off, landing, hover power and the battery.
+    pub budget: Budget,
+    /// Hover time at each waypoint (s), in file order.
+    pub hover_s: Vec<f64>,
+    /// The flown order against one battery.
+    pub battery: BatteryCheck,
+    /// The split into sorties, when asked for.
+    pub sorties: Option<Sorties>,
+    /// Where the energy order saves against the distance order (with `All`).
+    pub explanation: Option<Explanation>,
+    /// Energy of every leg, start to settled hover (J), node 0 = origin.
+    pub energy: CostMatrix,
+}
+
+/// What one upload flies: the flown order, or one sortie.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Flight<'a> {
+    /// The sortie (1-based), if one was chosen.
+    pub sortie: Option<usize>,
+    /// Node ids in flying order, origin excluded.
+    pub nodes: &'a [usize],
+    pub legs: &'a [Leg],
+    pub battery: &'a BatteryCheck,
+}
+
+impl Flight<'_> {
+    /// The flight as 0-based indices into the mission's waypoints.
+    pub fn waypoints(&self) -> Vec<usize> {
+        self.nodes.iter().map(|&n| n - 1).collect()
+    }
+
+    /// Refuses a flight the battery cannot fly with its reserve.
+    pub fn require_feasible(&self) -> Result<(), PlannerError> {
+        let b = self.battery;
+        if b.total_j > b.usable_j {
+            return Err(PlannerError::OverBudget {
+                predicted_j: b.total_j,
+                usable_j: b.usable_j,
+                reserve_pct: b.reserve_pct,
+            });
+        }
+        Ok(())
+    }
+}
+
+impl Plan {
+    /// The order to fly.
+    pub fn flown(&self) -> &Order {
+        &self.orders[self.flown]
+    }
+
+    /// The first order computed for `objective`.
+    pub fn order(&self, objective: Objective) -> Option<&Order> {
+        self.orders.iter().find(|o| o.objective == Some(objective))
+    }
+
+    /// The order of `objective` with the least energy (the better direction of a baseline; the
+    /// first one on a tie).
+    pub fn cheapest(&self, objective: Objective) -> Option<&Order> {
+        cheapest(&self.orders, objective)
+    }
+
+    /// Name of a node.
+    pub fn name(&self, node: usize) -> &str {
+        self.names.get(node).map_or("?", String::as_str)
+    }
+
+    /// Energy of hovering at waypoint `waypoint` (0-based).
+    pub fn hover_j(&self, waypoint: usize) -> f64 {
+        self.budget
+            .hover_j(self.hover_s.get(waypoint).copied().unwrap_or(0.0))
+    }
+
+    /// What to upload: sortie `sortie` (1-based) of the split, or the flown order.
+    pub fn flight(&self, sortie: Option<usize>) -> Result<Flight<'_>, PlannerError> {
+        let Some(k) = sortie else {
+            let order = self.flown();
+            return Ok(Flight {
+                sortie: None,
+                nodes: &order.nodes,
+                legs: &order.legs,
+                battery: &self.battery,
+            });
+        };
+        let count = self.sorties.as_ref().map_or(0, |s| s.sorties.len());
+        let chosen = k
+            .checked_sub(1)
+            .and_then(|i| self.sorties.as_ref()?.sorties.get(i))
+            .ok_or(PlannerError::NoSuchSortie { sortie: k, count })?;
+        Ok(Flight {
+            sortie: Some(k),
+            nodes: &chosen.nodes,
+            legs: &chosen.legs,
+            battery: &chosen.battery,
+        })
+    }
+}
+
+/// Everything planning can refuse.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PlannerError {
+    // The cause is part of the message (not a `#[source]`), so that a chain of causes printed
+    // one after the other does not repeat it.
+    #[error("pricing the legs of mission {mission}: {cause}")]
+    Pricing { mission: String, cause: PlanError },
+    #[error("planning mission {mission}: {cause}")]
+    Planning { mission: String, cause: PlanError },
+    /// Take-off, landing or hover the model cannot price.
+    #[error(transparent)]
+    Budget(PhysicsError),
+    #[error(
+        "waypoint {waypoint} cannot be flown even on a battery of its own: take-off, flying out, \
+         hovering {hover_s:.0} s, flying back and landing need {:.1} kJ but one battery has {:.1} \
+         kJ usable after its {reserve_pct}% reserve",
+        .alone_j / 1000.0,
+        .usable_j / 1000.0
+    )]
+    Unreachable {
+        waypoint: String,
+        hover_s: f64,
+        alone_j: f64,
+        usable_j: f64,
+        reserve_pct: f64,
+    },
+    #[error("splitting mission {mission} into sorties: {cause}")]
+    Sorties { mission: String, cause: SortieError },
+    #[error("splitting mission {mission} into sorties needs its energy order")]
+    SortiesNeedTheEnergyOrder { mission: String },
+    #[error("sortie {sortie}: the mission splits into {count} sorties (1 to {count})")]
+    NoSuchSortie { sortie: usize, count: usize },
+    #[error(
+        "the model predicts {:.1} kJ for this mission but the battery has {:.1} kJ usable after \
+         its {reserve_pct}% reserve",
+        .predicted_j / 1000.0,
+        .usable_j / 1000.0
+    )]
+    OverBudget {
+        predicted_j: f64,
+        usable_j: f64,
+        reserve_pct: f64,
+    },
+}
+
+/// The order of `objective` among `orders` with the least energy, the first on a tie.
+fn cheapest(orders: &[Order], objective: Objective) -> Option<&Order> {
+    orders
+        .iter()
+        .filter(|o| o.objective == Some(objective))
+        .min_by(|a, b| a.energy_j.total_cmp(&b.energy_j))
+}
+
+/// Plans `mission` with `model` as `options` ask: prices every leg from the vehicle's energy
+/// table, solves the orders asked for, checks the flown order against the battery, and splits
+/// into sorties when asked.
+pub fn plan_mission(
+    mission: &Mission,
+    model: &VehicleModel,
+    options: &PlanOptions,
+) -> Result<Plan, PlannerError> {
+    let geometry = Geometry::from_mission(mission);
+    let names: Vec<String> = std::iter::once("origin".to_string())
+        .chain(mission.waypoints.iter().map(|w| w.name.clone()))
+        .collect();
+    let pricing = |cause| PlannerError::Pricing {
+        mission: mission.name.clone(),
+        cause,
+    };
+    let planning = |cause| PlannerError::Planning {
+        mission: mission.name.clone(),
+        cause,
+    };
+    let energy = energy_matrix(&geometry, &names, |x, z| {
+        model.leg(x, z).map(|leg| leg.total_energy_j())
+    })
+    .map_err(pricing)?;
+    let solver = &options.solver;
+    let solved = match options.orders {
+        Orders::All => plan_orders(&geometry, Some(&energy), solver).map_err(planning)?,
+        Orders::Energy => vec![energy_order(&geometry, &energy, solver).map_err(planning)?],
+        Orders::Distance => baseline(&geometry, Objective::Distance, solver)
+            .map_err(planning)?
+            .to_vec(),
+        Orders::Listed => Vec::new(),
+    };
+    let leg = |from: usize, to: usize| -> Result<Leg, PlannerError> {
+        let (horizontal_m, vertical_m) = (
+            geometry.horizontal_m(from, to),
+            geometry.vertical_m(from, to),
+        );
+        let predicted = model.leg(horizontal_m, vertical_m).map_err(|e| {
+            pricing(PlanError::LegEnergy {
+                from: names[from].clone(),
+                to: names[to].clone(),
+                xf_m: horizontal_m,
+                zf_m: vertical_m,
+                reason: e.to_string(),
+            })
+        })?;
+        Ok(Leg {
+            from,
+            to,
+            horizontal_m,
+            vertical_m,
+            distance_m: geometry.distance_m(from, to),
+            predicted,
+        })
+    };
+    let legs = |nodes: &[usize]| -> Result<Vec<Leg>, PlannerError> {
+        let stops: Vec<usize> = std::iter::once(0)
+            .chain(nodes.iter().copied())
+            .chain(std::iter::once(0))
+            .collect();
+        stops.windows(2).map(|w| leg(w[0], w[1])).collect()
+    };
+    let priced = |objective, direction, nodes: Vec<usize>, proof| -> Result<Order, PlannerError> {
+        let legs = legs(&nodes)?;
+        Ok(Order {
+            objective,
+            direction,
+            distance_m: legs.iter().map(|l| l.distance_m).sum(),
+            horizontal_m: legs.iter().map(|l| l.horizontal_m).sum(),
+            vertical_m: legs.iter().map(|l| l.vertical_m.abs()).sum(),
+            energy_j: legs.iter().map(Leg::energy_j).sum(),
+            duration_s: legs.iter().map(Leg::duration_s).sum(),
+            nodes,
+            legs,
+            proof,
+        })
+    };
+    let orders: Vec<Order> = if options.orders == Orders::Listed {
+        vec![priced(
+            None,
+            Direction::Forward,
+            (1..=mission.waypoints.len()).collect(),
+            None,
+        )?]
+    } else {
+        solved
+            .into_iter()
+            .map(|o| priced(Some(o.objective), o.direction, o.nodes, o.proof))
+            .collect::<Result<_, _>>()?
+    };
+    let flown = match options.orders {
+        Orders::Distance => cheapest(&orders, Objective::Distance)
+            .and_then(|c| orders.iter().position(|o| std::ptr::eq(o, c)))
+            .unwrap_or(0),
+        Orders::All | Orders::Energy | Orders::Listed => 0,
+    };
+
+    let budget = model
+        .budget(mission.origin.height_above_home_m)
+        .map_err(PlannerError::Budget)?;
+    let hover_s: Vec<f64> = mission.waypoints.iter().map(|w| w.hover_s).collect();
+    let legs_j = orders.get(flown).map_or(0.0, |o| o.energy_j);
+    let battery = budget.check(legs_j, budget.hover_j(hover_s.iter().sum()));
+
+    let sorties = if options.sorties {
+        let energy_order = cheapest(&orders, Objective::Energy).ok_or_else(|| {
+            PlannerError::SortiesNeedTheEnergyOrder {
+                mission: mission.name.clone(),
+            }
+        })?;
+        let hover_j: Vec<f64> = hover_s.iter().map(|&s| budget.hover_j(s)).collect();
+        let problem = SortieProblem {
+            energy: &energy,
+            hover_j: &hover_j,
+            fixed_j: budget.fixed_j(),
+            budget_j: budget.usable_j,
+        };
+        let split = sorties::split(
+            &problem,
+            &SortieOptions {
+                giant_tour: Some(energy_order.nodes.clone()),
+                ..SortieOptions::default()
+            },
+        )
+        .map_err(|err| match err {
+            SortieError::Unreachable { node, alone_j, .. } => {
+                let waypoint = node.checked_sub(1).and_then(|k| mission.waypoints.get(k));
+                PlannerError::Unreachable {
+                    waypoint: waypoint.map_or(format!("node {node}"), |w| w.name.clone()),
+                    hover_s: waypoint.map_or(0.0, |w| w.hover_s),
+                    alone_j,
+                    usable_j: budget.usable_j,
+                    reserve_pct: budget.reserve_pct,
+                }
+            }
+            cause => PlannerError::Sorties {
+                mission: mission.name.clone(),
+                cause,
+            },
+        })?;
+        let sorties = split
+            .sorties
+            .into_iter()
+            .map(|s| {
+                Ok(Sortie {
+                    legs: legs(&s.order)?,
+                    battery: budget.check(s.legs_j, s.hover_j),
+                    nodes: s.order,
+                })
+            })
+            .collect::<Result<_, PlannerError>>()?;
+        Some(Sorties {
+            method: split.method,
+            optimal: split.optimal,
+            total_j: split.total_j,
+            sorties,
+        })
+    } else {
+        None
+    };
+    let explanation = match (
+        cheapest(&orders, Objective::Energy),
+        cheapest(&orders, Objective::Distance),
+    ) {
+        (Some(energy), Some(distance)) => Some(Explanation::of(energy, distance)),
+        _ => None,
+    };
+    Ok(Plan {
+        mission: mission.name.clone(),
+        profile: model.profile,
+        asked: options.orders,
+        names,
+        orders,
+        flown,
+        budget,
+        hover_s,
+        battery,
+        sorties,
+        explanation,
+        energy,
+    })
+}
+
+#[cfg(test)]
+mod tests;
