@@ -5,6 +5,7 @@
 //! `mission` (files, geodesy) -> `physics` (energy model and table) -> `plan` (cost matrices,
 //! ATSP solvers, baselines) -> `link` (MAVLink) and `sim` (mock autopilot).
 
+pub mod flightlog;
 pub mod link;
 pub mod mission;
 pub mod physics;

@@ -1,0 +1,42 @@
+//! The flight log and what is measured from it: telemetry readings in SI units, the vehicle-time
+//! clock, the crash-safe flight directory (raw `.tlog`, decoded `samples.csv`, the plan, the
+//! report), segmentation of a flight into take-off, legs, settles, hovers and landing against the
+//! plan that was flown, energy integration with flags, and per-leg reports predicted vs measured.
+//!
+//! Invariant: no tokio and no MAVLink types here; `link::telemetry` converts MAVLink at the edge,
+//! once. Everything after the receive task is a pure function of (wall time, frame bytes), so a
+//! replay of the `.tlog` gives the live run's report.
+
+pub mod clock;
+pub mod csv;
+pub mod samples;
+pub mod telemetry;
+pub mod tlog;
+
+/// Everything that can go wrong reading or writing a flight log; each names its file.
+#[derive(Debug, thiserror::Error)]
+pub enum FlightLogError {
+    #[error("{file}: {source}")]
+    Io {
+        file: String,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{file}: byte {offset}: {reason}")]
+    Corrupt {
+        file: String,
+        offset: u64,
+        reason: String,
+    },
+    #[error("{file} line {line}, column {column}: {reason}")]
+    Csv {
+        file: String,
+        line: usize,
+        column: String,
+        reason: String,
+    },
+    #[error("{file}: {reason}")]
+    Json { file: String, reason: String },
+    #[error("flight directory {dir}: {reason}")]
+    Directory { dir: String, reason: String },
+}
