@@ -8,6 +8,7 @@
 pub mod connection;
 pub mod driver;
 pub mod items;
+pub mod telemetry;
 pub mod transfer;
 
 pub use mavlink::dialects::ardupilotmega as mav;
