@@ -9,6 +9,8 @@
 
 pub mod clock;
 pub mod csv;
+pub mod energy;
+pub mod plan;
 pub mod samples;
 pub mod telemetry;
 pub mod tlog;
@@ -39,4 +41,30 @@ pub enum FlightLogError {
     Json { file: String, reason: String },
     #[error("flight directory {dir}: {reason}")]
     Directory { dir: String, reason: String },
+    #[error("flight plan: {reason}")]
+    Plan { reason: String },
+}
+
+/// Writes a whole small file so that it is either absent or complete, even across a power cut:
+/// a temporary file beside it, fsync, rename over, fsync of the directory.
+pub(crate) fn write_synced(path: &std::path::Path, bytes: &[u8]) -> Result<(), FlightLogError> {
+    use std::io::Write;
+    let io = |source| FlightLogError::Io {
+        file: path.display().to_string(),
+        source,
+    };
+    let mut tmp_name = path.file_name().unwrap_or_default().to_os_string();
+    tmp_name.push(".tmp");
+    let tmp = path.with_file_name(tmp_name);
+    let mut file = std::fs::File::create(&tmp).map_err(io)?;
+    file.write_all(bytes).map_err(io)?;
+    file.sync_all().map_err(io)?;
+    std::fs::rename(&tmp, path).map_err(io)?;
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        if let Ok(d) = std::fs::File::open(dir) {
+            // Best effort: not every platform can fsync a directory.
+            let _ = d.sync_all();
+        }
+    }
+    Ok(())
 }
