@@ -371,7 +371,11 @@ mod tests {
                     component: 1,
                 },
                 voltage_v: Some(22.25),
-                current_a: if k % 3 == 0 { None } else { Some(41.5) },
+                current_a: if k.is_multiple_of(3) {
+                    None
+                } else {
+                    Some(41.5)
+                },
                 consumed_mah: Some(100.0 + f64::from(k)),
                 energy_consumed_j: None,
                 remaining_pct: Some(80.0),

@@ -11,7 +11,10 @@ pub mod clock;
 pub mod csv;
 pub mod energy;
 pub mod plan;
+pub mod report;
 pub mod samples;
+pub mod segment;
+pub mod synthetic;
 pub mod telemetry;
 pub mod tlog;
 
