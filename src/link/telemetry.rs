@@ -30,6 +30,10 @@ use super::mav::{
 };
 use super::Flavour;
 use crate::flightlog::clock::VehicleClock;
+use crate::flightlog::plan::FlightPlan;
+use crate::flightlog::recorder::{flight_name, PLAN_FILE, TLOG_FILE};
+use crate::flightlog::report::FlightReport;
+use crate::flightlog::segment::{SegmentConfig, Segmenter};
 use crate::flightlog::telemetry::{
     Battery, BatterySource, FlightMode, LandedState, MissionState, Position, Reading, Stamped,
 };
@@ -421,6 +425,38 @@ pub fn replay_tlog(path: &Path) -> Result<Replay, TelemetryError> {
     replay.torn_tail = reader.torn_tail();
     replay.undecodable = telemetry.undecodable();
     Ok(replay)
+}
+
+/// A recorded flight replayed and measured against its plan.
+#[derive(Debug, Clone)]
+pub struct Analysis {
+    pub report: FlightReport,
+    /// The segments and the battery series (for plots and live views).
+    pub segmenter: Segmenter,
+    pub replay: Replay,
+}
+
+/// Replays a .tlog against `plan` and reports it as flight `name`.
+pub fn analyse_tlog(
+    tlog: &Path,
+    plan: FlightPlan,
+    name: &str,
+    cfg: SegmentConfig,
+) -> Result<Analysis, TelemetryError> {
+    let replay = replay_tlog(tlog)?;
+    let segmenter = Segmenter::run(plan, cfg, &replay.stamped)?;
+    let report = FlightReport::build(name, &segmenter);
+    Ok(Analysis {
+        report,
+        segmenter,
+        replay,
+    })
+}
+
+/// Replays a flight directory (its flight.tlog against its plan.json), named by the directory.
+pub fn analyse_flight_dir(dir: &Path, cfg: SegmentConfig) -> Result<Analysis, TelemetryError> {
+    let plan = FlightPlan::read_json(&dir.join(PLAN_FILE))?;
+    analyse_tlog(&dir.join(TLOG_FILE), plan, &flight_name(dir), cfg)
 }
 
 /// Parses one raw MAVLink 1 or 2 frame (signed frames included; the signature is not checked
