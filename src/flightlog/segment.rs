@@ -915,4 +915,113 @@ mod tests {
         assert_eq!(report.legs.len(), 4);
         assert!(report.complete);
     }
+
+    /// Hand-fed readings: arming at 0, the vehicle on the line from the origin towards A
+    /// (60, 0, 0) at 3 m/s, positions at 10 Hz.
+    fn approach(s: &mut Segmenter, until_s: f64) {
+        let plan = square_plan();
+        let origin = plan.origin();
+        let stamp = |t_s: f64, reading: Reading| Stamped {
+            t_s,
+            wall_us: 0,
+            reading,
+        };
+        s.push(&stamp(
+            0.0,
+            Reading::Heartbeat {
+                armed: true,
+                mode: FlightMode::Mission,
+            },
+        ));
+        s.push(&stamp(
+            0.0,
+            Reading::MissionCurrent {
+                seq: 1,
+                total: None,
+                state: crate::flightlog::telemetry::MissionState::Active,
+            },
+        ));
+        let mut t = 0.0;
+        while t <= until_s + 1e-9 {
+            let g = origin.to_geodetic(Enu {
+                x_east_m: 3.0 * t,
+                ..Enu::default()
+            });
+            s.push(&stamp(
+                t,
+                Reading::Position(Position {
+                    time_boot_ms: 0,
+                    lat_deg: g.lat_deg,
+                    lon_deg: g.lon_deg,
+                    alt_amsl_m: g.alt_m,
+                    relative_alt_m: g.alt_m - plan.home.alt_m,
+                    vn_m_s: 0.0,
+                    ve_m_s: 3.0,
+                    vd_m_s: 0.0,
+                }),
+            ));
+            t += 0.1;
+        }
+    }
+
+    #[test]
+    fn a_leg_the_autopilot_ends_outside_the_radius_is_flagged_missed_radius() {
+        // An acceptance radius of 6 m: at x = 54 (t = 18 s) the autopilot moves on to B.
+        let mut s = Segmenter::new(square_plan(), SegmentConfig::default()).expect("valid");
+        approach(&mut s, 18.0);
+        s.push(&Stamped {
+            t_s: 18.0,
+            wall_us: 0,
+            reading: Reading::MissionCurrent {
+                seq: 2,
+                total: None,
+                state: crate::flightlog::telemetry::MissionState::Active,
+            },
+        });
+        let kinds: Vec<(SegmentKind, f64, f64, bool)> = s
+            .completed()
+            .iter()
+            .map(|x| (x.kind, x.start_s, x.end_s, x.missed_radius))
+            .collect();
+        assert_eq!(
+            kinds[1..],
+            [
+                (SegmentKind::Leg(0), 0.0, 18.0, true),
+                (SegmentKind::Settle(0), 18.0, 18.0, false),
+                (SegmentKind::Hover(0), 18.0, 18.0, false),
+            ]
+        );
+        assert_eq!(s.in_progress().map(|x| x.kind), Some(SegmentKind::Leg(1)));
+        let report = FlightReport::build("missed", &s);
+        assert!(report.legs[0].flags.contains(&Flag::MissedRadius));
+    }
+
+    #[test]
+    fn an_rtl_in_the_middle_of_the_mission_cuts_the_leg_short_and_starts_the_landing() {
+        let mut s = Segmenter::new(square_plan(), SegmentConfig::default()).expect("valid");
+        approach(&mut s, 10.0);
+        s.push(&Stamped {
+            t_s: 10.05,
+            wall_us: 0,
+            reading: Reading::Heartbeat {
+                armed: true,
+                mode: FlightMode::Rtl,
+            },
+        });
+        let last = s.completed().last().copied().expect("a segment");
+        assert_eq!((last.kind, last.complete), (SegmentKind::Leg(0), false));
+        assert_eq!(s.in_progress().map(|x| x.kind), Some(SegmentKind::Landing));
+        s.push(&Stamped {
+            t_s: 40.0,
+            wall_us: 0,
+            reading: Reading::Heartbeat {
+                armed: false,
+                mode: FlightMode::Rtl,
+            },
+        });
+        assert!(s.is_finished());
+        let report = FlightReport::build("rtl", &s);
+        assert!(report.legs[0].flags.contains(&Flag::Incomplete));
+        assert_eq!(s.flight_span(), Some((0.0, 40.0)));
+    }
 }
