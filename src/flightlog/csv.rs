@@ -5,13 +5,11 @@
 //! of anything else it cannot read.
 
 use std::fmt::Write as _;
-use std::fs::{File, OpenOptions};
-use std::io::{BufWriter, Write};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use super::samples::PowerSample;
-use super::telemetry::{BatterySource, LandedState, VehicleState};
-use super::FlightLogError;
+use super::telemetry::{Battery, BatterySource, LandedState, VehicleState};
+use super::{io_error, AppendFile, FlightLogError};
 
 /// The columns of samples.csv, in order.
 pub const COLUMNS: [&str; 22] = [
@@ -90,12 +88,13 @@ fn flag(out: &mut String, value: Option<bool>) {
 /// Formats a row as one CSV line (with its newline) into `out`.
 pub fn format_row(row: &SampleRow, out: &mut String) {
     let s = &row.sample;
+    let b = &s.battery;
     let _ = write!(out, "{:.6},{}", s.t_s, s.wall_us);
-    let (id, component) = match s.source {
+    let (id, component) = match b.source {
         BatterySource::BatteryStatus { id, component } => (Some(id), Some(component)),
         BatterySource::SysStatus => (None, None),
     };
-    let _ = write!(out, ",{}", s.source.name());
+    let _ = write!(out, ",{}", b.source.name());
     out.push(',');
     if let Some(id) = id {
         let _ = write!(out, "{id}");
@@ -105,13 +104,13 @@ pub fn format_row(row: &SampleRow, out: &mut String) {
         let _ = write!(out, "{c}");
     }
     flag(out, Some(s.primary));
-    opt(out, s.voltage_v, 3);
-    opt(out, s.current_a, 2);
+    opt(out, b.voltage_v, 3);
+    opt(out, b.current_a, 2);
     opt(out, s.power_w(), 3);
-    opt(out, s.consumed_mah, 1);
-    opt(out, s.energy_consumed_j, 0);
-    opt(out, s.remaining_pct, 0);
-    flag(out, Some(s.fake_current));
+    opt(out, b.consumed_mah, 1);
+    opt(out, b.energy_consumed_j, 0);
+    opt(out, b.remaining_pct, 0);
+    flag(out, Some(b.fake_current));
     opt(out, row.lat_deg, 7);
     opt(out, row.lon_deg, 7);
     opt(out, row.alt_amsl_m, 3);
@@ -137,39 +136,25 @@ pub fn format_row(row: &SampleRow, out: &mut String) {
 /// Appends rows to samples.csv.
 #[derive(Debug)]
 pub struct SamplesWriter {
-    path: PathBuf,
-    out: BufWriter<File>,
+    file: AppendFile,
     line: String,
     rows: u64,
-}
-
-fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> FlightLogError + '_ {
-    move |source| FlightLogError::Io {
-        file: path.display().to_string(),
-        source,
-    }
 }
 
 impl SamplesWriter {
     /// Creates `path` (never overwriting one) and writes the header line.
     pub fn create(path: &Path) -> Result<SamplesWriter, FlightLogError> {
-        let file = OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .open(path)
-            .map_err(io_error(path))?;
-        let mut out = BufWriter::with_capacity(64 * 1024, file);
-        writeln!(out, "{}", COLUMNS.join(",")).map_err(io_error(path))?;
+        let mut file = AppendFile::create(path)?;
+        file.write((COLUMNS.join(",") + "\n").as_bytes())?;
         Ok(SamplesWriter {
-            path: path.to_path_buf(),
-            out,
+            file,
             line: String::with_capacity(256),
             rows: 0,
         })
     }
 
     pub fn path(&self) -> &Path {
-        &self.path
+        self.file.path()
     }
 
     /// Rows written so far.
@@ -180,20 +165,17 @@ impl SamplesWriter {
     pub fn append(&mut self, row: &SampleRow) -> Result<(), FlightLogError> {
         self.line.clear();
         format_row(row, &mut self.line);
-        self.out
-            .write_all(self.line.as_bytes())
-            .map_err(io_error(&self.path))?;
+        self.file.write(self.line.as_bytes())?;
         self.rows += 1;
         Ok(())
     }
 
     pub fn flush(&mut self) -> Result<(), FlightLogError> {
-        self.out.flush().map_err(io_error(&self.path))
+        self.file.flush()
     }
 
     pub fn sync(&mut self) -> Result<(), FlightLogError> {
-        self.flush()?;
-        self.out.get_ref().sync_data().map_err(io_error(&self.path))
+        self.file.sync()
     }
 }
 
@@ -278,14 +260,16 @@ fn parse_row(f: &Fields) -> Result<SampleRow, FlightLogError> {
         sample: PowerSample {
             t_s: f.required(0)?,
             wall_us: f.required(1)?,
-            source,
+            battery: Battery {
+                source,
+                voltage_v: f.parse(6)?,
+                current_a: f.parse(7)?,
+                consumed_mah: f.parse(9)?,
+                energy_consumed_j: f.parse(10)?,
+                remaining_pct: f.parse(11)?,
+                fake_current: f.flag(12)?.unwrap_or(false),
+            },
             primary: f.flag(5)?.unwrap_or(false),
-            voltage_v: f.parse(6)?,
-            current_a: f.parse(7)?,
-            consumed_mah: f.parse(9)?,
-            energy_consumed_j: f.parse(10)?,
-            remaining_pct: f.parse(11)?,
-            fake_current: f.flag(12)?.unwrap_or(false),
         },
         lat_deg: f.parse(13)?,
         lon_deg: f.parse(14)?,
@@ -366,20 +350,22 @@ mod tests {
             PowerSample {
                 t_s: f64::from(k) * 0.1,
                 wall_us: 1_700_000_000_000_000 + u64::from(k) * 10_000,
-                source: BatterySource::BatteryStatus {
-                    id: 0,
-                    component: 1,
+                battery: Battery {
+                    source: BatterySource::BatteryStatus {
+                        id: 0,
+                        component: 1,
+                    },
+                    voltage_v: Some(22.25),
+                    current_a: if k.is_multiple_of(3) {
+                        None
+                    } else {
+                        Some(41.5)
+                    },
+                    consumed_mah: Some(100.0 + f64::from(k)),
+                    energy_consumed_j: None,
+                    remaining_pct: Some(80.0),
+                    fake_current: false,
                 },
-                voltage_v: Some(22.25),
-                current_a: if k.is_multiple_of(3) {
-                    None
-                } else {
-                    Some(41.5)
-                },
-                consumed_mah: Some(100.0 + f64::from(k)),
-                energy_consumed_j: None,
-                remaining_pct: Some(80.0),
-                fake_current: false,
                 primary: true,
             },
             &state,
@@ -394,9 +380,9 @@ mod tests {
         };
         near(Some(a.sample.t_s), Some(b.sample.t_s), 1e-6)
             && a.sample.wall_us == b.sample.wall_us
-            && a.sample.source == b.sample.source
-            && near(a.sample.voltage_v, b.sample.voltage_v, 1e-3)
-            && near(a.sample.current_a, b.sample.current_a, 1e-2)
+            && a.sample.battery.source == b.sample.battery.source
+            && near(a.sample.battery.voltage_v, b.sample.battery.voltage_v, 1e-3)
+            && near(a.sample.battery.current_a, b.sample.battery.current_a, 1e-2)
             && near(a.lat_deg, b.lat_deg, 1e-7)
             && a.mission_seq == b.mission_seq
             && a.armed == b.armed

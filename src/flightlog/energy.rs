@@ -156,7 +156,7 @@ impl PowerSeries {
         let index = self.samples.len();
         self.samples.push(PowerSample { t_s, ..sample });
         self.outlier.push(false);
-        if sample.voltage_v.is_some() {
+        if sample.battery.voltage_v.is_some() {
             self.with_voltage.push(index);
             // A new neighbour changes the verdict on the last few voltages.
             let n = self.with_voltage.len();
@@ -172,7 +172,12 @@ impl PowerSeries {
     fn judge(&self, p: usize) -> bool {
         let w = self.cfg.outlier_neighbours;
         let n = self.with_voltage.len();
-        let voltage = |q: usize| self.samples[self.with_voltage[q]].voltage_v.unwrap_or(0.0);
+        let voltage = |q: usize| {
+            self.samples[self.with_voltage[q]]
+                .battery
+                .voltage_v
+                .unwrap_or(0.0)
+        };
         let mut neighbours: Vec<f64> = (p.saturating_sub(w)..p)
             .chain(p + 1..(p + 1 + w).min(n))
             .map(voltage)
@@ -220,9 +225,9 @@ impl PowerSeries {
         let hi = self.samples.partition_point(|s| s.t_s <= t1);
         for i in lo..hi {
             let s = &self.samples[i];
-            if s.fake_current {
+            if s.battery.fake_current {
                 flags.push(Flag::FakeCurrent);
-            } else if s.current_a.is_none() {
+            } else if s.battery.current_a.is_none() {
                 flags.push(Flag::CurrentUnknown);
             }
             if self.outlier[i] {
@@ -297,8 +302,8 @@ impl PowerSeries {
         let counted: Vec<(f64, f64)> = self
             .samples
             .iter()
-            .filter(|s| !s.fake_current)
-            .filter_map(|s| s.consumed_mah.map(|c| (s.t_s, c)))
+            .filter(|s| !s.battery.fake_current)
+            .filter_map(|s| s.battery.consumed_mah.map(|c| (s.t_s, c)))
             .collect();
         let at = |t: f64| -> Option<f64> {
             let k = counted.partition_point(|c| c.0 < t);
@@ -314,7 +319,7 @@ impl PowerSeries {
             .iter()
             .filter_map(|&(t, _)| {
                 let i = self.samples.partition_point(|s| s.t_s < t);
-                self.samples.get(i).and_then(|s| s.voltage_v)
+                self.samples.get(i).and_then(|s| s.battery.voltage_v)
             })
             .collect();
         if voltages.is_empty() {
@@ -352,22 +357,24 @@ fn integrate(points: &[(f64, f64)], t0: f64, t1: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::flightlog::telemetry::BatterySource;
+    use crate::flightlog::telemetry::{Battery, BatterySource};
 
     fn sample(t_s: f64, voltage_v: Option<f64>, current_a: Option<f64>) -> PowerSample {
         PowerSample {
             t_s,
             wall_us: 0,
-            source: BatterySource::BatteryStatus {
-                id: 0,
-                component: 1,
+            battery: Battery {
+                source: BatterySource::BatteryStatus {
+                    id: 0,
+                    component: 1,
+                },
+                voltage_v,
+                current_a,
+                consumed_mah: None,
+                energy_consumed_j: None,
+                remaining_pct: None,
+                fake_current: false,
             },
-            voltage_v,
-            current_a,
-            consumed_mah: None,
-            energy_consumed_j: None,
-            remaining_pct: None,
-            fake_current: false,
             primary: true,
         }
     }
@@ -464,7 +471,7 @@ mod tests {
         let mut s = PowerSeries::new(EnergyConfig::default());
         for k in 0..50 {
             let mut x = sample(f64::from(k) * 0.1, Some(16.0), Some(-1.0));
-            x.fake_current = true;
+            x.battery.fake_current = true;
             s.push(x);
         }
         let m = s.measure(0.0, 4.9);
@@ -515,7 +522,7 @@ mod tests {
             for k in 0..=100 {
                 let t = f64::from(k) * 0.1;
                 let mut x = sample(t, Some(20.0), Some(36.0));
-                x.consumed_mah = Some((t * mah_per_s).round());
+                x.battery.consumed_mah = Some((t * mah_per_s).round());
                 s.push(x);
             }
             s

@@ -49,6 +49,60 @@ pub enum FlightLogError {
     Plan { reason: String },
 }
 
+/// The error of an IO operation on `path`.
+pub(crate) fn io_error(
+    path: &std::path::Path,
+) -> impl FnOnce(std::io::Error) -> FlightLogError + '_ {
+    move |source| FlightLogError::Io {
+        file: path.display().to_string(),
+        source,
+    }
+}
+
+/// A new file written only at its end through a buffer, flushed to the OS and synced to disk
+/// when its owner says.
+#[derive(Debug)]
+pub(crate) struct AppendFile {
+    path: std::path::PathBuf,
+    out: std::io::BufWriter<std::fs::File>,
+}
+
+impl AppendFile {
+    /// Creates `path`, which must not exist: a flight's files are never overwritten.
+    pub(crate) fn create(path: &std::path::Path) -> Result<AppendFile, FlightLogError> {
+        let file = std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(path)
+            .map_err(io_error(path))?;
+        Ok(AppendFile {
+            path: path.to_path_buf(),
+            out: std::io::BufWriter::with_capacity(64 * 1024, file),
+        })
+    }
+
+    pub(crate) fn path(&self) -> &std::path::Path {
+        &self.path
+    }
+
+    pub(crate) fn write(&mut self, bytes: &[u8]) -> Result<(), FlightLogError> {
+        use std::io::Write;
+        self.out.write_all(bytes).map_err(io_error(&self.path))
+    }
+
+    /// Hands the buffer to the operating system (survives a crash of this process).
+    pub(crate) fn flush(&mut self) -> Result<(), FlightLogError> {
+        use std::io::Write;
+        self.out.flush().map_err(io_error(&self.path))
+    }
+
+    /// Flushes and asks the OS to put the data on disk (survives a power cut).
+    pub(crate) fn sync(&mut self) -> Result<(), FlightLogError> {
+        self.flush()?;
+        self.out.get_ref().sync_data().map_err(io_error(&self.path))
+    }
+}
+
 /// Writes a whole small file so that it is either absent or complete, even across a power cut:
 /// a temporary file beside it, fsync, rename over, fsync of the directory.
 pub(crate) fn write_synced(path: &std::path::Path, bytes: &[u8]) -> Result<(), FlightLogError> {

@@ -5,18 +5,12 @@
 
 use super::telemetry::{Battery, BatterySource};
 
-/// One battery sample at a vehicle time.
+/// One battery sample at a vehicle time: the reading, completed (see [`BatteryFeed`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PowerSample {
     pub t_s: f64,
     pub wall_us: u64,
-    pub source: BatterySource,
-    pub voltage_v: Option<f64>,
-    pub current_a: Option<f64>,
-    pub consumed_mah: Option<f64>,
-    pub energy_consumed_j: Option<f64>,
-    pub remaining_pct: Option<f64>,
-    pub fake_current: bool,
+    pub battery: Battery,
     /// Whether this sample is of the battery whose energy is measured.
     pub primary: bool,
 }
@@ -24,8 +18,8 @@ pub struct PowerSample {
 impl PowerSample {
     /// Electrical power V*I, when both are known and the current is a measurement.
     pub fn power_w(&self) -> Option<f64> {
-        match (self.voltage_v, self.current_a) {
-            (Some(v), Some(i)) if !self.fake_current => Some(v * i),
+        match (self.battery.voltage_v, self.battery.current_a) {
+            (Some(v), Some(i)) if !self.battery.fake_current => Some(v * i),
             _ => None,
         }
     }
@@ -72,13 +66,7 @@ impl BatteryFeed {
         let mut sample = PowerSample {
             t_s,
             wall_us,
-            source: battery.source,
-            voltage_v: battery.voltage_v,
-            current_a: battery.current_a,
-            consumed_mah: battery.consumed_mah,
-            energy_consumed_j: battery.energy_consumed_j,
-            remaining_pct: battery.remaining_pct,
-            fake_current: battery.fake_current,
+            battery: *battery,
             primary: false,
         };
         match battery.source {
@@ -88,8 +76,8 @@ impl BatteryFeed {
                 if sample.primary {
                     self.last_primary_t_s = Some(t_s);
                 }
-                if sample.voltage_v.is_none() {
-                    sample.voltage_v = self
+                if sample.battery.voltage_v.is_none() {
+                    sample.battery.voltage_v = self
                         .sys_voltage
                         .filter(|&(t, _)| (t_s - t).abs() <= self.cfg.fill_within_s)
                         .map(|(_, v)| v);
@@ -168,9 +156,9 @@ mod tests {
         let mut feed = BatteryFeed::default();
         feed.push(0.0, 0, &battery(BatterySource::SysStatus, Some(21.5)));
         let filled = feed.push(0.5, 0, &battery(B0, None)).expect("a sample");
-        assert_eq!(filled.voltage_v, Some(21.5));
+        assert_eq!(filled.battery.voltage_v, Some(21.5));
         let stale = feed.push(1.6, 0, &battery(B0, None)).expect("a sample");
-        assert_eq!(stale.voltage_v, None);
+        assert_eq!(stale.battery.voltage_v, None);
     }
 
     #[test]
@@ -179,7 +167,7 @@ mod tests {
             .push(0.0, 0, &battery(B0, Some(16.0)))
             .expect("a sample");
         assert_eq!(s.power_w(), Some(160.0));
-        s.fake_current = true;
+        s.battery.fake_current = true;
         assert_eq!(s.power_w(), None);
     }
 }

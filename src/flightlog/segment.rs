@@ -670,49 +670,8 @@ mod tests {
     fn a_leg_ends_at_the_interpolated_crossing_of_the_radius_between_position_samples() {
         // Positions once a second at 3 m/s straight along x towards A at (60, 0, 0): the 4 m
         // sphere is crossed at x = 56, t = 56/3 s, between the samples at 18 s and 19 s.
-        let plan = square_plan();
-        let mut s = Segmenter::new(plan.clone(), SegmentConfig::default()).expect("valid");
-        let stamp = |t_s: f64, reading: Reading| Stamped {
-            t_s,
-            wall_us: 0,
-            reading,
-        };
-        s.push(&stamp(
-            0.0,
-            Reading::Heartbeat {
-                armed: true,
-                mode: FlightMode::Mission,
-            },
-        ));
-        s.push(&stamp(
-            0.0,
-            Reading::MissionCurrent {
-                seq: 1,
-                total: None,
-                state: crate::flightlog::telemetry::MissionState::Active,
-            },
-        ));
-        let origin = plan.origin();
-        for k in 0..=20 {
-            let t = f64::from(k);
-            let g = origin.to_geodetic(Enu {
-                x_east_m: 3.0 * t,
-                ..Enu::default()
-            });
-            s.push(&stamp(
-                t,
-                Reading::Position(Position {
-                    time_boot_ms: 0,
-                    lat_deg: g.lat_deg,
-                    lon_deg: g.lon_deg,
-                    alt_amsl_m: g.alt_m,
-                    relative_alt_m: g.alt_m - plan.home.alt_m,
-                    vn_m_s: 0.0,
-                    ve_m_s: 3.0,
-                    vd_m_s: 0.0,
-                }),
-            ));
-        }
+        let mut s = Segmenter::new(square_plan(), SegmentConfig::default()).expect("valid");
+        approach(&mut s, 20.0, 1.0);
         let leg = s
             .completed()
             .iter()
@@ -917,8 +876,8 @@ mod tests {
     }
 
     /// Hand-fed readings: arming at 0, the vehicle on the line from the origin towards A
-    /// (60, 0, 0) at 3 m/s, positions at 10 Hz.
-    fn approach(s: &mut Segmenter, until_s: f64) {
+    /// (60, 0, 0) at 3 m/s, a position every `period_s`.
+    fn approach(s: &mut Segmenter, until_s: f64, period_s: f64) {
         let plan = square_plan();
         let origin = plan.origin();
         let stamp = |t_s: f64, reading: Reading| Stamped {
@@ -941,8 +900,9 @@ mod tests {
                 state: crate::flightlog::telemetry::MissionState::Active,
             },
         ));
-        let mut t = 0.0;
-        while t <= until_s + 1e-9 {
+        let mut k = 0u32;
+        while f64::from(k) * period_s <= until_s + 1e-9 {
+            let t = f64::from(k) * period_s;
             let g = origin.to_geodetic(Enu {
                 x_east_m: 3.0 * t,
                 ..Enu::default()
@@ -960,7 +920,7 @@ mod tests {
                     vd_m_s: 0.0,
                 }),
             ));
-            t += 0.1;
+            k += 1;
         }
     }
 
@@ -968,7 +928,7 @@ mod tests {
     fn a_leg_the_autopilot_ends_outside_the_radius_is_flagged_missed_radius() {
         // An acceptance radius of 6 m: at x = 54 (t = 18 s) the autopilot moves on to B.
         let mut s = Segmenter::new(square_plan(), SegmentConfig::default()).expect("valid");
-        approach(&mut s, 18.0);
+        approach(&mut s, 18.0, 0.1);
         s.push(&Stamped {
             t_s: 18.0,
             wall_us: 0,
@@ -999,7 +959,7 @@ mod tests {
     #[test]
     fn an_rtl_in_the_middle_of_the_mission_cuts_the_leg_short_and_starts_the_landing() {
         let mut s = Segmenter::new(square_plan(), SegmentConfig::default()).expect("valid");
-        approach(&mut s, 10.0);
+        approach(&mut s, 10.0, 0.1);
         s.push(&Stamped {
             t_s: 10.05,
             wall_us: 0,

@@ -177,6 +177,16 @@ fn dist(a: Enu, b: Enu) -> f64 {
 }
 
 impl Piece {
+    fn new(t0: f64, t1: f64, a: Enu, b: Enu, braking: bool) -> Piece {
+        Piece {
+            t0,
+            t1,
+            a,
+            b,
+            braking,
+        }
+    }
+
     /// Position and velocity (east, north, up) at `t`.
     fn at(&self, t: f64) -> (Enu, [f64; 3]) {
         let duration = self.t1 - self.t0;
@@ -243,27 +253,9 @@ impl SyntheticFlight {
         let lift = arm + cfg.spool_s;
         let climbed = lift + plan.origin_height_m / cfg.climb_m_s;
         let mut t = climbed + cfg.takeoff_hover_s;
-        pieces.push(Piece {
-            t0: 0.0,
-            t1: lift,
-            a: ground,
-            b: ground,
-            braking: false,
-        });
-        pieces.push(Piece {
-            t0: lift,
-            t1: climbed,
-            a: ground,
-            b: origin,
-            braking: false,
-        });
-        pieces.push(Piece {
-            t0: climbed,
-            t1: t,
-            a: origin,
-            b: origin,
-            braking: false,
-        });
+        pieces.push(Piece::new(0.0, lift, ground, ground, false));
+        pieces.push(Piece::new(lift, climbed, ground, origin, false));
+        pieces.push(Piece::new(climbed, t, origin, origin, false));
         parts.push(TruePart {
             kind: SegmentKind::Takeoff,
             start_s: arm,
@@ -289,28 +281,10 @@ impl SyntheticFlight {
             let brake_start = lerp(q, from, brake / length.max(f64::MIN_POSITIVE));
             let cruise_end = t + (length - brake) / cfg.speed_m_s;
             let stop = cruise_end + 2.0 * brake / cfg.speed_m_s;
-            pieces.push(Piece {
-                t0: t,
-                t1: cruise_end,
-                a: from,
-                b: brake_start,
-                braking: false,
-            });
-            pieces.push(Piece {
-                t0: cruise_end,
-                t1: stop,
-                a: brake_start,
-                b: q,
-                braking: true,
-            });
+            pieces.push(Piece::new(t, cruise_end, from, brake_start, false));
+            pieces.push(Piece::new(cruise_end, stop, brake_start, q, true));
             let leave = stop + point.hold_s;
-            pieces.push(Piece {
-                t0: stop,
-                t1: leave,
-                a: q,
-                b: q,
-                braking: false,
-            });
+            pieces.push(Piece::new(stop, leave, q, q, false));
             parts.push(TruePart {
                 kind: SegmentKind::Leg(k),
                 start_s: t,
@@ -338,22 +312,10 @@ impl SyntheticFlight {
             }
         }
         let touchdown = t + dist(from, ground) / cfg.land_m_s;
-        pieces.push(Piece {
-            t0: t,
-            t1: touchdown,
-            a: from,
-            b: ground,
-            braking: false,
-        });
+        pieces.push(Piece::new(t, touchdown, from, ground, false));
         let disarm = touchdown + cfg.disarm_after_s;
         let end = disarm + cfg.tail_s;
-        pieces.push(Piece {
-            t0: touchdown,
-            t1: end,
-            a: ground,
-            b: ground,
-            braking: false,
-        });
+        pieces.push(Piece::new(touchdown, end, ground, ground, false));
         parts.push(TruePart {
             kind: SegmentKind::Landing,
             start_s: t,

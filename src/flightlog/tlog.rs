@@ -8,11 +8,11 @@
 //! middle of a write) as the end of the file, and reports anything else that is not a frame with
 //! the file and byte offset.
 
-use std::fs::{File, OpenOptions};
-use std::io::{BufReader, BufWriter, ErrorKind, Read, Write};
-use std::path::{Path, PathBuf};
+use std::fs::File;
+use std::io::{BufReader, ErrorKind, Read};
+use std::path::Path;
 
-use super::FlightLogError;
+use super::{io_error, AppendFile, FlightLogError};
 
 /// MAVLink 1 start byte.
 const STX_V1: u8 = 0xFE;
@@ -48,35 +48,21 @@ pub fn frame_len(head: [u8; 3]) -> Result<usize, String> {
 /// Appends records to a .tlog.
 #[derive(Debug)]
 pub struct TlogWriter {
-    path: PathBuf,
-    out: BufWriter<File>,
+    file: AppendFile,
     records: u64,
-}
-
-fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> FlightLogError + '_ {
-    move |source| FlightLogError::Io {
-        file: path.display().to_string(),
-        source,
-    }
 }
 
 impl TlogWriter {
     /// Creates `path` (it must not exist: a flight's log is never overwritten).
     pub fn create(path: &Path) -> Result<TlogWriter, FlightLogError> {
-        let file = OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .open(path)
-            .map_err(io_error(path))?;
         Ok(TlogWriter {
-            path: path.to_path_buf(),
-            out: BufWriter::with_capacity(64 * 1024, file),
+            file: AppendFile::create(path)?,
             records: 0,
         })
     }
 
     pub fn path(&self) -> &Path {
-        &self.path
+        self.file.path()
     }
 
     /// Records appended so far.
@@ -86,23 +72,20 @@ impl TlogWriter {
 
     /// Appends one frame received (or sent) at `wall_us`, unix microseconds.
     pub fn append(&mut self, wall_us: u64, frame: &[u8]) -> Result<(), FlightLogError> {
-        self.out
-            .write_all(&wall_us.to_be_bytes())
-            .and_then(|()| self.out.write_all(frame))
-            .map_err(io_error(&self.path))?;
+        self.file.write(&wall_us.to_be_bytes())?;
+        self.file.write(frame)?;
         self.records += 1;
         Ok(())
     }
 
     /// Hands buffered records to the operating system (survives a crash of this process).
     pub fn flush(&mut self) -> Result<(), FlightLogError> {
-        self.out.flush().map_err(io_error(&self.path))
+        self.file.flush()
     }
 
     /// Flushes and asks the OS to put the data on disk (survives a power cut).
     pub fn sync(&mut self) -> Result<(), FlightLogError> {
-        self.flush()?;
-        self.out.get_ref().sync_data().map_err(io_error(&self.path))
+        self.file.sync()
     }
 }
 
@@ -186,6 +169,14 @@ impl<R: Read> TlogReader<R> {
         }))
     }
 
+    fn failed(&mut self, source: std::io::Error) -> Option<Result<TlogRecord, FlightLogError>> {
+        self.done = true;
+        Some(Err(FlightLogError::Io {
+            file: self.file.clone(),
+            source,
+        }))
+    }
+
     fn torn(&mut self, read: usize) -> Option<Result<TlogRecord, FlightLogError>> {
         self.done = true;
         if read > 0 {
@@ -206,13 +197,7 @@ impl<R: Read> Iterator for TlogReader<R> {
         let mut head = [0u8; 11];
         let got = match read_full(&mut self.input, &mut head) {
             Ok(n) => n,
-            Err(e) => {
-                self.done = true;
-                return Some(Err(FlightLogError::Io {
-                    file: self.file.clone(),
-                    source: e,
-                }));
-            }
+            Err(e) => return self.failed(e),
         };
         if got < head.len() {
             return self.torn(got);
@@ -228,13 +213,7 @@ impl<R: Read> Iterator for TlogReader<R> {
         frame[..3].copy_from_slice(&head[8..]);
         let rest = match read_full(&mut self.input, &mut frame[3..]) {
             Ok(n) => n,
-            Err(e) => {
-                self.done = true;
-                return Some(Err(FlightLogError::Io {
-                    file: self.file.clone(),
-                    source: e,
-                }));
-            }
+            Err(e) => return self.failed(e),
         };
         if rest < len - 3 {
             return self.torn(got + rest);
