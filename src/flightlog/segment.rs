@@ -22,7 +22,9 @@
 //!
 //! Incremental: feed stamped readings one by one ([`Segmenter::push`]); the completed segments
 //! and the one in progress can be asked for at any time, so the same code serves the live view
-//! and the replay. The first disarm ends the flight; a later arming is not segmented.
+//! and the replay. The first disarm ends the flight; a later arming is not segmented. A log that
+//! begins in flight (armed at its first heartbeat) starts at the leg MISSION_CURRENT names, that
+//! first part marked incomplete.
 
 use serde::Serialize;
 
@@ -123,6 +125,10 @@ pub struct Segmenter {
     stop_s: Option<f64>,
     /// On the ground during landing.
     landed_s: Option<f64>,
+    /// A disarmed HEARTBEAT was seen before arming (else the log began in flight).
+    seen_disarmed: bool,
+    /// The open segment began before the log did.
+    open_partial: bool,
 }
 
 fn sub(a: Enu, b: Enu) -> [f64; 3] {
@@ -182,6 +188,8 @@ impl Segmenter {
             exit_s: None,
             stop_s: None,
             landed_s: None,
+            seen_disarmed: false,
+            open_partial: false,
         })
     }
 
@@ -271,10 +279,11 @@ impl Segmenter {
                 kind,
                 start_s: self.open_start_s,
                 end_s,
-                complete,
+                complete: complete && !self.open_partial,
                 missed_radius,
             });
             self.open_start_s = end_s;
+            self.open_partial = false;
         }
     }
 
@@ -383,9 +392,22 @@ impl Segmenter {
 
     fn on_target(&mut self, t_s: f64, target: Target) {
         match self.phase {
-            Phase::Active(SegmentKind::Takeoff) if target >= Target::Leg(0) => {
+            Phase::Active(SegmentKind::Takeoff) if target == Target::Leg(0) => {
                 let t = self.departure_time(t_s);
                 self.depart(t);
+            }
+            // The log began in flight (armed at the first heartbeat), past the first leg: what
+            // was flying when it began is cut off at its start.
+            Phase::Active(SegmentKind::Takeoff)
+                if target > Target::Leg(0) && !self.seen_disarmed =>
+            {
+                self.close(t_s, false, false);
+                let kind = match target {
+                    Target::Leg(k) => SegmentKind::Leg(k),
+                    _ => SegmentKind::Landing,
+                };
+                self.open(kind, t_s);
+                self.open_partial = true;
             }
             Phase::Active(SegmentKind::Leg(k)) if target > Target::Leg(k) => {
                 self.leg_cut_short(k, t_s, false);
@@ -515,6 +537,9 @@ impl Segmenter {
                 }
             }
             Reading::Heartbeat { armed, mode } => {
+                if !*armed && self.phase == Phase::Idle {
+                    self.seen_disarmed = true;
+                }
                 if *armed && self.phase == Phase::Idle {
                     self.flight_start_s = Some(t_s);
                     self.open(SegmentKind::Takeoff, t_s);
@@ -983,5 +1008,39 @@ mod tests {
         let report = FlightReport::build("rtl", &s);
         assert!(report.legs[0].flags.contains(&Flag::Incomplete));
         assert_eq!(s.flight_span(), Some((0.0, 40.0)));
+    }
+
+    #[test]
+    fn a_log_that_begins_in_flight_starts_at_the_leg_being_flown() {
+        let (flight, _) = fly();
+        let leg1 = flight.part(SegmentKind::Leg(1)).copied().expect("leg 1");
+        let join = leg1.start_s + 3.0;
+        let stamped: Vec<Stamped> = flight
+            .stamped()
+            .into_iter()
+            .filter(|m| m.t_s >= join)
+            .collect();
+        let s = Segmenter::run(square_plan(), SegmentConfig::default(), &stamped).expect("valid");
+        let report = FlightReport::build("joined", &s);
+        let names: Vec<(String, String)> = report
+            .legs
+            .iter()
+            .map(|l| (l.from.clone(), l.to.clone()))
+            .collect();
+        assert_eq!(names[0], ("A".to_string(), "B".to_string()));
+        assert_eq!(report.legs.len(), 3);
+        assert!(report.legs[0].flags.contains(&Flag::Incomplete));
+        assert!(
+            report.legs[1..].iter().all(|l| l.flags.is_empty()),
+            "{:?}",
+            report.legs
+        );
+        assert!(report
+            .takeoff
+            .as_ref()
+            .is_some_and(|t| t.flags.contains(&Flag::Incomplete)));
+        let leg2 = flight.part(SegmentKind::Leg(2)).copied().expect("leg 2");
+        let e = report.legs[1].measured_j.expect("measured");
+        assert!((e - leg2.energy_j()).abs() < 0.01 * leg2.energy_j());
     }
 }
