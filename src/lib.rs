@@ -6,6 +6,7 @@
 //! ATSP solvers, baselines, sorties; never imports `physics`) -> `planner` (a mission and a
 //! vehicle in, a priced and checked `Plan` out) ; `link` (MAVLink) and `sim` (mock autopilot).
 
+pub mod flightlog;
 pub mod link;
 pub mod mission;
 pub mod physics;

@@ -9,6 +9,7 @@ pub mod connection;
 pub mod driver;
 pub mod flight;
 pub mod items;
+pub mod telemetry;
 pub mod transfer;
 
 pub use mavlink::dialects::ardupilotmega as mav;

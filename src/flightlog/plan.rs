@@ -1,0 +1,387 @@
+//! What a flight is measured against: the points flown in order (with the mission sequence
+//! numbers the autopilot reports them by), the frame positions are compared in, and the
+//! predictions. The lead's `fly` builds one from the planner's order and prediction (or from the
+//! mission read back from the autopilot); the recorder writes it as plan.json so a replay can
+//! always rebuild the report.
+//!
+//! Mission layout flown (FLIGHT-DESIGN.md): `[ArduPilot: home at seq 0] NAV_TAKEOFF, NAV_WAYPOINT
+//! x N (the planned order), NAV_WAYPOINT at the origin (the return leg), NAV_LAND`. Positions are
+//! in the mission's own frame (`Mission::waypoints`: metres east, north, up from the origin hover
+//! point at `origin_height_m` above home); the vehicle's GLOBAL_POSITION_INT is brought into it
+//! with `mission::geodesy`, its height taken from `relative_alt` (above the vehicle's home, as the
+//! uploaded items' altitudes are).
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use super::telemetry::Position;
+use super::FlightLogError;
+use crate::mission::{Enu, Geodetic, Mission, Origin};
+
+/// The name of the origin in legs' `from` and `to` (as the planner names it).
+pub const ORIGIN_NAME: &str = "origin";
+
+/// One point visited, in flying order.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlannedPoint {
+    /// Its mission item's sequence number (what MISSION_CURRENT and MISSION_ITEM_REACHED say).
+    pub seq: u16,
+    pub name: String,
+    /// Position in the mission frame (east, north, up from the origin hover point).
+    pub enu: Enu,
+    /// Planned hover time at the point.
+    pub hold_s: f64,
+}
+
+/// The prediction of one leg (legs[k] ends at points[k]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PredictedLeg {
+    /// From leaving hover to first within the arrival radius (the paper's operation energy).
+    pub energy_j: f64,
+    pub duration_s: f64,
+    /// From the arrival radius to settled hover at the point.
+    pub settle_energy_j: f64,
+    pub settle_duration_s: f64,
+}
+
+/// Predicted energies of a flight.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Predicted {
+    pub takeoff_j: f64,
+    pub landing_j: f64,
+    pub legs: Vec<PredictedLeg>,
+    pub hover_power_w: f64,
+}
+
+/// The flight as planned and uploaded.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FlightPlan {
+    pub mission: String,
+    /// Home (AMSL altitude); the origin is above it.
+    pub home: Geodetic,
+    /// Height of the origin hover point above home.
+    pub origin_height_m: f64,
+    /// Waypoints in flying order, then the origin (the return leg).
+    pub points: Vec<PlannedPoint>,
+    pub takeoff_seq: Option<u16>,
+    pub land_seq: Option<u16>,
+    pub predicted: Option<Predicted>,
+}
+
+/// What a mission sequence number means for the flight.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Target {
+    /// Take-off or anything before the first leg.
+    BeforeLegs,
+    /// The leg to points[k] (or an item on the way to it).
+    Leg(usize),
+    /// Landing (or anything after the last point).
+    Landing,
+}
+
+fn plan_error(reason: impl Into<String>) -> FlightLogError {
+    FlightLogError::Plan {
+        reason: reason.into(),
+    }
+}
+
+impl FlightPlan {
+    /// The plan `fly` uploads for `mission` visited in `order` (indices into its waypoints):
+    /// take-off at `first_seq` (1 for ArduPilot, whose seq 0 is home; 0 for PX4), the
+    /// waypoints, the origin, landing.
+    pub fn for_mission(
+        mission: &Mission,
+        order: &[usize],
+        first_seq: u16,
+        predicted: Option<Predicted>,
+    ) -> Result<FlightPlan, FlightLogError> {
+        let mut points = Vec::with_capacity(order.len() + 1);
+        for (k, &w) in order.iter().enumerate() {
+            let waypoint = mission.waypoints.get(w).ok_or_else(|| {
+                plan_error(format!(
+                    "order names waypoint {w}, of {}",
+                    mission.waypoints.len()
+                ))
+            })?;
+            points.push(PlannedPoint {
+                seq: seq_at(first_seq, k + 1)?,
+                name: waypoint.name.clone(),
+                enu: waypoint.position,
+                hold_s: waypoint.hover_s,
+            });
+        }
+        points.push(PlannedPoint {
+            seq: seq_at(first_seq, order.len() + 1)?,
+            name: ORIGIN_NAME.to_string(),
+            enu: Enu::default(),
+            hold_s: 0.0,
+        });
+        let plan = FlightPlan {
+            mission: mission.name.clone(),
+            home: mission.origin.home,
+            origin_height_m: mission.origin.height_above_home_m,
+            points,
+            takeoff_seq: Some(first_seq),
+            land_seq: Some(seq_at(first_seq, order.len() + 2)?),
+            predicted,
+        };
+        plan.validate()?;
+        Ok(plan)
+    }
+
+    /// Checks what segmentation relies on: at least one point, increasing sequence numbers,
+    /// finite positions, one prediction per leg.
+    pub fn validate(&self) -> Result<(), FlightLogError> {
+        if self.points.is_empty() {
+            return Err(plan_error("no points to fly"));
+        }
+        for (k, pair) in self.points.windows(2).enumerate() {
+            if pair[1].seq <= pair[0].seq {
+                return Err(plan_error(format!(
+                    "point {} ({}) has seq {} after seq {}",
+                    k + 1,
+                    pair[1].name,
+                    pair[1].seq,
+                    pair[0].seq
+                )));
+            }
+        }
+        for p in &self.points {
+            let e = p.enu;
+            if !(e.x_east_m.is_finite() && e.y_north_m.is_finite() && e.z_up_m.is_finite()) {
+                return Err(plan_error(format!(
+                    "point {} has a non-finite position",
+                    p.name
+                )));
+            }
+        }
+        if let (Some(t), Some(first)) = (self.takeoff_seq, self.points.first()) {
+            if t >= first.seq {
+                return Err(plan_error(format!(
+                    "take-off seq {t} is not before the first point's {}",
+                    first.seq
+                )));
+            }
+        }
+        if let (Some(l), Some(last)) = (self.land_seq, self.points.last()) {
+            if l <= last.seq {
+                return Err(plan_error(format!(
+                    "land seq {l} is not after the last point's {}",
+                    last.seq
+                )));
+            }
+        }
+        if let Some(p) = &self.predicted {
+            if p.legs.len() != self.points.len() {
+                return Err(plan_error(format!(
+                    "{} predicted legs for {} points",
+                    p.legs.len(),
+                    self.points.len()
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// The origin: home and the hover height above it.
+    pub fn origin(&self) -> Origin {
+        Origin {
+            home: self.home,
+            height_above_home_m: self.origin_height_m,
+        }
+    }
+
+    /// A vehicle position in the mission frame (height from its relative altitude).
+    pub fn to_local(&self, p: &Position) -> Enu {
+        self.origin().to_enu(Geodetic {
+            lat_deg: p.lat_deg,
+            lon_deg: p.lon_deg,
+            alt_m: self.home.alt_m + p.relative_alt_m,
+        })
+    }
+
+    /// The leg a mission sequence number belongs to.
+    pub fn target_of(&self, seq: u16) -> Target {
+        if self.takeoff_seq.is_some_and(|t| seq <= t) {
+            return Target::BeforeLegs;
+        }
+        if self.land_seq.is_some_and(|l| seq >= l) {
+            return Target::Landing;
+        }
+        match self.points.iter().position(|p| p.seq >= seq) {
+            Some(k) => Target::Leg(k),
+            None => Target::Landing,
+        }
+    }
+
+    /// The names of leg k's ends.
+    pub fn leg_names(&self, k: usize) -> (String, String) {
+        let from = match k {
+            0 => ORIGIN_NAME.to_string(),
+            _ => self
+                .points
+                .get(k - 1)
+                .map_or_else(String::new, |p| p.name.clone()),
+        };
+        let to = self
+            .points
+            .get(k)
+            .map_or_else(String::new, |p| p.name.clone());
+        (from, to)
+    }
+
+    /// Writes plan.json.
+    pub fn write_json(&self, path: &Path) -> Result<(), FlightLogError> {
+        let text = serde_json::to_string_pretty(self).map_err(|e| FlightLogError::Json {
+            file: path.display().to_string(),
+            reason: e.to_string(),
+        })?;
+        super::write_synced(path, text.as_bytes())
+    }
+
+    /// Reads and validates plan.json.
+    pub fn read_json(path: &Path) -> Result<FlightPlan, FlightLogError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| FlightLogError::Io {
+            file: file.clone(),
+            source,
+        })?;
+        let plan: FlightPlan = serde_json::from_str(&text).map_err(|e| FlightLogError::Json {
+            file: file.clone(),
+            reason: e.to_string(),
+        })?;
+        plan.validate().map_err(|e| FlightLogError::Json {
+            file,
+            reason: e.to_string(),
+        })?;
+        Ok(plan)
+    }
+}
+
+fn seq_at(first: u16, k: usize) -> Result<u16, FlightLogError> {
+    u16::try_from(usize::from(first) + k)
+        .map_err(|_| plan_error("more mission items than MAVLink can number"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mission::Waypoint;
+
+    pub(crate) fn mission() -> Mission {
+        let wp = |name: &str, x: f64, y: f64, z: f64| Waypoint {
+            name: name.into(),
+            position: Enu {
+                x_east_m: x,
+                y_north_m: y,
+                z_up_m: z,
+            },
+            hover_s: 5.0,
+        };
+        Mission {
+            name: "square".into(),
+            origin: Origin {
+                home: Geodetic {
+                    lat_deg: 38.5362,
+                    lon_deg: -121.7875,
+                    alt_m: 16.0,
+                },
+                height_above_home_m: 20.0,
+            },
+            waypoints: vec![
+                wp("A", 50.0, 0.0, 0.0),
+                wp("B", 50.0, 50.0, 10.0),
+                wp("C", 0.0, 50.0, -5.0),
+            ],
+            default_hover_s: 5.0,
+            min_height_above_home_m: 2.0,
+            source: None,
+        }
+    }
+
+    #[test]
+    fn the_layout_numbers_take_off_waypoints_origin_and_landing() {
+        let plan = FlightPlan::for_mission(&mission(), &[2, 0, 1], 1, None).expect("valid");
+        let names: Vec<&str> = plan.points.iter().map(|p| p.name.as_str()).collect();
+        assert_eq!(names, ["C", "A", "B", "origin"]);
+        let seqs: Vec<u16> = plan.points.iter().map(|p| p.seq).collect();
+        assert_eq!(seqs, [2, 3, 4, 5]);
+        assert_eq!((plan.takeoff_seq, plan.land_seq), (Some(1), Some(6)));
+        assert_eq!(plan.target_of(0), Target::BeforeLegs);
+        assert_eq!(plan.target_of(1), Target::BeforeLegs);
+        assert_eq!(plan.target_of(3), Target::Leg(1));
+        assert_eq!(plan.target_of(5), Target::Leg(3));
+        assert_eq!(plan.target_of(6), Target::Landing);
+        assert_eq!(plan.leg_names(0), ("origin".into(), "C".into()));
+        assert_eq!(plan.leg_names(3), ("B".into(), "origin".into()));
+    }
+
+    #[test]
+    fn a_position_above_a_waypoint_maps_back_onto_it_in_the_mission_frame() {
+        let m = mission();
+        let plan = FlightPlan::for_mission(&m, &[0, 1, 2], 0, None).expect("valid");
+        let b = m.waypoints[1].position;
+        let g = m.origin.to_geodetic(b);
+        let p = Position {
+            time_boot_ms: 0,
+            lat_deg: g.lat_deg,
+            lon_deg: g.lon_deg,
+            alt_amsl_m: g.alt_m + 3.0,
+            relative_alt_m: g.alt_m - m.origin.home.alt_m,
+            vn_m_s: 0.0,
+            ve_m_s: 0.0,
+            vd_m_s: 0.0,
+        };
+        let back = plan.to_local(&p);
+        assert!((back.x_east_m - b.x_east_m).abs() < 1e-6, "{back:?}");
+        assert!((back.y_north_m - b.y_north_m).abs() < 1e-6, "{back:?}");
+        assert!((back.z_up_m - b.z_up_m).abs() < 1e-6, "{back:?}");
+    }
+
+    #[test]
+    fn a_plan_with_a_prediction_per_leg_survives_plan_json() {
+        let leg = PredictedLeg {
+            energy_j: 10_000.0,
+            duration_s: 12.0,
+            settle_energy_j: 2_000.0,
+            settle_duration_s: 2.5,
+        };
+        let plan = FlightPlan::for_mission(
+            &mission(),
+            &[0, 1, 2],
+            0,
+            Some(Predicted {
+                takeoff_j: 30_000.0,
+                landing_j: 20_000.0,
+                legs: vec![leg; 4],
+                hover_power_w: 800.0,
+            }),
+        )
+        .expect("valid");
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("plan.json");
+        plan.write_json(&path).expect("written");
+        assert_eq!(FlightPlan::read_json(&path).expect("read"), plan);
+    }
+
+    #[test]
+    fn a_prediction_that_does_not_match_the_legs_is_refused_naming_the_counts() {
+        let err = FlightPlan::for_mission(
+            &mission(),
+            &[0, 1, 2],
+            0,
+            Some(Predicted {
+                takeoff_j: 0.0,
+                landing_j: 0.0,
+                legs: vec![],
+                hover_power_w: 0.0,
+            }),
+        )
+        .expect_err("invalid");
+        assert!(
+            err.to_string().contains("0 predicted legs for 4 points"),
+            "{err}"
+        );
+    }
+}

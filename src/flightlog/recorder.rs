@@ -1,0 +1,346 @@
+//! The flight directory, written as the flight happens:
+//! `LOG_DIR/<YYYYmmdd-HHMMSS>-<mission>/` (UTC start time; `-2`, `-3`, ... when two flights start
+//! in the same second) holding
+//! - `flight.tlog`: every frame, both directions, as QGroundControl and MAVProxy write it;
+//! - `samples.csv`: one row per battery sample with the vehicle state (see [`super::csv`]);
+//! - `plan.json`: the [`FlightPlan`], written at the start;
+//! - `report.json`: the report, written when the flight ends (a replay can always rebuild it).
+//!
+//! Append-only. Buffers go to the operating system at least every `flush_every_us` (0.5 s) and
+//! to disk (fsync) at least every `sync_every_us` (1 s) of wall time, so a crash of emplan loses
+//! at most the last half second and a power cut the last second, and every file stays readable
+//! (the readers skip a torn last record or line). Time is the caller's: `record` flushes on the
+//! frames' own wall times, `tick` when the link is quiet; the async task that owns the recorder
+//! calls `tick` a few times a second.
+
+use std::path::{Path, PathBuf};
+
+use super::csv::{SampleRow, SamplesWriter};
+use super::plan::FlightPlan;
+use super::report::FlightReport;
+use super::samples::{BatteryFeed, FeedConfig};
+use super::telemetry::{Reading, Stamped, VehicleState};
+use super::tlog::TlogWriter;
+use super::FlightLogError;
+
+/// The files of a flight directory.
+pub const TLOG_FILE: &str = "flight.tlog";
+pub const SAMPLES_FILE: &str = "samples.csv";
+pub const PLAN_FILE: &str = "plan.json";
+pub const REPORT_FILE: &str = "report.json";
+
+/// When the recorder hands data to the OS and to the disk.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RecorderConfig {
+    pub flush_every_us: u64,
+    pub sync_every_us: u64,
+    pub feed: FeedConfig,
+}
+
+impl Default for RecorderConfig {
+    fn default() -> Self {
+        RecorderConfig {
+            flush_every_us: 500_000,
+            sync_every_us: 1_000_000,
+            feed: FeedConfig::default(),
+        }
+    }
+}
+
+/// Days since 1970-01-01 to (year, month, day), proleptic Gregorian (H. Hinnant,
+/// "chrono-Compatible Low-Level Date Algorithms", `civil_from_days`).
+fn civil_from_days(days: i64) -> (i64, u32, u32) {
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = (doy - (153 * mp + 2) / 5 + 1) as u32;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 } as u32;
+    let year = yoe + era * 400 + i64::from(month <= 2);
+    (year, month, day)
+}
+
+/// `YYYYmmdd-HHMMSS` (UTC) of a unix time in microseconds.
+pub fn timestamp_name(wall_us: u64) -> String {
+    let secs = i64::try_from(wall_us / 1_000_000).unwrap_or(i64::MAX);
+    let (y, m, d) = civil_from_days(secs.div_euclid(86_400));
+    let s = secs.rem_euclid(86_400);
+    format!(
+        "{y:04}{m:02}{d:02}-{:02}{:02}{:02}",
+        s / 3600,
+        (s / 60) % 60,
+        s % 60
+    )
+}
+
+/// A mission name made safe for a directory name.
+fn safe_name(mission: &str) -> String {
+    let name: String = mission
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' || c == '.' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .take(64)
+        .collect();
+    let name = name.trim_matches('.').to_string();
+    if name.is_empty() {
+        "flight".to_string()
+    } else {
+        name
+    }
+}
+
+fn sync_dir(dir: &Path) {
+    // Best effort: makes the new entries survive a power cut where the platform allows it.
+    if let Ok(d) = std::fs::File::open(dir) {
+        let _ = d.sync_all();
+    }
+}
+
+/// Records one flight.
+#[derive(Debug)]
+pub struct Recorder {
+    dir: PathBuf,
+    tlog: TlogWriter,
+    samples: SamplesWriter,
+    state: VehicleState,
+    feed: BatteryFeed,
+    cfg: RecorderConfig,
+    last_flush_us: u64,
+    last_sync_us: u64,
+}
+
+impl Recorder {
+    /// Creates a new flight directory under `log_dir` for `mission`, started at `start_wall_us`
+    /// (unix microseconds).
+    pub fn create(
+        log_dir: &Path,
+        mission: &str,
+        start_wall_us: u64,
+    ) -> Result<Recorder, FlightLogError> {
+        Recorder::create_with(log_dir, mission, start_wall_us, RecorderConfig::default())
+    }
+
+    pub fn create_with(
+        log_dir: &Path,
+        mission: &str,
+        start_wall_us: u64,
+        cfg: RecorderConfig,
+    ) -> Result<Recorder, FlightLogError> {
+        std::fs::create_dir_all(log_dir).map_err(|source| FlightLogError::Io {
+            file: log_dir.display().to_string(),
+            source,
+        })?;
+        let base = format!("{}-{}", timestamp_name(start_wall_us), safe_name(mission));
+        let mut dir = log_dir.join(&base);
+        let mut n = 1;
+        loop {
+            match std::fs::create_dir(&dir) {
+                Ok(()) => break,
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists && n < 1000 => {
+                    n += 1;
+                    dir = log_dir.join(format!("{base}-{n}"));
+                }
+                Err(source) => {
+                    return Err(FlightLogError::Io {
+                        file: dir.display().to_string(),
+                        source,
+                    })
+                }
+            }
+        }
+        let tlog = TlogWriter::create(&dir.join(TLOG_FILE))?;
+        let mut samples = SamplesWriter::create(&dir.join(SAMPLES_FILE))?;
+        samples.sync()?;
+        sync_dir(&dir);
+        sync_dir(log_dir);
+        Ok(Recorder {
+            dir,
+            tlog,
+            samples,
+            state: VehicleState::default(),
+            feed: BatteryFeed::new(cfg.feed),
+            cfg,
+            last_flush_us: start_wall_us,
+            last_sync_us: start_wall_us,
+        })
+    }
+
+    /// The flight directory.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// Frames and sample rows written so far.
+    pub fn counts(&self) -> (u64, u64) {
+        (self.tlog.records(), self.samples.rows())
+    }
+
+    /// Writes plan.json (complete or absent, never torn).
+    pub fn write_plan(&self, plan: &FlightPlan) -> Result<(), FlightLogError> {
+        plan.write_json(&self.dir.join(PLAN_FILE))
+    }
+
+    /// Records one frame received or sent at `wall_us`, with its reading if it decoded to one.
+    pub fn record(
+        &mut self,
+        wall_us: u64,
+        frame: &[u8],
+        stamped: Option<&Stamped>,
+    ) -> Result<(), FlightLogError> {
+        self.tlog.append(wall_us, frame)?;
+        if let Some(s) = stamped {
+            self.state.update(&s.reading);
+            if let Reading::Battery(b) = &s.reading {
+                if let Some(sample) = self.feed.push(s.t_s, s.wall_us, b) {
+                    self.samples.append(&SampleRow::new(sample, &self.state))?;
+                }
+            }
+        }
+        self.tick(wall_us)
+    }
+
+    /// Flushes and syncs when their time has come (call it when the link is quiet too).
+    pub fn tick(&mut self, wall_us: u64) -> Result<(), FlightLogError> {
+        if wall_us.saturating_sub(self.last_sync_us) >= self.cfg.sync_every_us {
+            self.tlog.sync()?;
+            self.samples.sync()?;
+            self.last_sync_us = wall_us;
+            self.last_flush_us = wall_us;
+        } else if wall_us.saturating_sub(self.last_flush_us) >= self.cfg.flush_every_us {
+            self.tlog.flush()?;
+            self.samples.flush()?;
+            self.last_flush_us = wall_us;
+        }
+        Ok(())
+    }
+
+    /// Puts everything on disk and ends the recording; returns the flight directory.
+    pub fn close(mut self) -> Result<PathBuf, FlightLogError> {
+        self.tlog.sync()?;
+        self.samples.sync()?;
+        sync_dir(&self.dir);
+        Ok(self.dir)
+    }
+}
+
+/// Writes report.json into a flight directory (complete or absent, never torn).
+pub fn write_report(dir: &Path, report: &FlightReport) -> Result<(), FlightLogError> {
+    let path = dir.join(REPORT_FILE);
+    let text = serde_json::to_string_pretty(&report.json()).map_err(|e| FlightLogError::Json {
+        file: path.display().to_string(),
+        reason: e.to_string(),
+    })?;
+    super::write_synced(&path, text.as_bytes())
+}
+
+/// Reads report.json of a flight directory.
+pub fn read_report(dir: &Path) -> Result<FlightReport, FlightLogError> {
+    let path = dir.join(REPORT_FILE);
+    let file = path.display().to_string();
+    let text = std::fs::read_to_string(&path).map_err(|source| FlightLogError::Io {
+        file: file.clone(),
+        source,
+    })?;
+    let json = serde_json::from_str(&text).map_err(|e| FlightLogError::Json {
+        file,
+        reason: e.to_string(),
+    })?;
+    Ok(FlightReport::from_json(&json))
+}
+
+/// The name of a flight: its directory's name.
+pub fn flight_name(dir: &Path) -> String {
+    dir.file_name().map_or_else(
+        || dir.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::flightlog::csv::read_samples;
+    use crate::flightlog::telemetry::{Battery, BatterySource};
+    use crate::flightlog::tlog::read_tlog;
+
+    #[test]
+    fn timestamps_name_directories_in_utc() {
+        assert_eq!(timestamp_name(0), "19700101-000000");
+        // 2000-02-29 12:34:56 UTC = 951827696 s.
+        assert_eq!(timestamp_name(951_827_696_000_000), "20000229-123456");
+        // 2026-03-01 00:00:00 UTC = 1772323200 s.
+        assert_eq!(timestamp_name(1_772_323_200_999_999), "20260301-000000");
+    }
+
+    #[test]
+    fn a_flight_directory_is_named_by_start_and_mission_and_never_reused() {
+        let log = tempfile::tempdir().expect("temp dir");
+        let start = 951_827_696_000_000;
+        let a = Recorder::create(log.path(), "paper sample/8wp", start).expect("created");
+        let b = Recorder::create(log.path(), "paper sample/8wp", start).expect("created");
+        assert_eq!(flight_name(a.dir()), "20000229-123456-paper_sample_8wp");
+        assert_eq!(flight_name(b.dir()), "20000229-123456-paper_sample_8wp-2");
+        assert!(a.dir().join(TLOG_FILE).is_file() && a.dir().join(SAMPLES_FILE).is_file());
+    }
+
+    fn battery(t_s: f64) -> Stamped {
+        Stamped {
+            t_s,
+            wall_us: 0,
+            reading: Reading::Battery(Battery {
+                source: BatterySource::BatteryStatus {
+                    id: 0,
+                    component: 1,
+                },
+                voltage_v: Some(22.0),
+                current_a: Some(30.0),
+                consumed_mah: None,
+                energy_consumed_j: None,
+                remaining_pct: None,
+                fake_current: false,
+            }),
+        }
+    }
+
+    #[test]
+    fn what_was_recorded_is_on_disk_within_half_a_second_of_wall_time_without_close() {
+        let log = tempfile::tempdir().expect("temp dir");
+        let start = 1_750_000_000_000_000u64;
+        let mut r = Recorder::create(log.path(), "m", start).expect("created");
+        let dir = r.dir().to_path_buf();
+        let frame = [0xFDu8, 0, 0, 0, 0, 1, 1, 0, 0, 0, 0xAA, 0xBB];
+        // 100 frames over 0.49 s: still buffered.
+        for k in 0..100u64 {
+            r.record(start + k * 4_900, &frame, Some(&battery(k as f64 * 0.0049)))
+                .expect("recorded");
+        }
+        assert_eq!(
+            read_tlog(&dir.join(TLOG_FILE)).expect("read").records.len(),
+            0
+        );
+        // Quiet link: the tick at 0.5 s flushes.
+        r.tick(start + 500_000).expect("ticked");
+        assert_eq!(
+            read_tlog(&dir.join(TLOG_FILE)).expect("read").records.len(),
+            100
+        );
+        assert_eq!(
+            read_samples(&dir.join(SAMPLES_FILE)).expect("read").len(),
+            100
+        );
+        r.record(start + 600_000, &frame, None).expect("recorded");
+        assert_eq!(r.counts(), (101, 100));
+        let dir = r.close().expect("closed");
+        assert_eq!(
+            read_tlog(&dir.join(TLOG_FILE)).expect("read").records.len(),
+            101
+        );
+    }
+}

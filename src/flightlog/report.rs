@@ -1,0 +1,666 @@
+//! Reports: per leg predicted vs measured energy, the settles, hovers, take-off and landing,
+//! totals and flags, for one flight ([`FlightReport`]) or for repeated flights of the same legs
+//! ([`combine`]: mean, sample standard deviation, min, max and count per leg, matched by (from,
+//! to), as the paper averaged repeated operations). Energies are joules here; the JSON views
+//! ([`ReportJson`], [`CombinedJson`]) are in kJ, the shape of DESIGN.md:
+//! `{"flight", "legs": [{"from", "to", "predicted_kj", "measured_kj", "error_pct", "duration_s",
+//! "flags"}], "hovers": [..], "total": {"predicted_kj", "measured_kj"}}` plus take-off, landing,
+//! settles, times and coverage.
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+use super::energy::{Flag, Measurement};
+use super::plan::ORIGIN_NAME;
+use super::segment::{Segment, SegmentKind, Segmenter};
+
+/// One part of a flight, predicted and measured.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PartReport {
+    /// Where it starts (legs: the point left) and where it is (legs: the point reached).
+    pub from: String,
+    pub to: String,
+    pub predicted_j: Option<f64>,
+    pub measured_j: Option<f64>,
+    /// The autopilot's charge counter x mean voltage.
+    pub consumed_j: Option<f64>,
+    pub duration_s: f64,
+    pub predicted_duration_s: Option<f64>,
+    pub start_s: f64,
+    pub end_s: f64,
+    pub coverage: f64,
+    pub flags: Vec<Flag>,
+}
+
+impl PartReport {
+    /// (measured - predicted) / predicted in percent, for a complete part with both.
+    pub fn error_pct(&self) -> Option<f64> {
+        if self.flags.contains(&Flag::Incomplete) {
+            return None;
+        }
+        match (self.predicted_j, self.measured_j) {
+            (Some(p), Some(m)) if p > 0.0 => Some((m - p) / p * 100.0),
+            _ => None,
+        }
+    }
+}
+
+/// Predicted vs measured energy of a whole flight.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FlightReport {
+    pub flight: String,
+    pub takeoff: Option<PartReport>,
+    pub legs: Vec<PartReport>,
+    pub settles: Vec<PartReport>,
+    pub hovers: Vec<PartReport>,
+    pub landing: Option<PartReport>,
+    /// Sum of the predicted parts, when the plan carries a prediction.
+    pub predicted_j: Option<f64>,
+    /// Arming to disarming.
+    pub measured_j: Option<f64>,
+    pub duration_s: f64,
+    /// Whether the flight ended with a landing (not cut off).
+    pub complete: bool,
+    /// Every flag of every part.
+    pub flags: Vec<Flag>,
+}
+
+fn part(
+    segmenter: &Segmenter,
+    segment: &Segment,
+    names: (String, String),
+    predicted: Option<(f64, Option<f64>)>,
+) -> PartReport {
+    let m: Measurement = segmenter.measure(segment);
+    let mut flags = m.flags;
+    if !segment.complete {
+        flags.push(Flag::Incomplete);
+    }
+    if segment.missed_radius {
+        flags.push(Flag::MissedRadius);
+    }
+    flags.sort();
+    flags.dedup();
+    PartReport {
+        from: names.0,
+        to: names.1,
+        predicted_j: predicted.map(|p| p.0),
+        measured_j: m.energy_j,
+        consumed_j: m.consumed_j,
+        duration_s: m.duration_s,
+        predicted_duration_s: predicted.and_then(|p| p.1),
+        start_s: segment.start_s,
+        end_s: segment.end_s,
+        coverage: m.coverage,
+        flags,
+    }
+}
+
+impl FlightReport {
+    /// The report of a flight segmented so far (a flight in progress gives its parts so far,
+    /// the last one `incomplete`).
+    pub fn build(flight: &str, segmenter: &Segmenter) -> FlightReport {
+        let plan = segmenter.plan();
+        let predicted = plan.predicted.as_ref();
+        let point_name = |k: usize| {
+            plan.points
+                .get(k)
+                .map_or_else(String::new, |p| p.name.clone())
+        };
+        let mut report = FlightReport {
+            flight: flight.to_string(),
+            takeoff: None,
+            legs: Vec::new(),
+            settles: Vec::new(),
+            hovers: Vec::new(),
+            landing: None,
+            predicted_j: None,
+            measured_j: None,
+            duration_s: 0.0,
+            complete: false,
+            flags: Vec::new(),
+        };
+        for segment in segmenter.segments() {
+            match segment.kind {
+                SegmentKind::Takeoff => {
+                    let p = predicted.map(|p| (p.takeoff_j, None));
+                    report.takeoff = Some(part(
+                        segmenter,
+                        &segment,
+                        ("ground".into(), ORIGIN_NAME.into()),
+                        p,
+                    ));
+                }
+                SegmentKind::Leg(k) => {
+                    let p = predicted
+                        .and_then(|p| p.legs.get(k))
+                        .map(|l| (l.energy_j, Some(l.duration_s)));
+                    report
+                        .legs
+                        .push(part(segmenter, &segment, plan.leg_names(k), p));
+                }
+                SegmentKind::Settle(k) => {
+                    let p = predicted
+                        .and_then(|p| p.legs.get(k))
+                        .map(|l| (l.settle_energy_j, Some(l.settle_duration_s)));
+                    let name = point_name(k);
+                    report
+                        .settles
+                        .push(part(segmenter, &segment, (name.clone(), name), p));
+                }
+                SegmentKind::Hover(k) => {
+                    let hold_s = plan.points.get(k).map_or(0.0, |p| p.hold_s);
+                    let p = predicted.map(|p| (p.hover_power_w * hold_s, Some(hold_s)));
+                    let name = point_name(k);
+                    report
+                        .hovers
+                        .push(part(segmenter, &segment, (name.clone(), name), p));
+                }
+                SegmentKind::Landing => {
+                    let p = predicted.map(|p| (p.landing_j, None));
+                    report.landing = Some(part(
+                        segmenter,
+                        &segment,
+                        (ORIGIN_NAME.into(), "ground".into()),
+                        p,
+                    ));
+                }
+            }
+        }
+        if let Some(p) = predicted {
+            let hover_j: f64 = plan.points.iter().map(|x| x.hold_s * p.hover_power_w).sum();
+            let legs_j: f64 = p.legs.iter().map(|l| l.energy_j + l.settle_energy_j).sum();
+            report.predicted_j = Some(p.takeoff_j + legs_j + hover_j + p.landing_j);
+        }
+        if let Some((start, end)) = segmenter.flight_span() {
+            let whole = segmenter.series().measure(start, end);
+            report.measured_j = whole.energy_j;
+            report.duration_s = whole.duration_s;
+        }
+        report.complete = segmenter.is_finished()
+            && report
+                .landing
+                .as_ref()
+                .is_some_and(|l| !l.flags.contains(&Flag::Incomplete));
+        let mut flags: Vec<Flag> = report
+            .parts()
+            .flat_map(|p| p.flags.iter().copied())
+            .collect();
+        if !report.complete {
+            flags.push(Flag::Incomplete);
+        }
+        flags.sort();
+        flags.dedup();
+        report.flags = flags;
+        report
+    }
+
+    /// Every part in flight order by kind: take-off, legs, settles, hovers, landing.
+    pub fn parts(&self) -> impl Iterator<Item = &PartReport> {
+        self.takeoff
+            .iter()
+            .chain(&self.legs)
+            .chain(&self.settles)
+            .chain(&self.hovers)
+            .chain(self.landing.iter())
+    }
+
+    /// The JSON view (kJ).
+    pub fn json(&self) -> ReportJson {
+        ReportJson {
+            flight: self.flight.clone(),
+            legs: self.legs.iter().map(PartJson::from).collect(),
+            hovers: self.hovers.iter().map(PartJson::from).collect(),
+            settles: self.settles.iter().map(PartJson::from).collect(),
+            takeoff: self.takeoff.as_ref().map(PartJson::from),
+            landing: self.landing.as_ref().map(PartJson::from),
+            total: TotalJson {
+                predicted_kj: self.predicted_j.map(kj),
+                measured_kj: self.measured_j.map(kj),
+                error_pct: match (self.predicted_j, self.measured_j) {
+                    (Some(p), Some(m)) if p > 0.0 && self.complete => Some((m - p) / p * 100.0),
+                    _ => None,
+                },
+                duration_s: self.duration_s,
+            },
+            complete: self.complete,
+            flags: self.flags.clone(),
+        }
+    }
+
+    /// A report from its JSON view (what report.json holds).
+    pub fn from_json(json: &ReportJson) -> FlightReport {
+        let parts = |v: &[PartJson]| v.iter().map(PartJson::to_part).collect::<Vec<_>>();
+        FlightReport {
+            flight: json.flight.clone(),
+            takeoff: json.takeoff.as_ref().map(PartJson::to_part),
+            legs: parts(&json.legs),
+            settles: parts(&json.settles),
+            hovers: parts(&json.hovers),
+            landing: json.landing.as_ref().map(PartJson::to_part),
+            predicted_j: json.total.predicted_kj.map(j),
+            measured_j: json.total.measured_kj.map(j),
+            duration_s: json.total.duration_s,
+            complete: json.complete,
+            flags: json.flags.clone(),
+        }
+    }
+}
+
+fn kj(j: f64) -> f64 {
+    j / 1000.0
+}
+
+fn j(kj: f64) -> f64 {
+    kj * 1000.0
+}
+
+/// One part in the report JSON.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PartJson {
+    pub from: String,
+    pub to: String,
+    pub predicted_kj: Option<f64>,
+    pub measured_kj: Option<f64>,
+    pub error_pct: Option<f64>,
+    pub duration_s: f64,
+    pub predicted_duration_s: Option<f64>,
+    pub consumed_kj: Option<f64>,
+    pub start_s: f64,
+    pub end_s: f64,
+    pub coverage: f64,
+    pub flags: Vec<Flag>,
+}
+
+impl From<&PartReport> for PartJson {
+    fn from(p: &PartReport) -> PartJson {
+        PartJson {
+            from: p.from.clone(),
+            to: p.to.clone(),
+            predicted_kj: p.predicted_j.map(kj),
+            measured_kj: p.measured_j.map(kj),
+            error_pct: p.error_pct(),
+            duration_s: p.duration_s,
+            predicted_duration_s: p.predicted_duration_s,
+            consumed_kj: p.consumed_j.map(kj),
+            start_s: p.start_s,
+            end_s: p.end_s,
+            coverage: p.coverage,
+            flags: p.flags.clone(),
+        }
+    }
+}
+
+impl PartJson {
+    fn to_part(&self) -> PartReport {
+        PartReport {
+            from: self.from.clone(),
+            to: self.to.clone(),
+            predicted_j: self.predicted_kj.map(j),
+            measured_j: self.measured_kj.map(j),
+            consumed_j: self.consumed_kj.map(j),
+            duration_s: self.duration_s,
+            predicted_duration_s: self.predicted_duration_s,
+            start_s: self.start_s,
+            end_s: self.end_s,
+            coverage: self.coverage,
+            flags: self.flags.clone(),
+        }
+    }
+}
+
+/// Totals in the report JSON.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TotalJson {
+    pub predicted_kj: Option<f64>,
+    pub measured_kj: Option<f64>,
+    pub error_pct: Option<f64>,
+    pub duration_s: f64,
+}
+
+/// The report JSON of one flight (report.json, `emplan report --json`, `fly --json`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ReportJson {
+    pub flight: String,
+    pub legs: Vec<PartJson>,
+    pub hovers: Vec<PartJson>,
+    pub settles: Vec<PartJson>,
+    pub takeoff: Option<PartJson>,
+    pub landing: Option<PartJson>,
+    pub total: TotalJson,
+    pub complete: bool,
+    pub flags: Vec<Flag>,
+}
+
+/// Statistics of one quantity over repeated flights.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Stats {
+    pub n: usize,
+    pub mean: f64,
+    /// Sample standard deviation (n - 1); 0 for a single value.
+    pub std: f64,
+    pub min: f64,
+    pub max: f64,
+}
+
+impl Stats {
+    /// Statistics of `values`; None when empty.
+    pub fn of(values: &[f64]) -> Option<Stats> {
+        let n = values.len();
+        if n == 0 {
+            return None;
+        }
+        let mean = values.iter().sum::<f64>() / n as f64;
+        let var = if n > 1 {
+            values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1) as f64
+        } else {
+            0.0
+        };
+        Some(Stats {
+            n,
+            mean,
+            std: var.sqrt(),
+            min: values.iter().copied().fold(f64::INFINITY, f64::min),
+            max: values.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        })
+    }
+}
+
+/// One part over repeated flights.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CombinedPart {
+    pub from: String,
+    pub to: String,
+    /// Flights in which the part appears.
+    pub flights: usize,
+    /// The prediction (the mean if flights predicted differently).
+    pub predicted_j: Option<f64>,
+    /// Over the flights where it was measured, complete.
+    pub measured: Option<Stats>,
+    pub duration: Option<Stats>,
+    /// Every flag seen on it.
+    pub flags: Vec<Flag>,
+}
+
+impl CombinedPart {
+    pub fn error_pct(&self) -> Option<f64> {
+        match (self.predicted_j, self.measured) {
+            (Some(p), Some(m)) if p > 0.0 => Some((m.mean - p) / p * 100.0),
+            _ => None,
+        }
+    }
+}
+
+/// Repeated flights combined.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CombinedReport {
+    pub flights: Vec<String>,
+    pub legs: Vec<CombinedPart>,
+    pub hovers: Vec<CombinedPart>,
+    pub takeoff: Option<CombinedPart>,
+    pub landing: Option<CombinedPart>,
+}
+
+fn combine_parts<'a>(parts: impl IntoIterator<Item = &'a PartReport>) -> Vec<CombinedPart> {
+    // Keyed by (from, to), in order of first appearance.
+    let mut order: Vec<(String, String)> = Vec::new();
+    let mut groups: BTreeMap<(String, String), Vec<&PartReport>> = BTreeMap::new();
+    for p in parts {
+        let key = (p.from.clone(), p.to.clone());
+        if !groups.contains_key(&key) {
+            order.push(key.clone());
+        }
+        groups.entry(key).or_default().push(p);
+    }
+    order
+        .into_iter()
+        .filter_map(|key| {
+            let group = groups.get(&key)?;
+            let usable: Vec<&&PartReport> = group
+                .iter()
+                .filter(|p| !p.flags.contains(&Flag::Incomplete))
+                .collect();
+            let measured: Vec<f64> = usable.iter().filter_map(|p| p.measured_j).collect();
+            let durations: Vec<f64> = usable.iter().map(|p| p.duration_s).collect();
+            let predictions: Vec<f64> = group.iter().filter_map(|p| p.predicted_j).collect();
+            let mut flags: Vec<Flag> = group.iter().flat_map(|p| p.flags.iter().copied()).collect();
+            flags.sort();
+            flags.dedup();
+            Some(CombinedPart {
+                from: key.0,
+                to: key.1,
+                flights: group.len(),
+                predicted_j: Stats::of(&predictions).map(|s| s.mean),
+                measured: Stats::of(&measured),
+                duration: Stats::of(&durations),
+                flags,
+            })
+        })
+        .collect()
+}
+
+/// Combines repeated flights of the same legs: per leg (matched by from and to) and per hover
+/// the mean, spread, min and max of the complete measurements.
+pub fn combine(reports: &[FlightReport]) -> CombinedReport {
+    CombinedReport {
+        flights: reports.iter().map(|r| r.flight.clone()).collect(),
+        legs: combine_parts(reports.iter().flat_map(|r| &r.legs)),
+        hovers: combine_parts(reports.iter().flat_map(|r| &r.hovers)),
+        takeoff: combine_parts(reports.iter().filter_map(|r| r.takeoff.as_ref()))
+            .into_iter()
+            .next(),
+        landing: combine_parts(reports.iter().filter_map(|r| r.landing.as_ref()))
+            .into_iter()
+            .next(),
+    }
+}
+
+/// Statistics in kJ (or seconds) for the JSON.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct StatsJson {
+    pub n: usize,
+    pub mean: f64,
+    pub std: f64,
+    pub min: f64,
+    pub max: f64,
+}
+
+fn stats_json(s: Stats, scale: f64) -> StatsJson {
+    StatsJson {
+        n: s.n,
+        mean: s.mean * scale,
+        std: s.std * scale,
+        min: s.min * scale,
+        max: s.max * scale,
+    }
+}
+
+/// One combined part in JSON.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CombinedPartJson {
+    pub from: String,
+    pub to: String,
+    pub flights: usize,
+    pub predicted_kj: Option<f64>,
+    /// Mean of the measurements.
+    pub measured_kj: Option<f64>,
+    pub error_pct: Option<f64>,
+    pub measured_stats_kj: Option<StatsJson>,
+    pub duration_stats_s: Option<StatsJson>,
+    pub flags: Vec<Flag>,
+}
+
+impl From<&CombinedPart> for CombinedPartJson {
+    fn from(p: &CombinedPart) -> CombinedPartJson {
+        CombinedPartJson {
+            from: p.from.clone(),
+            to: p.to.clone(),
+            flights: p.flights,
+            predicted_kj: p.predicted_j.map(kj),
+            measured_kj: p.measured.map(|s| kj(s.mean)),
+            error_pct: p.error_pct(),
+            measured_stats_kj: p.measured.map(|s| stats_json(s, 1e-3)),
+            duration_stats_s: p.duration.map(|s| stats_json(s, 1.0)),
+            flags: p.flags.clone(),
+        }
+    }
+}
+
+/// The combined report in JSON.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CombinedJson {
+    pub flights: Vec<String>,
+    pub legs: Vec<CombinedPartJson>,
+    pub hovers: Vec<CombinedPartJson>,
+    pub takeoff: Option<CombinedPartJson>,
+    pub landing: Option<CombinedPartJson>,
+}
+
+impl CombinedReport {
+    pub fn json(&self) -> CombinedJson {
+        CombinedJson {
+            flights: self.flights.clone(),
+            legs: self.legs.iter().map(CombinedPartJson::from).collect(),
+            hovers: self.hovers.iter().map(CombinedPartJson::from).collect(),
+            takeoff: self.takeoff.as_ref().map(CombinedPartJson::from),
+            landing: self.landing.as_ref().map(CombinedPartJson::from),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn leg(
+        from: &str,
+        to: &str,
+        predicted: f64,
+        measured: Option<f64>,
+        flags: Vec<Flag>,
+    ) -> PartReport {
+        PartReport {
+            from: from.into(),
+            to: to.into(),
+            predicted_j: Some(predicted),
+            measured_j: measured,
+            consumed_j: None,
+            duration_s: 10.0,
+            predicted_duration_s: Some(9.5),
+            start_s: 0.0,
+            end_s: 10.0,
+            coverage: 1.0,
+            flags,
+        }
+    }
+
+    fn report(name: &str, legs: Vec<PartReport>) -> FlightReport {
+        FlightReport {
+            flight: name.into(),
+            takeoff: None,
+            legs,
+            settles: vec![],
+            hovers: vec![],
+            landing: None,
+            predicted_j: Some(60_000.0),
+            measured_j: Some(61_000.0),
+            duration_s: 100.0,
+            complete: true,
+            flags: vec![],
+        }
+    }
+
+    #[test]
+    fn repeated_legs_are_combined_by_their_ends_with_mean_spread_and_range() {
+        let a = report(
+            "f1",
+            vec![
+                leg("origin", "A", 20_000.0, Some(19_000.0), vec![]),
+                leg("A", "B", 30_000.0, Some(33_000.0), vec![]),
+            ],
+        );
+        let b = report(
+            "f2",
+            vec![
+                leg("A", "B", 30_000.0, Some(31_000.0), vec![Flag::TelemetryGap]),
+                leg("origin", "A", 20_000.0, Some(21_000.0), vec![]),
+            ],
+        );
+        let c = report(
+            "f3",
+            vec![
+                leg("origin", "A", 20_000.0, Some(23_000.0), vec![]),
+                leg("A", "B", 30_000.0, Some(99_000.0), vec![Flag::Incomplete]),
+                leg("B", "origin", 25_000.0, None, vec![Flag::Unmeasurable]),
+            ],
+        );
+        let combined = combine(&[a, b, c]);
+        assert_eq!(combined.flights, ["f1", "f2", "f3"]);
+        let oa = &combined.legs[0];
+        assert_eq!(
+            (oa.from.as_str(), oa.to.as_str(), oa.flights),
+            ("origin", "A", 3)
+        );
+        let m = oa.measured.expect("measured");
+        // 19, 21, 23 kJ: mean 21, sample std 2.
+        assert_eq!(
+            (m.n, m.mean, m.min, m.max),
+            (3, 21_000.0, 19_000.0, 23_000.0)
+        );
+        assert!((m.std - 2000.0).abs() < 1e-9);
+        assert!((oa.error_pct().expect("both") - 5.0).abs() < 1e-9);
+        // The incomplete A->B of f3 does not count; its flag is kept.
+        let ab = &combined.legs[1];
+        let m = ab.measured.expect("measured");
+        assert_eq!((m.n, m.mean), (2, 32_000.0));
+        assert!(ab.flags.contains(&Flag::Incomplete) && ab.flags.contains(&Flag::TelemetryGap));
+        let bo = &combined.legs[2];
+        assert_eq!((bo.flights, bo.measured), (1, None));
+        let json = serde_json::to_value(combined.json()).expect("serialises");
+        assert_eq!(json["legs"][0]["measured_kj"], serde_json::json!(21.0));
+        assert_eq!(
+            json["legs"][0]["measured_stats_kj"]["std"],
+            serde_json::json!(2.0)
+        );
+    }
+
+    #[test]
+    fn the_json_view_is_in_kilojoules_with_null_for_unmeasurable_and_reads_back() {
+        let r = report(
+            "f1",
+            vec![
+                leg("origin", "A", 20_000.0, Some(22_000.0), vec![]),
+                leg(
+                    "A",
+                    "origin",
+                    25_000.0,
+                    None,
+                    vec![Flag::TelemetryGap, Flag::Unmeasurable],
+                ),
+            ],
+        );
+        let json = serde_json::to_value(r.json()).expect("serialises");
+        assert_eq!(json["flight"], "f1");
+        assert_eq!(json["legs"][0]["from"], "origin");
+        assert_eq!(json["legs"][0]["predicted_kj"], serde_json::json!(20.0));
+        assert_eq!(json["legs"][0]["measured_kj"], serde_json::json!(22.0));
+        assert_eq!(json["legs"][0]["error_pct"], serde_json::json!(10.0));
+        assert_eq!(json["legs"][0]["duration_s"], serde_json::json!(10.0));
+        assert!(json["legs"][1]["measured_kj"].is_null());
+        assert!(json["legs"][1]["error_pct"].is_null());
+        assert_eq!(
+            json["legs"][1]["flags"],
+            serde_json::json!(["telemetry_gap", "unmeasurable"])
+        );
+        assert_eq!(json["total"]["predicted_kj"], serde_json::json!(60.0));
+        assert!(json["hovers"].is_array());
+        let back: ReportJson = serde_json::from_value(json).expect("parses");
+        let again = FlightReport::from_json(&back);
+        assert_eq!(again.legs[0].measured_j, Some(22_000.0));
+        assert_eq!(
+            again.legs[1].flags,
+            vec![Flag::TelemetryGap, Flag::Unmeasurable]
+        );
+    }
+}

@@ -1,0 +1,1046 @@
+//! Cutting a flight into contiguous segments against the plan that was flown, so the parts add
+//! up to the whole flight's energy (FLIGHT-DESIGN.md):
+//! - `takeoff`: arming -> the vehicle leaves the origin hover for the first leg;
+//! - `leg` k from P to Q = points[k]: leaves hover at P (MISSION_CURRENT names Q or a later
+//!   item; departure from P as fallback) -> first within the arrival radius (4 m, 3D) of Q, the
+//!   crossing time interpolated between position samples: the paper's operation energy;
+//! - `settle` at Q: within the radius -> settled: stopped inside the radius (3D speed below
+//!   `stop_speed_m_s` for `stop_hold_s`, the settle ending where the stop began), or
+//!   MISSION_ITEM_REACHED of Q if that comes first. Both PX4 (`mission_block.cpp`: the item is
+//!   "reached" once its hold time is over) and ArduCopter (`verify_nav_wp`: "Reached command"
+//!   after the loiter time) report an item reached when they leave it, not on arrival, and PX4
+//!   never reports the last waypoint before landing; so the stop is what ends a settle, as the
+//!   model's settle ends in a settled hover;
+//! - `hover` at Q: reached -> leaves for the next leg;
+//! - `landing`: leaves the origin hover point after the return leg -> disarmed (or on the ground
+//!   when the log ends before the disarm).
+//!
+//! Departure from a hover point by position: the last exit from `departure_m` around it before
+//! the vehicle is `arrival_radius_m` away (so GPS wander inside that does not count); a
+//! MISSION_CURRENT arriving up to `mission_current_lag_s` after such an exit (PX4 resends it once
+//! a second, so a lost change arrives late) starts the leg at the exit.
+//!
+//! Incremental: feed stamped readings one by one ([`Segmenter::push`]); the completed segments
+//! and the one in progress can be asked for at any time, so the same code serves the live view
+//! and the replay. The first disarm ends the flight; a later arming is not segmented. A log that
+//! begins in flight (armed at its first heartbeat) starts at the leg MISSION_CURRENT names, that
+//! first part marked incomplete.
+
+use serde::Serialize;
+
+use super::energy::{EnergyConfig, Measurement, PowerSeries};
+use super::plan::{FlightPlan, Target};
+use super::samples::{BatteryFeed, FeedConfig};
+use super::telemetry::{FlightMode, LandedState, Reading, Stamped, VehicleState};
+use super::FlightLogError;
+use crate::mission::Enu;
+
+/// Thresholds of segmentation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SegmentConfig {
+    /// A leg ends when the vehicle first comes this close (3D) to its end point (paper: 4 m).
+    pub arrival_radius_m: f64,
+    /// Leaving a hover point by position: exiting this radius around it.
+    pub departure_m: f64,
+    /// Stopped: 3D speed below this for `stop_hold_s` (an overshoot's turning point is not a
+    /// stop).
+    pub stop_speed_m_s: f64,
+    pub stop_hold_s: f64,
+    /// How late a MISSION_CURRENT may be after a departure seen in the positions.
+    pub mission_current_lag_s: f64,
+    pub energy: EnergyConfig,
+    pub feed: FeedConfig,
+}
+
+impl Default for SegmentConfig {
+    fn default() -> Self {
+        SegmentConfig {
+            arrival_radius_m: 4.0,
+            departure_m: 2.0,
+            stop_speed_m_s: 0.3,
+            stop_hold_s: 1.0,
+            mission_current_lag_s: 1.5,
+            energy: EnergyConfig::default(),
+            feed: FeedConfig::default(),
+        }
+    }
+}
+
+/// What a segment is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(tag = "kind", content = "index", rename_all = "snake_case")]
+pub enum SegmentKind {
+    Takeoff,
+    /// The leg ending at points[k].
+    Leg(usize),
+    Settle(usize),
+    Hover(usize),
+    Landing,
+}
+
+/// A stretch of the flight in vehicle time.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Segment {
+    pub kind: SegmentKind,
+    pub start_s: f64,
+    pub end_s: f64,
+    /// False when the flight (or the log) ended inside it.
+    pub complete: bool,
+    /// A leg the autopilot ended before the arrival radius (its acceptance radius is larger).
+    pub missed_radius: bool,
+}
+
+impl Segment {
+    pub fn duration_s(&self) -> f64 {
+        self.end_s - self.start_s
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Phase {
+    Idle,
+    Active(SegmentKind),
+    Done,
+}
+
+/// Segments a flight as its readings arrive.
+#[derive(Debug, Clone)]
+pub struct Segmenter {
+    plan: FlightPlan,
+    cfg: SegmentConfig,
+    feed: BatteryFeed,
+    series: PowerSeries,
+    state: VehicleState,
+    phase: Phase,
+    open_start_s: f64,
+    segments: Vec<Segment>,
+    flight_start_s: Option<f64>,
+    flight_end_s: Option<f64>,
+    now_s: f64,
+    last_position: Option<(f64, Enu)>,
+    /// Departure tracking around the current hover point.
+    inside_departure: bool,
+    exit_s: Option<f64>,
+    /// Start of the current stop inside the radius during a settle.
+    stop_s: Option<f64>,
+    /// On the ground during landing.
+    landed_s: Option<f64>,
+    /// A disarmed HEARTBEAT was seen before arming (else the log began in flight).
+    seen_disarmed: bool,
+    /// The open segment began before the log did.
+    open_partial: bool,
+}
+
+fn sub(a: Enu, b: Enu) -> [f64; 3] {
+    [
+        a.x_east_m - b.x_east_m,
+        a.y_north_m - b.y_north_m,
+        a.z_up_m - b.z_up_m,
+    ]
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn distance(a: Enu, b: Enu) -> f64 {
+    dot(sub(a, b), sub(a, b)).sqrt()
+}
+
+/// Where on the straight line from `a` to `b` (0..1) the distance to `center` crosses `r`:
+/// the first crossing going in (`entering`), the last going out.
+fn crossing(a: Enu, b: Enu, center: Enu, r: f64, entering: bool) -> f64 {
+    let d0 = sub(a, center);
+    let v = sub(b, a);
+    let vv = dot(v, v);
+    if vv <= 0.0 {
+        return 1.0;
+    }
+    let half_b = dot(d0, v);
+    let c = dot(d0, d0) - r * r;
+    let disc = (half_b * half_b - vv * c).max(0.0).sqrt();
+    let s = if entering {
+        (-half_b - disc) / vv
+    } else {
+        (-half_b + disc) / vv
+    };
+    s.clamp(0.0, 1.0)
+}
+
+impl Segmenter {
+    /// A segmenter for a flight of `plan`.
+    pub fn new(plan: FlightPlan, cfg: SegmentConfig) -> Result<Segmenter, FlightLogError> {
+        plan.validate()?;
+        Ok(Segmenter {
+            plan,
+            feed: BatteryFeed::new(cfg.feed),
+            series: PowerSeries::new(cfg.energy),
+            cfg,
+            state: VehicleState::default(),
+            phase: Phase::Idle,
+            open_start_s: 0.0,
+            segments: Vec::new(),
+            flight_start_s: None,
+            flight_end_s: None,
+            now_s: 0.0,
+            last_position: None,
+            inside_departure: false,
+            exit_s: None,
+            stop_s: None,
+            landed_s: None,
+            seen_disarmed: false,
+            open_partial: false,
+        })
+    }
+
+    /// Segments a whole recorded flight (replay).
+    pub fn run<'a>(
+        plan: FlightPlan,
+        cfg: SegmentConfig,
+        stamped: impl IntoIterator<Item = &'a Stamped>,
+    ) -> Result<Segmenter, FlightLogError> {
+        let mut s = Segmenter::new(plan, cfg)?;
+        for reading in stamped {
+            s.push(reading);
+        }
+        s.finish();
+        Ok(s)
+    }
+
+    pub fn plan(&self) -> &FlightPlan {
+        &self.plan
+    }
+
+    pub fn config(&self) -> &SegmentConfig {
+        &self.cfg
+    }
+
+    /// The primary battery's samples so far.
+    pub fn series(&self) -> &PowerSeries {
+        &self.series
+    }
+
+    /// The vehicle's latest state.
+    pub fn state(&self) -> &VehicleState {
+        &self.state
+    }
+
+    /// Vehicle time of the latest reading.
+    pub fn now_s(&self) -> f64 {
+        self.now_s
+    }
+
+    /// The segments that have ended.
+    pub fn completed(&self) -> &[Segment] {
+        &self.segments
+    }
+
+    /// The segment the vehicle is in, up to now.
+    pub fn in_progress(&self) -> Option<Segment> {
+        match self.phase {
+            Phase::Active(kind) => Some(Segment {
+                kind,
+                start_s: self.open_start_s,
+                end_s: self.now_s.max(self.open_start_s),
+                complete: false,
+                missed_radius: false,
+            }),
+            Phase::Idle | Phase::Done => None,
+        }
+    }
+
+    /// Completed segments and the one in progress.
+    pub fn segments(&self) -> Vec<Segment> {
+        let mut all = self.segments.clone();
+        all.extend(self.in_progress());
+        all
+    }
+
+    /// Arming to disarming (to now while flying); None before arming.
+    pub fn flight_span(&self) -> Option<(f64, f64)> {
+        let start = self.flight_start_s?;
+        Some((start, self.flight_end_s.unwrap_or(self.now_s.max(start))))
+    }
+
+    /// Whether the flight has ended (disarmed, or `finish` was called).
+    pub fn is_finished(&self) -> bool {
+        self.phase == Phase::Done
+    }
+
+    /// The energy of a segment (or any stretch) from the samples so far.
+    pub fn measure(&self, segment: &Segment) -> Measurement {
+        self.series.measure(segment.start_s, segment.end_s)
+    }
+
+    fn close(&mut self, end_s: f64, complete: bool, missed_radius: bool) {
+        if let Phase::Active(kind) = self.phase {
+            let end_s = end_s.max(self.open_start_s);
+            self.segments.push(Segment {
+                kind,
+                start_s: self.open_start_s,
+                end_s,
+                complete: complete && !self.open_partial,
+                missed_radius,
+            });
+            self.open_start_s = end_s;
+            self.open_partial = false;
+        }
+    }
+
+    fn open(&mut self, kind: SegmentKind, start_s: f64) {
+        self.phase = Phase::Active(kind);
+        self.open_start_s = start_s;
+        self.stop_s = None;
+        self.exit_s = None;
+        self.inside_departure = match (self.hover_point(), self.last_position) {
+            (Some(center), Some((_, p))) => distance(p, center) <= self.cfg.departure_m,
+            _ => false,
+        };
+    }
+
+    fn end_flight(&mut self, t_s: f64, complete: bool) {
+        self.close(t_s, complete, false);
+        self.flight_end_s = Some(t_s.max(self.flight_start_s.unwrap_or(t_s)));
+        self.phase = Phase::Done;
+    }
+
+    /// Ends the flight where the log ends: a landing on the ground by then is complete, any other
+    /// segment is cut off (`incomplete`).
+    pub fn finish(&mut self) {
+        match self.phase {
+            Phase::Active(SegmentKind::Landing) if self.landed_s.is_some() => {
+                let t = self.landed_s.unwrap_or(self.now_s);
+                self.end_flight(t, true);
+            }
+            Phase::Active(_) => self.end_flight(self.now_s, false),
+            Phase::Idle | Phase::Done => {}
+        }
+    }
+
+    fn last_index(&self) -> usize {
+        self.plan.points.len().saturating_sub(1)
+    }
+
+    /// The hover point the vehicle leaves from in the current phase.
+    fn hover_point(&self) -> Option<Enu> {
+        match self.phase {
+            Phase::Active(SegmentKind::Takeoff) => Some(Enu::default()),
+            Phase::Active(SegmentKind::Settle(k) | SegmentKind::Hover(k)) => {
+                self.plan.points.get(k).map(|p| p.enu)
+            }
+            _ => None,
+        }
+    }
+
+    fn next_after(&self, k: Option<usize>) -> SegmentKind {
+        let next = k.map_or(0, |k| k + 1);
+        if next < self.plan.points.len() {
+            SegmentKind::Leg(next)
+        } else {
+            SegmentKind::Landing
+        }
+    }
+
+    /// Leaves the current hover (take-off, settle or hover) at `t_s` for the next segment.
+    fn depart(&mut self, t_s: f64) {
+        let t_s = t_s.max(self.open_start_s);
+        let next = match self.phase {
+            Phase::Active(SegmentKind::Takeoff) => {
+                self.close(t_s, true, false);
+                self.next_after(None)
+            }
+            Phase::Active(SegmentKind::Settle(k)) => {
+                let settled = self.stop_s.filter(|&s| s <= t_s).unwrap_or(t_s);
+                self.close(settled, true, false);
+                self.phase = Phase::Active(SegmentKind::Hover(k));
+                self.close(t_s, true, false);
+                self.next_after(Some(k))
+            }
+            Phase::Active(SegmentKind::Hover(k)) => {
+                self.close(t_s, true, false);
+                self.next_after(Some(k))
+            }
+            _ => return,
+        };
+        self.open(next, t_s);
+    }
+
+    /// The autopilot moved past the leg's end before the vehicle came within the radius.
+    fn leg_cut_short(&mut self, k: usize, t_s: f64, reached: bool) {
+        self.close(t_s, true, true);
+        self.phase = Phase::Active(SegmentKind::Settle(k));
+        self.close(t_s, true, false);
+        self.open(SegmentKind::Hover(k), t_s);
+        if !reached {
+            self.depart(t_s);
+        }
+    }
+
+    /// When a departure the autopilot announced at `t_s` really began.
+    fn departure_time(&self, t_s: f64) -> f64 {
+        match self.exit_s {
+            Some(e)
+                if !self.inside_departure
+                    && e <= t_s
+                    && t_s - e <= self.cfg.mission_current_lag_s =>
+            {
+                e
+            }
+            _ => t_s,
+        }
+    }
+
+    fn on_target(&mut self, t_s: f64, target: Target) {
+        match self.phase {
+            Phase::Active(SegmentKind::Takeoff) if target == Target::Leg(0) => {
+                let t = self.departure_time(t_s);
+                self.depart(t);
+            }
+            // The log began in flight (armed at the first heartbeat), past the first leg: what
+            // was flying when it began is cut off at its start.
+            Phase::Active(SegmentKind::Takeoff)
+                if target > Target::Leg(0) && !self.seen_disarmed =>
+            {
+                self.close(t_s, false, false);
+                let kind = match target {
+                    Target::Leg(k) => SegmentKind::Leg(k),
+                    _ => SegmentKind::Landing,
+                };
+                self.open(kind, t_s);
+                self.open_partial = true;
+            }
+            Phase::Active(SegmentKind::Leg(k)) if target > Target::Leg(k) => {
+                self.leg_cut_short(k, t_s, false);
+            }
+            Phase::Active(SegmentKind::Settle(k) | SegmentKind::Hover(k))
+                if target > Target::Leg(k) =>
+            {
+                let t = self.departure_time(t_s);
+                self.depart(t);
+            }
+            _ => {}
+        }
+    }
+
+    /// The vehicle is heading down (landing mode or state) while at the last point.
+    fn on_landing(&mut self, t_s: f64) {
+        match self.phase {
+            Phase::Active(SegmentKind::Settle(k) | SegmentKind::Hover(k))
+                if k == self.last_index() =>
+            {
+                let t = self.departure_time(t_s);
+                self.depart(t);
+            }
+            // Landing or RTL before the plan is done: the flight is cut short.
+            Phase::Active(kind) if kind != SegmentKind::Landing => {
+                self.close(t_s, false, false);
+                self.open(SegmentKind::Landing, t_s);
+            }
+            _ => {}
+        }
+    }
+
+    fn on_position(&mut self, t_s: f64, p: Enu, speed_m_s: f64) {
+        let previous = self.last_position;
+        self.last_position = Some((t_s, p));
+        let r = self.cfg.arrival_radius_m;
+        match self.phase {
+            Phase::Active(SegmentKind::Leg(k)) => {
+                let Some(q) = self.plan.points.get(k).map(|x| x.enu) else {
+                    return;
+                };
+                if distance(p, q) > r {
+                    return;
+                }
+                let t = match previous {
+                    Some((t0, p0)) if distance(p0, q) > r => {
+                        t0 + crossing(p0, p, q, r, true) * (t_s - t0)
+                    }
+                    _ => t_s,
+                };
+                self.close(t, true, false);
+                self.open(SegmentKind::Settle(k), t.max(self.open_start_s));
+                self.settle_step(t_s, p, speed_m_s, k, previous);
+            }
+            Phase::Active(SegmentKind::Settle(k)) => {
+                self.settle_step(t_s, p, speed_m_s, k, previous);
+            }
+            Phase::Active(SegmentKind::Takeoff | SegmentKind::Hover(_)) => {
+                self.on_position_in_hover(t_s, p, previous);
+            }
+            _ => {}
+        }
+    }
+
+    /// A position during a settle: a stop long enough ends it (where the stop began).
+    fn settle_step(
+        &mut self,
+        t_s: f64,
+        p: Enu,
+        speed_m_s: f64,
+        k: usize,
+        previous: Option<(f64, Enu)>,
+    ) {
+        let inside = self
+            .plan
+            .points
+            .get(k)
+            .is_some_and(|x| distance(p, x.enu) <= self.cfg.arrival_radius_m);
+        if inside && speed_m_s < self.cfg.stop_speed_m_s {
+            let start = *self.stop_s.get_or_insert(t_s);
+            if t_s - start >= self.cfg.stop_hold_s {
+                self.close(start, true, false);
+                self.open(SegmentKind::Hover(k), start);
+            }
+        } else {
+            self.stop_s = None;
+        }
+        self.on_position_in_hover(t_s, p, previous);
+    }
+
+    /// Departure by position from the current hover point.
+    fn on_position_in_hover(&mut self, t_s: f64, p: Enu, previous: Option<(f64, Enu)>) {
+        let Some(center) = self.hover_point() else {
+            return;
+        };
+        let d = distance(p, center);
+        if d <= self.cfg.departure_m {
+            self.inside_departure = true;
+            self.exit_s = None;
+            return;
+        }
+        if self.inside_departure {
+            self.inside_departure = false;
+            self.exit_s = Some(match previous {
+                Some((t0, p0)) => {
+                    t0 + crossing(p0, p, center, self.cfg.departure_m, false) * (t_s - t0)
+                }
+                None => t_s,
+            });
+        }
+        if d > self.cfg.arrival_radius_m {
+            if let Some(exit) = self.exit_s {
+                self.depart(exit);
+            }
+        }
+    }
+
+    /// Takes in one stamped reading (in time order).
+    pub fn push(&mut self, stamped: &Stamped) {
+        let t_s = stamped.t_s.max(self.now_s);
+        self.now_s = t_s;
+        self.state.update(&stamped.reading);
+        match &stamped.reading {
+            Reading::Battery(b) => {
+                if let Some(sample) = self.feed.push(t_s, stamped.wall_us, b) {
+                    self.series.push(sample);
+                }
+            }
+            Reading::Heartbeat { armed, mode } => {
+                if !*armed && self.phase == Phase::Idle {
+                    self.seen_disarmed = true;
+                }
+                if *armed && self.phase == Phase::Idle {
+                    self.flight_start_s = Some(t_s);
+                    self.open(SegmentKind::Takeoff, t_s);
+                } else if !*armed && matches!(self.phase, Phase::Active(_)) {
+                    let landed = self.phase == Phase::Active(SegmentKind::Landing);
+                    self.end_flight(t_s, landed);
+                } else if matches!(mode, FlightMode::Land | FlightMode::Rtl) {
+                    self.on_landing(t_s);
+                }
+            }
+            Reading::MissionCurrent { seq, .. } => {
+                let target = self.plan.target_of(*seq);
+                self.on_target(t_s, target);
+            }
+            Reading::ItemReached { seq } => match self.phase {
+                Phase::Active(SegmentKind::Settle(k))
+                    if self.plan.points.get(k).is_some_and(|p| p.seq == *seq) =>
+                {
+                    let settled = self.stop_s.unwrap_or(t_s);
+                    self.close(settled, true, false);
+                    self.open(SegmentKind::Hover(k), settled);
+                }
+                Phase::Active(SegmentKind::Leg(k))
+                    if self.plan.points.get(k).is_some_and(|p| p.seq == *seq) =>
+                {
+                    self.leg_cut_short(k, t_s, true);
+                }
+                _ => {}
+            },
+            Reading::Landed(state) => match state {
+                LandedState::OnGround if self.phase == Phase::Active(SegmentKind::Landing) => {
+                    self.landed_s.get_or_insert(t_s);
+                }
+                LandedState::Landing => self.on_landing(t_s),
+                _ => {}
+            },
+            Reading::Position(p) => {
+                let local = self.plan.to_local(p);
+                self.on_position(t_s, local, p.speed_m_s());
+            }
+            Reading::StatusText { .. } => {}
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::flightlog::energy::Flag;
+    use crate::flightlog::report::FlightReport;
+    use crate::flightlog::synthetic::{square_plan, SyntheticConfig, SyntheticFlight};
+    use crate::flightlog::telemetry::{Battery, Position};
+
+    fn fly() -> (SyntheticFlight, Segmenter) {
+        let flight = SyntheticFlight::fly(&square_plan(), &SyntheticConfig::default());
+        let s = Segmenter::run(square_plan(), SegmentConfig::default(), &flight.stamped())
+            .expect("a valid plan");
+        (flight, s)
+    }
+
+    /// How far a part's measured ends may be from the true ones: leg ends are interpolated 4 m
+    /// crossings (exact but for the braking curve between two samples), a settle ends at the
+    /// first stopped sample (speed under 0.3 m/s about 0.1 s before the true stop, then up to a
+    /// sample period), the rest are message times.
+    fn boundary_s(kind: SegmentKind) -> (f64, f64) {
+        match kind {
+            SegmentKind::Settle(_) => (0.01, 0.15),
+            SegmentKind::Hover(_) => (0.15, 0.01),
+            _ => (0.01, 0.01),
+        }
+    }
+
+    /// The most a part's measured energy can be off: at each end the power step is smeared over
+    /// one battery sample interval (0.1 s), and an end off by d moves d x power out of the part.
+    fn tolerance_j(flight: &SyntheticFlight, kind: SegmentKind) -> f64 {
+        let cfg = SyntheticConfig::default();
+        let k = flight
+            .parts
+            .iter()
+            .position(|p| p.kind == kind)
+            .expect("a true part");
+        let p = flight.parts[k].power_w;
+        let before = k
+            .checked_sub(1)
+            .map_or(cfg.idle_power_w, |i| flight.parts[i].power_w);
+        let after = flight
+            .parts
+            .get(k + 1)
+            .map_or(cfg.idle_power_w, |x| x.power_w);
+        let (d0, d1) = boundary_s(kind);
+        ((p - before).abs() + (p - after).abs()) * 0.1 + p * (d0 + d1)
+    }
+
+    #[test]
+    fn a_synthetic_flight_is_cut_into_its_true_parts_with_their_energies() {
+        let (flight, s) = fly();
+        let segments = s.completed();
+        let kinds: Vec<SegmentKind> = segments.iter().map(|x| x.kind).collect();
+        let truth: Vec<SegmentKind> = flight.parts.iter().map(|p| p.kind).collect();
+        assert_eq!(kinds, truth);
+        for (seg, part) in segments.iter().zip(&flight.parts) {
+            let (d0, d1) = boundary_s(part.kind);
+            assert!(
+                (seg.start_s - part.start_s).abs() <= d0 && (seg.end_s - part.end_s).abs() <= d1,
+                "{:?}: measured {}..{}, true {}..{}",
+                part.kind,
+                seg.start_s,
+                seg.end_s,
+                part.start_s,
+                part.end_s
+            );
+            assert!(seg.complete && !seg.missed_radius);
+            let m = s.measure(seg);
+            let e = m.energy_j.expect("measured");
+            let tol = tolerance_j(&flight, part.kind);
+            assert!(
+                (e - part.energy_j()).abs() <= tol,
+                "{:?}: {e} J vs true {} J (tolerance {tol})",
+                part.kind,
+                part.energy_j()
+            );
+            assert!(m.flags.is_empty(), "{:?}: {:?}", part.kind, m.flags);
+        }
+        assert!(s.is_finished());
+        assert_eq!(s.flight_span(), Some((flight.arm_s, flight.disarm_s)));
+    }
+
+    #[test]
+    fn the_parts_add_up_to_the_whole_flight() {
+        let (flight, s) = fly();
+        let report = FlightReport::build("square", &s);
+        let parts: f64 = report
+            .parts()
+            .map(|p| p.measured_j.expect("measured"))
+            .sum();
+        let whole = report.measured_j.expect("measured");
+        assert!((parts - whole).abs() < 1e-9 * whole, "{parts} vs {whole}");
+        // And the whole is the truth up to the smearing at arming and disarming.
+        assert!((whole - flight.total_j()).abs() < 0.002 * flight.total_j());
+        assert!(
+            report.complete && report.flags.is_empty(),
+            "{:?}",
+            report.flags
+        );
+        assert_eq!(report.legs.len(), 4);
+        assert_eq!(report.legs[3].to, "origin");
+        let err = report.legs[0].error_pct().expect("predicted and measured");
+        let expected = (report.legs[0].measured_j.expect("m") - 25_000.0) / 25_000.0 * 100.0;
+        assert!((err - expected).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_leg_ends_at_the_interpolated_crossing_of_the_radius_between_position_samples() {
+        // Positions once a second at 3 m/s straight along x towards A at (60, 0, 0): the 4 m
+        // sphere is crossed at x = 56, t = 56/3 s, between the samples at 18 s and 19 s.
+        let mut s = Segmenter::new(square_plan(), SegmentConfig::default()).expect("valid");
+        approach(&mut s, 20.0, 1.0);
+        let leg = s
+            .completed()
+            .iter()
+            .find(|x| x.kind == SegmentKind::Leg(0))
+            .copied();
+        let leg = leg.expect("leg 0 ended");
+        assert!((leg.end_s - 56.0 / 3.0).abs() < 1e-6, "{}", leg.end_s);
+        assert_eq!(
+            s.in_progress().map(|x| x.kind),
+            Some(SegmentKind::Settle(0))
+        );
+    }
+
+    #[test]
+    fn crossing_finds_the_first_entry_and_the_last_exit_of_a_sphere() {
+        let e = |x: f64| Enu {
+            x_east_m: x,
+            ..Enu::default()
+        };
+        // From -10 to +10 through a sphere of radius 4 at 0: in at -4 (s = 0.3), out at +4.
+        assert!((crossing(e(-10.0), e(10.0), e(0.0), 4.0, true) - 0.3).abs() < 1e-12);
+        assert!((crossing(e(-10.0), e(10.0), e(0.0), 4.0, false) - 0.7).abs() < 1e-12);
+        assert_eq!(crossing(e(1.0), e(1.0), e(0.0), 4.0, true), 1.0);
+    }
+
+    #[test]
+    fn a_log_cut_mid_leg_keeps_the_parts_flown_and_marks_the_leg_incomplete() {
+        let (flight, _) = fly();
+        let leg2 = flight.part(SegmentKind::Leg(2)).copied().expect("leg 2");
+        let cut = 0.5 * (leg2.start_s + leg2.end_s);
+        let stamped: Vec<Stamped> = flight
+            .stamped()
+            .into_iter()
+            .filter(|m| m.t_s < cut)
+            .collect();
+        let s = Segmenter::run(square_plan(), SegmentConfig::default(), &stamped).expect("valid");
+        let report = FlightReport::build("cut", &s);
+        assert_eq!(report.legs.len(), 3);
+        assert!(report.legs[..2]
+            .iter()
+            .all(|l| !l.flags.contains(&Flag::Incomplete)));
+        assert!(report.legs[2].flags.contains(&Flag::Incomplete));
+        assert_eq!(report.legs[2].error_pct(), None);
+        assert!(report.landing.is_none() && !report.complete);
+        assert!(report.flags.contains(&Flag::Incomplete));
+        let so_far = report.legs[2].measured_j.expect("measured so far");
+        let expected = leg2.power_w * (s.now_s() - leg2.start_s);
+        assert!(
+            (so_far - expected).abs() < 0.01 * expected,
+            "{so_far} vs {expected}"
+        );
+    }
+
+    #[test]
+    fn live_the_completed_parts_and_the_leg_in_progress_are_known_at_any_time() {
+        let (flight, _) = fly();
+        let leg1 = flight.part(SegmentKind::Leg(1)).copied().expect("leg 1");
+        let mut s = Segmenter::new(square_plan(), SegmentConfig::default()).expect("valid");
+        let mut checked = false;
+        for m in flight.stamped() {
+            s.push(&m);
+            if !checked && m.t_s > leg1.start_s + 5.0 {
+                checked = true;
+                let kinds: Vec<SegmentKind> = s.completed().iter().map(|x| x.kind).collect();
+                assert_eq!(
+                    kinds,
+                    [
+                        SegmentKind::Takeoff,
+                        SegmentKind::Leg(0),
+                        SegmentKind::Settle(0),
+                        SegmentKind::Hover(0)
+                    ]
+                );
+                let now = s.in_progress().expect("flying");
+                assert_eq!(now.kind, SegmentKind::Leg(1));
+                let e = s.measure(&now).energy_j.expect("measured");
+                let expected = leg1.power_w * (now.end_s - leg1.start_s);
+                assert!((e - expected).abs() < 0.01 * expected, "{e} vs {expected}");
+            }
+        }
+        assert!(checked);
+    }
+
+    #[test]
+    fn a_lost_mission_current_change_is_recovered_from_the_departure_seen_in_positions() {
+        let (flight, _) = fly();
+        let leg2 = flight.part(SegmentKind::Leg(2)).copied().expect("leg 2");
+        // Every MISSION_CURRENT naming C is lost (the change and PX4's 1 Hz repeats).
+        let stamped: Vec<Stamped> = flight
+            .stamped()
+            .into_iter()
+            .filter(|m| !matches!(m.reading, Reading::MissionCurrent { seq: 3, .. }))
+            .collect();
+        let s = Segmenter::run(square_plan(), SegmentConfig::default(), &stamped).expect("valid");
+        let leg = s
+            .completed()
+            .iter()
+            .find(|x| x.kind == SegmentKind::Leg(2))
+            .copied()
+            .expect("leg 2");
+        // Leaving at 5 m/s, the vehicle is 2 m out 0.4 s after the true departure; the departure
+        // is confirmed 4 m out, and the leg starts at the 2 m exit.
+        assert!(
+            (leg.start_s - (leg2.start_s + 0.4)).abs() < 0.01,
+            "start {} vs true {}",
+            leg.start_s,
+            leg2.start_s
+        );
+    }
+
+    fn with_battery(
+        flight: &SyntheticFlight,
+        f: impl Fn(f64, &mut Battery) -> bool,
+    ) -> Vec<Stamped> {
+        flight
+            .stamped()
+            .into_iter()
+            .filter_map(|mut m| {
+                if let Reading::Battery(b) = &mut m.reading {
+                    if !f(m.t_s, b) {
+                        return None;
+                    }
+                }
+                Some(m)
+            })
+            .collect()
+    }
+
+    fn report_of(stamped: &[Stamped]) -> FlightReport {
+        let s = Segmenter::run(square_plan(), SegmentConfig::default(), stamped).expect("valid");
+        FlightReport::build("faulty", &s)
+    }
+
+    #[test]
+    fn a_telemetry_gap_flags_only_the_leg_it_falls_in() {
+        let (flight, _) = fly();
+        let leg1 = flight.part(SegmentKind::Leg(1)).copied().expect("leg 1");
+        let gap = (leg1.start_s + 3.0, leg1.start_s + 5.0);
+        let report = report_of(&with_battery(&flight, |t, _| !(gap.0..gap.1).contains(&t)));
+        assert!(
+            report.legs[1].flags.contains(&Flag::TelemetryGap),
+            "{:?}",
+            report.legs[1].flags
+        );
+        for k in [0, 2, 3] {
+            assert!(
+                report.legs[k].flags.is_empty(),
+                "leg {k}: {:?}",
+                report.legs[k].flags
+            );
+        }
+        // Constant power inside the leg: interpolated across, the energy is still right.
+        let e = report.legs[1].measured_j.expect("measured");
+        assert!((e - leg1.energy_j()).abs() < 0.01 * leg1.energy_j());
+    }
+
+    #[test]
+    fn unknown_current_and_voltage_outliers_flag_their_parts() {
+        let (flight, _) = fly();
+        let leg2 = flight.part(SegmentKind::Leg(2)).copied().expect("leg 2");
+        let hover0 = flight
+            .part(SegmentKind::Hover(0))
+            .copied()
+            .expect("hover 0");
+        let stamped = with_battery(&flight, |t, b| {
+            if (leg2.start_s + 2.0..leg2.start_s + 2.5).contains(&t) {
+                b.current_a = None;
+            }
+            if (t - (hover0.start_s + 1.05)).abs() < 0.04 {
+                b.voltage_v = Some(3.2);
+            }
+            true
+        });
+        let report = report_of(&stamped);
+        assert_eq!(report.legs[2].flags, vec![Flag::CurrentUnknown]);
+        assert_eq!(report.hovers[0].flags, vec![Flag::VoltageOutlier]);
+        assert!(report.legs[0].flags.is_empty() && report.hovers[1].flags.is_empty());
+        let e = report.hovers[0].measured_j.expect("measured");
+        assert!(
+            (e - hover0.energy_j()).abs() < 0.05 * hover0.energy_j(),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn px4_fake_current_makes_every_part_unmeasurable_and_says_why() {
+        let (flight, _) = fly();
+        let stamped = with_battery(&flight, |_, b| {
+            b.current_a = Some(-1.0);
+            b.fake_current = true;
+            true
+        });
+        let report = report_of(&stamped);
+        assert_eq!(report.measured_j, None);
+        for p in report.parts() {
+            assert_eq!(p.measured_j, None);
+            assert!(p.flags.contains(&Flag::FakeCurrent) && p.flags.contains(&Flag::Unmeasurable));
+        }
+        // The segmentation itself does not need the battery.
+        assert_eq!(report.legs.len(), 4);
+        assert!(report.complete);
+    }
+
+    /// Hand-fed readings: arming at 0, the vehicle on the line from the origin towards A
+    /// (60, 0, 0) at 3 m/s, a position every `period_s`.
+    fn approach(s: &mut Segmenter, until_s: f64, period_s: f64) {
+        let plan = square_plan();
+        let origin = plan.origin();
+        let stamp = |t_s: f64, reading: Reading| Stamped {
+            t_s,
+            wall_us: 0,
+            reading,
+        };
+        s.push(&stamp(
+            0.0,
+            Reading::Heartbeat {
+                armed: true,
+                mode: FlightMode::Mission,
+            },
+        ));
+        s.push(&stamp(
+            0.0,
+            Reading::MissionCurrent {
+                seq: 1,
+                total: None,
+                state: crate::flightlog::telemetry::MissionState::Active,
+            },
+        ));
+        let mut k = 0u32;
+        while f64::from(k) * period_s <= until_s + 1e-9 {
+            let t = f64::from(k) * period_s;
+            let g = origin.to_geodetic(Enu {
+                x_east_m: 3.0 * t,
+                ..Enu::default()
+            });
+            s.push(&stamp(
+                t,
+                Reading::Position(Position {
+                    time_boot_ms: 0,
+                    lat_deg: g.lat_deg,
+                    lon_deg: g.lon_deg,
+                    alt_amsl_m: g.alt_m,
+                    relative_alt_m: g.alt_m - plan.home.alt_m,
+                    vn_m_s: 0.0,
+                    ve_m_s: 3.0,
+                    vd_m_s: 0.0,
+                }),
+            ));
+            k += 1;
+        }
+    }
+
+    #[test]
+    fn a_leg_the_autopilot_ends_outside_the_radius_is_flagged_missed_radius() {
+        // An acceptance radius of 6 m: at x = 54 (t = 18 s) the autopilot moves on to B.
+        let mut s = Segmenter::new(square_plan(), SegmentConfig::default()).expect("valid");
+        approach(&mut s, 18.0, 0.1);
+        s.push(&Stamped {
+            t_s: 18.0,
+            wall_us: 0,
+            reading: Reading::MissionCurrent {
+                seq: 2,
+                total: None,
+                state: crate::flightlog::telemetry::MissionState::Active,
+            },
+        });
+        let kinds: Vec<(SegmentKind, f64, f64, bool)> = s
+            .completed()
+            .iter()
+            .map(|x| (x.kind, x.start_s, x.end_s, x.missed_radius))
+            .collect();
+        assert_eq!(
+            kinds[1..],
+            [
+                (SegmentKind::Leg(0), 0.0, 18.0, true),
+                (SegmentKind::Settle(0), 18.0, 18.0, false),
+                (SegmentKind::Hover(0), 18.0, 18.0, false),
+            ]
+        );
+        assert_eq!(s.in_progress().map(|x| x.kind), Some(SegmentKind::Leg(1)));
+        let report = FlightReport::build("missed", &s);
+        assert!(report.legs[0].flags.contains(&Flag::MissedRadius));
+    }
+
+    #[test]
+    fn an_rtl_in_the_middle_of_the_mission_cuts_the_leg_short_and_starts_the_landing() {
+        let mut s = Segmenter::new(square_plan(), SegmentConfig::default()).expect("valid");
+        approach(&mut s, 10.0, 0.1);
+        s.push(&Stamped {
+            t_s: 10.05,
+            wall_us: 0,
+            reading: Reading::Heartbeat {
+                armed: true,
+                mode: FlightMode::Rtl,
+            },
+        });
+        let last = s.completed().last().copied().expect("a segment");
+        assert_eq!((last.kind, last.complete), (SegmentKind::Leg(0), false));
+        assert_eq!(s.in_progress().map(|x| x.kind), Some(SegmentKind::Landing));
+        s.push(&Stamped {
+            t_s: 40.0,
+            wall_us: 0,
+            reading: Reading::Heartbeat {
+                armed: false,
+                mode: FlightMode::Rtl,
+            },
+        });
+        assert!(s.is_finished());
+        let report = FlightReport::build("rtl", &s);
+        assert!(report.legs[0].flags.contains(&Flag::Incomplete));
+        assert_eq!(s.flight_span(), Some((0.0, 40.0)));
+    }
+
+    #[test]
+    fn a_log_that_begins_in_flight_starts_at_the_leg_being_flown() {
+        let (flight, _) = fly();
+        let leg1 = flight.part(SegmentKind::Leg(1)).copied().expect("leg 1");
+        let join = leg1.start_s + 3.0;
+        let stamped: Vec<Stamped> = flight
+            .stamped()
+            .into_iter()
+            .filter(|m| m.t_s >= join)
+            .collect();
+        let s = Segmenter::run(square_plan(), SegmentConfig::default(), &stamped).expect("valid");
+        let report = FlightReport::build("joined", &s);
+        let names: Vec<(String, String)> = report
+            .legs
+            .iter()
+            .map(|l| (l.from.clone(), l.to.clone()))
+            .collect();
+        assert_eq!(names[0], ("A".to_string(), "B".to_string()));
+        assert_eq!(report.legs.len(), 3);
+        assert!(report.legs[0].flags.contains(&Flag::Incomplete));
+        assert!(
+            report.legs[1..].iter().all(|l| l.flags.is_empty()),
+            "{:?}",
+            report.legs
+        );
+        assert!(report
+            .takeoff
+            .as_ref()
+            .is_some_and(|t| t.flags.contains(&Flag::Incomplete)));
+        let leg2 = flight.part(SegmentKind::Leg(2)).copied().expect("leg 2");
+        let e = report.legs[1].measured_j.expect("measured");
+        assert!((e - leg2.energy_j()).abs() < 0.01 * leg2.energy_j());
+    }
+}

@@ -1,0 +1,253 @@
+//! Telemetry readings in SI units, free of MAVLink types: what `link::telemetry::decode` makes of
+//! the autopilot's messages (the only place MAVLink units are converted), what the recorder writes
+//! and what segmentation and energy integration consume. `Stamped` pairs a reading with its
+//! vehicle time from [`super::clock`]; [`VehicleState`] keeps the latest of each kind.
+
+use serde::{Deserialize, Serialize};
+
+/// One decoded telemetry message.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Reading {
+    Battery(Battery),
+    Position(Position),
+    /// MISSION_CURRENT: the item the autopilot is flying to.
+    MissionCurrent {
+        seq: u16,
+        /// Items in the mission, when the autopilot says (MAVLink 2 extension).
+        total: Option<u16>,
+        state: MissionState,
+    },
+    /// MISSION_ITEM_REACHED (PX4 repeats it about once a second: de-duplicate).
+    ItemReached {
+        seq: u16,
+    },
+    /// The autopilot's own HEARTBEAT.
+    Heartbeat {
+        armed: bool,
+        mode: FlightMode,
+    },
+    /// EXTENDED_SYS_STATE's landed state.
+    Landed(LandedState),
+    StatusText {
+        severity: u8,
+        text: String,
+    },
+}
+
+/// Where a battery reading came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(tag = "message", rename_all = "snake_case")]
+pub enum BatterySource {
+    /// BATTERY_STATUS of battery `id`, sent by component `component`.
+    BatteryStatus { id: u8, component: u8 },
+    /// SYS_STATUS (the fallback when no BATTERY_STATUS arrives).
+    SysStatus,
+}
+
+impl BatterySource {
+    /// The name used in samples.csv's `source` column.
+    pub fn name(self) -> &'static str {
+        match self {
+            BatterySource::BatteryStatus { .. } => "battery_status",
+            BatterySource::SysStatus => "sys_status",
+        }
+    }
+}
+
+/// A battery reading: pack voltage, current and the autopilot's own integrals.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Battery {
+    pub source: BatterySource,
+    /// Pack voltage; None = unknown.
+    pub voltage_v: Option<f64>,
+    /// Current drawn from the pack; None = unknown (MAVLink -1 cA), never 0 for unknown.
+    pub current_a: Option<f64>,
+    /// Charge consumed since boot as the autopilot integrates it; None = unknown (-1).
+    pub consumed_mah: Option<f64>,
+    /// Energy consumed since boot as the autopilot integrates it; None = unknown (-1).
+    pub energy_consumed_j: Option<f64>,
+    /// Remaining charge, 0-100; None = unknown (-1).
+    pub remaining_pct: Option<f64>,
+    /// PX4 SITL's battery simulator: a fixed -1 A that is not a measurement (see
+    /// `link::telemetry::decode` for the rule). Never integrated.
+    pub fake_current: bool,
+}
+
+/// GLOBAL_POSITION_INT in SI units.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Position {
+    /// The autopilot's time since boot when the position was valid.
+    pub time_boot_ms: u32,
+    pub lat_deg: f64,
+    pub lon_deg: f64,
+    /// Altitude above mean sea level.
+    pub alt_amsl_m: f64,
+    /// Altitude above the vehicle's home (what missions with relative altitude use).
+    pub relative_alt_m: f64,
+    pub vn_m_s: f64,
+    pub ve_m_s: f64,
+    /// Down velocity (positive descending).
+    pub vd_m_s: f64,
+}
+
+impl Position {
+    /// Ground speed plus vertical: the 3D speed.
+    pub fn speed_m_s(&self) -> f64 {
+        (self.vn_m_s.powi(2) + self.ve_m_s.powi(2) + self.vd_m_s.powi(2)).sqrt()
+    }
+}
+
+/// MISSION_STATE (MISSION_CURRENT's extension).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MissionState {
+    Unknown,
+    NoMission,
+    NotStarted,
+    Active,
+    Paused,
+    Complete,
+}
+
+/// The flight mode, normalised across autopilots.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FlightMode {
+    Mission,
+    Takeoff,
+    Land,
+    Rtl,
+    Hold,
+    Manual,
+    Guided,
+    /// Anything else, named as the autopilot names it (or `custom N`).
+    Other(String),
+}
+
+impl FlightMode {
+    /// A short lowercase name (samples.csv's `mode` column).
+    pub fn name(&self) -> &str {
+        match self {
+            FlightMode::Mission => "mission",
+            FlightMode::Takeoff => "takeoff",
+            FlightMode::Land => "land",
+            FlightMode::Rtl => "rtl",
+            FlightMode::Hold => "hold",
+            FlightMode::Manual => "manual",
+            FlightMode::Guided => "guided",
+            FlightMode::Other(name) => name,
+        }
+    }
+}
+
+/// MAV_LANDED_STATE.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LandedState {
+    Undefined,
+    OnGround,
+    InAir,
+    Takeoff,
+    Landing,
+}
+
+impl LandedState {
+    /// A short lowercase name (samples.csv's `landed` column).
+    pub fn name(self) -> &'static str {
+        match self {
+            LandedState::Undefined => "undefined",
+            LandedState::OnGround => "on_ground",
+            LandedState::InAir => "in_air",
+            LandedState::Takeoff => "takeoff",
+            LandedState::Landing => "landing",
+        }
+    }
+}
+
+/// A reading with its vehicle time.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Stamped {
+    /// Vehicle seconds since the flight's first message (see [`super::clock`]).
+    pub t_s: f64,
+    /// When the frame arrived (unix microseconds).
+    pub wall_us: u64,
+    pub reading: Reading,
+}
+
+/// The latest state of the vehicle, as readings report it.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct VehicleState {
+    pub position: Option<Position>,
+    pub mission_seq: Option<u16>,
+    pub armed: Option<bool>,
+    pub mode: Option<FlightMode>,
+    pub landed: Option<LandedState>,
+}
+
+impl VehicleState {
+    /// Takes in one reading.
+    pub fn update(&mut self, reading: &Reading) {
+        match reading {
+            Reading::Position(p) => self.position = Some(*p),
+            Reading::MissionCurrent { seq, .. } => self.mission_seq = Some(*seq),
+            Reading::Heartbeat { armed, mode } => {
+                self.armed = Some(*armed);
+                if self.mode.as_ref() != Some(mode) {
+                    self.mode = Some(mode.clone());
+                }
+            }
+            Reading::Landed(state) => self.landed = Some(*state),
+            Reading::Battery(_) | Reading::ItemReached { .. } | Reading::StatusText { .. } => {}
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn vehicle_state_keeps_the_latest_of_each_kind() {
+        let mut state = VehicleState::default();
+        state.update(&Reading::MissionCurrent {
+            seq: 3,
+            total: None,
+            state: MissionState::Active,
+        });
+        state.update(&Reading::Heartbeat {
+            armed: true,
+            mode: FlightMode::Mission,
+        });
+        state.update(&Reading::MissionCurrent {
+            seq: 4,
+            total: Some(9),
+            state: MissionState::Active,
+        });
+        state.update(&Reading::Landed(LandedState::InAir));
+        assert_eq!(state.mission_seq, Some(4));
+        assert_eq!(state.armed, Some(true));
+        assert_eq!(state.mode, Some(FlightMode::Mission));
+        assert_eq!(state.landed, Some(LandedState::InAir));
+        assert_eq!(state.position, None);
+    }
+
+    #[test]
+    fn a_reading_survives_a_json_round_trip() {
+        let reading = Reading::Battery(Battery {
+            source: BatterySource::BatteryStatus {
+                id: 0,
+                component: 1,
+            },
+            voltage_v: Some(22.2),
+            current_a: None,
+            consumed_mah: Some(120.0),
+            energy_consumed_j: None,
+            remaining_pct: Some(87.0),
+            fake_current: false,
+        });
+        let text = serde_json::to_string(&reading).expect("serialises");
+        let back: Reading = serde_json::from_str(&text).expect("parses");
+        assert_eq!(back, reading);
+    }
+}
