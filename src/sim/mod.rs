@@ -12,6 +12,6 @@ pub mod mock;
 pub mod server;
 pub mod vehicle;
 
-pub use mock::{Faults, MockAutopilot, MockConfig, MockHandle, SimError};
+pub use mock::{Faults, MockAutopilot, MockConfig, MockHandle, SimError, DEFAULT_SPEEDUP};
 pub use server::Flavour;
-pub use vehicle::{FlightConfig, Gap, SimVehicle, TelemetryFaults};
+pub use vehicle::{builtin_vehicle, FlightConfig, Gap, SimVehicle, Snapshot, TelemetryFaults};

@@ -265,6 +265,22 @@ fn default_interval_s(flavour: Flavour, id: u32) -> Option<f64> {
     Some(1.0 / hz)
 }
 
+/// The simulated vehicle's state at one instant (for the mock's handle and tests).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Snapshot {
+    pub time_s: f64,
+    pub armed: bool,
+    pub mode: Mode,
+    pub landed: Landed,
+    /// East, north, up from home (m).
+    pub position: [f64; 3],
+    /// The item being flown.
+    pub current: Option<u16>,
+    /// Whether the stored mission has been flown to its end.
+    pub mission_complete: bool,
+    pub battery: Reading,
+}
+
 /// The simulated vehicle.
 #[derive(Debug, Clone)]
 pub struct SimVehicle<'v> {
@@ -284,6 +300,8 @@ pub struct SimVehicle<'v> {
     mission: Vec<MISSION_ITEM_INT_DATA>,
     /// Where the mission resumes (MISSION_SET_CURRENT, or the item being flown).
     mission_current: u16,
+    /// The mission server's current item last seen (a change is a MISSION_SET_CURRENT).
+    server_current: u16,
     mission_finished: bool,
     /// The navigator's last reached item (PX4 mission_result.seq_reached).
     seq_reached: Option<u16>,
@@ -340,6 +358,7 @@ impl<'v> SimVehicle<'v> {
             auto_armed: false,
             mission: Vec::new(),
             mission_current: 0,
+            server_current: 0,
             mission_finished: false,
             seq_reached: None,
             reached_sent: None,
@@ -385,8 +404,24 @@ impl<'v> SimVehicle<'v> {
         &self.mission
     }
 
-    /// The mission server stored `items` (current item `current`). A new mission resets the
-    /// mission state; the one being flown is not changed mid-flight.
+    /// The state now.
+    pub fn snapshot(&self) -> Snapshot {
+        Snapshot {
+            time_s: self.now_s,
+            armed: self.flight.armed(),
+            mode: self.mode,
+            landed: self.flight.landed(),
+            position: self.flight.position(),
+            current: self.flight.current(),
+            mission_complete: self.mission_finished,
+            battery: self.monitor.reading(),
+        }
+    }
+
+    /// The mission server holds `items` with current item `current` (call it whenever they may
+    /// have changed). A new mission resets the mission state; a new current item (a
+    /// MISSION_SET_CURRENT) is where the mission starts or resumes; the mission being flown is
+    /// not changed mid-flight.
     pub fn set_mission(&mut self, items: &[MISSION_ITEM_INT_DATA], current: u16) {
         let same = items.len() == self.mission.len()
             && items
@@ -400,9 +435,10 @@ impl<'v> SimVehicle<'v> {
             self.reached_sent = None;
             self.mission_current = current;
             self.mission_state = MissionState::MISSION_STATE_NOT_STARTED;
-        } else if self.flight.current().is_none() {
+        } else if current != self.server_current && self.flight.current().is_none() {
             self.mission_current = current;
         }
+        self.server_current = current;
     }
 
     /// The stored mission as commands, if it is one this vehicle can fly.
@@ -1149,9 +1185,15 @@ mod tests {
     }
 
     /// The layout `fly` uploads (FLIGHT-DESIGN.md "Mission layout flown"): [home,] take-off,
-    /// the waypoints in file order, a waypoint at the origin, land.
+    /// the waypoints in file order, a waypoint at the origin (hold 0), land.
     fn flown_items(mission: &Mission, flavour: Flavour) -> Vec<MISSION_ITEM_INT_DATA> {
-        let order: Vec<usize> = (0..mission.waypoints.len()).collect();
+        let mut with_return = mission.clone();
+        with_return.waypoints.push(crate::mission::Waypoint {
+            name: "origin".into(),
+            position: Enu::default(),
+            hover_s: 0.0,
+        });
+        let order: Vec<usize> = (0..with_return.waypoints.len()).collect();
         let opts = ItemOptions {
             flavour: match flavour {
                 Flavour::Px4 => crate::link::Flavour::Px4,
@@ -1160,24 +1202,7 @@ mod tests {
             ending: Ending::Land,
             ..ItemOptions::default()
         };
-        let mut items = mission_items(mission, &order, &opts).unwrap();
-        let land = items.pop().unwrap();
-        let takeoff = items
-            .iter()
-            .find(|i| i.command == MavCmd::MAV_CMD_NAV_TAKEOFF)
-            .unwrap()
-            .clone();
-        items.push(MISSION_ITEM_INT_DATA {
-            command: MavCmd::MAV_CMD_NAV_WAYPOINT,
-            param1: 0.0,
-            param2: 2.0,
-            ..takeoff
-        });
-        items.push(land);
-        for (seq, item) in items.iter_mut().enumerate() {
-            item.seq = seq as u16;
-        }
-        items
+        mission_items(&with_return, &order, &opts).unwrap()
     }
 
     fn long(command: MavCmd, params: [f32; 7]) -> MavMessage {
