@@ -105,8 +105,10 @@ pub enum Event {
     Reached(u16),
     /// The vehicle left the ground.
     Liftoff,
-    /// The vehicle touched down.
+    /// The vehicle touched down (ground contact).
     Touchdown,
+    /// The land detector confirmed the landing (the landing item completes then).
+    Landed,
     /// The last item is done.
     Complete,
 }
@@ -271,6 +273,8 @@ impl Line {
 enum Motion {
     /// On the ground (motors off or idling).
     Ground,
+    /// On the ground after a descent, until the land detector confirms it at `until_s`.
+    Touchdown { until_s: f64 },
     /// Armed on the ground, motors spooling up until `until_s`, then taking off.
     SpoolUp { until_s: f64 },
     /// Flying a line; `purpose` says what comes at its end.
@@ -319,6 +323,12 @@ pub struct Flight<'v> {
     now_s: f64,
     physics_errors: u32,
     complete: bool,
+    /// Ground contact to a confirmed landing (the autopilot's land detector).
+    land_detect_s: f64,
+    /// An RTL mission item completes at once (PX4: the vehicle then returns in RTL mode).
+    instant_rtl_item: bool,
+    /// Flying the stored mission (else a landing or return outside it: no mission events).
+    in_mission: bool,
     /// Items started since time last advanced (bounds a DO_JUMP loop of instant items).
     chain: usize,
 }
@@ -347,8 +357,29 @@ impl<'v> Flight<'v> {
             now_s: 0.0,
             physics_errors: 0,
             complete: false,
+            land_detect_s: 0.0,
+            instant_rtl_item: false,
+            in_mission: false,
             chain: 0,
         })
+    }
+
+    /// The same flight with a land detector that confirms a landing `land_detect_s` after
+    /// ground contact (the vehicle reports LANDING until then).
+    pub fn with_land_detection(self, land_detect_s: f64) -> Flight<'v> {
+        Flight {
+            land_detect_s: land_detect_s.max(0.0),
+            ..self
+        }
+    }
+
+    /// The same flight where an RTL mission item completes at once (PX4 hands over to its RTL
+    /// mode: the caller then calls [`Flight::land`] with `home_first`).
+    pub fn with_instant_rtl_item(self) -> Flight<'v> {
+        Flight {
+            instant_rtl_item: true,
+            ..self
+        }
     }
 
     /// Simulated time (s).
@@ -373,12 +404,15 @@ impl<'v> Flight<'v> {
 
     /// Whether the vehicle stands on the ground.
     pub fn on_ground(&self) -> bool {
-        matches!(self.motion, Motion::Ground | Motion::SpoolUp { .. })
+        matches!(
+            self.motion,
+            Motion::Ground | Motion::SpoolUp { .. } | Motion::Touchdown { .. }
+        )
     }
 
     /// The item being flown, if a mission is running.
     pub fn current(&self) -> Option<u16> {
-        self.progress.map(|p| p.seq)
+        self.progress.filter(|_| self.in_mission).map(|p| p.seq)
     }
 
     /// Whether the mission's last item is done.
@@ -396,6 +430,7 @@ impl<'v> Flight<'v> {
     pub fn landed(&self) -> Landed {
         match &self.motion {
             Motion::Ground | Motion::SpoolUp { .. } => Landed::OnGround,
+            Motion::Touchdown { .. } => Landed::Landing,
             Motion::Flying { purpose, .. } if *purpose == Purpose::Descent => Landed::Landing,
             Motion::Flying { .. }
                 if matches!(self.current_command(), Some(Command::Takeoff { .. })) =>
@@ -419,7 +454,9 @@ impl<'v> Flight<'v> {
             return avionics;
         }
         match &self.motion {
-            Motion::Ground | Motion::SpoolUp { .. } => avionics + IDLE_SPIN_POWER_W,
+            Motion::Ground | Motion::SpoolUp { .. } | Motion::Touchdown { .. } => {
+                avionics + IDLE_SPIN_POWER_W
+            }
             Motion::Hover => self.hover_power_w,
             Motion::Flying { line, .. } => {
                 let (vx, vz, ax, az) = line
@@ -458,6 +495,7 @@ impl<'v> Flight<'v> {
         self.jumps_left = vec![None; commands.len()];
         self.commands = commands;
         self.complete = false;
+        self.in_mission = true;
         self.cruise_m_s = None;
         if self.on_ground() {
             self.motion = Motion::SpoolUp {
@@ -478,12 +516,14 @@ impl<'v> Flight<'v> {
         }
     }
 
-    /// Lands where it is (or flies home first for a return), outside any mission.
+    /// Lands where it is (or flies home first for a return), outside any mission (no
+    /// Current, Reached or Complete events).
     pub fn land(&mut self, home_first: bool) -> Vec<Event> {
         let mut events = Vec::new();
         if self.on_ground() {
             return events;
         }
+        self.in_mission = false;
         self.commands = vec![if home_first {
             Command::ReturnToLaunch
         } else {
@@ -506,6 +546,13 @@ impl<'v> Flight<'v> {
         self.chain = 0;
         let mut line_end = None;
         match &self.motion {
+            Motion::Touchdown { until_s } if now_s >= *until_s => {
+                self.motion = Motion::Ground;
+                events.push(Event::Landed);
+                if let Some(p) = self.progress {
+                    self.finish(p.seq, &mut events);
+                }
+            }
             Motion::SpoolUp { until_s } if now_s >= *until_s => {
                 self.motion = Motion::Hover;
                 events.push(Event::Liftoff);
@@ -543,8 +590,10 @@ impl<'v> Flight<'v> {
         }
         if usize::from(seq) >= self.commands.len() {
             self.progress = None;
-            self.complete = true;
-            events.push(Event::Complete);
+            if self.in_mission {
+                self.complete = true;
+                events.push(Event::Complete);
+            }
             if !self.on_ground() {
                 self.motion = Motion::Hover;
             }
@@ -556,7 +605,9 @@ impl<'v> Flight<'v> {
             rest_s: None,
             settle_s: 0.0,
         });
-        events.push(Event::Current(seq));
+        if self.in_mission {
+            events.push(Event::Current(seq));
+        }
         if !matches!(self.motion, Motion::SpoolUp { .. }) {
             self.run_item(events);
         }
@@ -578,6 +629,9 @@ impl<'v> Flight<'v> {
             Command::Land { at } => {
                 let [x, y] = at.unwrap_or([here[0], here[1]]);
                 self.head_for_landing([x, y], events);
+            }
+            Command::ReturnToLaunch if self.instant_rtl_item && self.in_mission => {
+                self.finish(progress.seq, events)
             }
             Command::ReturnToLaunch => self.head_for_landing([0.0, 0.0], events),
             Command::ChangeSpeed { speed_m_s } => {
@@ -669,8 +723,15 @@ impl<'v> Flight<'v> {
     fn line_done(&mut self, purpose: Purpose, end_s: f64, settle_s: f64, events: &mut Vec<Event>) {
         if purpose == Purpose::Descent {
             self.position[2] = 0.0;
-            self.motion = Motion::Ground;
             events.push(Event::Touchdown);
+            if self.land_detect_s > 0.0 {
+                self.motion = Motion::Touchdown {
+                    until_s: end_s + self.land_detect_s,
+                };
+                return;
+            }
+            self.motion = Motion::Ground;
+            events.push(Event::Landed);
             if let Some(p) = self.progress {
                 self.finish(p.seq, events);
             }
@@ -736,10 +797,11 @@ impl<'v> Flight<'v> {
 
     /// Item `seq` is done: report it and go on with the next.
     fn finish(&mut self, seq: u16, events: &mut Vec<Event>) {
-        if self
-            .commands
-            .get(usize::from(seq))
-            .is_some_and(Command::is_navigation)
+        if self.in_mission
+            && self
+                .commands
+                .get(usize::from(seq))
+                .is_some_and(Command::is_navigation)
         {
             events.push(Event::Reached(seq));
         }
@@ -954,12 +1016,18 @@ mod tests {
             events
                 .iter()
                 .map(|(_, e)| *e)
-                .filter(|e| matches!(e, Event::Reached(_) | Event::Touchdown | Event::Complete))
+                .filter(|e| {
+                    matches!(
+                        e,
+                        Event::Reached(_) | Event::Touchdown | Event::Landed | Event::Complete
+                    )
+                })
                 .collect::<Vec<_>>(),
             [
                 Event::Reached(0),
                 Event::Reached(1),
                 Event::Touchdown,
+                Event::Landed,
                 Event::Reached(2),
                 Event::Complete
             ]

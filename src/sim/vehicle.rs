@@ -15,9 +15,13 @@
 //!   MISSION_CURRENT at 1 Hz and at once on a change, with total, mission_state (2 not started,
 //!   3 active, 5 complete) and mission_mode (1 mission, 2 suspended) as
 //!   mavlink_mission.cpp `update_mission_state` computes them; MISSION_ITEM_REACHED at once and
-//!   repeated with every 1 Hz MISSION_CURRENT up to 10 more times, never for the last waypoint
-//!   before the landing or RTL item (what PX4 SITL does); EXTENDED_SYS_STATE ON_GROUND,
-//!   TAKEOFF, IN_AIR, LANDING, ON_GROUND; disarms 2 s after touchdown (COM_DISARM_LAND);
+//!   repeated at 1 Hz up to 10 more times (mavlink_mission.cpp), never for the last waypoint
+//!   before an RTL item (PX4 SITL: the RTL item completes at once and its reached message
+//!   replaces the waypoint's; before a LAND item PX4 SITL does report it); EXTENDED_SYS_STATE
+//!   ON_GROUND, TAKEOFF, IN_AIR, LANDING, ON_GROUND, with LANDING until the land detector
+//!   confirms the landing 1.3 s after ground contact, then the LAND item reached, mission
+//!   complete and a disarm 0.3 s later (all as measured on PX4 SITL SIH, PX4 main 2026-03:
+//!   see sitl/README.md);
 //!   BATTERY_STATUS as streams/BATTERY_STATUS.hpp encodes it (pack voltage in voltages[0],
 //!   UINT16_MAX in the others, filtered current in cA, energy_consumed -1); HEARTBEAT for the
 //!   HEARTBEAT stream only: SET_MESSAGE_INTERVAL on it FAILS, as PX4's mavlink receiver does.
@@ -25,8 +29,9 @@
 //!   Mode not armable", FAILED); MAV_CMD_MISSION_START (params 1 and 2 zero, else DENIED)
 //!   switches to AUTO and sets auto-armed (GCS_MAVLINK_Copter::handle_MAV_CMD_MISSION_START),
 //!   so the mission flies once armed in AUTO; one MISSION_ITEM_REACHED per item with STATUSTEXT
-//!   "Reached command #N" for waypoints (mode_auto.cpp `verify_nav_wp`); disarms 1 s after
-//!   touchdown (land detector) without reporting the LAND item reached (`verify_land`);
+//!   "Reached command #N" for waypoints (mode_auto.cpp `verify_nav_wp`); disarms as soon as
+//!   the land detector confirms the landing, 1 s after ground contact
+//!   (LAND_DETECTOR_TRIGGER_SEC), without reporting the LAND item reached (`verify_land`);
 //!   BATTERY_STATUS unfiltered with energy_consumed in hJ (GCS_Common.cpp
 //!   `send_battery_status`); the mission total excludes home at seq 0.
 
@@ -310,13 +315,14 @@ pub struct SimVehicle<'v> {
     reached_repeats: u32,
     /// PX4 mission_state, kept between updates as PX4 keeps it.
     mission_state: MissionState,
-    /// The waypoint PX4 never reports reached (the last before the landing or RTL item).
+    /// The waypoint PX4 never reports reached (the last before an RTL item).
     silent_reached: Option<u16>,
     streams: [Stream; 8],
     /// Next 1 Hz tick of PX4's mission manager (repeats of MISSION_ITEM_REACHED).
     slow_next_step: u64,
     idle_since_s: Option<f64>,
-    touchdown_s: Option<f64>,
+    /// When the land detector confirmed a landing (the disarm follows).
+    landed_s: Option<f64>,
     heading_rad: f64,
     out: Vec<MavMessage>,
 }
@@ -346,7 +352,14 @@ impl<'v> SimVehicle<'v> {
             system_id: ids.0,
             component_id: ids.1,
             config,
-            flight: Flight::new(vehicle, profile)?,
+            // Ground contact to a confirmed landing: PX4 SITL 1.3 s (measured), ArduCopter
+            // LAND_DETECTOR_TRIGGER_SEC 1 s.
+            flight: match flavour {
+                Flavour::Px4 => Flight::new(vehicle, profile)?
+                    .with_land_detection(1.3)
+                    .with_instant_rtl_item(),
+                Flavour::ArduPilot => Flight::new(vehicle, profile)?.with_land_detection(1.0),
+            },
             pack: Pack::new(vehicle, config.state_of_charge),
             monitor: Monitor::new(config.noise, filter_s, config.seed),
             step: 0,
@@ -368,7 +381,7 @@ impl<'v> SimVehicle<'v> {
             streams,
             slow_next_step: 1,
             idle_since_s: None,
-            touchdown_s: None,
+            landed_s: None,
             heading_rad: 0.0,
             out: Vec::new(),
         })
@@ -624,7 +637,7 @@ impl<'v> SimVehicle<'v> {
         }
         self.flight.arm();
         self.idle_since_s = Some(self.now_s);
-        self.touchdown_s = None;
+        self.landed_s = None;
         self.maybe_fly();
         MavResult::MAV_RESULT_ACCEPTED
     }
@@ -648,7 +661,7 @@ impl<'v> SimVehicle<'v> {
         self.flight.disarm();
         self.auto_armed = false;
         self.idle_since_s = None;
-        self.touchdown_s = None;
+        self.landed_s = None;
     }
 
     fn mission_start(&mut self, first: f32, last: f32) -> MavResult {
@@ -761,7 +774,7 @@ impl<'v> SimVehicle<'v> {
             self.seq_reached = None;
         }
         self.silent_reached = match self.flavour {
-            Flavour::Px4 => last_waypoint_before_landing(&commands),
+            Flavour::Px4 => last_waypoint_before_rtl(&commands),
             Flavour::ArduPilot => None,
         };
         let spool_up_s = match self.flavour {
@@ -786,8 +799,21 @@ impl<'v> SimVehicle<'v> {
                     self.send_stream(MISSION_CURRENT_DATA::ID, self.now_s);
                 }
                 Event::Reached(seq) => self.reached(seq),
-                Event::Touchdown => self.touchdown_s = Some(self.now_s),
-                Event::Complete => self.mission_finished = true,
+                Event::Landed => self.landed_s = Some(self.now_s),
+                Event::Touchdown => {}
+                Event::Complete => {
+                    self.mission_finished = true;
+                    let returns = self
+                        .commands()
+                        .and_then(|c| c.iter().rev().find(|c| c.is_navigation()).copied())
+                        == Some(Command::ReturnToLaunch);
+                    if self.flavour == Flavour::Px4 && returns && !self.flight.on_ground() {
+                        // The RTL item done, PX4 returns in RTL mode (navigator RTL).
+                        self.mode = Mode::Rtl;
+                        let events = self.flight.land(true);
+                        self.events(&events);
+                    }
+                }
                 Event::Liftoff => {}
             }
         }
@@ -810,7 +836,7 @@ impl<'v> SimVehicle<'v> {
                 ));
             }
             Flavour::ArduPilot => {
-                if command.is_some_and(|c| c.lands()) {
+                if matches!(command, Some(Command::Land { .. })) {
                     return; // disarmed on landing before verify_land reports it
                 }
                 if matches!(
@@ -894,14 +920,18 @@ impl<'v> SimVehicle<'v> {
         }
     }
 
-    /// Automatic disarms: after touchdown, and armed on the ground too long without flying.
+    /// Automatic disarms: after a landing, and armed on the ground too long without flying.
     fn timers(&mut self, t: f64) {
-        let after_touchdown_s = match self.flavour {
-            Flavour::Px4 => 2.0,       // COM_DISARM_LAND
-            Flavour::ArduPilot => 1.0, // land detector, then disarm (mode_land.cpp)
+        let after_landed_s = match self.flavour {
+            // Measured on PX4 SITL (COM_DISARM_LAND counts from the land detector's earlier
+            // stages, so the disarm follows the confirmed landing closely).
+            Flavour::Px4 => 0.3,
+            // ArduCopter disarms as soon as the land detector says landed (mode_auto.cpp
+            // `verify_land`, mode_land.cpp).
+            Flavour::ArduPilot => 0.0,
         };
-        if let Some(touchdown) = self.touchdown_s {
-            if self.flight.armed() && t >= touchdown + after_touchdown_s {
+        if let Some(landed) = self.landed_s {
+            if self.flight.armed() && t >= landed + after_landed_s {
                 self.do_disarm();
             }
         }
@@ -1130,9 +1160,14 @@ impl<'v> SimVehicle<'v> {
     }
 }
 
-/// The last waypoint before the landing or RTL item (PX4 never reports it reached).
-fn last_waypoint_before_landing(commands: &[Command]) -> Option<u16> {
+/// The last waypoint before the first RTL item (PX4 never reports it reached: the RTL item
+/// completes at once and its mission result replaces the waypoint's before the mavlink mission
+/// manager sends it).
+fn last_waypoint_before_rtl(commands: &[Command]) -> Option<u16> {
     let ending = commands.iter().position(Command::lands)?;
+    if commands.get(ending) != Some(&Command::ReturnToLaunch) {
+        return None;
+    }
     let before = commands
         .get(..ending)?
         .iter()
@@ -1534,21 +1569,25 @@ mod tests {
         assert_eq!(before.len(), 3, "{before:?}");
     }
 
-    #[test]
-    fn px4_repeats_each_reached_message_about_once_a_second_and_never_reports_the_last_waypoint() {
-        let (_, mut v, mut log) = fly_px4_sample(FlightConfig::default(), 0.5);
-        run_until(&mut v, &mut log, 15.0, |_| false);
-        let reached = times_of(&log, |m| match m {
+    fn reached_log(log: &Log) -> Vec<(f64, u16)> {
+        times_of(log, |m| match m {
             MavMessage::MISSION_ITEM_REACHED(r) => Some(r.seq),
             _ => None,
-        });
-        // Take-off (0), the eight waypoints and the landing (10); never 9, the origin
-        // waypoint before the landing.
-        assert_eq!(dedup(&reached), [0, 1, 2, 3, 4, 5, 6, 7, 8, 10]);
-        for seq in [0, 1, 2, 3, 4, 5, 6, 7, 8, 10] {
+        })
+    }
+
+    #[test]
+    fn px4_repeats_each_reached_message_about_once_a_second_up_to_ten_more_times() {
+        let (_, mut v, mut log) = fly_px4_sample(FlightConfig::default(), 0.5);
+        run_until(&mut v, &mut log, 15.0, |_| false);
+        let reached = reached_log(&log);
+        // Take-off (0), the eight waypoints, the origin (9) and the landing (10): PX4 SITL
+        // reports the waypoint before a LAND item.
+        assert_eq!(dedup(&reached), (0..=10).collect::<Vec<u16>>());
+        for seq in 0..=10 {
             let times: Vec<f64> = reached.iter().filter(|r| r.1 == seq).map(|r| r.0).collect();
             assert!(
-                times.len() >= 3 && times.len() <= 11,
+                times.len() >= 2 && times.len() <= 11,
                 "seq {seq}: {times:?}"
             );
             // After the first, one a second (the first repeat comes at the next 1 Hz tick).
@@ -1561,7 +1600,35 @@ mod tests {
     }
 
     #[test]
-    fn px4_reports_the_landed_states_in_order_and_disarms_two_seconds_after_touchdown() {
+    fn px4_never_reports_the_last_waypoint_before_rtl_and_returns_in_rtl_mode() {
+        let (mission, mut v) = with_sample(Flavour::Px4, FlightConfig::default());
+        let mut items = flown_items(&mission, Flavour::Px4);
+        let land = items.last_mut().unwrap();
+        land.command = MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH;
+        (land.x, land.y) = (0, 0);
+        v.set_mission(&items, 0);
+        let mut log = Log::new();
+        command(&mut v, MavCmd::MAV_CMD_MISSION_START, p1(0.0));
+        run_until(&mut v, &mut log, 600.0, |v| v.flight().complete());
+        // The RTL item (10) completes at once: the mission is complete in the air.
+        assert!(!v.flight().on_ground() && v.mode() == Mode::Rtl);
+        run_until(&mut v, &mut log, 300.0, |v| !v.armed());
+        let reached = reached_log(&log);
+        assert_eq!(dedup(&reached), [0, 1, 2, 3, 4, 5, 6, 7, 8, 10]);
+        let heartbeat = log.iter().rev().find_map(|(_, m)| match m {
+            MavMessage::HEARTBEAT(h) => Some(h.custom_mode),
+            _ => None,
+        });
+        assert_eq!(heartbeat, Some((4 << 16) | (5 << 24)), "AUTO.RTL");
+        let p = v.flight().position();
+        assert!(
+            !v.armed() && p[0].hypot(p[1]) < 0.01 && p[2] == 0.0,
+            "{p:?}"
+        );
+    }
+
+    #[test]
+    fn px4_reports_landing_until_the_land_detector_confirms_it_then_disarms() {
         let (_, mut v) = with_sample(Flavour::Px4, FlightConfig::default());
         let mut log = Log::new();
         assert_eq!(
@@ -1572,8 +1639,7 @@ mod tests {
             command(&mut v, MavCmd::MAV_CMD_MISSION_START, p1(0.0)),
             MavResult::MAV_RESULT_ACCEPTED
         );
-        let mut touchdown = None;
-        let mut disarmed = None;
+        let (mut touchdown, mut landed, mut disarmed) = (None, None, None);
         let mut was_flying = false;
         while disarmed.is_none() && v.now_s() < 600.0 {
             let t = v.now_s() + STEP_S;
@@ -1584,15 +1650,24 @@ mod tests {
             if was_flying && touchdown.is_none() && v.flight().on_ground() {
                 touchdown = Some(t);
             }
+            if touchdown.is_some() && landed.is_none() && v.flight().landed() == Landed::OnGround {
+                landed = Some(t);
+            }
             if touchdown.is_some() && !v.armed() {
                 disarmed = Some(t);
             }
         }
-        let (touchdown, disarmed) = (touchdown.unwrap(), disarmed.unwrap());
+        let (touchdown, landed, disarmed) =
+            (touchdown.unwrap(), landed.unwrap(), disarmed.unwrap());
         run_until(&mut v, &mut log, 2.0, |_| false);
+        // As PX4 SITL: LANDING until 1.3 s after ground contact, disarmed 0.3 s later.
         assert!(
-            (disarmed - touchdown - 2.0).abs() < 0.015,
-            "{touchdown} -> {disarmed}"
+            (landed - touchdown - 1.3).abs() < 0.015,
+            "{touchdown} -> {landed}"
+        );
+        assert!(
+            (disarmed - landed - 0.3).abs() < 0.015,
+            "{landed} -> {disarmed}"
         );
         let landed = times_of(&log, |m| match m {
             MavMessage::EXTENDED_SYS_STATE(e) => Some(e.landed_state),
