@@ -19,9 +19,9 @@
 //!   before an RTL item (PX4 SITL: the RTL item completes at once and its reached message
 //!   replaces the waypoint's; before a LAND item PX4 SITL does report it); EXTENDED_SYS_STATE
 //!   ON_GROUND, TAKEOFF, IN_AIR, LANDING, ON_GROUND, with LANDING until the land detector
-//!   confirms the landing 1.3 s after ground contact, then the LAND item reached, mission
-//!   complete and a disarm 0.3 s later (all as measured on PX4 SITL SIH, PX4 main 2026-03:
-//!   see sitl/README.md);
+//!   confirms the landing about 1.2 s after ground contact, then the LAND item reached,
+//!   mission complete and a disarm about 0.5 s later (all as measured on PX4 SITL SIH, PX4
+//!   main 2026-03, with sitl/px4_fly_land.py);
 //!   BATTERY_STATUS as streams/BATTERY_STATUS.hpp encodes it (pack voltage in voltages[0],
 //!   UINT16_MAX in the others, filtered current in cA, energy_consumed -1); HEARTBEAT for the
 //!   HEARTBEAT stream only: SET_MESSAGE_INTERVAL on it FAILS, as PX4's mavlink receiver does.
@@ -352,11 +352,11 @@ impl<'v> SimVehicle<'v> {
             system_id: ids.0,
             component_id: ids.1,
             config,
-            // Ground contact to a confirmed landing: PX4 SITL 1.3 s (measured), ArduCopter
+            // Ground contact to a confirmed landing: PX4 SITL 1.1-1.3 s (measured), ArduCopter
             // LAND_DETECTOR_TRIGGER_SEC 1 s.
             flight: match flavour {
                 Flavour::Px4 => Flight::new(vehicle, profile)?
-                    .with_land_detection(1.3)
+                    .with_land_detection(1.2)
                     .with_instant_rtl_item(),
                 Flavour::ArduPilot => Flight::new(vehicle, profile)?.with_land_detection(1.0),
             },
@@ -923,9 +923,9 @@ impl<'v> SimVehicle<'v> {
     /// Automatic disarms: after a landing, and armed on the ground too long without flying.
     fn timers(&mut self, t: f64) {
         let after_landed_s = match self.flavour {
-            // Measured on PX4 SITL (COM_DISARM_LAND counts from the land detector's earlier
-            // stages, so the disarm follows the confirmed landing closely).
-            Flavour::Px4 => 0.3,
+            // Measured on PX4 SITL: 0.3 and 0.6 s after the confirmed landing (COM_DISARM_LAND
+            // counts from the land detector's earlier stages).
+            Flavour::Px4 => 0.5,
             // ArduCopter disarms as soon as the land detector says landed (mode_auto.cpp
             // `verify_land`, mode_land.cpp).
             Flavour::ArduPilot => 0.0,
@@ -1660,13 +1660,13 @@ mod tests {
         let (touchdown, landed, disarmed) =
             (touchdown.unwrap(), landed.unwrap(), disarmed.unwrap());
         run_until(&mut v, &mut log, 2.0, |_| false);
-        // As PX4 SITL: LANDING until 1.3 s after ground contact, disarmed 0.3 s later.
+        // As PX4 SITL: LANDING until 1.2 s after ground contact, disarmed 0.5 s later.
         assert!(
-            (landed - touchdown - 1.3).abs() < 0.015,
+            (landed - touchdown - 1.2).abs() < 0.015,
             "{touchdown} -> {landed}"
         );
         assert!(
-            (disarmed - landed - 0.3).abs() < 0.015,
+            (disarmed - landed - 0.5).abs() < 0.015,
             "{landed} -> {disarmed}"
         );
         let landed = times_of(&log, |m| match m {
