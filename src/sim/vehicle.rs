@@ -1210,6 +1210,7 @@ mod tests {
     use crate::physics::vehicle::shipped;
 
     const GCS: (u8, u8) = (255, 190);
+    const OK: MavResult = MavResult::MAV_RESULT_ACCEPTED;
 
     fn sample_mission() -> Mission {
         crate::mission::load(
@@ -1339,15 +1340,11 @@ mod tests {
     ) -> (Mission, SimVehicle<'static>, Log) {
         let (mission, mut v) = with_sample(Flavour::Px4, config);
         let mut log = Log::new();
-        let accepted = MavResult::MAV_RESULT_ACCEPTED;
         assert_eq!(
             interval(&mut v, BATTERY_STATUS_DATA::ID, 1e6 / battery_hz),
-            accepted
+            OK
         );
-        assert_eq!(
-            command(&mut v, MavCmd::MAV_CMD_MISSION_START, p1(0.0)),
-            accepted
-        );
+        assert_eq!(command(&mut v, MavCmd::MAV_CMD_MISSION_START, p1(0.0)), OK);
         run_until(&mut v, &mut log, 600.0, landed_and_disarmed);
         assert!(
             landed_and_disarmed(&v),
@@ -1369,6 +1366,16 @@ mod tests {
             alt_m: f64::from(p.alt) * 1e-3,
         });
         [e.x_east_m, e.y_north_m, e.z_up_m]
+    }
+
+    /// (time, V I) of every BATTERY_STATUS in the log.
+    fn battery_power(log: &Log) -> Vec<(f64, f64)> {
+        times_of(log, |m| match m {
+            MavMessage::BATTERY_STATUS(b) => {
+                Some(f64::from(b.voltages[0]) * 1e-3 * f64::from(b.current_battery) * 1e-2)
+            }
+            _ => None,
+        })
     }
 
     /// Trapezoidal integral of V I over the battery samples between `t0` and `t1`, with the
@@ -1394,16 +1401,7 @@ mod tests {
     /// telemetry to the 4 m rule, and the physics operation's energy.
     fn leg_energies(mission: &Mission, log: &Log) -> Vec<(f64, f64)> {
         let home = mission.origin.home;
-        let power: Vec<(f64, f64)> = log
-            .iter()
-            .filter_map(|(t, m)| match m {
-                MavMessage::BATTERY_STATUS(b) => Some((
-                    *t,
-                    f64::from(b.voltages[0]) * 1e-3 * f64::from(b.current_battery) * 1e-2,
-                )),
-                _ => None,
-            })
-            .collect();
+        let power = battery_power(log);
         let positions: Vec<(f64, [f64; 3])> = log
             .iter()
             .filter_map(|(_, m)| match m {
@@ -1473,20 +1471,8 @@ mod tests {
 
     /// Trapezoidal energy over the whole log's battery samples.
     fn flight_energy_j(log: &Log) -> f64 {
-        let power: Vec<(f64, f64)> = log
-            .iter()
-            .filter_map(|(t, m)| match m {
-                MavMessage::BATTERY_STATUS(b) => Some((
-                    *t,
-                    f64::from(b.voltages[0]) * 1e-3 * f64::from(b.current_battery) * 1e-2,
-                )),
-                _ => None,
-            })
-            .collect();
-        power
-            .windows(2)
-            .map(|w| 0.5 * (w[0].1 + w[1].1) * (w[1].0 - w[0].0))
-            .sum()
+        let power = battery_power(log);
+        energy_j(&power, power[0].0, power[power.len() - 1].0)
     }
 
     #[test]
@@ -1532,10 +1518,7 @@ mod tests {
         let (_, mut v) = with_sample(Flavour::Px4, FlightConfig::default());
         let mut log = Log::new();
         run_until(&mut v, &mut log, 3.0, |_| false);
-        assert_eq!(
-            command(&mut v, MavCmd::MAV_CMD_MISSION_START, p1(0.0)),
-            MavResult::MAV_RESULT_ACCEPTED
-        );
+        assert_eq!(command(&mut v, MavCmd::MAV_CMD_MISSION_START, p1(0.0)), OK);
         run_until(&mut v, &mut log, 600.0, landed_and_disarmed);
         run_until(&mut v, &mut log, 3.0, |_| false);
         let current = times_of(&log, |m| match m {
@@ -1567,6 +1550,24 @@ mod tests {
             .map(|(t, _)| *t)
             .collect();
         assert_eq!(before.len(), 3, "{before:?}");
+    }
+
+    fn last_heartbeat(log: &Log) -> HEARTBEAT_DATA {
+        log.iter()
+            .rev()
+            .find_map(|(_, m)| match m {
+                MavMessage::HEARTBEAT(h) => Some(h.clone()),
+                _ => None,
+            })
+            .unwrap()
+    }
+
+    fn assert_disarmed_at_home(v: &SimVehicle) {
+        let p = v.flight().position();
+        assert!(
+            !v.armed() && p[0].hypot(p[1]) < 0.01 && p[2] == 0.0,
+            "{p:?}"
+        );
     }
 
     fn reached_log(log: &Log) -> Vec<(f64, u16)> {
@@ -1615,30 +1616,20 @@ mod tests {
         run_until(&mut v, &mut log, 300.0, |v| !v.armed());
         let reached = reached_log(&log);
         assert_eq!(dedup(&reached), [0, 1, 2, 3, 4, 5, 6, 7, 8, 10]);
-        let heartbeat = log.iter().rev().find_map(|(_, m)| match m {
-            MavMessage::HEARTBEAT(h) => Some(h.custom_mode),
-            _ => None,
-        });
-        assert_eq!(heartbeat, Some((4 << 16) | (5 << 24)), "AUTO.RTL");
-        let p = v.flight().position();
-        assert!(
-            !v.armed() && p[0].hypot(p[1]) < 0.01 && p[2] == 0.0,
-            "{p:?}"
+        assert_eq!(
+            last_heartbeat(&log).custom_mode,
+            (4 << 16) | (5 << 24),
+            "AUTO.RTL"
         );
+        assert_disarmed_at_home(&v);
     }
 
     #[test]
     fn px4_reports_landing_until_the_land_detector_confirms_it_then_disarms() {
         let (_, mut v) = with_sample(Flavour::Px4, FlightConfig::default());
         let mut log = Log::new();
-        assert_eq!(
-            interval(&mut v, EXTENDED_SYS_STATE_DATA::ID, 1e5),
-            MavResult::MAV_RESULT_ACCEPTED
-        );
-        assert_eq!(
-            command(&mut v, MavCmd::MAV_CMD_MISSION_START, p1(0.0)),
-            MavResult::MAV_RESULT_ACCEPTED
-        );
+        assert_eq!(interval(&mut v, EXTENDED_SYS_STATE_DATA::ID, 1e5), OK);
+        assert_eq!(command(&mut v, MavCmd::MAV_CMD_MISSION_START, p1(0.0)), OK);
         let (mut touchdown, mut landed, mut disarmed) = (None, None, None);
         let mut was_flying = false;
         while disarmed.is_none() && v.now_s() < 600.0 {
@@ -1713,10 +1704,7 @@ mod tests {
         );
         assert!(!v.armed());
         // PX4's MISSION_START arms by itself (commander: "switch to AUTO_MISSION and ARM").
-        assert_eq!(
-            command(&mut v, MavCmd::MAV_CMD_MISSION_START, p1(0.0)),
-            MavResult::MAV_RESULT_ACCEPTED
-        );
+        assert_eq!(command(&mut v, MavCmd::MAV_CMD_MISSION_START, p1(0.0)), OK);
         assert!(v.armed());
         assert_eq!(v.mode(), Mode::Mission);
         let mut log = Log::new();
@@ -1736,7 +1724,7 @@ mod tests {
         let mut log = Log::new();
         assert_eq!(
             command(&mut v, MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, p1(1.0)),
-            MavResult::MAV_RESULT_ACCEPTED
+            OK
         );
         run_until(&mut v, &mut log, 9.9, |_| false);
         assert!(v.armed() && v.flight().on_ground());
@@ -1745,19 +1733,12 @@ mod tests {
         // Armed again, a switch to AUTO.MISSION starts the mission.
         assert_eq!(
             command(&mut v, MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, p1(1.0)),
-            MavResult::MAV_RESULT_ACCEPTED
+            OK
         );
-        assert_eq!(
-            set_mode(&mut v, Mode::Mission),
-            MavResult::MAV_RESULT_ACCEPTED
-        );
+        assert_eq!(set_mode(&mut v, Mode::Mission), OK);
         run_until(&mut v, &mut log, 3.0, |_| false);
         assert!(!v.flight().on_ground());
-        let heartbeat = log.iter().rev().find_map(|(_, m)| match m {
-            MavMessage::HEARTBEAT(h) => Some(h.clone()),
-            _ => None,
-        });
-        let heartbeat = heartbeat.unwrap();
+        let heartbeat = last_heartbeat(&log);
         assert_eq!(heartbeat.custom_mode, (4 << 16) | (4 << 24));
         assert!(heartbeat
             .base_mode
@@ -1776,24 +1757,17 @@ mod tests {
         command(&mut v, MavCmd::MAV_CMD_MISSION_START, p1(0.0));
         run_until(&mut v, &mut log, 60.0, |v| v.flight().current() == Some(3));
         run_until(&mut v, &mut log, 2.0, |_| false);
-        assert_eq!(set_mode(&mut v, Mode::Hold), MavResult::MAV_RESULT_ACCEPTED);
+        assert_eq!(set_mode(&mut v, Mode::Hold), OK);
         let held = v.flight().position();
         run_until(&mut v, &mut log, 5.0, |_| false);
         assert_eq!(v.flight().position(), held);
-        assert_eq!(
-            set_mode(&mut v, Mode::Mission),
-            MavResult::MAV_RESULT_ACCEPTED
-        );
+        assert_eq!(set_mode(&mut v, Mode::Mission), OK);
         run_until(&mut v, &mut log, 1.0, |_| false);
         assert_eq!(v.flight().current(), Some(3));
         assert_ne!(v.flight().position(), held);
-        assert_eq!(set_mode(&mut v, Mode::Rtl), MavResult::MAV_RESULT_ACCEPTED);
+        assert_eq!(set_mode(&mut v, Mode::Rtl), OK);
         run_until(&mut v, &mut log, 300.0, |v| !v.armed());
-        let p = v.flight().position();
-        assert!(
-            !v.armed() && p[0].hypot(p[1]) < 0.01 && p[2] == 0.0,
-            "{p:?}"
-        );
+        assert_disarmed_at_home(&v);
     }
 
     #[test]
@@ -1801,28 +1775,19 @@ mod tests {
         let (_, mut v) = with_sample(Flavour::ArduPilot, FlightConfig::default());
         let mut log = Log::new();
         assert_eq!(v.mode(), Mode::Stabilized);
-        assert_eq!(
-            set_mode(&mut v, Mode::Mission),
-            MavResult::MAV_RESULT_ACCEPTED
-        );
+        assert_eq!(set_mode(&mut v, Mode::Mission), OK);
         let out = v.handle(GCS, &long(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, p1(1.0)));
         assert_eq!(
             ack(&out, MavCmd::MAV_CMD_COMPONENT_ARM_DISARM),
             Some(MavResult::MAV_RESULT_FAILED)
         );
         assert!(out.iter().any(|m| matches!(m, MavMessage::STATUSTEXT(s) if s.text.to_str().unwrap_or("") == "Arm: Mode not armable")));
-        assert_eq!(
-            set_mode(&mut v, Mode::Guided),
-            MavResult::MAV_RESULT_ACCEPTED
-        );
+        assert_eq!(set_mode(&mut v, Mode::Guided), OK);
         assert_eq!(
             command(&mut v, MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, p1(1.0)),
-            MavResult::MAV_RESULT_ACCEPTED
+            OK
         );
-        assert_eq!(
-            set_mode(&mut v, Mode::Mission),
-            MavResult::MAV_RESULT_ACCEPTED
-        );
+        assert_eq!(set_mode(&mut v, Mode::Mission), OK);
         run_until(&mut v, &mut log, 3.0, |_| false);
         assert!(
             v.flight().on_ground(),
@@ -1832,10 +1797,7 @@ mod tests {
             command(&mut v, MavCmd::MAV_CMD_MISSION_START, p1(1.0)),
             MavResult::MAV_RESULT_DENIED
         );
-        assert_eq!(
-            command(&mut v, MavCmd::MAV_CMD_MISSION_START, p1(0.0)),
-            MavResult::MAV_RESULT_ACCEPTED
-        );
+        assert_eq!(command(&mut v, MavCmd::MAV_CMD_MISSION_START, p1(0.0)), OK);
         run_until(&mut v, &mut log, 600.0, landed_and_disarmed);
         assert!(landed_and_disarmed(&v));
         let reached = times_of(&log, |m| match m {
@@ -1866,12 +1828,8 @@ mod tests {
             totals.iter().all(|(_, total)| *total == 11),
             "home is not counted"
         );
-        let heartbeat = log.iter().find_map(|(_, m)| match m {
-            MavMessage::HEARTBEAT(h) => Some(h.clone()),
-            _ => None,
-        });
         assert_eq!(
-            heartbeat.unwrap().autopilot,
+            last_heartbeat(&log).autopilot,
             MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA
         );
         let battery = log.iter().rev().find_map(|(_, m)| match m {
@@ -1899,20 +1857,11 @@ mod tests {
                 .count()
         };
         assert_eq!(count(&mut v, 10.0), 5, "PX4 default 0.5 Hz");
-        assert_eq!(
-            interval(&mut v, BATTERY_STATUS_DATA::ID, 1e5),
-            MavResult::MAV_RESULT_ACCEPTED
-        );
+        assert_eq!(interval(&mut v, BATTERY_STATUS_DATA::ID, 1e5), OK);
         assert_eq!(count(&mut v, 10.0), 100);
-        assert_eq!(
-            interval(&mut v, BATTERY_STATUS_DATA::ID, -1.0),
-            MavResult::MAV_RESULT_ACCEPTED
-        );
+        assert_eq!(interval(&mut v, BATTERY_STATUS_DATA::ID, -1.0), OK);
         assert_eq!(count(&mut v, 5.0), 0);
-        assert_eq!(
-            interval(&mut v, BATTERY_STATUS_DATA::ID, 0.0),
-            MavResult::MAV_RESULT_ACCEPTED
-        );
+        assert_eq!(interval(&mut v, BATTERY_STATUS_DATA::ID, 0.0), OK);
         assert_eq!(count(&mut v, 10.0), 5);
         assert_eq!(
             interval(&mut v, HEARTBEAT_DATA::ID, 1e5),
@@ -1924,10 +1873,7 @@ mod tests {
             MavResult::MAV_RESULT_FAILED
         );
         let (_, mut ardupilot) = with_sample(Flavour::ArduPilot, FlightConfig::default());
-        assert_eq!(
-            interval(&mut ardupilot, HEARTBEAT_DATA::ID, 1e5),
-            MavResult::MAV_RESULT_ACCEPTED
-        );
+        assert_eq!(interval(&mut ardupilot, HEARTBEAT_DATA::ID, 1e5), OK);
     }
 
     #[test]
@@ -2035,7 +1981,7 @@ mod tests {
         );
         assert_eq!(
             command(&mut v, MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, p1(1.0)),
-            MavResult::MAV_RESULT_ACCEPTED
+            OK
         );
         let mut log = Log::new();
         run_until(&mut v, &mut log, 5.0, |_| false);

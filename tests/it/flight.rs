@@ -14,7 +14,7 @@ use emplan::link::mav::{
 };
 use emplan::link::transfer::TransferConfig;
 use emplan::mission::{Enu, Mission, Waypoint};
-use emplan::sim::{Faults, FlightConfig, MockAutopilot, MockConfig};
+use emplan::sim::{Faults, FlightConfig, MockAutopilot, MockConfig, MockHandle};
 
 /// The sample mission as `fly` lays it out: take-off, the waypoints, back to the origin, land.
 fn sample() -> (Mission, Vec<MISSION_ITEM_INT_DATA>) {
@@ -35,6 +35,44 @@ fn sample() -> (Mission, Vec<MISSION_ITEM_INT_DATA>) {
     };
     let items = mission_items(&with_return, &order, &opts).unwrap();
     (mission, items)
+}
+
+/// Spawns a mock flying from the sample's home, connects, discovers it and uploads `items`
+/// (verified).
+async fn mock_with_mission(
+    config: MockConfig,
+    items: &[MISSION_ITEM_INT_DATA],
+) -> (MockHandle, Link, Autopilot) {
+    let (mission, _) = sample();
+    let config = MockConfig {
+        flight: Some(FlightConfig {
+            home: mission.origin.home,
+            ..config.flight.unwrap_or_default()
+        }),
+        ..config
+    };
+    let mock = MockAutopilot::spawn("udpin:127.0.0.1:0", config)
+        .await
+        .unwrap();
+    let link = Link::connect(
+        &format!("udpout:{}", mock.local_addr()),
+        Identity::default(),
+        None,
+    )
+    .await
+    .unwrap();
+    let target = link.discover(Duration::from_secs(10)).await.unwrap();
+    let cfg = TransferConfig {
+        timeout: Duration::from_millis(300),
+        retries: 40,
+        target_system: target.system_id,
+        target_component: target.component_id,
+    };
+    let report = upload_verified(&link, &target, items, cfg, |_, _| {})
+        .await
+        .unwrap();
+    assert!(report.verified);
+    (mock, link, target)
 }
 
 /// Sends a COMMAND_LONG until its COMMAND_ACK arrives (every 300 ms, for up to 10 s).
@@ -92,60 +130,17 @@ fn push_new<T: PartialEq>(list: &mut Vec<T>, x: T) {
 
 /// Uploads the sample, arms, starts it and watches until disarmed with the mission complete.
 async fn fly(config: MockConfig, wall_limit: Duration) -> (Seen, Duration) {
-    let (mission, items) = sample();
-    let config = MockConfig {
-        flight: Some(FlightConfig {
-            home: mission.origin.home,
-            ..config.flight.unwrap_or_default()
-        }),
-        ..config
-    };
-    let mock = MockAutopilot::spawn("udpin:127.0.0.1:0", config)
-        .await
-        .unwrap();
-    let link = Link::connect(
-        &format!("udpout:{}", mock.local_addr()),
-        Identity::default(),
-        None,
-    )
-    .await
-    .unwrap();
-    let target = link.discover(Duration::from_secs(10)).await.unwrap();
-    let cfg = TransferConfig {
-        timeout: Duration::from_millis(300),
-        retries: 40,
-        target_system: target.system_id,
-        target_component: target.component_id,
-    };
-    let report = upload_verified(&link, &target, &items, cfg, |_, _| {})
-        .await
-        .unwrap();
-    assert!(report.verified);
+    let (_, items) = sample();
+    let (mock, link, target) = mock_with_mission(config, &items).await;
     let started = Instant::now();
-    let battery_interval = [147.0, 50_000.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+    // BATTERY_STATUS at 20 Hz; the landed state at 10 Hz, so the 1 s spool-up on the ground is
+    // seen from the ack on.
     let accepted = MavResult::MAV_RESULT_ACCEPTED;
-    assert_eq!(
-        command(
-            &link,
-            &target,
-            MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
-            battery_interval
-        )
-        .await,
-        accepted
-    );
-    // Landed state at 10 Hz: the 1 s spool-up on the ground is seen from the ack on.
-    let landed_interval = [245.0, 100_000.0, 0.0, 0.0, 0.0, 0.0, 0.0];
-    assert_eq!(
-        command(
-            &link,
-            &target,
-            MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
-            landed_interval
-        )
-        .await,
-        accepted
-    );
+    for (id, interval_us) in [(147.0, 50_000.0), (245.0, 100_000.0)] {
+        let params = [id, interval_us, 0.0, 0.0, 0.0, 0.0, 0.0];
+        let result = command(&link, &target, MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL, params).await;
+        assert_eq!(result, accepted);
+    }
     let arm = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
     assert_eq!(
         command(&link, &target, MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, arm).await,
@@ -278,36 +273,11 @@ async fn an_autostarting_ardupilot_mock_flies_an_uploaded_mission_by_itself() {
     let items = mission_items(&mission, &[0, 1], &opts).unwrap();
     let config = MockConfig {
         flavour: emplan::sim::Flavour::ArduPilot,
-        flight: Some(FlightConfig {
-            home: mission.origin.home,
-            ..FlightConfig::default()
-        }),
         speedup: 50.0,
         autostart: true,
         ..MockConfig::default()
     };
-    let mock = MockAutopilot::spawn("udpin:127.0.0.1:0", config)
-        .await
-        .unwrap();
-    let link = Link::connect(
-        &format!("udpout:{}", mock.local_addr()),
-        Identity::default(),
-        None,
-    )
-    .await
-    .unwrap();
-    let target = link.discover(Duration::from_secs(10)).await.unwrap();
-    let cfg = TransferConfig {
-        target_system: target.system_id,
-        target_component: target.component_id,
-        ..TransferConfig::default()
-    };
-    assert!(
-        upload_verified(&link, &target, &items, cfg, |_, _| {})
-            .await
-            .unwrap()
-            .verified
-    );
+    let (mock, link, _) = mock_with_mission(config, &items).await;
     let flew = tokio::time::timeout(Duration::from_secs(20), async {
         let mut was_armed = false;
         loop {
