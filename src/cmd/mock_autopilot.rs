@@ -1,9 +1,12 @@
-//! `emplan mock-autopilot`: run the built-in mock autopilot until Ctrl-C.
+//! `emplan mock-autopilot`: run the built-in mock autopilot until Ctrl-C. It flies: arm and
+//! MAV_CMD_MISSION_START (or `--autostart`) fly the stored mission in simulated time.
 
 use std::process::ExitCode;
 
 use anyhow::anyhow;
-use emplan::sim::{Faults, Flavour, MockAutopilot, MockConfig};
+use emplan::sim::{
+    Faults, Flavour, FlightConfig, Gap, MockAutopilot, MockConfig, TelemetryFaults, DEFAULT_SPEEDUP,
+};
 
 #[derive(Debug, Clone, Copy, clap::ValueEnum)]
 pub enum FlavourArg {
@@ -52,13 +55,78 @@ pub struct Args {
     /// Seed of the fault generator
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Simulated-time speed-up for the simulated flight (accepted; the flight simulation is not
-    /// built yet, so it has no effect today)
-    #[arg(long, default_value_t = 1.0)]
+    /// Simulated seconds per wall second: flight, telemetry rates and time_boot_ms all run this
+    /// much faster (the 8-waypoint sample, about 170 s of flight, takes under 10 s at 20)
+    #[arg(long, default_value_t = DEFAULT_SPEEDUP)]
     speedup: f64,
-    /// Start flying the mission once uploaded (accepted; no effect until the flight simulation exists)
+    /// Arm and start each newly uploaded mission by itself (as a ground station would: PX4
+    /// MISSION_START; ArduPilot GUIDED, arm, MISSION_START)
     #[arg(long)]
     autostart: bool,
+    /// Vehicle directory whose physics the flight uses (default: the built-in S1000)
+    #[arg(long)]
+    vehicle: Option<std::path::PathBuf>,
+    /// Flight profile the legs are flown with (default: the vehicle's, as planning uses)
+    #[arg(long)]
+    profile: Option<emplan::physics::Profile>,
+    /// Where the vehicle stands at boot: LAT,LON,ALT_AMSL_M (default: the sample missions'
+    /// field, 38.5362,-121.7875,16)
+    #[arg(long, value_parser = parse_home)]
+    home: Option<emplan::mission::Geodetic>,
+    /// Telemetry fault: no telemetry at all from START_S for LEN_S simulated seconds
+    #[arg(long, value_name = "START_S:LEN_S", value_parser = parse_gap)]
+    telemetry_gap: Option<Gap>,
+    /// Telemetry fault: from S simulated seconds on the battery reports its current as unknown (-1)
+    #[arg(long, value_name = "S")]
+    battery_unknown_current_after: Option<f64>,
+    /// Telemetry fault: PX4 SITL's simulated battery (current -100 cA, consumed charge negative)
+    #[arg(long)]
+    px4_fake_current: bool,
+    /// Time constant of the battery current filter in s (default 0: none, as PX4 main and
+    /// ArduPilot; 0.5 reproduces PX4 up to v1.14)
+    #[arg(long, default_value_t = 0.0)]
+    current_filter_s: f64,
+}
+
+fn parse_home(text: &str) -> Result<emplan::mission::Geodetic, String> {
+    let parts: Vec<f64> = text
+        .split(',')
+        .map(|p| p.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| format!("{text:?}: {e} (expected LAT,LON,ALT_AMSL_M)"))?;
+    match parts[..] {
+        [lat_deg, lon_deg, alt_m]
+            if (-90.0..=90.0).contains(&lat_deg)
+                && (-180.0..=180.0).contains(&lon_deg)
+                && alt_m.is_finite() =>
+        {
+            Ok(emplan::mission::Geodetic {
+                lat_deg,
+                lon_deg,
+                alt_m,
+            })
+        }
+        _ => Err(format!(
+            "{text:?}: expected LAT,LON,ALT_AMSL_M with -90 <= LAT <= 90, -180 <= LON <= 180"
+        )),
+    }
+}
+
+fn parse_gap(text: &str) -> Result<Gap, String> {
+    let (start, len) = text
+        .split_once(':')
+        .ok_or_else(|| format!("{text:?}: expected START_S:LEN_S"))?;
+    let number = |s: &str| {
+        s.trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite() && *x >= 0.0)
+            .ok_or_else(|| format!("{text:?}: {s:?} is not a number of seconds >= 0"))
+    };
+    Ok(Gap {
+        start_s: number(start)?,
+        duration_s: number(len)?,
+    })
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
@@ -100,12 +168,44 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             Some(path) => Some(emplan::link::read_signing_key(path)?),
             None => None,
         },
+        flight: Some(FlightConfig {
+            profile: args.profile,
+            home: args.home.unwrap_or(FlightConfig::default().home),
+            current_filter_s: Some(args.current_filter_s),
+            faults: TelemetryFaults {
+                gap: args.telemetry_gap,
+                unknown_current_after_s: args.battery_unknown_current_after,
+                px4_fake_current: args.px4_fake_current,
+            },
+            seed: args.seed,
+            ..FlightConfig::default()
+        }),
+        speedup: args.speedup,
+        autostart: args.autostart,
         ..MockConfig::default()
+    };
+    if !(args.current_filter_s.is_finite() && (0.0..=60.0).contains(&args.current_filter_s)) {
+        anyhow::bail!(
+            "--current-filter-s {}: seconds between 0 and 60 are required",
+            args.current_filter_s
+        );
+    }
+    let vehicle = match &args.vehicle {
+        Some(dir) => Some(emplan::physics::Vehicle::load(dir)?),
+        None => None,
     };
     let runtime = super::runtime()?;
     runtime.block_on(async {
-        let mut mock = MockAutopilot::spawn(&args.listen, config).await?;
-        eprintln!("mock autopilot ({:?}) listening on udpin:{}; Ctrl-C stops it", config.flavour, mock.local_addr());
+        let mut mock = match vehicle {
+            Some(vehicle) => MockAutopilot::spawn_with_vehicle(&args.listen, config, vehicle).await?,
+            None => MockAutopilot::spawn(&args.listen, config).await?,
+        };
+        eprintln!(
+            "mock autopilot ({:?}, {}x simulated time) listening on udpin:{}; Ctrl-C stops it",
+            config.flavour,
+            config.speedup,
+            mock.local_addr()
+        );
         tokio::select! {
             _ = tokio::signal::ctrl_c() => {
                 let stats = mock.stats();

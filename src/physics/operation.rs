@@ -115,6 +115,20 @@ impl Path {
         }
     }
 
+    /// Position (x horizontal along the leg, z up) relative to the start at `t`.
+    fn position_m(&self, t: f64) -> (f64, f64) {
+        match self {
+            Path::Line { schedule, dir, .. } => {
+                let s = schedule.at(t).s_m;
+                (dir.0 * s, dir.1 * s)
+            }
+            Path::Axes { x, z, zf_m, .. } => {
+                let sign = if *zf_m < 0.0 { -1.0 } else { 1.0 };
+                (x.at(t).s_m, sign * z.at(t).s_m)
+            }
+        }
+    }
+
     /// Straight-line distance to the end point at `t`.
     fn remaining_m(&self, t: f64) -> f64 {
         match self {
@@ -123,6 +137,44 @@ impl Path {
             } => length_m - schedule.at(t).s_m,
             Path::Axes { x, z, xf_m, zf_m } => (xf_m - x.at(t).s_m).hypot(zf_m.abs() - z.at(t).s_m),
         }
+    }
+}
+
+/// The motion a profile flies for one operation, in the leg's vertical plane (x horizontal along
+/// the leg, z up, both from the start point), rest to rest, and the profile's settle time in
+/// hover after it. The one trajectory construction: operations are simulated along it and the
+/// mock autopilot (`sim`) flies it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Trajectory {
+    path: Path,
+    settle_s: f64,
+    steps: usize,
+}
+
+impl Trajectory {
+    /// Time from leaving hover to coming to rest at the end point.
+    pub fn duration_s(&self) -> f64 {
+        self.path.duration_s()
+    }
+
+    /// Velocity and acceleration (vx, vz, ax, az) at `t_s` (at rest outside the trajectory).
+    pub fn kinematics(&self, t_s: f64) -> (f64, f64, f64, f64) {
+        self.path.kinematics(t_s)
+    }
+
+    /// Position (x, z) relative to the start at `t_s` (clamped to the trajectory).
+    pub fn position_m(&self, t_s: f64) -> (f64, f64) {
+        self.path.position_m(t_s)
+    }
+
+    /// Straight-line distance to the end point at `t_s`.
+    pub fn remaining_m(&self, t_s: f64) -> f64 {
+        self.path.remaining_m(t_s)
+    }
+
+    /// Hover time after the trajectory that the profile counts as settling at the end point.
+    pub fn settle_s(&self) -> f64 {
+        self.settle_s
     }
 }
 
@@ -187,8 +239,9 @@ impl<'a> Model<'a> {
         Ok(total)
     }
 
-    /// Simulates flying `path`, then hovering `settle_s`.
-    fn fly(&self, path: &Path, steps: usize, settle_s: f64) -> Result<Operation, PhysicsError> {
+    /// Simulates flying `trajectory`, then hovering its settle time.
+    fn fly(&self, trajectory: &Trajectory) -> Result<Operation, PhysicsError> {
+        let (path, steps, settle_s) = (&trajectory.path, trajectory.steps, trajectory.settle_s);
         let duration = path.duration_s();
         // First time within the arrival radius (the remaining distance never grows:
         // bisection on time).
@@ -234,6 +287,35 @@ impl<'a> Model<'a> {
         xf_m: f64,
         zf_m: f64,
     ) -> Result<Operation, PhysicsError> {
+        let trajectory = self.trajectory(profile, xf_m, zf_m)?;
+        if trajectory.duration_s() <= 0.0 {
+            return Ok(Operation {
+                energy_j: 0.0,
+                duration_s: 0.0,
+                settle_energy_j: 0.0,
+                settle_duration_s: 0.0,
+                peak_speed_m_s: 0.0,
+            });
+        }
+        self.fly(&trajectory).map_err(|e| match e {
+            PhysicsError::NoTrajectory { .. } => e,
+            other => PhysicsError::NoTrajectory {
+                xf_m,
+                zf_m,
+                profile,
+                reason: other.to_string(),
+            },
+        })
+    }
+
+    /// The trajectory `profile` flies from hover to hover over horizontal distance `xf_m` and
+    /// signed vertical displacement `zf_m` (a stationary one when both are zero).
+    pub fn trajectory(
+        &self,
+        profile: Profile,
+        xf_m: f64,
+        zf_m: f64,
+    ) -> Result<Trajectory, PhysicsError> {
         for (what, value) in [("xf_m", xf_m), ("zf_m", zf_m)] {
             if !value.is_finite() {
                 return Err(PhysicsError::NotFinite { what, value });
@@ -252,12 +334,14 @@ impl<'a> Model<'a> {
         }
         let length = xf_m.hypot(zf_m);
         if length < 1e-9 {
-            return Ok(Operation {
-                energy_j: 0.0,
-                duration_s: 0.0,
-                settle_energy_j: 0.0,
-                settle_duration_s: 0.0,
-                peak_speed_m_s: 0.0,
+            return Ok(Trajectory {
+                path: Path::Line {
+                    schedule: Schedule::Pieces(Vec::new()),
+                    length_m: 0.0,
+                    dir: (1.0, 0.0),
+                },
+                settle_s: 0.0,
+                steps: 8,
             });
         }
         let dir = (xf_m / length, zf_m / length);
@@ -319,7 +403,11 @@ impl<'a> Model<'a> {
                         "every duration breaks the tilt, motor or battery limits".into(),
                     ));
                 }
-                self.fly(&quintic(t_best), steps, 0.0)
+                Ok(Trajectory {
+                    path: quintic(t_best),
+                    settle_s: 0.0,
+                    steps,
+                })
             }
             Profile::Hvb => {
                 // A stock position controller: each axis runs to its target at its own
@@ -336,7 +424,11 @@ impl<'a> Model<'a> {
                     xf_m,
                     zf_m,
                 };
-                self.fly(&path, h.steps as usize, h.settle_s)
+                Ok(Trajectory {
+                    path,
+                    settle_s: h.settle_s,
+                    steps: h.steps as usize,
+                })
             }
             Profile::Px4 => {
                 let x = &v.px4;
@@ -361,13 +453,13 @@ impl<'a> Model<'a> {
                     length_m: length,
                     dir,
                 };
-                self.fly(&path, x.steps as usize, x.settle_s)
+                Ok(Trajectory {
+                    path,
+                    settle_s: x.settle_s,
+                    steps: x.steps as usize,
+                })
             }
         }
-        .map_err(|e| match e {
-            PhysicsError::NoTrajectory { .. } => e,
-            other => no_trajectory(other.to_string()),
-        })
     }
 }
 
@@ -486,6 +578,31 @@ mod tests {
             assert_eq!(short.energy_j, 0.0);
             assert!(short.settle_energy_j > 0.0);
         }
+    }
+
+    #[test]
+    fn every_profile_trajectory_ends_at_rest_at_the_end_point_and_prices_its_operation() {
+        let v = shipped();
+        let model = Model::new(&v);
+        for profile in Profile::ALL {
+            let t = model.trajectory(profile, 40.0, -10.0).unwrap();
+            let (x, z) = t.position_m(t.duration_s());
+            assert!(
+                (x - 40.0).abs() < 1e-6 && (z + 10.0).abs() < 1e-6,
+                "{profile}: {x} {z}"
+            );
+            assert_eq!(t.kinematics(t.duration_s() + 1.0), (0.0, 0.0, 0.0, 0.0));
+            assert!(t.remaining_m(0.0) > 41.0 && t.remaining_m(t.duration_s()) < 1e-6);
+            let op = model.operation(profile, 40.0, -10.0).unwrap();
+            assert!((op.total_duration_s() - t.duration_s() - t.settle_s()).abs() < 1e-9);
+        }
+        assert_eq!(
+            model
+                .trajectory(Profile::Px4, 0.0, 0.0)
+                .unwrap()
+                .duration_s(),
+            0.0
+        );
     }
 
     #[test]

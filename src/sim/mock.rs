@@ -1,8 +1,10 @@
 //! The mock autopilot's async shell: one task owns a UDP socket (bound from a `udpin:HOST:PORT`
 //! URL, port 0 allowed), decodes MAVLink 2 frames, feeds the [`MissionServer`], answers the last
 //! peer heard, sends a HEARTBEAT at 1 Hz, and injects seeded transport faults: loss per
-//! direction (`up` is ground to vehicle), duplication, reordering and delay. A later flight
-//! simulation plugs in beside the server: the stored mission is shared through the handle.
+//! direction (`up` is ground to vehicle), duplication, reordering and delay. With a
+//! [`FlightConfig`] it also flies: a [`SimVehicle`] beside the server answers commands, flies the
+//! stored mission in simulated time (`speedup` x wall time) and streams its telemetry (and its
+//! heartbeat) through the same faulty outbox.
 
 use std::net::SocketAddr;
 use std::sync::{Arc, Mutex};
@@ -14,10 +16,12 @@ use tokio::sync::watch;
 use tokio::time::Instant;
 
 use super::server::{Flavour, MissionServer, ProtocolFaults, ServerStats};
+use super::vehicle::{builtin_vehicle, FlightConfig, SimVehicle, Snapshot};
 use crate::link::mav::{
     MavAutopilot, MavMessage, MavMissionResult, MavModeFlag, MavState, MavType, HEARTBEAT_DATA,
     MISSION_ITEM_INT_DATA,
 };
+use crate::physics::Vehicle;
 use crate::rng::Rng;
 
 /// Transport and protocol faults to inject.
@@ -51,7 +55,17 @@ pub struct MockConfig {
     /// MAVLink 2 signing key: when set, every frame sent is signed and frames that are unsigned
     /// or signed with another key are dropped.
     pub signing_key: Option<[u8; 32]>,
+    /// The simulated flight; None: a mission server with a 1 Hz heartbeat and nothing else
+    /// (quiet enough for hundreds of mocks in one test).
+    pub flight: Option<FlightConfig>,
+    /// Simulated seconds per wall second (flight time, telemetry rates, time_boot_ms).
+    pub speedup: f64,
+    /// Arm and start each newly stored mission as a ground station would.
+    pub autostart: bool,
 }
+
+/// Default speed-up: the 8-waypoint sample (about 170 s of flight) flies in under 10 s.
+pub const DEFAULT_SPEEDUP: f64 = 20.0;
 
 impl Default for MockConfig {
     fn default() -> Self {
@@ -62,6 +76,9 @@ impl Default for MockConfig {
             system_id: 1,
             component_id: 1,
             signing_key: None,
+            flight: None,
+            speedup: DEFAULT_SPEEDUP,
+            autostart: false,
         }
     }
 }
@@ -73,12 +90,21 @@ pub enum SimError {
     Listen { url: String, reason: String },
     #[error("socket: {0}")]
     Io(#[from] std::io::Error),
+    #[error("mock configuration: {field} {value}: {reason}")]
+    Config {
+        field: &'static str,
+        value: String,
+        reason: &'static str,
+    },
+    #[error("simulated vehicle: {0}")]
+    Vehicle(String),
 }
 
 #[derive(Debug, Default)]
 struct Shared {
     mission: Vec<MISSION_ITEM_INT_DATA>,
     stats: ServerStats,
+    vehicle: Option<Snapshot>,
 }
 
 /// A running mock autopilot.
@@ -109,6 +135,11 @@ impl MockHandle {
         self.shared.lock().map(|s| s.stats).unwrap_or_default()
     }
 
+    /// The simulated vehicle's state (None without a flight).
+    pub fn vehicle(&self) -> Option<Snapshot> {
+        self.shared.lock().ok().and_then(|s| s.vehicle)
+    }
+
     /// Stops the mock and waits for its task.
     pub async fn shutdown(self) -> Result<(), SimError> {
         let _ = self.shutdown.send(true);
@@ -135,13 +166,31 @@ fn listen_addr(url: &str) -> Result<SocketAddr, SimError> {
 }
 
 impl MockAutopilot {
-    /// Binds `listen` and starts the mock on the current tokio runtime.
+    /// Binds `listen` and starts the mock on the current tokio runtime; a flight flies the
+    /// built-in S1000 (the shipped models/s1000 vehicle).
     pub async fn spawn(listen: &str, config: MockConfig) -> Result<MockHandle, SimError> {
+        let vehicle = builtin_vehicle().map_err(|e| SimError::Vehicle(e.to_string()))?;
+        Self::spawn_with_vehicle(listen, config, vehicle).await
+    }
+
+    /// As [`MockAutopilot::spawn`], flying `vehicle`'s physics.
+    pub async fn spawn_with_vehicle(
+        listen: &str,
+        config: MockConfig,
+        vehicle: Vehicle,
+    ) -> Result<MockHandle, SimError> {
+        if !(config.speedup.is_finite() && config.speedup > 0.0 && config.speedup <= 1000.0) {
+            return Err(SimError::Config {
+                field: "speedup",
+                value: config.speedup.to_string(),
+                reason: "must be a number above 0 and at most 1000",
+            });
+        }
         let socket = UdpSocket::bind(listen_addr(listen)?).await?;
         let local_addr = socket.local_addr()?;
         let shared = Arc::new(Mutex::new(Shared::default()));
         let (tx, rx) = watch::channel(false);
-        let task = tokio::spawn(run(Arc::new(socket), config, shared.clone(), rx));
+        let task = tokio::spawn(run(Arc::new(socket), config, vehicle, shared.clone(), rx));
         Ok(MockHandle {
             local_addr,
             shared,
@@ -207,9 +256,23 @@ impl Outbox {
 async fn run(
     socket: Arc<UdpSocket>,
     config: MockConfig,
+    vehicle: Vehicle,
     shared: Arc<Mutex<Shared>>,
     mut shutdown: watch::Receiver<bool>,
 ) -> Result<(), SimError> {
+    let mut flight = match config.flight {
+        Some(flight) => Some(
+            SimVehicle::new(
+                config.flavour,
+                &vehicle,
+                flight,
+                (config.system_id, config.component_id),
+            )
+            .map_err(|e| SimError::Vehicle(e.to_string()))?,
+        ),
+        None => None,
+    };
+    let mut autostarted = 0;
     let f = config.faults;
     let mut server = MissionServer::new(
         config.flavour,
@@ -269,15 +332,34 @@ async fn run(
                 while let Ok((header, message)) = reader.read_any_message_signed::<MavMessage>(signing.as_deref()) {
                     let from = (u8::try_from(header.system_id).unwrap_or(u8::MAX), header.component_id);
                     replies.extend(server.handle(now, from, &message));
+                    if let Some(vehicle) = flight.as_mut() {
+                        // Up to date with the clock and the stored mission before it answers.
+                        replies.extend(vehicle.step(now.as_secs_f64() * config.speedup));
+                        vehicle.set_mission(server.mission(), server.current());
+                        replies.extend(vehicle.handle(from, &message));
+                    }
                 }
                 replies
             }
-            _ = tick.tick() => server.tick(start.elapsed()),
-            _ = beat.tick() => vec![heartbeat.clone()],
+            _ = tick.tick() => {
+                let mut out = server.tick(start.elapsed());
+                if let Some(vehicle) = flight.as_mut() {
+                    vehicle.set_mission(server.mission(), server.current());
+                    let stored = server.stats.uploads_accepted;
+                    if config.autostart && stored > autostarted && !server.mission().is_empty() && !vehicle.armed() {
+                        autostarted = stored;
+                        vehicle.autostart();
+                    }
+                    out.extend(vehicle.step(start.elapsed().as_secs_f64() * config.speedup));
+                }
+                out
+            }
+            _ = beat.tick(), if flight.is_none() => vec![heartbeat.clone()],
         };
         if let Ok(mut s) = shared.lock() {
             s.mission = server.mission().to_vec();
             s.stats = server.stats;
+            s.vehicle = flight.as_ref().map(SimVehicle::snapshot);
         }
         if let Some(peer) = peer {
             for message in &replies {

@@ -2,10 +2,16 @@
 //! (or as ArduPilot), with seeded fault injection, for tests and for flights without a vehicle.
 //!
 //! `server` is the sans-IO protocol machine; `mock` the async shell that owns a UDP socket,
-//! sends heartbeats and injects transport faults.
+//! sends heartbeats and injects transport faults. The simulated flight is sans-IO too:
+//! `flight` (the motion along the mission, physics power), `battery` (pack and monitor) and
+//! `vehicle` (commands, modes, telemetry streams and faults, per flavour).
 
+pub mod battery;
+pub mod flight;
 pub mod mock;
 pub mod server;
+pub mod vehicle;
 
-pub use mock::{Faults, MockAutopilot, MockConfig, MockHandle, SimError};
+pub use mock::{Faults, MockAutopilot, MockConfig, MockHandle, SimError, DEFAULT_SPEEDUP};
 pub use server::Flavour;
+pub use vehicle::{builtin_vehicle, FlightConfig, Gap, SimVehicle, Snapshot, TelemetryFaults};

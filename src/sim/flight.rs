@@ -1,0 +1,1066 @@
+//! The mock autopilot's simulated flight, sans-IO: the vehicle's motion along a stored mission,
+//! item by item, and the electrical power it draws at each instant.
+//!
+//! The mission items (MISSION_ITEM_INT, as the mission server stores them) are read once into
+//! [`Command`]s in a local east-north-up frame centred on home (`crate::mission` geodesy, exact).
+//! Every motion between two points is a hover-to-hover operation flown with the profile's
+//! [`Trajectory`] from `physics` (the same trajectory the energy tables were built from) along
+//! the straight 3D line, followed by the profile's settle time in hover; electrical power at each
+//! instant is `physics::operation::Model::power_w` of the trajectory's kinematics in the leg's
+//! plane (the leg's horizontal direction does not matter to the planar model). So a leg flown
+//! here costs exactly the energy the planner predicted for it.
+//!
+//! Items: NAV_TAKEOFF climbs vertically from where the vehicle stands to the item's height;
+//! NAV_WAYPOINT flies to the point, is reached within its acceptance radius (param2, PX4's
+//! NAV_ACC_RAD 2 m when 0) and completes once the vehicle has come to rest and settled and the
+//! hold time (param1) since reaching it has passed (PX4 mission_block.cpp
+//! `is_mission_item_reached_or_completed`, ArduCopter mode_auto.cpp `verify_nav_wp`: the hold
+//! counts from reaching the radius); NAV_LOITER_TIME / NAV_LOITER_UNLIM the same with param1 /
+//! forever; NAV_DELAY hovers param1 s; DO_CHANGE_SPEED sets the cruise speed of later legs;
+//! DO_JUMP jumps param2 times; NAV_LAND flies above the point at the current height (when not
+//! there), settles, descends and touches down; NAV_RETURN_TO_LAUNCH (simplified: no climb to a
+//! return altitude) flies above home, settles, descends and touches down. The take-off climb and
+//! the landing descent are the profile's operations (0, +h) and (0, -h), as the planner prices
+//! them (not PX4's slower MPC_TKO_SPEED / MPC_LAND_SPEED).
+//!
+//! Time is simulated seconds passed in by the caller ([`Flight::advance`]); nothing here reads a
+//! clock.
+
+use crate::link::mav::{MavCmd, MavFrame, MISSION_ITEM_INT_DATA};
+use crate::mission::{Geodetic, Origin};
+use crate::physics::operation::{Model, Trajectory};
+use crate::physics::{PhysicsError, Profile, Vehicle};
+
+/// A point in the home-centred local frame: metres east, north and up from home.
+pub type Local = [f64; 3];
+
+/// Acceptance radius used when an item gives none (PX4 NAV_ACC_RAD default, ArduCopter
+/// WPNAV_RADIUS default: 2 m).
+pub const DEFAULT_ACCEPTANCE_RADIUS_M: f64 = 2.0;
+
+/// Power the spinning motors draw armed on the ground at idle, on top of the avionics: eight
+/// motors at about 5 W each ([assumed]: PX4 idle throttle a few percent of hover thrust).
+pub const IDLE_SPIN_POWER_W: f64 = 40.0;
+
+/// Below this horizontal distance the vehicle counts as above a point (no horizontal leg).
+const ABOVE_POINT_M: f64 = 0.05;
+
+/// What one mission item asks of the vehicle, read once from MISSION_ITEM_INT.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Command {
+    /// Climb vertically to `up_m` above home.
+    Takeoff { up_m: f64 },
+    /// Fly to `at`, hold `hold_s` after coming within `radius_m`.
+    Waypoint {
+        at: Local,
+        hold_s: f64,
+        radius_m: f64,
+    },
+    /// Fly to `at` and hover there `hold_s` (None: until told otherwise).
+    Loiter { at: Local, hold_s: Option<f64> },
+    /// Land at `at` (east, north), or where the vehicle is.
+    Land { at: Option<[f64; 2]> },
+    /// Fly above home and land there.
+    ReturnToLaunch,
+    /// Cruise speed of the following legs.
+    ChangeSpeed { speed_m_s: f64 },
+    /// Hover this long.
+    Delay { duration_s: f64 },
+    /// Continue at item `to`, `repeat` times (negative: forever).
+    Jump { to: u16, repeat: i32 },
+    /// Not flown (ArduPilot's home at seq 0, or a command the flight ignores).
+    Skip,
+}
+
+impl Command {
+    /// Whether completing it is a navigation event the autopilot reports (MISSION_ITEM_REACHED).
+    pub fn is_navigation(&self) -> bool {
+        !matches!(
+            self,
+            Command::ChangeSpeed { .. } | Command::Jump { .. } | Command::Skip
+        )
+    }
+
+    /// Whether the vehicle ends on the ground after it.
+    pub fn lands(&self) -> bool {
+        matches!(self, Command::Land { .. } | Command::ReturnToLaunch)
+    }
+}
+
+/// The landed state the vehicle reports (MAVLink MAV_LANDED_STATE).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Landed {
+    OnGround,
+    Takeoff,
+    InAir,
+    Landing,
+}
+
+/// What happened during an [`Flight::advance`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Event {
+    /// The item being flown is now `seq`.
+    Current(u16),
+    /// Item `seq` is complete.
+    Reached(u16),
+    /// The vehicle left the ground.
+    Liftoff,
+    /// The vehicle touched down (ground contact).
+    Touchdown,
+    /// The land detector confirmed the landing (the landing item completes then).
+    Landed,
+    /// The last item is done.
+    Complete,
+}
+
+/// Errors setting up a flight.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum FlightError {
+    #[error("mission item {seq}: {problem}")]
+    Item { seq: u16, problem: String },
+    #[error("vehicle model: {0}")]
+    Physics(#[from] PhysicsError),
+}
+
+/// Reads stored mission items into commands. `home` is the frame's origin (altitudes of
+/// GLOBAL frames are AMSL, of relative frames above home); with `home_at_zero` (ArduPilot)
+/// item 0 is home and not flown.
+pub fn commands(
+    items: &[MISSION_ITEM_INT_DATA],
+    home: Geodetic,
+    home_at_zero: bool,
+) -> Result<Vec<Command>, FlightError> {
+    let frame = Origin {
+        home,
+        height_above_home_m: 0.0,
+    };
+    items
+        .iter()
+        .enumerate()
+        .map(|(k, item)| {
+            if home_at_zero && k == 0 {
+                return Ok(Command::Skip);
+            }
+            command(item, &frame)
+        })
+        .collect()
+}
+
+#[allow(deprecated)]
+fn command(item: &MISSION_ITEM_INT_DATA, frame: &Origin) -> Result<Command, FlightError> {
+    let fail = |problem: &str| FlightError::Item {
+        seq: item.seq,
+        problem: problem.to_string(),
+    };
+    let finite = |value: f32, default: f64| {
+        if value.is_finite() {
+            f64::from(value)
+        } else {
+            default
+        }
+    };
+    let position = || -> Result<Local, FlightError> {
+        let up_m = match item.frame {
+            MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT
+            | MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT => f64::from(item.z),
+            MavFrame::MAV_FRAME_GLOBAL | MavFrame::MAV_FRAME_GLOBAL_INT => {
+                f64::from(item.z) - frame.home.alt_m
+            }
+            _ => return Err(fail("position in a frame the simulated flight cannot fly")),
+        };
+        if !up_m.is_finite() {
+            return Err(fail("altitude is not a finite number"));
+        }
+        let enu = frame.to_enu(Geodetic {
+            lat_deg: f64::from(item.x) * 1e-7,
+            lon_deg: f64::from(item.y) * 1e-7,
+            alt_m: frame.home.alt_m + up_m,
+        });
+        Ok([enu.x_east_m, enu.y_north_m, enu.z_up_m])
+    };
+    let here = item.x == 0 && item.y == 0;
+    Ok(match item.command {
+        MavCmd::MAV_CMD_NAV_TAKEOFF => {
+            let up_m = f64::from(item.z);
+            if !up_m.is_finite() || up_m <= 0.0 {
+                return Err(fail("take-off height must be above home"));
+            }
+            Command::Takeoff { up_m }
+        }
+        MavCmd::MAV_CMD_NAV_WAYPOINT => Command::Waypoint {
+            at: position()?,
+            hold_s: finite(item.param1, 0.0).max(0.0),
+            radius_m: match finite(item.param2, 0.0) {
+                r if r > 0.0 => r,
+                _ => DEFAULT_ACCEPTANCE_RADIUS_M,
+            },
+        },
+        MavCmd::MAV_CMD_NAV_LOITER_TIME => Command::Loiter {
+            at: position()?,
+            hold_s: Some(finite(item.param1, 0.0).max(0.0)),
+        },
+        MavCmd::MAV_CMD_NAV_LOITER_UNLIM => Command::Loiter {
+            at: position()?,
+            hold_s: None,
+        },
+        MavCmd::MAV_CMD_NAV_LAND => Command::Land {
+            at: if here {
+                None
+            } else {
+                let p = position()?;
+                Some([p[0], p[1]])
+            },
+        },
+        MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH => Command::ReturnToLaunch,
+        MavCmd::MAV_CMD_DO_CHANGE_SPEED => {
+            let speed_m_s = finite(item.param2, -1.0);
+            if speed_m_s > 0.0 {
+                Command::ChangeSpeed { speed_m_s }
+            } else {
+                Command::Skip // -1: no change (MAVLink spec)
+            }
+        }
+        MavCmd::MAV_CMD_NAV_DELAY => Command::Delay {
+            duration_s: finite(item.param1, 0.0).max(0.0),
+        },
+        MavCmd::MAV_CMD_DO_JUMP => {
+            let to = finite(item.param1, -1.0);
+            if !(0.0..65535.0).contains(&to) {
+                return Err(fail("DO_JUMP target is not an item number"));
+            }
+            Command::Jump {
+                to: to as u16,
+                repeat: finite(item.param2, 0.0) as i32,
+            }
+        }
+        _ => Command::Skip,
+    })
+}
+
+/// A straight 3D line flown with a profile's trajectory.
+#[derive(Debug, Clone)]
+struct Line {
+    trajectory: Trajectory,
+    from: Local,
+    /// Unit horizontal direction (east, north) of the leg.
+    heading: [f64; 2],
+    start_s: f64,
+}
+
+impl Line {
+    fn end_s(&self) -> f64 {
+        self.start_s + self.trajectory.duration_s()
+    }
+
+    fn at(&self, t_s: f64) -> (Local, Local) {
+        let tau = (t_s - self.start_s).max(0.0);
+        let (x, z) = self.trajectory.position_m(tau);
+        let (vx, vz, _, _) = self.trajectory.kinematics(tau);
+        let [ex, ny] = self.heading;
+        (
+            [
+                self.from[0] + ex * x,
+                self.from[1] + ny * x,
+                self.from[2] + z,
+            ],
+            [ex * vx, ny * vx, vz],
+        )
+    }
+}
+
+/// What the vehicle is physically doing.
+#[derive(Debug, Clone)]
+enum Motion {
+    /// On the ground (motors off or idling).
+    Ground,
+    /// On the ground after a descent, until the land detector confirms it at `until_s`.
+    Touchdown { until_s: f64 },
+    /// Armed on the ground, motors spooling up until `until_s`, then taking off.
+    SpoolUp { until_s: f64 },
+    /// Flying a line; `purpose` says what comes at its end.
+    Flying { line: Line, purpose: Purpose },
+    /// Hovering in place.
+    Hover,
+}
+
+/// Why a line is flown.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Purpose {
+    /// A leg to a point (an item's, the take-off climb, or above a landing point), then a
+    /// settle in hover.
+    Leg,
+    /// The landing descent, then touchdown.
+    Descent,
+}
+
+/// Progress through the current item.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Progress {
+    seq: u16,
+    /// When the vehicle came within the acceptance radius.
+    reached_s: Option<f64>,
+    /// When the last line of the item ended (the vehicle at rest).
+    rest_s: Option<f64>,
+    /// The profile's settle time after that line.
+    settle_s: f64,
+}
+
+/// The simulated vehicle's flight: position, motion, mission progress and electrical power.
+#[derive(Debug, Clone)]
+pub struct Flight<'v> {
+    vehicle: &'v Vehicle,
+    model: Model<'v>,
+    profile: Profile,
+    hover_power_w: f64,
+    commands: Vec<Command>,
+    jumps_left: Vec<Option<i32>>,
+    progress: Option<Progress>,
+    motion: Motion,
+    armed: bool,
+    position: Local,
+    velocity: Local,
+    cruise_m_s: Option<f64>,
+    now_s: f64,
+    physics_errors: u32,
+    complete: bool,
+    /// Ground contact to a confirmed landing (the autopilot's land detector).
+    land_detect_s: f64,
+    /// An RTL mission item completes at once (PX4: the vehicle then returns in RTL mode).
+    instant_rtl_item: bool,
+    /// Flying the stored mission (else a landing or return outside it: no mission events).
+    in_mission: bool,
+    /// Items started since time last advanced (bounds a DO_JUMP loop of instant items).
+    chain: usize,
+}
+
+/// Most items started without time passing before the flight stops and hovers.
+const MAX_CHAIN: usize = 1000;
+
+impl<'v> Flight<'v> {
+    /// A vehicle standing disarmed at home, flying `profile`'s trajectories.
+    pub fn new(vehicle: &'v Vehicle, profile: Profile) -> Result<Flight<'v>, FlightError> {
+        let model = Model::new(vehicle);
+        let hover_power_w = model.hover_power_w()?;
+        Ok(Flight {
+            vehicle,
+            model,
+            profile,
+            hover_power_w,
+            commands: Vec::new(),
+            jumps_left: Vec::new(),
+            progress: None,
+            motion: Motion::Ground,
+            armed: false,
+            position: [0.0; 3],
+            velocity: [0.0; 3],
+            cruise_m_s: None,
+            now_s: 0.0,
+            physics_errors: 0,
+            complete: false,
+            land_detect_s: 0.0,
+            instant_rtl_item: false,
+            in_mission: false,
+            chain: 0,
+        })
+    }
+
+    /// The same flight with a land detector that confirms a landing `land_detect_s` after
+    /// ground contact (the vehicle reports LANDING until then).
+    pub fn with_land_detection(self, land_detect_s: f64) -> Flight<'v> {
+        Flight {
+            land_detect_s: land_detect_s.max(0.0),
+            ..self
+        }
+    }
+
+    /// The same flight where an RTL mission item completes at once (PX4 hands over to its RTL
+    /// mode: the caller then calls [`Flight::land`] with `home_first`).
+    pub fn with_instant_rtl_item(self) -> Flight<'v> {
+        Flight {
+            instant_rtl_item: true,
+            ..self
+        }
+    }
+
+    /// Simulated time (s).
+    pub fn now_s(&self) -> f64 {
+        self.now_s
+    }
+
+    /// Position east, north, up from home (m).
+    pub fn position(&self) -> Local {
+        self.position
+    }
+
+    /// Velocity east, north, up (m/s).
+    pub fn velocity(&self) -> Local {
+        self.velocity
+    }
+
+    /// Whether the motors are armed.
+    pub fn armed(&self) -> bool {
+        self.armed
+    }
+
+    /// Whether the vehicle stands on the ground.
+    pub fn on_ground(&self) -> bool {
+        matches!(
+            self.motion,
+            Motion::Ground | Motion::SpoolUp { .. } | Motion::Touchdown { .. }
+        )
+    }
+
+    /// The item being flown, if a mission is running.
+    pub fn current(&self) -> Option<u16> {
+        self.progress.filter(|_| self.in_mission).map(|p| p.seq)
+    }
+
+    /// Whether the mission's last item is done.
+    pub fn complete(&self) -> bool {
+        self.complete
+    }
+
+    /// How many instants or legs the physics could not price (hover power, or a jump to the
+    /// point, then).
+    pub fn physics_errors(&self) -> u32 {
+        self.physics_errors
+    }
+
+    /// The landed state (MAV_LANDED_STATE).
+    pub fn landed(&self) -> Landed {
+        match &self.motion {
+            Motion::Ground | Motion::SpoolUp { .. } => Landed::OnGround,
+            Motion::Touchdown { .. } => Landed::Landing,
+            Motion::Flying { purpose, .. } if *purpose == Purpose::Descent => Landed::Landing,
+            Motion::Flying { .. }
+                if matches!(self.current_command(), Some(Command::Takeoff { .. })) =>
+            {
+                Landed::Takeoff
+            }
+            _ => Landed::InAir,
+        }
+    }
+
+    fn current_command(&self) -> Option<Command> {
+        self.progress
+            .and_then(|p| self.commands.get(usize::from(p.seq)).copied())
+    }
+
+    /// Battery terminal power now: avionics when disarmed, idle spin armed on the ground, the
+    /// physics model in the air.
+    pub fn power_w(&mut self) -> f64 {
+        let avionics = self.vehicle.body.avionics_power_w;
+        if !self.armed {
+            return avionics;
+        }
+        match &self.motion {
+            Motion::Ground | Motion::SpoolUp { .. } | Motion::Touchdown { .. } => {
+                avionics + IDLE_SPIN_POWER_W
+            }
+            Motion::Hover => self.hover_power_w,
+            Motion::Flying { line, .. } => {
+                let (vx, vz, ax, az) = line
+                    .trajectory
+                    .kinematics((self.now_s - line.start_s).max(0.0));
+                match self.model.power_w(vx, vz, ax, az) {
+                    Ok((p, _)) => p,
+                    Err(_) => {
+                        self.physics_errors += 1;
+                        self.hover_power_w
+                    }
+                }
+            }
+        }
+    }
+
+    /// Arms the motors (on the ground: they idle).
+    pub fn arm(&mut self) {
+        self.armed = true;
+    }
+
+    /// Disarms. In the air (a forced disarm) the vehicle drops to the ground and the mission ends.
+    pub fn disarm(&mut self) {
+        self.armed = false;
+        if !self.on_ground() {
+            self.position[2] = 0.0;
+        }
+        self.motion = Motion::Ground;
+        self.velocity = [0.0; 3];
+        self.progress = None;
+    }
+
+    /// Starts flying `commands` at item `from`, after a motor spool-up of `spool_up_s` when on
+    /// the ground. The vehicle must be armed.
+    pub fn start(&mut self, commands: Vec<Command>, from: u16, spool_up_s: f64) -> Vec<Event> {
+        self.jumps_left = vec![None; commands.len()];
+        self.commands = commands;
+        self.complete = false;
+        self.in_mission = true;
+        self.cruise_m_s = None;
+        if self.on_ground() {
+            self.motion = Motion::SpoolUp {
+                until_s: self.now_s + spool_up_s,
+            };
+        }
+        let mut events = Vec::new();
+        self.begin(from, &mut events);
+        events
+    }
+
+    /// Stops where it is and hovers (PX4 HOLD / ArduCopter LOITER); the mission pauses.
+    pub fn hold(&mut self) {
+        self.progress = None;
+        if !self.on_ground() {
+            self.motion = Motion::Hover;
+            self.velocity = [0.0; 3];
+        }
+    }
+
+    /// Lands where it is (or flies home first for a return), outside any mission (no
+    /// Current, Reached or Complete events).
+    pub fn land(&mut self, home_first: bool) -> Vec<Event> {
+        let mut events = Vec::new();
+        if self.on_ground() {
+            return events;
+        }
+        self.in_mission = false;
+        self.commands = vec![if home_first {
+            Command::ReturnToLaunch
+        } else {
+            Command::Land { at: None }
+        }];
+        self.jumps_left = vec![None];
+        self.motion = Motion::Hover;
+        self.velocity = [0.0; 3];
+        self.begin(0, &mut events);
+        events
+    }
+
+    /// Advances simulated time to `now_s` (one step: the caller steps finely).
+    pub fn advance(&mut self, now_s: f64) -> Vec<Event> {
+        let mut events = Vec::new();
+        if now_s <= self.now_s {
+            return events;
+        }
+        self.now_s = now_s;
+        self.chain = 0;
+        let mut line_end = None;
+        match &self.motion {
+            Motion::Touchdown { until_s } if now_s >= *until_s => {
+                self.motion = Motion::Ground;
+                events.push(Event::Landed);
+                if let Some(p) = self.progress {
+                    self.finish(p.seq, &mut events);
+                }
+            }
+            Motion::SpoolUp { until_s } if now_s >= *until_s => {
+                self.motion = Motion::Hover;
+                events.push(Event::Liftoff);
+                // The take-off (or whatever the current item is) starts now.
+                self.run_item(&mut events);
+            }
+            Motion::Flying { line, purpose } => {
+                let (position, velocity) = line.at(now_s);
+                self.position = position;
+                self.velocity = velocity;
+                if now_s >= line.end_s() {
+                    line_end = Some((*purpose, line.end_s(), line.trajectory.settle_s()));
+                }
+            }
+            _ => {}
+        }
+        if let Some((purpose, end_s, settle_s)) = line_end {
+            self.velocity = [0.0; 3];
+            self.line_done(purpose, end_s, settle_s, &mut events);
+        }
+        self.check_progress(&mut events);
+        events
+    }
+
+    /// Starts item `seq` (or completes the mission when there is none).
+    fn begin(&mut self, seq: u16, events: &mut Vec<Event>) {
+        self.chain += 1;
+        if self.chain > MAX_CHAIN {
+            // A loop of items that take no time (DO_JUMP forever over commands): stop here.
+            self.progress = None;
+            if !self.on_ground() {
+                self.motion = Motion::Hover;
+            }
+            return;
+        }
+        if usize::from(seq) >= self.commands.len() {
+            self.progress = None;
+            if self.in_mission {
+                self.complete = true;
+                events.push(Event::Complete);
+            }
+            if !self.on_ground() {
+                self.motion = Motion::Hover;
+            }
+            return;
+        }
+        self.progress = Some(Progress {
+            seq,
+            reached_s: None,
+            rest_s: None,
+            settle_s: 0.0,
+        });
+        if self.in_mission {
+            events.push(Event::Current(seq));
+        }
+        if !matches!(self.motion, Motion::SpoolUp { .. }) {
+            self.run_item(events);
+        }
+    }
+
+    /// Sets the current item's motion going.
+    fn run_item(&mut self, events: &mut Vec<Event>) {
+        let (Some(progress), Some(command)) = (self.progress, self.current_command()) else {
+            return;
+        };
+        let here = self.position;
+        match command {
+            Command::Takeoff { up_m } => {
+                self.fly_to([here[0], here[1], up_m.max(here[2])], Purpose::Leg, events);
+            }
+            Command::Waypoint { at, .. } | Command::Loiter { at, .. } => {
+                self.fly_to(at, Purpose::Leg, events)
+            }
+            Command::Land { at } => {
+                let [x, y] = at.unwrap_or([here[0], here[1]]);
+                self.head_for_landing([x, y], events);
+            }
+            Command::ReturnToLaunch if self.instant_rtl_item && self.in_mission => {
+                self.finish(progress.seq, events)
+            }
+            Command::ReturnToLaunch => self.head_for_landing([0.0, 0.0], events),
+            Command::ChangeSpeed { speed_m_s } => {
+                self.cruise_m_s = Some(speed_m_s);
+                self.finish(progress.seq, events);
+            }
+            Command::Delay { .. } => {
+                self.progress = Some(Progress {
+                    rest_s: Some(self.now_s),
+                    ..progress
+                });
+            }
+            Command::Jump { to, repeat } => {
+                let k = usize::from(progress.seq);
+                let left = self.jumps_left.get(k).copied().flatten().unwrap_or(repeat);
+                if left != 0 {
+                    if let Some(slot) = self.jumps_left.get_mut(k) {
+                        *slot = Some(left - 1);
+                    }
+                    self.begin(to, events);
+                } else {
+                    self.finish(progress.seq, events);
+                }
+            }
+            Command::Skip => self.finish(progress.seq, events),
+        }
+    }
+
+    /// Flies a line to `to` (when already there, the line is stationary and ends at once).
+    fn fly_to(&mut self, to: Local, purpose: Purpose, events: &mut Vec<Event>) {
+        let from = self.position;
+        let (dx, dy) = (to[0] - from[0], to[1] - from[1]);
+        let xf_m = dx.hypot(dy);
+        let heading = if xf_m > 1e-9 {
+            [dx / xf_m, dy / xf_m]
+        } else {
+            [1.0, 0.0]
+        };
+        let trajectory = match self.trajectory(xf_m, to[2] - from[2]) {
+            Ok(t) => t,
+            Err(_) => {
+                // The physics cannot fly it: move there at once so the mission goes on.
+                self.physics_errors += 1;
+                self.position = to;
+                self.motion = Motion::Hover;
+                self.line_done(purpose, self.now_s, 0.0, events);
+                return;
+            }
+        };
+        let line = Line {
+            trajectory,
+            from,
+            heading,
+            start_s: self.now_s,
+        };
+        if line.trajectory.duration_s() <= 0.0 {
+            self.motion = Motion::Hover;
+            self.line_done(purpose, self.now_s, 0.0, events);
+            return;
+        }
+        self.motion = Motion::Flying { line, purpose };
+    }
+
+    /// The profile's trajectory, at the cruise speed a DO_CHANGE_SPEED set.
+    fn trajectory(&self, xf_m: f64, zf_m: f64) -> Result<Trajectory, PhysicsError> {
+        match self.cruise_m_s {
+            None => self.model.trajectory(self.profile, xf_m, zf_m),
+            Some(speed) => {
+                let mut v = self.vehicle.clone();
+                v.px4.mpc_xy_cruise_m_s = speed;
+                v.hvb.speed_xy_m_s = speed;
+                v.ptf.max_speed_xy_m_s = speed;
+                Model::new(&v).trajectory(self.profile, xf_m, zf_m)
+            }
+        }
+    }
+
+    /// Heads for the landing point: a horizontal leg first when not above it, else the descent.
+    fn head_for_landing(&mut self, at: [f64; 2], events: &mut Vec<Event>) {
+        let here = self.position;
+        if (at[0] - here[0]).hypot(at[1] - here[1]) > ABOVE_POINT_M {
+            self.fly_to([at[0], at[1], here[2]], Purpose::Leg, events);
+        } else {
+            self.fly_to([here[0], here[1], 0.0], Purpose::Descent, events);
+        }
+    }
+
+    /// A line ended at `end_s` with the vehicle at rest; `settle_s` of hover settles it.
+    fn line_done(&mut self, purpose: Purpose, end_s: f64, settle_s: f64, events: &mut Vec<Event>) {
+        if purpose == Purpose::Descent {
+            self.position[2] = 0.0;
+            events.push(Event::Touchdown);
+            if self.land_detect_s > 0.0 {
+                self.motion = Motion::Touchdown {
+                    until_s: end_s + self.land_detect_s,
+                };
+                return;
+            }
+            self.motion = Motion::Ground;
+            events.push(Event::Landed);
+            if let Some(p) = self.progress {
+                self.finish(p.seq, events);
+            }
+            return;
+        }
+        // A leg, or the horizontal leg before a landing: settle in hover (check_progress goes on).
+        self.motion = Motion::Hover;
+        if let Some(p) = self.progress {
+            self.progress = Some(Progress {
+                rest_s: Some(end_s),
+                settle_s,
+                ..p
+            });
+        }
+    }
+
+    /// Completes the current item when its conditions hold.
+    fn check_progress(&mut self, events: &mut Vec<Event>) {
+        let (Some(mut p), Some(command)) = (self.progress, self.current_command()) else {
+            return;
+        };
+        let now = self.now_s;
+        let target = match command {
+            Command::Waypoint { at, radius_m, .. } => Some((at, radius_m)),
+            Command::Loiter { at, .. } => Some((at, DEFAULT_ACCEPTANCE_RADIUS_M)),
+            _ => None,
+        };
+        if let Some((at, radius_m)) = target {
+            if p.reached_s.is_none() && distance(self.position, at) <= radius_m {
+                p.reached_s = Some(now);
+                self.progress = Some(p);
+            }
+        }
+        let Some(rest_s) = p.rest_s else {
+            return;
+        };
+        let settled = now >= rest_s + p.settle_s;
+        let done = match command {
+            Command::Takeoff { .. } => settled,
+            Command::Waypoint { hold_s, .. } => {
+                settled && p.reached_s.is_some_and(|r| now >= r + hold_s)
+            }
+            Command::Loiter { hold_s, .. } => match (hold_s, p.reached_s) {
+                (Some(h), Some(r)) => settled && now >= r + h,
+                _ => false,
+            },
+            Command::Delay { duration_s } => now >= rest_s + duration_s,
+            Command::Land { .. } | Command::ReturnToLaunch => {
+                // Settled above the landing point: descend.
+                if settled && matches!(self.motion, Motion::Hover) {
+                    self.progress = Some(Progress { rest_s: None, ..p });
+                    let here = self.position;
+                    self.fly_to([here[0], here[1], 0.0], Purpose::Descent, events);
+                }
+                false
+            }
+            _ => false,
+        };
+        if done {
+            self.finish(p.seq, events);
+        }
+    }
+
+    /// Item `seq` is done: report it and go on with the next.
+    fn finish(&mut self, seq: u16, events: &mut Vec<Event>) {
+        if self.in_mission
+            && self
+                .commands
+                .get(usize::from(seq))
+                .is_some_and(Command::is_navigation)
+        {
+            events.push(Event::Reached(seq));
+        }
+        self.begin(seq.saturating_add(1), events);
+    }
+}
+
+fn distance(a: Local, b: Local) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::link::mav::MavMissionType;
+    use crate::physics::vehicle::shipped;
+
+    const HOME: Geodetic = Geodetic {
+        lat_deg: 38.5362,
+        lon_deg: -121.7875,
+        alt_m: 16.0,
+    };
+
+    fn item(
+        seq: u16,
+        command: MavCmd,
+        frame: MavFrame,
+        params: [f32; 4],
+        xyz: (i32, i32, f32),
+    ) -> MISSION_ITEM_INT_DATA {
+        MISSION_ITEM_INT_DATA {
+            param1: params[0],
+            param2: params[1],
+            param3: params[2],
+            param4: params[3],
+            x: xyz.0,
+            y: xyz.1,
+            z: xyz.2,
+            seq,
+            command,
+            target_system: 1,
+            target_component: 1,
+            frame,
+            current: 0,
+            autocontinue: 1,
+            mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
+        }
+    }
+
+    /// degE7 of a point `east_m`, `north_m` from home.
+    fn at(east_m: f64, north_m: f64) -> (i32, i32) {
+        let g = Origin {
+            home: HOME,
+            height_above_home_m: 0.0,
+        }
+        .to_geodetic(crate::mission::Enu {
+            x_east_m: east_m,
+            y_north_m: north_m,
+            z_up_m: 0.0,
+        });
+        (
+            (g.lat_deg * 1e7).round() as i32,
+            (g.lon_deg * 1e7).round() as i32,
+        )
+    }
+
+    #[test]
+    #[allow(deprecated)] // PX4 reads back MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+    fn relative_and_amsl_frames_give_the_same_point_and_bad_items_are_located_errors() {
+        let (x, y) = at(30.0, -40.0);
+        let relative = item(
+            0,
+            MavCmd::MAV_CMD_NAV_WAYPOINT,
+            MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+            [5.0, 0.0, 0.0, f32::NAN],
+            (x, y, 25.0),
+        );
+        let amsl = item(
+            1,
+            MavCmd::MAV_CMD_NAV_WAYPOINT,
+            MavFrame::MAV_FRAME_GLOBAL,
+            [5.0, 3.0, 0.0, 0.0],
+            (x, y, 41.0),
+        );
+        let c = commands(&[relative, amsl], HOME, false).unwrap();
+        let (
+            Command::Waypoint {
+                at: a,
+                hold_s,
+                radius_m,
+            },
+            Command::Waypoint {
+                at: b,
+                radius_m: r2,
+                ..
+            },
+        ) = (c[0], c[1])
+        else {
+            panic!("{c:?}");
+        };
+        assert!(
+            (a[0] - 30.0).abs() < 0.02 && (a[1] + 40.0).abs() < 0.02 && (a[2] - 25.0).abs() < 1e-3,
+            "{a:?}"
+        );
+        assert!((0..3).all(|k| (a[k] - b[k]).abs() < 1e-6));
+        assert_eq!(
+            (hold_s, radius_m, r2),
+            (5.0, DEFAULT_ACCEPTANCE_RADIUS_M, 3.0)
+        );
+        let mut local = item(
+            4,
+            MavCmd::MAV_CMD_NAV_WAYPOINT,
+            MavFrame::MAV_FRAME_LOCAL_NED,
+            [0.0; 4],
+            (x, y, 5.0),
+        );
+        let err = commands(std::slice::from_ref(&local), HOME, false).unwrap_err();
+        assert!(err.to_string().starts_with("mission item 4:"), "{err}");
+        local.frame = MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT;
+        local.z = f32::NAN;
+        assert!(commands(&[local], HOME, false).is_err());
+        // Land at 0, 0 means here; ArduPilot's item 0 is home.
+        let land = item(
+            0,
+            MavCmd::MAV_CMD_NAV_LAND,
+            MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
+            [0.0; 4],
+            (0, 0, 0.0),
+        );
+        assert_eq!(
+            commands(std::slice::from_ref(&land), HOME, false).unwrap(),
+            [Command::Land { at: None }]
+        );
+        assert_eq!(commands(&[land], HOME, true).unwrap(), [Command::Skip]);
+    }
+
+    /// Steps a flight in 10 ms until `done` or `max_s`, returning the events with their times.
+    fn run(f: &mut Flight, max_s: f64, done: impl Fn(&Flight) -> bool) -> Vec<(f64, Event)> {
+        let mut events = Vec::new();
+        let start = f.now_s();
+        let mut k = 0u64;
+        while !done(f) && (k as f64) * 0.01 < max_s {
+            k += 1;
+            let t = start + k as f64 * 0.01;
+            events.extend(f.advance(t).into_iter().map(|e| (t, e)));
+        }
+        events
+    }
+
+    #[test]
+    fn a_waypoint_completes_once_settled_and_its_hold_since_reaching_the_radius_has_passed() {
+        let v = shipped();
+        let mut f = Flight::new(&v, Profile::Px4).unwrap();
+        f.arm();
+        let (x, y) = at(40.0, 0.0);
+        let items = [
+            item(
+                0,
+                MavCmd::MAV_CMD_NAV_TAKEOFF,
+                MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                [0.0; 4],
+                (0, 0, 20.0),
+            ),
+            item(
+                1,
+                MavCmd::MAV_CMD_NAV_WAYPOINT,
+                MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                [4.0, 2.0, 0.0, 0.0],
+                (x, y, 20.0),
+            ),
+            item(
+                2,
+                MavCmd::MAV_CMD_NAV_LAND,
+                MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                [0.0; 4],
+                (x, y, 0.0),
+            ),
+        ];
+        let events = f.start(commands(&items, HOME, false).unwrap(), 0, 1.0);
+        assert_eq!(events, [Event::Current(0)]);
+        let events = run(&mut f, 300.0, |f| f.complete());
+        let when = |e: Event| {
+            events
+                .iter()
+                .find(|(_, x)| *x == e)
+                .map(|(t, _)| *t)
+                .unwrap()
+        };
+        assert!((when(Event::Liftoff) - 1.0).abs() < 0.011);
+        let model = Model::new(&v);
+        let climb = model.trajectory(Profile::Px4, 0.0, 20.0).unwrap();
+        let leg = model.trajectory(Profile::Px4, 40.0, 0.0).unwrap();
+        let settle = v.px4.settle_s;
+        let leg_start = when(Event::Current(1));
+        assert!(
+            (leg_start - (1.0 + climb.duration_s() + settle)).abs() < 0.011,
+            "{leg_start}"
+        );
+        // Within 2 m of the waypoint before the trajectory ends; the 4 s hold from there ends
+        // after the trajectory's end plus its 1 s settle.
+        let mut t_radius = 0.0;
+        while leg.remaining_m(t_radius) > 2.0 {
+            t_radius += 0.001;
+        }
+        let done = when(Event::Reached(1));
+        assert!(
+            (done - (leg_start + t_radius + 4.0)).abs() < 0.02,
+            "{done} {leg_start} {t_radius}"
+        );
+        assert!(done > leg_start + leg.duration_s() + settle);
+        assert_eq!(
+            events
+                .iter()
+                .map(|(_, e)| *e)
+                .filter(|e| {
+                    matches!(
+                        e,
+                        Event::Reached(_) | Event::Touchdown | Event::Landed | Event::Complete
+                    )
+                })
+                .collect::<Vec<_>>(),
+            [
+                Event::Reached(0),
+                Event::Reached(1),
+                Event::Touchdown,
+                Event::Landed,
+                Event::Reached(2),
+                Event::Complete
+            ]
+        );
+        assert!(f.on_ground() && f.position()[2] == 0.0);
+        assert_eq!(f.physics_errors(), 0);
+    }
+
+    #[test]
+    fn a_do_jump_loop_of_instant_items_stops_the_mission_instead_of_hanging() {
+        let v = shipped();
+        let mut f = Flight::new(&v, Profile::Px4).unwrap();
+        f.arm();
+        let items = [
+            item(
+                0,
+                MavCmd::MAV_CMD_DO_CHANGE_SPEED,
+                MavFrame::MAV_FRAME_MISSION,
+                [1.0, 3.0, -1.0, 0.0],
+                (0, 0, 0.0),
+            ),
+            item(
+                1,
+                MavCmd::MAV_CMD_DO_JUMP,
+                MavFrame::MAV_FRAME_MISSION,
+                [0.0, -1.0, 0.0, 0.0],
+                (0, 0, 0.0),
+            ),
+        ];
+        let events = f.start(commands(&items, HOME, false).unwrap(), 0, 0.0);
+        assert!(events.len() <= 2 * MAX_CHAIN + 2);
+        run(&mut f, 1.0, |_| false);
+        assert_eq!(f.current(), None);
+        assert!(!f.complete());
+    }
+}
