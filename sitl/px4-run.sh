@@ -23,6 +23,7 @@ if [ -z "$src" ] || [ ! -x "$src/bin/px4" ]; then
   echo "px4-run.sh: no PX4 SITL build found (set PX4_SITL_DIR to the directory holding run.sh and bin/px4)" >&2
   exit 2
 fi
+src=$(cd "$src" && pwd)
 shadow=${PX4_SHADOW:-$(mktemp -d "${TMPDIR:-/tmp}/px4shadow.XXXXXX")}
 mkdir -p "$shadow/bin"
 ln -sfn "$src/etc" "$shadow/etc"

@@ -69,10 +69,10 @@ struct UploadJson<'a> {
 
 /// A failure tagged with the stage it happened in, where the error itself does not say.
 #[derive(Debug, thiserror::Error)]
-#[error("{source:#}")]
+#[error("{cause:#}")]
 struct Staged {
     stage: &'static str,
-    source: anyhow::Error,
+    cause: anyhow::Error,
 }
 
 /// The JSON document a failed `upload --json` prints.
@@ -168,7 +168,10 @@ fn upload(args: Args) -> anyhow::Result<ExitCode> {
             .link
             .open()
             .await
-            .map_err(|source| Staged { stage: "connect", source })?;
+            .map_err(|cause| Staged {
+                stage: "connect",
+                cause,
+            })?;
         let (link, target, cfg) = (&opened.link, opened.target, opened.config);
         let opts = ItemOptions { flavour: target.flavour, acceptance_radius_m: args.acceptance_radius_m, ..ItemOptions::default() };
         let items = mission_items(&mission, &order, &opts).context("building mission items")?;
