@@ -159,8 +159,8 @@ fn upload(args: Args) -> anyhow::Result<ExitCode> {
             b.reserve_pct
         );
     }
-    let runtime = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
+    // One thread: the link's tasks hand each message over without a cross-thread wake-up.
+    let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()?;
     runtime.block_on(async {
