@@ -44,7 +44,8 @@ pub fn deg_e7(deg: f64) -> i32 {
     (deg * 1e7).round() as i32
 }
 
-fn item(
+/// One mission item (seq 0, autocontinue, mission type MISSION; numbered by the caller).
+pub fn item(
     command: MavCmd,
     frame: MavFrame,
     params: [f32; 4],

@@ -14,23 +14,11 @@ use super::Flavour;
 const MISSION: MavMissionType = MavMissionType::MAV_MISSION_TYPE_MISSION;
 
 fn item(seq: u16, command: MavCmd, frame: MavFrame, p: [f32; 4], z: f32) -> MISSION_ITEM_INT_DATA {
+    // Distinct positions 1 degE7 (about 1 cm) apart, north of the sample field.
+    let x = 385_362_000 + i32::from(seq);
     MISSION_ITEM_INT_DATA {
-        param1: p[0],
-        param2: p[1],
-        param3: p[2],
-        param4: p[3],
-        // Distinct positions 1 degE7 (about 1 cm) apart, north of the sample field.
-        x: 385_362_000 + i32::from(seq),
-        y: -1_217_875_000,
-        z,
         seq,
-        command,
-        target_system: 0,
-        target_component: 0,
-        frame,
-        current: 0,
-        autocontinue: 1,
-        mission_type: MISSION,
+        ..super::items::item(command, frame, p, x, -1_217_875_000, z)
     }
 }
 

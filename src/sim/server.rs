@@ -145,14 +145,7 @@ pub struct MissionServer {
 fn supported(flavour: Flavour, item: &MISSION_ITEM_INT_DATA) -> Result<(), MavMissionResult> {
     use MavCmd::*;
     use MavFrame::*;
-    let navigation = matches!(
-        item.command,
-        MAV_CMD_NAV_WAYPOINT
-            | MAV_CMD_NAV_TAKEOFF
-            | MAV_CMD_NAV_LAND
-            | MAV_CMD_NAV_LOITER_TIME
-            | MAV_CMD_NAV_LOITER_UNLIM
-    );
+    let navigation = super::storage::navigation(item.command);
     let command = matches!(
         item.command,
         MAV_CMD_NAV_RETURN_TO_LAUNCH

@@ -28,6 +28,20 @@ impl Default for Home {
     }
 }
 
+/// The navigation commands the mock accepts: each carries a position (PX4 requires one, ArduPilot
+/// stores one: `AP_Mission::stored_in_location`).
+pub fn navigation(command: MavCmd) -> bool {
+    use MavCmd::*;
+    matches!(
+        command,
+        MAV_CMD_NAV_WAYPOINT
+            | MAV_CMD_NAV_TAKEOFF
+            | MAV_CMD_NAV_LAND
+            | MAV_CMD_NAV_LOITER_TIME
+            | MAV_CMD_NAV_LOITER_UNLIM
+    )
+}
+
 /// PX4's `mission_item_s`, the fields the commands the mock accepts use.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Px4Item {
@@ -211,14 +225,7 @@ fn to_u16(v: f32) -> u16 {
 fn ap_parse(item: &MISSION_ITEM_INT_DATA) -> ApCommand {
     use MavCmd::*;
     use MavFrame::*;
-    let has_location = matches!(
-        item.command,
-        MAV_CMD_NAV_WAYPOINT
-            | MAV_CMD_NAV_TAKEOFF
-            | MAV_CMD_NAV_LAND
-            | MAV_CMD_NAV_LOITER_TIME
-            | MAV_CMD_NAV_LOITER_UNLIM
-    );
+    let has_location = navigation(item.command);
     let mut c = ApCommand {
         id: item.command,
         p1: 0,

@@ -6,7 +6,7 @@
 use std::time::Duration;
 
 use super::rto::Rto;
-use super::{Action, Stage, TransferConfig, TransferError, Waiting, MISSION};
+use super::{Action, Spent, Stage, TransferConfig, TransferError, Waiting, MISSION};
 #[allow(deprecated)]
 use crate::link::mav::{
     MavMessage, MavMissionResult, MISSION_CLEAR_ALL_DATA, MISSION_SET_CURRENT_DATA,
@@ -133,18 +133,19 @@ impl Command {
             return Vec::new();
         }
         if now >= self.ends {
-            self.result = Some(Err(TransferError::OutOfTime {
-                stage: self.stage(),
-                item: match self.kind {
-                    Kind::SetCurrent(seq) => Some(seq),
-                    Kind::ClearAll => None,
-                },
-                waiting: Waiting::Confirmation,
-                elapsed_s: now.saturating_sub(self.started).as_secs_f64(),
+            let item = match self.kind {
+                Kind::SetCurrent(seq) => Some(seq),
+                Kind::ClearAll => None,
+            };
+            let spent = Spent {
+                started: self.started,
+                now,
                 sent: self.sent,
                 restarts: 0,
                 refusal: None,
-            }));
+            };
+            let err = TransferError::out_of_time(self.stage(), item, Waiting::Confirmation, spent);
+            self.result = Some(Err(err));
             return Vec::new();
         }
         self.attempt += 1;

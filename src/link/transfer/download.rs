@@ -15,7 +15,7 @@
 use std::time::Duration;
 
 use super::rto::Rto;
-use super::{Action, Stage, TransferConfig, TransferError, Waiting, MISSION};
+use super::{Action, Spent, Stage, TransferConfig, TransferError, Waiting, MISSION};
 use crate::link::flavour::Refusal;
 use crate::link::mav::{
     MavMessage, MavMissionResult, MISSION_ACK_DATA, MISSION_ITEM_INT_DATA,
@@ -306,15 +306,19 @@ impl Download {
                 Phase::Items => (Some(self.next), Waiting::Item(self.next)),
                 _ => (None, Waiting::Count),
             };
-            self.finish(Err(TransferError::OutOfTime {
-                stage: Stage::ReadBack,
-                item,
-                waiting,
-                elapsed_s: now.saturating_sub(self.started).as_secs_f64(),
+            let spent = Spent {
+                started: self.started,
+                now,
                 sent: self.stats.requests_sent,
                 restarts: self.stats.restarts,
                 refusal: self.refusal,
-            }));
+            };
+            self.finish(Err(TransferError::out_of_time(
+                Stage::ReadBack,
+                item,
+                waiting,
+                spent,
+            )));
             return Vec::new();
         }
         if now < self.wake {

@@ -181,7 +181,34 @@ pub enum TransferError {
     Mismatch(Box<Difference>),
 }
 
+/// What a transfer did before its time ran out (for `TransferError::OutOfTime`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Spent {
+    pub started: Duration,
+    pub now: Duration,
+    pub sent: u32,
+    pub restarts: u32,
+    pub refusal: Option<MavMissionResult>,
+}
+
 impl TransferError {
+    pub(crate) fn out_of_time(
+        stage: Stage,
+        item: Option<u16>,
+        waiting: Waiting,
+        spent: Spent,
+    ) -> TransferError {
+        TransferError::OutOfTime {
+            stage,
+            item,
+            waiting,
+            elapsed_s: spent.now.saturating_sub(spent.started).as_secs_f64(),
+            sent: spent.sent,
+            restarts: spent.restarts,
+            refusal: spent.refusal,
+        }
+    }
+
     /// The stage the failure happened in.
     pub fn stage(&self) -> Stage {
         match self {

@@ -19,7 +19,7 @@
 use std::time::Duration;
 
 use super::rto::Rto;
-use super::{Action, Stage, TransferConfig, TransferError, Waiting, MISSION};
+use super::{Action, Spent, Stage, TransferConfig, TransferError, Waiting, MISSION};
 use crate::link::flavour::Refusal;
 use crate::link::mav::{MavMessage, MavMissionResult, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA};
 
@@ -288,15 +288,15 @@ impl Upload {
                 (Phase::AwaitAck, _) => Waiting::Ack,
                 _ => Waiting::FirstRequest,
             };
-            self.finish(Err(TransferError::OutOfTime {
-                stage: Stage::Upload,
-                item: self.highest,
-                waiting,
-                elapsed_s: now.saturating_sub(self.started).as_secs_f64(),
+            let spent = Spent {
+                started: self.started,
+                now,
                 sent: self.stats.count_sent + self.stats.items_sent,
                 restarts: self.stats.restarts,
                 refusal: self.refusal,
-            }));
+            };
+            let err = TransferError::out_of_time(Stage::Upload, self.highest, waiting, spent);
+            self.finish(Err(err));
             return Vec::new();
         }
         if now < self.wake {
