@@ -38,7 +38,7 @@ pub struct UploadError {
     /// Whole uploads tried (more than one when a read-back showed an unacknowledged upload
     /// had not arrived).
     pub attempts: u32,
-    #[source]
+    /// What went wrong (its message is this error's: not repeated as a source).
     pub cause: DriverError,
 }
 
