@@ -4,14 +4,19 @@
 use std::process::ExitCode;
 
 use anyhow::anyhow;
+use emplan::link::Flavour;
 use emplan::sim::{
-    Faults, Flavour, FlightConfig, Gap, MockAutopilot, MockConfig, TelemetryFaults, DEFAULT_SPEEDUP,
+    Faults, FlightConfig, Gap, Home, MockAutopilot, MockConfig, TelemetryFaults, DEFAULT_SPEEDUP,
 };
 
 #[derive(Debug, Clone, Copy, clap::ValueEnum)]
 pub enum FlavourArg {
+    /// PX4: atomic uploads, requests every 250 ms, gives up after 5 s, _INT frames on read-back
     Px4,
+    /// ArduPilot: item 0 is its home, unused parameters stored as 0, NO_SPACE while booting
     Ardupilot,
+    /// MAVSDK's MissionRawServer: keeps items as received, gives up after 5 tries
+    Generic,
 }
 
 #[derive(Debug, clap::Args)]
@@ -48,6 +53,18 @@ pub struct Args {
     /// Reboot (lose the transfer) when this item arrives
     #[arg(long)]
     reboot_at_item: Option<u16>,
+    /// Answer read-backs of this item with its latitude 1 degE7 off (a vehicle holding
+    /// something else than was sent: emplan must not report the upload verified)
+    #[arg(long, value_name = "SEQ")]
+    corrupt_readback: Option<u16>,
+    /// Seconds after start during which the ArduPilot flavour refuses uploads with
+    /// MAV_MISSION_NO_SPACE, as ArduPilot does while its storage boots
+    #[arg(long, default_value_t = 2.0)]
+    boot_s: f64,
+    /// Altitude of the vehicle's own home above mean sea level (m), what the ArduPilot flavour
+    /// answers for item 0 (ArduCopter SITL reports 16.1 m for a 16 m home)
+    #[arg(long, default_value_t = 16.1)]
+    home_alt_m: f32,
     /// MAVLink 2 signing key file (32 raw bytes or 64 hex characters): sign everything sent,
     /// drop frames not signed with this key
     #[arg(long)]
@@ -140,6 +157,15 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             anyhow::bail!("--{name} {p}: a probability between 0 and 1 is required");
         }
     }
+    if !(args.boot_s.is_finite() && (0.0..=3600.0).contains(&args.boot_s)) {
+        anyhow::bail!("--boot-s {}: expected 0 to 3600 seconds", args.boot_s);
+    }
+    if !args.home_alt_m.is_finite() {
+        anyhow::bail!(
+            "--home-alt-m {}: expected a finite altitude",
+            args.home_alt_m
+        );
+    }
     let nack_result =
         match &args.nack {
             Some(text) => Some(emplan::link::parse_mission_result(text).ok_or_else(|| {
@@ -151,6 +177,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         flavour: match args.flavour {
             FlavourArg::Px4 => Flavour::Px4,
             FlavourArg::Ardupilot => Flavour::ArduPilot,
+            FlavourArg::Generic => Flavour::Generic,
         },
         faults: Faults {
             loss_up: args.loss_up,
@@ -162,7 +189,20 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             nack_result,
             drop_final_ack: args.drop_final_ack,
             reboot_at_item: args.reboot_at_item,
+            corrupt_readback: args.corrupt_readback,
         },
+        home: match args.home {
+            Some(home) => Home {
+                lat_e7: emplan::link::items::deg_e7(home.lat_deg),
+                lon_e7: emplan::link::items::deg_e7(home.lon_deg),
+                alt_m: args.home_alt_m,
+            },
+            None => Home {
+                alt_m: args.home_alt_m,
+                ..Home::default()
+            },
+        },
+        boot: std::time::Duration::from_secs_f64(args.boot_s),
         seed: args.seed,
         signing_key: match &args.signing_key {
             Some(path) => Some(emplan::link::read_signing_key(path)?),

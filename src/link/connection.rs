@@ -3,7 +3,8 @@
 //! subscribers; another sends the ground station's HEARTBEAT at 1 Hz (PX4's data-link-loss
 //! failsafe watches it). The autopilot is discovered from its first HEARTBEAT. When the
 //! transport fails (TCP closed, serial unplugged; UDP never fails) the error is logged and the
-//! receive task reconnects every second until it succeeds or the link is dropped.
+//! receive task reconnects every second until it succeeds or the link is dropped;
+//! `connect_within` waits for an autopilot whose port is not open yet.
 
 use std::sync::Arc;
 use std::time::Duration;
@@ -108,6 +109,27 @@ impl Link {
         })
     }
 
+    /// Connects as `connect` does, trying again every 200 ms for up to `patience` while the
+    /// transport refuses (an autopilot started a moment ago has not opened its TCP port yet).
+    pub async fn connect_within(
+        url: &str,
+        identity: Identity,
+        signing: Option<mavlink::SigningConfig>,
+        patience: Duration,
+    ) -> Result<Link, LinkError> {
+        let deadline = tokio::time::Instant::now() + patience;
+        loop {
+            match Link::connect(url, identity, signing.clone()).await {
+                Ok(link) => return Ok(link),
+                Err(e) if tokio::time::Instant::now() >= deadline => return Err(e),
+                Err(e) => {
+                    tracing::debug!("{e}; trying again");
+                    tokio::time::sleep(Duration::from_millis(200)).await;
+                }
+            }
+        }
+    }
+
     /// A receiver of every message that arrives from now on.
     pub fn subscribe(&self) -> broadcast::Receiver<(MavHeader, MavMessage)> {
         self.incoming.subscribe()
@@ -193,11 +215,13 @@ async fn receive(
         let Some(active) = current(&conn) else { return };
         tokio::select! {
             _ = shutdown.changed() => return,
-            received = tokio::time::timeout(Duration::from_secs(1), active.recv()) => match received {
-                Ok(Ok(message)) => {
+            // No timeout around the receive: the shutdown branch ends the wait, and a TCP
+            // read cancelled half-way through a frame would lose bytes.
+            received = active.recv() => match received {
+                Ok(message) => {
                     let _ = incoming.send(message);
                 }
-                Ok(Err(mavlink::error::MessageReadError::Io(e))) => {
+                Err(mavlink::error::MessageReadError::Io(e)) => {
                     // Never swallowed: reported, then the transport is reopened.
                     tracing::error!("link {url}: receive failed: {e}; reconnecting");
                     loop {
@@ -217,8 +241,7 @@ async fn receive(
                         }
                     }
                 }
-                Ok(Err(e)) => tracing::debug!("unparsable frame skipped: {e}"),
-                Err(_) => {}
+                Err(e) => tracing::debug!("unparsable frame skipped: {e}"),
             },
         }
     }

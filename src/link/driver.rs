@@ -1,23 +1,62 @@
-//! The thin async driver of the sans-IO transfer machines: feeds them the target's messages and
-//! a 20 ms tick, sends what they ask. A verified upload = the mission uploaded (ACCEPTED, or the
-//! final ack lost) AND read back equal to what was sent.
+//! The thin async driver of the sans-IO transfer machines: feeds them the target's messages,
+//! wakes them when their clock says (no fixed tick), sends what they ask. A verified upload =
+//! the mission uploaded (ACCEPTED, or the final ack lost) AND read back holding what was sent,
+//! by what the autopilot keeps (`link::readback`), all within one time budget. When the final
+//! ack was lost and the read-back differs, the upload may not have reached the autopilot: it is
+//! tried again while time remains.
 
 use std::time::Duration;
 
 use tokio::time::Instant;
 
 use super::connection::{Autopilot, Link};
-use super::mav::{MavMessage, MISSION_ITEM_INT_DATA};
-use super::transfer::{verify, Action, Download, TransferConfig, TransferError, Upload};
+use super::mav::{MavMessage, MavMissionResult, MISSION_ITEM_INT_DATA};
+use super::readback;
+use super::transfer::{
+    Action, Command, Download, Rto, Stage, TransferConfig, TransferError, Upload,
+};
 use super::LinkError;
 
-/// Why an upload or download did not complete.
+/// Why a machine did not complete.
 #[derive(Debug, thiserror::Error)]
 pub enum DriverError {
     #[error(transparent)]
     Link(#[from] LinkError),
     #[error(transparent)]
     Transfer(#[from] TransferError),
+}
+
+/// Why a verified upload failed: the stage, whether the autopilot had accepted the mission,
+/// the item concerned and the autopilot's refusal, if any.
+#[derive(Debug, thiserror::Error)]
+pub struct UploadError {
+    pub stage: Stage,
+    /// The autopilot's ACCEPTED ack of this mission arrived.
+    pub accepted: bool,
+    pub item: Option<u16>,
+    pub refusal: Option<MavMissionResult>,
+    /// Whole uploads tried (more than one when a read-back showed an unacknowledged upload
+    /// had not arrived).
+    pub attempts: u32,
+    /// What went wrong (its message is this error's: not repeated as a source).
+    pub cause: DriverError,
+}
+
+impl std::fmt::Display for UploadError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match &self.cause {
+            DriverError::Transfer(e) => write!(f, "{e}")?,
+            DriverError::Link(e) => write!(f, "{}: {e}", self.stage)?,
+        }
+        match (self.stage, self.accepted) {
+            (Stage::Upload, _) => Ok(()),
+            (_, true) => write!(f, " (the autopilot had accepted the mission)"),
+            (_, false) => write!(
+                f,
+                " (no MISSION_ACK came: the autopilot may not hold the mission)"
+            ),
+        }
+    }
 }
 
 /// What an upload achieved.
@@ -32,6 +71,15 @@ pub struct UploadReport {
     pub verify_s: f64,
     pub count_sent: u32,
     pub items_sent: u32,
+    /// Fresh starts after the autopilot abandoned a transfer (upload and read-back).
+    #[serde(skip)]
+    pub restarts: u32,
+    /// Transient refusals waited out (ArduPilot's NO_SPACE at boot).
+    #[serde(skip)]
+    pub refusals: u32,
+    /// The smoothed round-trip time measured, if any.
+    #[serde(skip)]
+    pub rtt_ms: Option<f64>,
 }
 
 /// A transfer machine the driver can run.
@@ -40,7 +88,10 @@ pub trait Machine {
     fn start(&mut self, now: Duration) -> Vec<Action>;
     fn handle(&mut self, now: Duration, message: &MavMessage) -> Vec<Action>;
     fn tick(&mut self, now: Duration) -> Vec<Action>;
-    fn outcome(&self) -> Option<Result<Self::Output, TransferError>>;
+    /// When `tick` is next due; None once finished.
+    fn wake(&self) -> Option<Duration>;
+    /// The outcome, once finished (taken: called once).
+    fn outcome(&mut self) -> Option<Result<Self::Output, TransferError>>;
 }
 
 impl Machine for Upload {
@@ -54,7 +105,10 @@ impl Machine for Upload {
     fn tick(&mut self, now: Duration) -> Vec<Action> {
         Upload::tick(self, now)
     }
-    fn outcome(&self) -> Option<Result<(), TransferError>> {
+    fn wake(&self) -> Option<Duration> {
+        Upload::wake(self)
+    }
+    fn outcome(&mut self) -> Option<Result<(), TransferError>> {
         self.finished().cloned()
     }
 }
@@ -70,23 +124,29 @@ impl Machine for Download {
     fn tick(&mut self, now: Duration) -> Vec<Action> {
         Download::tick(self, now)
     }
-    fn outcome(&self) -> Option<Result<Self::Output, TransferError>> {
-        self.finished().cloned()
+    fn wake(&self) -> Option<Duration> {
+        Download::wake(self)
+    }
+    fn outcome(&mut self) -> Option<Result<Self::Output, TransferError>> {
+        self.take_result()
     }
 }
 
-impl Machine for super::transfer::Command {
+impl Machine for Command {
     type Output = ();
     fn start(&mut self, now: Duration) -> Vec<Action> {
-        super::transfer::Command::start(self, now)
+        Command::start(self, now)
     }
     fn handle(&mut self, now: Duration, message: &MavMessage) -> Vec<Action> {
-        super::transfer::Command::handle(self, now, message)
+        Command::handle(self, now, message)
     }
     fn tick(&mut self, now: Duration) -> Vec<Action> {
-        super::transfer::Command::tick(self, now)
+        Command::tick(self, now)
     }
-    fn outcome(&self) -> Option<Result<(), TransferError>> {
+    fn wake(&self) -> Option<Duration> {
+        Command::wake(self)
+    }
+    fn outcome(&mut self) -> Option<Result<(), TransferError>> {
         self.finished().cloned()
     }
 }
@@ -100,21 +160,34 @@ pub async fn run<M: Machine>(
 ) -> Result<M::Output, DriverError> {
     let mut rx = link.subscribe();
     let start = Instant::now();
-    let mut actions = machine.start(start.elapsed());
-    let mut tick = tokio::time::interval(Duration::from_millis(20));
+    let mut actions = machine.start(Duration::ZERO);
+    let timer = tokio::time::sleep_until(start);
+    tokio::pin!(timer);
+    let mut armed = None;
     loop {
         for action in actions.drain(..) {
             match action {
-                Action::Send(message) => link.send(&message).await?,
+                Action::Send(message) => {
+                    tracing::trace!(t = ?start.elapsed(), "sent {message:?}");
+                    link.send(&message).await?
+                }
                 Action::Progress { done, total } => progress(done, total),
             }
         }
         if let Some(outcome) = machine.outcome() {
             return Ok(outcome?);
         }
+        let wake = machine.wake().unwrap_or(Duration::from_secs(3600));
+        if armed != Some(wake) {
+            // Re-armed only when the machine's clock moved: no timer churn per message.
+            timer.as_mut().reset(start + wake);
+            armed = Some(wake);
+        }
         actions = tokio::select! {
+            biased;
             received = rx.recv() => match received {
                 Ok((header, message)) if header.system_id == u32::from(target.system_id) => {
+                    tracing::trace!(t = ?start.elapsed(), "received {message:?}");
                     machine.handle(start.elapsed(), &message)
                 }
                 Ok(_) | Err(tokio::sync::broadcast::error::RecvError::Lagged(_)) => Vec::new(),
@@ -122,39 +195,102 @@ pub async fn run<M: Machine>(
                     return Err(LinkError::Closed("the receive task ended".into()).into())
                 }
             },
-            _ = tick.tick() => machine.tick(start.elapsed()),
+            _ = &mut timer => {
+                tracing::trace!(t = ?start.elapsed(), "tick");
+                machine.tick(start.elapsed())
+            }
         };
     }
 }
 
-/// Uploads `items` and reads them back; Ok only when the read-back matches.
+fn remaining(budget: Duration, started: Instant) -> Duration {
+    budget.saturating_sub(started.elapsed())
+}
+
+/// Uploads `items` and reads them back; Ok only when the autopilot holds what was sent, as
+/// its flavour stores it. One time budget (`cfg.budget_for(items)`) covers it all.
 pub async fn upload_verified(
     link: &Link,
     target: &Autopilot,
     items: &[MISSION_ITEM_INT_DATA],
     cfg: TransferConfig,
-    progress: impl FnMut(usize, usize),
-) -> Result<UploadReport, DriverError> {
-    let started = Instant::now();
-    let mut upload = Upload::new(items.to_vec(), cfg);
-    let acked = match run(link, target, &mut upload, progress).await {
-        Ok(()) => true,
-        // PX4 sends the final ack once: a lost ack is settled by reading the mission back.
-        Err(DriverError::Transfer(TransferError::AckTimeout { .. })) => false,
-        Err(e) => return Err(e),
+    mut progress: impl FnMut(usize, usize),
+) -> Result<UploadReport, UploadError> {
+    let cfg = TransferConfig {
+        flavour: target.flavour,
+        ..cfg
     };
-    let upload_s = started.elapsed().as_secs_f64();
-    let read = download(link, target, cfg).await?;
-    verify(items, &read)?;
-    Ok(UploadReport {
-        items: items.len(),
-        acked,
-        verified: true,
-        upload_s,
-        verify_s: started.elapsed().as_secs_f64() - upload_s,
-        count_sent: upload.stats.count_sent,
-        items_sent: upload.stats.items_sent,
-    })
+    let budget = cfg.budget_for(items.len());
+    let started = Instant::now();
+    let mut rto = Rto::new(cfg.timing);
+    let mut attempts = 0;
+    let (mut count_sent, mut items_sent, mut restarts, mut refusals) = (0, 0, 0, 0);
+    loop {
+        attempts += 1;
+        let fail = |stage: Stage, accepted: bool, cause: DriverError| {
+            let (item, refusal) = match &cause {
+                DriverError::Transfer(e) => (e.item(), e.refusal()),
+                DriverError::Link(_) => (None, None),
+            };
+            UploadError {
+                stage,
+                accepted,
+                item,
+                refusal,
+                attempts,
+                cause,
+            }
+        };
+        let stage_cfg = TransferConfig {
+            budget: Some(remaining(budget, started)),
+            ..cfg
+        };
+        let mut upload = Upload::new(items.to_vec(), stage_cfg, rto);
+        let outcome = run(link, target, &mut upload, &mut progress).await;
+        rto = upload.rto();
+        count_sent += upload.stats.count_sent;
+        items_sent += upload.stats.items_sent;
+        restarts += upload.stats.restarts;
+        refusals += upload.stats.refusals;
+        let acked = match outcome {
+            Ok(()) => true,
+            // PX4 sends the final ack once: a lost ack is settled by reading the mission back.
+            Err(DriverError::Transfer(TransferError::AckLost { .. })) => false,
+            Err(e) => return Err(fail(Stage::Upload, false, e)),
+        };
+        let upload_s = started.elapsed().as_secs_f64();
+        let stage_cfg = TransferConfig {
+            budget: Some(remaining(budget, started)),
+            ..cfg
+        };
+        let mut down = Download::new(stage_cfg, rto);
+        let read = run(link, target, &mut down, |_, _| {}).await;
+        rto = down.rto();
+        restarts += down.stats.restarts;
+        refusals += down.stats.refusals;
+        let read = read.map_err(|e| fail(Stage::ReadBack, acked, e))?;
+        match readback::verify(cfg.flavour, items, &read) {
+            Ok(()) => {
+                return Ok(UploadReport {
+                    items: items.len(),
+                    acked,
+                    verified: true,
+                    upload_s,
+                    verify_s: started.elapsed().as_secs_f64() - upload_s,
+                    count_sent,
+                    items_sent,
+                    restarts,
+                    refusals,
+                    rtt_ms: rto.srtt().map(|d| d.as_secs_f64() * 1e3),
+                })
+            }
+            // Without the final ack the upload may never have completed: try it again.
+            Err(_) if !acked && remaining(budget, started) > Duration::ZERO => {
+                tracing::warn!("read-back differs after a lost final ack: uploading again");
+            }
+            Err(e) => return Err(fail(Stage::Verify, acked, e.into())),
+        }
+    }
 }
 
 /// Reads the autopilot's mission.
@@ -163,5 +299,24 @@ pub async fn download(
     target: &Autopilot,
     cfg: TransferConfig,
 ) -> Result<Vec<MISSION_ITEM_INT_DATA>, DriverError> {
-    run(link, target, &mut Download::new(cfg), |_, _| {}).await
+    let cfg = TransferConfig {
+        flavour: target.flavour,
+        ..cfg
+    };
+    run(
+        link,
+        target,
+        &mut Download::new(cfg, Rto::new(cfg.timing)),
+        |_, _| {},
+    )
+    .await
+}
+
+/// Runs a command (clear all, set current) until confirmed.
+pub async fn command(
+    link: &Link,
+    target: &Autopilot,
+    mut command: Command,
+) -> Result<(), DriverError> {
+    run(link, target, &mut command, |_, _| {}).await
 }

@@ -44,7 +44,8 @@ pub fn deg_e7(deg: f64) -> i32 {
     (deg * 1e7).round() as i32
 }
 
-fn item(
+/// One mission item (seq 0, autocontinue, mission type MISSION; numbered by the caller).
+pub fn item(
     command: MavCmd,
     frame: MavFrame,
     params: [f32; 4],
@@ -167,25 +168,6 @@ pub fn item_json(item: &MISSION_ITEM_INT_DATA) -> serde_json::Value {
         "y": item.y,
         "z": item.z,
     })
-}
-
-/// Whether two items are the same mission item: integers exact, floats within `1e-4` relative
-/// (a NaN matches a NaN), as a read-back must be.
-pub fn same_item(a: &MISSION_ITEM_INT_DATA, b: &MISSION_ITEM_INT_DATA) -> bool {
-    let close = |x: f32, y: f32| {
-        (x.is_nan() && y.is_nan()) || (x - y).abs() <= 1e-4 * x.abs().max(y.abs()).max(1.0)
-    };
-    a.seq == b.seq
-        && a.command == b.command
-        && a.frame == b.frame
-        && a.x == b.x
-        && a.y == b.y
-        && a.autocontinue == b.autocontinue
-        && close(a.z, b.z)
-        && close(a.param1, b.param1)
-        && close(a.param2, b.param2)
-        && close(a.param3, b.param3)
-        && close(a.param4, b.param4)
 }
 
 #[cfg(test)]

@@ -7,32 +7,16 @@
 
 pub mod connection;
 pub mod driver;
+pub mod flavour;
 pub mod flight;
 pub mod items;
+pub mod readback;
 pub mod telemetry;
+pub mod testing;
 pub mod transfer;
 
+pub use flavour::Flavour;
 pub use mavlink::dialects::ardupilotmega as mav;
-
-/// Which autopilot firmware answers (from its HEARTBEAT's `autopilot` field).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Flavour {
-    Px4,
-    ArduPilot,
-    Generic,
-}
-
-impl Flavour {
-    /// The flavour a HEARTBEAT's autopilot field names.
-    pub fn from_autopilot(autopilot: mav::MavAutopilot) -> Flavour {
-        match autopilot {
-            mav::MavAutopilot::MAV_AUTOPILOT_PX4 => Flavour::Px4,
-            mav::MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA => Flavour::ArduPilot,
-            _ => Flavour::Generic,
-        }
-    }
-}
 
 /// Errors of the link layer.
 #[derive(Debug, thiserror::Error)]

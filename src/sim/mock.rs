@@ -15,12 +15,14 @@ use tokio::net::UdpSocket;
 use tokio::sync::watch;
 use tokio::time::Instant;
 
-use super::server::{Flavour, MissionServer, ProtocolFaults, ServerStats};
+use super::server::{MissionServer, ProtocolFaults, ServerConfig, ServerStats};
+use super::storage::Home;
 use super::vehicle::{builtin_vehicle, FlightConfig, SimVehicle, Snapshot};
 use crate::link::mav::{
-    MavAutopilot, MavMessage, MavMissionResult, MavModeFlag, MavState, MavType, HEARTBEAT_DATA,
+    MavMessage, MavMissionResult, MavModeFlag, MavState, MavType, HEARTBEAT_DATA,
     MISSION_ITEM_INT_DATA,
 };
+use crate::link::Flavour;
 use crate::physics::Vehicle;
 use crate::rng::Rng;
 
@@ -41,6 +43,8 @@ pub struct Faults {
     pub nack_result: Option<MavMissionResult>,
     pub drop_final_ack: bool,
     pub reboot_at_item: Option<u16>,
+    /// Answer read-backs of this item with its latitude 1 degE7 off.
+    pub corrupt_readback: Option<u16>,
 }
 
 /// How the mock behaves.
@@ -62,6 +66,11 @@ pub struct MockConfig {
     pub speedup: f64,
     /// Arm and start each newly stored mission as a ground station would.
     pub autostart: bool,
+    /// The vehicle's own home (the ArduPilot flavour answers it for item 0).
+    pub home: Home,
+    /// How long the ArduPilot flavour refuses uploads with MAV_MISSION_NO_SPACE after start
+    /// (ArduCopter SITL: about 10 s; 2 s by default so tests see it without waiting long).
+    pub boot: Duration,
 }
 
 /// Default speed-up: the 8-waypoint sample (about 170 s of flight) flies in under 10 s.
@@ -79,6 +88,8 @@ impl Default for MockConfig {
             flight: None,
             speedup: DEFAULT_SPEEDUP,
             autostart: false,
+            home: Home::default(),
+            boot: Duration::from_secs(2),
         }
     }
 }
@@ -102,6 +113,7 @@ pub enum SimError {
 
 #[derive(Debug, Default)]
 struct Shared {
+    revision: u64,
     mission: Vec<MISSION_ITEM_INT_DATA>,
     stats: ServerStats,
     vehicle: Option<Snapshot>,
@@ -276,11 +288,16 @@ async fn run(
     let f = config.faults;
     let mut server = MissionServer::new(
         config.flavour,
-        ProtocolFaults {
-            nack_item: f.nack_item,
-            nack_result: f.nack_result,
-            drop_final_ack: f.drop_final_ack,
-            reboot_at_item: f.reboot_at_item,
+        ServerConfig {
+            faults: ProtocolFaults {
+                nack_item: f.nack_item,
+                nack_result: f.nack_result,
+                drop_final_ack: f.drop_final_ack,
+                reboot_at_item: f.reboot_at_item,
+                corrupt_readback: f.corrupt_readback,
+            },
+            home: config.home,
+            boot: config.boot,
         },
     );
     let mut rng_up = Rng::new(config.seed ^ 0x005e_ed0f_u64);
@@ -304,10 +321,7 @@ async fn run(
     let heartbeat = MavMessage::HEARTBEAT(HEARTBEAT_DATA {
         custom_mode: 0,
         mavtype: MavType::MAV_TYPE_OCTOROTOR,
-        autopilot: match config.flavour {
-            Flavour::Px4 => MavAutopilot::MAV_AUTOPILOT_PX4,
-            Flavour::ArduPilot => MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
-        },
+        autopilot: config.flavour.autopilot(),
         base_mode: MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
         system_status: MavState::MAV_STATE_STANDBY,
         mavlink_version: 3,
@@ -356,8 +370,12 @@ async fn run(
             }
             _ = beat.tick(), if flight.is_none() => vec![heartbeat.clone()],
         };
+        // The mission is copied out only when it changed: not once per message.
         if let Ok(mut s) = shared.lock() {
-            s.mission = server.mission().to_vec();
+            if s.revision != server.revision() {
+                s.revision = server.revision();
+                s.mission = server.mission().to_vec();
+            }
             s.stats = server.stats;
             s.vehicle = flight.as_ref().map(SimVehicle::snapshot);
         }

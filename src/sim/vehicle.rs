@@ -39,7 +39,7 @@ use mavlink::MessageData;
 
 use super::battery::{Monitor, Pack, Reading, SensorNoise};
 use super::flight::{commands, Command, Event, Flight, FlightError, Landed};
-use super::server::Flavour;
+use crate::link::Flavour;
 use crate::link::mav::{
     MavAutopilot, MavBatteryChargeState, MavBatteryFunction, MavBatteryType, MavCmd,
     MavLandedState, MavMessage, MavModeFlag, MavResult, MavSeverity, MavState, MavSysStatusSensor,
@@ -158,7 +158,7 @@ impl Mode {
     /// The HEARTBEAT custom_mode of this mode.
     pub fn custom_mode(self, flavour: Flavour) -> u32 {
         match flavour {
-            Flavour::Px4 => {
+            Flavour::Px4 | Flavour::Generic => {
                 let (main, sub) = match self {
                     Mode::Hold => (PX4_AUTO, PX4_AUTO_LOITER),
                     Mode::Mission => (PX4_AUTO, PX4_AUTO_MISSION),
@@ -191,7 +191,7 @@ impl Mode {
     /// The mode a custom_mode names, if the flavour knows it.
     pub fn from_custom(flavour: Flavour, custom_mode: u32) -> Option<Mode> {
         match flavour {
-            Flavour::Px4 => {
+            Flavour::Px4 | Flavour::Generic => {
                 let main = (custom_mode >> 16) & 0xff;
                 let sub = (custom_mode >> 24) & 0xff;
                 Some(match (main, sub) {
@@ -259,10 +259,10 @@ const STREAM_IDS: [u32; 8] = [
 fn default_interval_s(flavour: Flavour, id: u32) -> Option<f64> {
     let hz = match (flavour, id) {
         (_, HEARTBEAT_DATA::ID) => 1.0,
-        (Flavour::Px4, GLOBAL_POSITION_INT_DATA::ID | LOCAL_POSITION_NED_DATA::ID) => 50.0,
-        (Flavour::Px4, BATTERY_STATUS_DATA::ID) => 0.5,
-        (Flavour::Px4, SYS_STATUS_DATA::ID | EXTENDED_SYS_STATE_DATA::ID) => 1.0,
-        (Flavour::Px4, MISSION_CURRENT_DATA::ID) => 1.0,
+        (Flavour::Px4 | Flavour::Generic, GLOBAL_POSITION_INT_DATA::ID | LOCAL_POSITION_NED_DATA::ID) => 50.0,
+        (Flavour::Px4 | Flavour::Generic, BATTERY_STATUS_DATA::ID) => 0.5,
+        (Flavour::Px4 | Flavour::Generic, SYS_STATUS_DATA::ID | EXTENDED_SYS_STATE_DATA::ID) => 1.0,
+        (Flavour::Px4 | Flavour::Generic, MISSION_CURRENT_DATA::ID) => 1.0,
         (Flavour::ArduPilot, GLOBAL_POSITION_INT_DATA::ID | LOCAL_POSITION_NED_DATA::ID) => 3.0,
         (Flavour::ArduPilot, _) if id != ATTITUDE_DATA::ID => 2.0,
         _ => return None,
@@ -355,7 +355,7 @@ impl<'v> SimVehicle<'v> {
             // Ground contact to a confirmed landing: PX4 SITL 1.1-1.3 s (measured), ArduCopter
             // LAND_DETECTOR_TRIGGER_SEC 1 s.
             flight: match flavour {
-                Flavour::Px4 => Flight::new(vehicle, profile)?
+                Flavour::Px4 | Flavour::Generic => Flight::new(vehicle, profile)?
                     .with_land_detection(1.2)
                     .with_instant_rtl_item(),
                 Flavour::ArduPilot => Flight::new(vehicle, profile)?.with_land_detection(1.0),
@@ -365,7 +365,7 @@ impl<'v> SimVehicle<'v> {
             step: 0,
             now_s: 0.0,
             mode: match flavour {
-                Flavour::Px4 => Mode::Hold,
+                Flavour::Px4 | Flavour::Generic => Mode::Hold,
                 Flavour::ArduPilot => Mode::Stabilized,
             },
             auto_armed: false,
@@ -440,7 +440,7 @@ impl<'v> SimVehicle<'v> {
             && items
                 .iter()
                 .zip(&self.mission)
-                .all(|(a, b)| crate::link::items::same_item(a, b));
+                .all(|(a, b)| identical(a, b));
         if !same {
             self.mission = items.to_vec();
             self.mission_finished = false;
@@ -473,7 +473,7 @@ impl<'v> SimVehicle<'v> {
     /// PX4 MISSION_START; ArduPilot GUIDED, arm, MISSION_START. Returns whether it flies.
     pub fn autostart(&mut self) -> bool {
         let ok = match self.flavour {
-            Flavour::Px4 => self.mission_start(0.0, 0.0) == MavResult::MAV_RESULT_ACCEPTED,
+            Flavour::Px4 | Flavour::Generic => self.mission_start(0.0, 0.0) == MavResult::MAV_RESULT_ACCEPTED,
             Flavour::ArduPilot => {
                 self.set_mode(Mode::Guided);
                 self.arm() == MavResult::MAV_RESULT_ACCEPTED
@@ -566,7 +566,7 @@ impl<'v> SimVehicle<'v> {
                     return MavResult::MAV_RESULT_DENIED;
                 }
                 let custom = match self.flavour {
-                    Flavour::Px4 => ((p[1] as u32) << 16) | ((p[2] as u32) << 24),
+                    Flavour::Px4 | Flavour::Generic => ((p[1] as u32) << 16) | ((p[2] as u32) << 24),
                     Flavour::ArduPilot => p[1] as u32,
                 };
                 match Mode::from_custom(self.flavour, custom) {
@@ -646,7 +646,7 @@ impl<'v> SimVehicle<'v> {
         if !self.flight.on_ground() && !forced {
             // Commander: "Disarming denied: not landed"; ArduCopter refuses it in flight too.
             return match self.flavour {
-                Flavour::Px4 => MavResult::MAV_RESULT_DENIED,
+                Flavour::Px4 | Flavour::Generic => MavResult::MAV_RESULT_DENIED,
                 Flavour::ArduPilot => MavResult::MAV_RESULT_FAILED,
             };
         }
@@ -666,7 +666,7 @@ impl<'v> SimVehicle<'v> {
 
     fn mission_start(&mut self, first: f32, last: f32) -> MavResult {
         match self.flavour {
-            Flavour::Px4 => {
+            Flavour::Px4 | Flavour::Generic => {
                 // Commander VEHICLE_CMD_MISSION_START: DENIED without a valid mission or with
                 // a first item out of range; else AUTO_MISSION and arm.
                 let total = self.mission.len() as f32;
@@ -705,7 +705,7 @@ impl<'v> SimVehicle<'v> {
                 None => {
                     // PX4: "mission not available"; ArduCopter: AUTO needs a mission.
                     return match self.flavour {
-                        Flavour::Px4 => MavResult::MAV_RESULT_TEMPORARILY_REJECTED,
+                        Flavour::Px4 | Flavour::Generic => MavResult::MAV_RESULT_TEMPORARILY_REJECTED,
                         Flavour::ArduPilot => MavResult::MAV_RESULT_FAILED,
                     };
                 }
@@ -774,17 +774,17 @@ impl<'v> SimVehicle<'v> {
             self.seq_reached = None;
         }
         self.silent_reached = match self.flavour {
-            Flavour::Px4 => last_waypoint_before_rtl(&commands),
+            Flavour::Px4 | Flavour::Generic => last_waypoint_before_rtl(&commands),
             Flavour::ArduPilot => None,
         };
         let spool_up_s = match self.flavour {
-            Flavour::Px4 => 1.0,       // COM_SPOOLUP_TIME
+            Flavour::Px4 | Flavour::Generic => 1.0,       // COM_SPOOLUP_TIME
             Flavour::ArduPilot => 0.5, // MOT_SPOOL_TIME
         };
         self.idle_since_s = None;
         let first = match self.flavour {
             Flavour::ArduPilot => self.mission_current.max(1),
-            Flavour::Px4 => self.mission_current,
+            Flavour::Px4 | Flavour::Generic => self.mission_current,
         };
         let events = self.flight.start(commands, first, spool_up_s);
         self.events(&events);
@@ -824,7 +824,7 @@ impl<'v> SimVehicle<'v> {
             .commands()
             .and_then(|c| c.get(usize::from(seq)).copied());
         match self.flavour {
-            Flavour::Px4 => {
+            Flavour::Px4 | Flavour::Generic => {
                 self.seq_reached = Some(seq);
                 if self.silent_reached == Some(seq) {
                     return;
@@ -925,7 +925,7 @@ impl<'v> SimVehicle<'v> {
         let after_landed_s = match self.flavour {
             // Measured on PX4 SITL: 0.3 and 0.6 s after the confirmed landing (COM_DISARM_LAND
             // counts from the land detector's earlier stages).
-            Flavour::Px4 => 0.5,
+            Flavour::Px4 | Flavour::Generic => 0.5,
             // ArduCopter disarms as soon as the land detector says landed (mode_auto.cpp
             // `verify_land`, mode_land.cpp).
             Flavour::ArduPilot => 0.0,
@@ -987,7 +987,7 @@ impl<'v> SimVehicle<'v> {
         let armed = self.flight.armed();
         let mut base_mode = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
         match self.flavour {
-            Flavour::Px4 => {
+            Flavour::Px4 | Flavour::Generic => {
                 if matches!(
                     self.mode,
                     Mode::Hold | Mode::Mission | Mode::Takeoff | Mode::Land | Mode::Rtl
@@ -1010,7 +1010,7 @@ impl<'v> SimVehicle<'v> {
             custom_mode: self.mode.custom_mode(self.flavour),
             mavtype: MavType::MAV_TYPE_OCTOROTOR,
             autopilot: match self.flavour {
-                Flavour::Px4 => MavAutopilot::MAV_AUTOPILOT_PX4,
+                Flavour::Px4 | Flavour::Generic => MavAutopilot::MAV_AUTOPILOT_PX4,
                 Flavour::ArduPilot => MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
             },
             base_mode,
@@ -1092,7 +1092,7 @@ impl<'v> SimVehicle<'v> {
         let mut voltages = [u16::MAX; 10];
         voltages[0] = millivolts(reading.voltage_v);
         let (function, kind, energy) = match self.flavour {
-            Flavour::Px4 => (
+            Flavour::Px4 | Flavour::Generic => (
                 MavBatteryFunction::MAV_BATTERY_FUNCTION_ALL,
                 MavBatteryType::MAV_BATTERY_TYPE_LIPO,
                 -1,
@@ -1145,8 +1145,8 @@ impl<'v> SimVehicle<'v> {
             self.mission_state
         };
         let total = match self.flavour {
-            Flavour::Px4 if count == 0 => u16::MAX,
-            Flavour::Px4 => count as u16,
+            Flavour::Px4 | Flavour::Generic if count == 0 => u16::MAX,
+            Flavour::Px4 | Flavour::Generic => count as u16,
             // ArduPilot leaves home (seq 0) out of the total.
             Flavour::ArduPilot => count.saturating_sub(1) as u16,
         };
@@ -1200,6 +1200,17 @@ pub fn builtin_vehicle() -> Result<Vehicle, crate::physics::PhysicsError> {
     )
 }
 
+/// Whether two stored items are the same bit for bit (NaN params included, which `==` never
+/// finds equal).
+fn identical(a: &MISSION_ITEM_INT_DATA, b: &MISSION_ITEM_INT_DATA) -> bool {
+    let floats = |i: &MISSION_ITEM_INT_DATA| {
+        [i.param1, i.param2, i.param3, i.param4, i.z].map(f32::to_bits)
+    };
+    floats(a) == floats(b)
+        && (a.seq, a.command, a.frame, a.x, a.y, a.current, a.autocontinue)
+            == (b.seq, b.command, b.frame, b.x, b.y, b.current, b.autocontinue)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1231,10 +1242,7 @@ mod tests {
         });
         let order: Vec<usize> = (0..with_return.waypoints.len()).collect();
         let opts = ItemOptions {
-            flavour: match flavour {
-                Flavour::Px4 => crate::link::Flavour::Px4,
-                Flavour::ArduPilot => crate::link::Flavour::ArduPilot,
-            },
+            flavour,
             ending: Ending::Land,
             ..ItemOptions::default()
         };
@@ -1320,7 +1328,7 @@ mod tests {
     fn set_mode(v: &mut SimVehicle, mode: Mode) -> MavResult {
         let custom = mode.custom_mode(v.flavour);
         let params = match v.flavour {
-            Flavour::Px4 => [
+            Flavour::Px4 | Flavour::Generic => [
                 1.0,
                 ((custom >> 16) & 0xff) as f32,
                 (custom >> 24) as f32,

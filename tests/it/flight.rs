@@ -63,10 +63,10 @@ async fn mock_with_mission(
     .unwrap();
     let target = link.discover(Duration::from_secs(10)).await.unwrap();
     let cfg = TransferConfig {
-        timeout: Duration::from_millis(300),
-        retries: 40,
         target_system: target.system_id,
         target_component: target.component_id,
+        flavour: target.flavour,
+        ..TransferConfig::default()
     };
     let report = upload_verified(&link, &target, items, cfg, |_, _| {})
         .await
@@ -272,7 +272,7 @@ async fn an_autostarting_ardupilot_mock_flies_an_uploaded_mission_by_itself() {
     // Only the first two waypoints, then land where the vehicle is: a short flight.
     let items = mission_items(&mission, &[0, 1], &opts).unwrap();
     let config = MockConfig {
-        flavour: emplan::sim::Flavour::ArduPilot,
+        flavour: emplan::link::Flavour::ArduPilot,
         speedup: 50.0,
         autostart: true,
         ..MockConfig::default()

@@ -1,15 +1,17 @@
-//! Verified upload over loopback UDP against the mock autopilot, under seeded loss, duplication
-//! and reordering, with NACKs, a lost final ack and a reboot mid-upload.
+//! Verified upload over loopback UDP against the mock autopilot with the settings every user gets
+//! (no tuning): seeded loss, duplication and reordering, NACKs, a lost final ack, a reboot
+//! mid-upload, each flavour's storage rules, a vehicle holding something else than was sent, and
+//! the CLI's failure document.
 
 use std::path::Path;
 use std::time::Duration;
 
 use emplan::link::connection::{Identity, Link};
-use emplan::link::driver::{upload_verified, DriverError};
+use emplan::link::driver::{upload_verified, UploadError, UploadReport};
 use emplan::link::items::{mission_items, ItemOptions};
 use emplan::link::mav::{MavMissionResult, MISSION_ITEM_INT_DATA};
-use emplan::link::transfer::{TransferConfig, TransferError};
-use emplan::link::Flavour;
+use emplan::link::transfer::{Stage, TransferConfig};
+use emplan::link::{testing, Flavour};
 use emplan::sim::{Faults, MockAutopilot, MockConfig};
 
 fn sample_items(flavour: Flavour) -> Vec<MISSION_ITEM_INT_DATA> {
@@ -30,20 +32,20 @@ fn sample_items(flavour: Flavour) -> Vec<MISSION_ITEM_INT_DATA> {
     .unwrap()
 }
 
-/// Timeouts for a very lossy link: wait 300 ms, retry many times.
-fn lossy() -> TransferConfig {
-    TransferConfig {
-        timeout: Duration::from_millis(300),
-        retries: 40,
-        ..TransferConfig::default()
-    }
+/// Whether the mock holds exactly what was sent (NaN parameters included).
+fn holds(stored: &[MISSION_ITEM_INT_DATA], items: &[MISSION_ITEM_INT_DATA]) -> bool {
+    emplan::link::readback::verify(Flavour::Generic, items, stored).is_ok()
 }
 
+/// Uploads `items` (the sample mission built for the mock's flavour when None) to a fresh mock
+/// with the CLI's default transfer settings (`budget` overrides the time budget); returns the
+/// outcome and what the mock stored.
 async fn upload_once(
     config: MockConfig,
-    cfg: TransferConfig,
+    items: Option<Vec<MISSION_ITEM_INT_DATA>>,
+    budget: Option<Duration>,
 ) -> (
-    Result<emplan::link::driver::UploadReport, DriverError>,
+    Result<UploadReport, UploadError>,
     Vec<MISSION_ITEM_INT_DATA>,
     Vec<MISSION_ITEM_INT_DATA>,
 ) {
@@ -55,16 +57,13 @@ async fn upload_once(
         .await
         .unwrap();
     let target = link.discover(Duration::from_secs(20)).await.unwrap();
-    let flavour = match config.flavour {
-        emplan::sim::Flavour::Px4 => Flavour::Px4,
-        emplan::sim::Flavour::ArduPilot => Flavour::ArduPilot,
-    };
-    assert_eq!(target.flavour, flavour);
-    let items = sample_items(flavour);
+    assert_eq!(target.flavour, config.flavour);
+    let items = items.unwrap_or_else(|| sample_items(config.flavour));
     let cfg = TransferConfig {
         target_system: target.system_id,
         target_component: target.component_id,
-        ..cfg
+        budget,
+        ..TransferConfig::default()
     };
     let result = upload_verified(&link, &target, &items, cfg, |_, _| {}).await;
     let stored = mock.mission();
@@ -74,7 +73,8 @@ async fn upload_once(
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn two_hundred_seeded_uploads_over_a_link_losing_thirty_percent_each_way_all_end_verified() {
+async fn two_hundred_seeded_uploads_with_default_settings_over_a_link_losing_thirty_percent_each_way_all_end_verified(
+) {
     let faults = Faults {
         loss_up: 0.3,
         loss_down: 0.3,
@@ -89,14 +89,17 @@ async fn two_hundred_seeded_uploads_over_a_link_losing_thirty_percent_each_way_a
             seed,
             ..MockConfig::default()
         };
-        tasks.push(tokio::spawn(upload_once(config, lossy())));
+        tasks.push(tokio::spawn(upload_once(config, None, None)));
     }
     let mut not_acked = 0;
     for (seed, task) in tasks.into_iter().enumerate() {
         let (result, items, stored) = task.await.unwrap();
         let report = result.unwrap_or_else(|e| panic!("seed {seed}: {e}"));
         assert!(report.verified);
-        assert_eq!(stored.len(), items.len(), "seed {seed}");
+        assert!(
+            holds(&stored, &items),
+            "seed {seed}: the mock holds what was sent"
+        );
         if !report.acked {
             not_acked += 1;
         }
@@ -106,12 +109,42 @@ async fn two_hundred_seeded_uploads_over_a_link_losing_thirty_percent_each_way_a
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn twenty_seeded_thirty_item_uploads_to_a_mavsdk_like_mock_at_thirty_percent_loss_all_verify()
+{
+    // The Generic flavour gives a transfer up after five tries as MAVSDK's MissionRawServer
+    // does; the upload and the read-back must start again and finish within their budget.
+    let faults = Faults {
+        loss_up: 0.3,
+        loss_down: 0.3,
+        ..Faults::default()
+    };
+    let mut tasks = Vec::new();
+    for seed in 0..20u64 {
+        let config = MockConfig {
+            flavour: Flavour::Generic,
+            faults,
+            seed: 1000 + seed,
+            ..MockConfig::default()
+        };
+        let items = testing::mission(Flavour::Generic, 30);
+        tasks.push(tokio::spawn(upload_once(config, Some(items), None)));
+    }
+    for (seed, task) in tasks.into_iter().enumerate() {
+        let (result, items, stored) = task.await.unwrap();
+        let report = result.unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+        assert!(report.verified);
+        assert_eq!(stored.len(), items.len());
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_nack_on_an_item_is_never_reported_as_done() {
     let mut tasks = Vec::new();
     for seed in 0..20u64 {
+        let lossy = seed % 2 == 1;
         let faults = Faults {
-            loss_up: if seed % 2 == 0 { 0.0 } else { 0.3 },
-            loss_down: if seed % 2 == 0 { 0.0 } else { 0.3 },
+            loss_up: if lossy { 0.3 } else { 0.0 },
+            loss_down: if lossy { 0.3 } else { 0.0 },
             nack_item: Some(3),
             nack_result: Some(MavMissionResult::MAV_MISSION_INVALID_PARAM7),
             ..Faults::default()
@@ -121,21 +154,27 @@ async fn a_nack_on_an_item_is_never_reported_as_done() {
             seed,
             ..MockConfig::default()
         };
-        let cfg = TransferConfig {
-            timeout: Duration::from_millis(200),
-            retries: 10,
-            ..TransferConfig::default()
-        };
-        tasks.push(tokio::spawn(upload_once(config, cfg)));
+        tasks.push(tokio::spawn(upload_once(
+            config,
+            None,
+            Some(Duration::from_secs(15)),
+        )));
     }
     for (seed, task) in tasks.into_iter().enumerate() {
         let (result, _, stored) = task.await.unwrap();
         let err = result.expect_err("a NACKed upload must not be done");
+        assert!(!err.accepted);
         if seed % 2 == 0 {
-            // Without loss the NACK itself arrives and is reported by name.
-            assert!(
-                matches!(&err, DriverError::Transfer(TransferError::Rejected { seq: 3, result }) if result == "MAV_MISSION_INVALID_PARAM7"),
-                "{err}"
+            // Without loss the NACK itself arrives and is reported by name and item.
+            assert_eq!(err.stage, Stage::Upload);
+            assert_eq!(err.item, Some(3));
+            assert_eq!(
+                err.refusal,
+                Some(MavMissionResult::MAV_MISSION_INVALID_PARAM7)
+            );
+            assert_eq!(
+                err.to_string(),
+                "upload: the autopilot refused at item 3: MAV_MISSION_INVALID_PARAM7"
             );
         }
         assert!(
@@ -154,19 +193,16 @@ async fn a_lost_final_ack_is_settled_by_read_back() {
         },
         ..MockConfig::default()
     };
-    let cfg = TransferConfig {
-        timeout: Duration::from_millis(200),
-        retries: 2,
-        ..TransferConfig::default()
-    };
-    let (result, items, stored) = upload_once(config, cfg).await;
+    let (result, items, stored) = upload_once(config, None, None).await;
     let report = result.unwrap();
     assert!(!report.acked && report.verified);
-    assert_eq!(stored.len(), items.len());
+    assert!(holds(&stored, &items));
 }
 
 #[tokio::test]
-async fn a_reboot_mid_upload_ends_in_an_error_naming_the_item_and_keeps_the_old_mission() {
+async fn a_reboot_mid_upload_is_outlasted_by_starting_again_from_count() {
+    // The mock forgets the transfer at item 4 and goes silent, as a rebooted PX4 would; after
+    // PX4's 5 s transfer timeout the upload starts again from MISSION_COUNT.
     let config = MockConfig {
         faults: Faults {
             reboot_at_item: Some(4),
@@ -174,64 +210,68 @@ async fn a_reboot_mid_upload_ends_in_an_error_naming_the_item_and_keeps_the_old_
         },
         ..MockConfig::default()
     };
-    let cfg = TransferConfig {
-        timeout: Duration::from_millis(150),
-        retries: 3,
-        ..TransferConfig::default()
-    };
-    let (result, _, stored) = upload_once(config, cfg).await;
-    let err = result.unwrap_err();
-    assert!(err.to_string().starts_with("item 4:"), "{err}");
-    assert!(stored.is_empty());
+    let (result, items, stored) = upload_once(config, None, None).await;
+    let report = result.unwrap();
+    assert!(report.verified && report.acked);
+    assert_eq!(report.restarts, 1);
+    assert!(holds(&stored, &items));
 }
 
 #[tokio::test]
-async fn an_ardupilot_mock_gets_its_home_item_and_verifies() {
+async fn an_ardupilot_mock_is_waited_out_while_it_boots_and_verifies_despite_its_own_home() {
+    // Item 0 reads back as the mock's home (16.1 m where the mission says 16.0), acceptance
+    // radius and NaN yaw as 0, RTL in MAV_FRAME_GLOBAL: ArduPilot's storage, not a difference.
     let config = MockConfig {
-        flavour: emplan::sim::Flavour::ArduPilot,
+        flavour: Flavour::ArduPilot,
         ..MockConfig::default()
     };
-    let (result, items, stored) = upload_once(config, TransferConfig::default()).await;
-    assert!(result.unwrap().verified);
-    assert_eq!(stored[0].frame, items[0].frame);
+    let (result, items, stored) = upload_once(config, None, None).await;
+    let report = result.unwrap();
+    assert!(report.verified);
+    assert!(report.refusals >= 1, "the 2 s boot refusal was seen");
     assert_eq!(stored.len(), 8 + 3);
+    assert_eq!(stored[0].z, items[0].z);
+}
+
+#[tokio::test]
+async fn a_px4_mock_answering_in_int_frames_verifies() {
+    let (result, _, _) = upload_once(MockConfig::default(), None, None).await;
+    assert!(result.unwrap().verified);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_vehicle_holding_a_different_latitude_is_caught_for_every_flavour() {
+    for flavour in [Flavour::Px4, Flavour::ArduPilot, Flavour::Generic] {
+        let config = MockConfig {
+            flavour,
+            boot: Duration::ZERO,
+            faults: Faults {
+                corrupt_readback: Some(3),
+                ..Faults::default()
+            },
+            ..MockConfig::default()
+        };
+        let (result, _, _) = upload_once(config, None, None).await;
+        let err = result.expect_err("a different item must not verify");
+        assert_eq!(
+            (err.stage, err.accepted, err.item),
+            (Stage::Verify, true, Some(3)),
+            "{flavour:?}: {err}"
+        );
+        assert!(
+            err.to_string()
+                .starts_with("verify: item 3 x (latitude, degE7) differs"),
+            "{err}"
+        );
+    }
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_five_hundred_item_mission_uploads_and_verifies_over_loopback() {
-    let mock = MockAutopilot::spawn("udpin:127.0.0.1:0", MockConfig::default())
-        .await
-        .unwrap();
-    let link = Link::connect(
-        &format!("udpout:{}", mock.local_addr()),
-        Identity::default(),
-        None,
-    )
-    .await
-    .unwrap();
-    let target = link.discover(Duration::from_secs(10)).await.unwrap();
-    let mut items = sample_items(Flavour::Px4);
-    let waypoint = items[1].clone();
-    items.truncate(1);
-    for k in 0..498 {
-        let mut it = waypoint.clone();
-        it.x += k * 10;
-        items.push(it);
-    }
-    items.push(sample_items(Flavour::Px4).last().unwrap().clone());
-    for (seq, it) in items.iter_mut().enumerate() {
-        it.seq = seq as u16;
-    }
-    assert_eq!(items.len(), 500);
-    let cfg = TransferConfig {
-        target_system: target.system_id,
-        target_component: target.component_id,
-        ..TransferConfig::default()
-    };
+    let items = testing::mission(Flavour::Px4, 500);
     let started = std::time::Instant::now();
-    let report = upload_verified(&link, &target, &items, cfg, |_, _| {})
-        .await
-        .unwrap();
+    let (result, _, stored) = upload_once(MockConfig::default(), Some(items.clone()), None).await;
+    let report = result.unwrap();
     println!(
         "500 items: upload {:.3} s, read-back {:.3} s, total {:.3} s",
         report.upload_s,
@@ -239,7 +279,7 @@ async fn a_five_hundred_item_mission_uploads_and_verifies_over_loopback() {
         started.elapsed().as_secs_f64()
     );
     assert!(report.acked && report.verified);
-    assert_eq!(mock.mission().len(), 500);
+    assert!(holds(&stored, &items));
 }
 
 #[tokio::test]
@@ -286,15 +326,18 @@ async fn a_signed_link_accepts_the_correctly_signed_mock_and_a_wrong_key_or_no_k
     let before = mock.stats();
     let target = unsigned.discover(Duration::from_secs(3)).await.unwrap();
     let cfg = TransferConfig {
-        timeout: Duration::from_millis(200),
-        retries: 2,
-        target_system: target.system_id,
-        target_component: target.component_id,
+        budget: Some(Duration::from_secs(2)),
+        ..cfg
     };
     let err = upload_verified(&unsigned, &target, &items, cfg, |_, _| {})
         .await
         .unwrap_err();
-    assert!(err.to_string().starts_with("count:"), "{err}");
+    assert!(
+        err.to_string().starts_with(
+            "upload: gave up after 2.0 s (the time budget) waiting for the autopilot's first item request"
+        ),
+        "{err}"
+    );
     assert_eq!(mock.stats(), before);
     drop(unsigned);
     mock.shutdown().await.unwrap();
@@ -302,8 +345,8 @@ async fn a_signed_link_accepts_the_correctly_signed_mock_and_a_wrong_key_or_no_k
 
 #[tokio::test]
 async fn set_current_and_clear_all_are_confirmed_by_the_mock() {
-    use emplan::link::driver::{download, run};
-    use emplan::link::transfer::Command;
+    use emplan::link::driver::{command, download};
+    use emplan::link::transfer::{Command, Rto};
     let mock = MockAutopilot::spawn("udpin:127.0.0.1:0", MockConfig::default())
         .await
         .unwrap();
@@ -323,10 +366,11 @@ async fn set_current_and_clear_all_are_confirmed_by_the_mock() {
     upload_verified(&link, &target, &sample_items(Flavour::Px4), cfg, |_, _| {})
         .await
         .unwrap();
-    run(&link, &target, &mut Command::set_current(cfg, 4), |_, _| {})
+    let rto = Rto::new(cfg.timing);
+    command(&link, &target, Command::set_current(cfg, rto, 4))
         .await
         .unwrap();
-    run(&link, &target, &mut Command::clear_all(cfg), |_, _| {})
+    command(&link, &target, Command::clear_all(cfg, rto))
         .await
         .unwrap();
     assert!(mock.mission().is_empty());
@@ -392,4 +436,107 @@ async fn a_tcp_link_reconnects_after_the_autopilot_closes_the_connection() {
         .await
         .unwrap();
     assert_eq!(rediscover.await.unwrap().unwrap(), Flavour::ArduPilot);
+}
+
+#[tokio::test]
+async fn a_tcp_autopilot_that_opens_its_port_late_is_waited_for() {
+    // Reserve a port, close it, and open it again a moment after connecting starts.
+    let probe = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = probe.local_addr().unwrap();
+    drop(probe);
+    let url = format!("tcpout:{addr}");
+    let late = tokio::spawn(async move {
+        tokio::time::sleep(Duration::from_millis(600)).await;
+        let listener = tokio::net::TcpListener::bind(addr).await.unwrap();
+        let _ = listener.accept().await;
+    });
+    assert!(Link::connect(&url, Identity::default(), None)
+        .await
+        .is_err());
+    let link = Link::connect_within(&url, Identity::default(), None, Duration::from_secs(5)).await;
+    assert!(link.is_ok(), "{:?}", link.err());
+    late.abort();
+}
+
+/// Runs `emplan upload --json` against a mock started here; returns (success, stdout JSON).
+fn upload_json(config: MockConfig, extra: &[&str]) -> (bool, serde_json::Value) {
+    let runtime = tokio::runtime::Runtime::new().unwrap();
+    let mock = runtime
+        .block_on(MockAutopilot::spawn("udpin:127.0.0.1:0", config))
+        .unwrap();
+    let url = format!("udpout:{}", mock.local_addr());
+    let mut args = vec![
+        "upload",
+        "missions/paper-sample-3wp.toml",
+        "--connect",
+        url.as_str(),
+        "--json",
+    ];
+    args.extend_from_slice(extra);
+    let (ok, stdout, stderr) = crate::emplan(&args);
+    runtime.block_on(mock.shutdown()).unwrap();
+    let doc = serde_json::from_str(&stdout)
+        .unwrap_or_else(|e| panic!("not one JSON document ({e}): {stdout}\n{stderr}"));
+    (ok, doc)
+}
+
+#[test]
+fn a_failed_upload_with_json_prints_one_document_naming_stage_acceptance_and_item() {
+    let config = MockConfig {
+        faults: Faults {
+            corrupt_readback: Some(2),
+            ..Faults::default()
+        },
+        ..MockConfig::default()
+    };
+    let (ok, doc) = upload_json(config, &[]);
+    assert!(!ok, "a different read-back must fail: {doc}");
+    assert_eq!(doc["ok"], false);
+    assert_eq!(doc["stage"], "verify");
+    assert_eq!(doc["accepted"], true);
+    assert_eq!(doc["item"], 2);
+    assert!(doc["error"]
+        .as_str()
+        .unwrap()
+        .contains("item 2 x (latitude, degE7) differs"));
+    let nacked = MockConfig {
+        faults: Faults {
+            nack_item: Some(1),
+            nack_result: Some(MavMissionResult::MAV_MISSION_DENIED),
+            ..Faults::default()
+        },
+        ..MockConfig::default()
+    };
+    let (ok, doc) = upload_json(nacked, &[]);
+    assert!(!ok);
+    assert_eq!(
+        (
+            &doc["stage"],
+            &doc["accepted"],
+            &doc["item"],
+            &doc["result"]
+        ),
+        (
+            &serde_json::json!("upload"),
+            &serde_json::json!(false),
+            &serde_json::json!(1),
+            &serde_json::json!("MAV_MISSION_DENIED")
+        )
+    );
+    // Nobody on the port: the connect stage.
+    let (ok, stdout, _) = crate::emplan(&[
+        "upload",
+        "missions/paper-sample-3wp.toml",
+        "--connect",
+        "udpout:127.0.0.1:9",
+        "--discover-s",
+        "1",
+        "--json",
+    ]);
+    assert!(!ok);
+    let doc: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(
+        (&doc["stage"], &doc["accepted"]),
+        (&serde_json::json!("connect"), &serde_json::json!(false))
+    );
 }

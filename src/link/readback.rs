@@ -1,0 +1,779 @@
+//! What each autopilot keeps of a mission item, so that a read-back is compared with what the
+//! autopilot will fly rather than byte for byte: a verified upload means the vehicle holds what
+//! was planned, and a real difference (a latitude off by 1 degE7, an altitude by 0.1 m, another
+//! command, another hold time) is still caught.
+//!
+//! Every rule names its source:
+//! - PX4: `src/modules/mavlink/mavlink_mission.cpp` (PX4-Autopilot commit 001bb4d7, PX4 main),
+//!   `parse_mavlink_mission_item` (what is stored) and `format_mavlink_mission_item` (what a
+//!   MISSION_REQUEST_INT is answered with); checked against PX4 SITL (main of 2026-03).
+//! - ArduPilot: `libraries/AP_Mission/AP_Mission.cpp`, `mavlink_int_to_mission_cmd` (stored),
+//!   `mission_cmd_to_mavlink_int` (answered), `read_cmd_from_storage` (item 0 is home); checked
+//!   against ArduCopter SITL (`../shared/sitl/ardupilot`).
+//! - Generic (MAVSDK's MissionRawServer and any other): stores the items as received.
+
+use std::fmt;
+
+use super::mav::{MavCmd, MavFrame, MISSION_ITEM_INT_DATA};
+use super::transfer::TransferError;
+use super::Flavour;
+
+/// One field of one item that differs from what the autopilot should hold.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Difference {
+    pub seq: u16,
+    pub field: &'static str,
+    pub sent: String,
+    /// What the autopilot should hold by its rule (equal to `sent` when it keeps the field).
+    pub expected: String,
+    pub read: String,
+    /// The storage rule applied, when the autopilot does not keep the field as sent.
+    pub rule: Option<&'static str>,
+}
+
+impl fmt::Display for Difference {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "item {} {} differs: sent {}, read back {}",
+            self.seq, self.field, self.sent, self.read
+        )?;
+        if let Some(rule) = self.rule {
+            write!(f, " (expected {}: {rule})", self.expected)?;
+        }
+        Ok(())
+    }
+}
+
+/// What a read-back field must hold.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Want {
+    /// Anything (the autopilot overwrites it).
+    Any,
+    Int(i64),
+    /// A float within an absolute tolerance; NaN only matches NaN.
+    Float(f32, f32),
+    /// An angle in degrees, equal modulo 360 within a tolerance; NaN only matches NaN.
+    Angle(f32, f32),
+}
+
+impl Want {
+    fn holds(self, read: f64) -> bool {
+        match self {
+            Want::Any => true,
+            Want::Int(v) => read == v as f64,
+            Want::Float(v, tol) => {
+                (v.is_nan() && read.is_nan()) || (f64::from(v) - read).abs() <= f64::from(tol)
+            }
+            Want::Angle(v, tol) => {
+                if v.is_nan() || read.is_nan() {
+                    return v.is_nan() && read.is_nan();
+                }
+                let d = (f64::from(v) - read).rem_euclid(360.0);
+                d.min(360.0 - d) <= f64::from(tol)
+            }
+        }
+    }
+
+    fn show(self) -> String {
+        match self {
+            Want::Any => "anything".into(),
+            Want::Int(v) => v.to_string(),
+            Want::Float(v, _) | Want::Angle(v, _) => format!("{v}"),
+        }
+    }
+}
+
+/// A field's expectation and, when the autopilot changes it, the rule that says how.
+#[derive(Debug, Clone, Copy)]
+struct Field {
+    want: Want,
+    rule: Option<&'static str>,
+}
+
+fn kept(want: Want) -> Field {
+    Field { want, rule: None }
+}
+
+fn ruled(want: Want, rule: &'static str) -> Field {
+    Field {
+        want,
+        rule: Some(rule),
+    }
+}
+
+/// What one read-back item must hold, field by field.
+#[derive(Debug, Clone, Copy)]
+struct Expect {
+    frame: Field,
+    command: Field,
+    x: Field,
+    y: Field,
+    z: Field,
+    params: [Field; 4],
+    autocontinue: Field,
+}
+
+/// Float tolerance of an autopilot that stores what it receives: 1e-4 relative, as a float
+/// passed through another implementation's serialisation must be.
+fn relative(v: f32) -> Want {
+    Want::Float(v, 1e-4 * v.abs().max(1.0))
+}
+
+fn generic(sent: &MISSION_ITEM_INT_DATA) -> Expect {
+    let p = [sent.param1, sent.param2, sent.param3, sent.param4];
+    Expect {
+        frame: kept(Want::Int(sent.frame as i64)),
+        command: kept(Want::Int(sent.command as i64)),
+        x: kept(Want::Int(i64::from(sent.x))),
+        y: kept(Want::Int(i64::from(sent.y))),
+        z: kept(relative(sent.z)),
+        params: p.map(|v| kept(relative(v))),
+        autocontinue: kept(Want::Int(i64::from(sent.autocontinue))),
+    }
+}
+
+/// The frame of a global item as PX4 answers MISSION_REQUEST_INT.
+#[allow(deprecated)]
+fn px4_frame(frame: MavFrame) -> Option<MavFrame> {
+    use MavFrame::*;
+    match frame {
+        // parse_mavlink_mission_item keeps only `altitude_is_relative`; format_mavlink_mission_item
+        // answers in int mode with MAV_FRAME_GLOBAL_RELATIVE_ALT_INT or MAV_FRAME_GLOBAL_INT.
+        MAV_FRAME_GLOBAL_RELATIVE_ALT | MAV_FRAME_GLOBAL_RELATIVE_ALT_INT => {
+            Some(MAV_FRAME_GLOBAL_RELATIVE_ALT_INT)
+        }
+        MAV_FRAME_GLOBAL | MAV_FRAME_GLOBAL_INT => Some(MAV_FRAME_GLOBAL_INT),
+        _ => None,
+    }
+}
+
+const PX4_FRAME: &str = "PX4 answers a global item in the _INT frame of its altitude reference \
+                         (mavlink_mission.cpp format_mavlink_mission_item)";
+const PX4_UNUSED: &str = "PX4 does not store this parameter for this command and answers 0 \
+                          (mavlink_mission.cpp parse_/format_mavlink_mission_item)";
+const PX4_YAW: &str = "PX4 stores yaw as radians wrapped to [0, 2pi) (wrap_2pi), answered in \
+                       degrees; NaN stays NaN";
+const PX4_BOOL: &str = "PX4 stores this parameter as a flag (> 0) and answers 0 or 1";
+
+fn px4(sent: &MISSION_ITEM_INT_DATA) -> Expect {
+    use MavCmd::*;
+    let mut e = generic(sent);
+    let Some(frame) = px4_frame(sent.frame) else {
+        // MAV_FRAME_MISSION items keep params[0..6] as floats and doubles: as sent.
+        return e;
+    };
+    e.frame = if frame == sent.frame {
+        kept(Want::Int(frame as i64))
+    } else {
+        ruled(Want::Int(frame as i64), PX4_FRAME)
+    };
+    // `altitude` is a float; PX4 SITL answered 49.0 as 49.00006 (an AMSL round trip).
+    e.z = kept(Want::Float(sent.z, 1e-3 + 1e-6 * sent.z.abs()));
+    let zero = ruled(Want::Float(0.0, 0.0), PX4_UNUSED);
+    let yaw = ruled(Want::Angle(sent.param4, 1e-3), PX4_YAW);
+    let flag = |v: f32| ruled(Want::Float(if v > 0.0 { 1.0 } else { 0.0 }, 0.0), PX4_BOOL);
+    let [p1, p2, p3, _] = e.params;
+    e.params = match sent.command {
+        // time_inside, acceptance_radius, yaw; the pass radius (param3) is not stored.
+        MAV_CMD_NAV_WAYPOINT => [p1, p2, zero, yaw],
+        MAV_CMD_NAV_TAKEOFF => [zero, zero, zero, yaw],
+        // "TODO: abort alt param1"; land_precision; yaw.
+        MAV_CMD_NAV_LAND => [zero, p2, zero, yaw],
+        MAV_CMD_NAV_LOITER_TIME => [p1, flag(sent.param2), p3, flag(sent.param4)],
+        MAV_CMD_NAV_LOITER_UNLIM => [zero, zero, p3, yaw],
+        _ => e.params,
+    };
+    e
+}
+
+const AP_HOME: &str =
+    "ArduPilot answers item 0 with its own home (AP_Mission::read_cmd_from_storage)";
+const AP_FRAME: &str = "ArduPilot keeps only whether an altitude is relative and answers \
+                        MAV_FRAME_GLOBAL_RELATIVE_ALT or MAV_FRAME_GLOBAL, and MAV_FRAME_GLOBAL (0) \
+                        for a command without a location (AP_Mission::mission_cmd_to_mavlink_int)";
+const AP_ALT: &str = "ArduPilot stores altitude in whole centimetres (`packet.z * 100.0f` into \
+                      an integer, AP_Mission::mavlink_int_to_mission_cmd)";
+const AP_UNUSED: &str = "ArduPilot does not store this parameter for this command and answers 0 \
+                         (AP_Mission::mavlink_int_to_mission_cmd, copter build)";
+const AP_WHOLE: &str = "ArduPilot stores this parameter as a whole number (cmd.p1, uint16_t)";
+const AP_SIGN: &str = "ArduPilot keeps only the direction (loiter_ccw) and answers -1 or 1";
+const AP_NO_LOCATION: &str = "ArduPilot stores no location for a command without one and answers 0";
+const AP_AUTOCONTINUE: &str = "ArduPilot answers autocontinue 1 (mission_cmd_to_mavlink_int)";
+
+/// Whether ArduPilot stores a location for the command (AP_Mission::stored_in_location: the
+/// navigation commands with a position; not RTL, not DO_ and CONDITION_ commands).
+#[allow(deprecated)]
+fn ap_location(command: MavCmd) -> bool {
+    use MavCmd::*;
+    matches!(
+        command,
+        MAV_CMD_NAV_WAYPOINT
+            | MAV_CMD_NAV_LOITER_UNLIM
+            | MAV_CMD_NAV_LOITER_TURNS
+            | MAV_CMD_NAV_LOITER_TIME
+            | MAV_CMD_NAV_LAND
+            | MAV_CMD_NAV_TAKEOFF
+            | MAV_CMD_NAV_CONTINUE_AND_CHANGE_ALT
+            | MAV_CMD_NAV_LOITER_TO_ALT
+            | MAV_CMD_NAV_SPLINE_WAYPOINT
+            | MAV_CMD_NAV_VTOL_TAKEOFF
+            | MAV_CMD_NAV_VTOL_LAND
+            | MAV_CMD_NAV_PAYLOAD_PLACE
+            | MAV_CMD_DO_SET_HOME
+            | MAV_CMD_DO_LAND_START
+            | MAV_CMD_DO_SET_ROI
+    )
+}
+
+/// A float parameter stored in an unsigned 16-bit field, truncated as C converts.
+fn whole(v: f32) -> f32 {
+    if v.is_nan() || v <= 0.0 {
+        0.0
+    } else {
+        v.trunc().min(65_535.0)
+    }
+}
+
+#[allow(deprecated)]
+fn ardupilot(sent: &MISSION_ITEM_INT_DATA) -> Expect {
+    use MavCmd::*;
+    use MavFrame::*;
+    let mut e = generic(sent);
+    if sent.seq == 0 {
+        let home = ruled(Want::Any, AP_HOME);
+        return Expect {
+            frame: home,
+            command: kept(Want::Int(MAV_CMD_NAV_WAYPOINT as i64)),
+            x: home,
+            y: home,
+            z: home,
+            params: [home; 4],
+            autocontinue: home,
+        };
+    }
+    let zero = ruled(Want::Float(0.0, 0.0), AP_UNUSED);
+    if ap_location(sent.command) {
+        let frame = match sent.frame {
+            MAV_FRAME_GLOBAL_RELATIVE_ALT | MAV_FRAME_GLOBAL_RELATIVE_ALT_INT => {
+                MAV_FRAME_GLOBAL_RELATIVE_ALT
+            }
+            MAV_FRAME_GLOBAL_TERRAIN_ALT | MAV_FRAME_GLOBAL_TERRAIN_ALT_INT => {
+                MAV_FRAME_GLOBAL_TERRAIN_ALT
+            }
+            _ => MAV_FRAME_GLOBAL,
+        };
+        if frame != sent.frame {
+            e.frame = ruled(Want::Int(frame as i64), AP_FRAME);
+        }
+        // Whole centimetres, truncated: at most 1 cm below what was sent, plus float error.
+        e.z = ruled(
+            Want::Float((sent.z * 100.0).trunc() / 100.0, 1.1e-2),
+            AP_ALT,
+        );
+    } else {
+        e.frame = ruled(Want::Int(MAV_FRAME_GLOBAL as i64), AP_FRAME);
+        let none = ruled(Want::Int(0), AP_NO_LOCATION);
+        e.x = none;
+        e.y = none;
+        e.z = ruled(Want::Float(0.0, 0.0), AP_NO_LOCATION);
+    }
+    let whole_p1 = if whole(sent.param1) == sent.param1 {
+        e.params[0]
+    } else {
+        ruled(Want::Float(whole(sent.param1), 0.0), AP_WHOLE)
+    };
+    let sign = |v: f32| ruled(Want::Float(if v < 0.0 { -1.0 } else { 1.0 }, 0.0), AP_SIGN);
+    let [_, p2, p3, _] = e.params;
+    e.params = match sent.command {
+        // Copter: cmd.p1 = hold time; acceptance radius, pass radius and yaw are not stored.
+        MAV_CMD_NAV_WAYPOINT | MAV_CMD_NAV_TAKEOFF | MAV_CMD_NAV_SPLINE_WAYPOINT => {
+            [whole_p1, zero, zero, zero]
+        }
+        // cmd.p1 = abort altitude; loiter_ccw = is_negative(param4) when not NaN.
+        MAV_CMD_NAV_LAND => [whole_p1, zero, zero, sign(sent.param4)],
+        MAV_CMD_NAV_RETURN_TO_LAUNCH => [zero; 4],
+        MAV_CMD_NAV_LOITER_TIME => [
+            whole_p1,
+            zero,
+            sign(sent.param3),
+            ruled(
+                Want::Float(if sent.param4 > 0.0 { 1.0 } else { 0.0 }, 0.0),
+                AP_SIGN,
+            ),
+        ],
+        // speed_type (uint8), target_ms and throttle_pct (floats).
+        MAV_CMD_DO_CHANGE_SPEED => [whole_p1, p2, p3, zero],
+        _ => e.params,
+    };
+    if sent.autocontinue != 1 {
+        e.autocontinue = ruled(Want::Int(1), AP_AUTOCONTINUE);
+    }
+    e
+}
+
+fn expect(flavour: Flavour, sent: &MISSION_ITEM_INT_DATA) -> Expect {
+    match flavour {
+        Flavour::Px4 => px4(sent),
+        Flavour::ArduPilot => ardupilot(sent),
+        Flavour::Generic => generic(sent),
+    }
+}
+
+/// Checks one read-back item against what `flavour` should hold of the item sent.
+pub fn check(
+    flavour: Flavour,
+    sent: &MISSION_ITEM_INT_DATA,
+    read: &MISSION_ITEM_INT_DATA,
+) -> Result<(), Box<Difference>> {
+    let e = expect(flavour, sent);
+    let fields: [(&'static str, Field, f64, f64); 10] = [
+        (
+            "command",
+            e.command,
+            sent.command as u32 as f64,
+            read.command as u32 as f64,
+        ),
+        (
+            "frame",
+            e.frame,
+            sent.frame as u32 as f64,
+            read.frame as u32 as f64,
+        ),
+        (
+            "x (latitude, degE7)",
+            e.x,
+            f64::from(sent.x),
+            f64::from(read.x),
+        ),
+        (
+            "y (longitude, degE7)",
+            e.y,
+            f64::from(sent.y),
+            f64::from(read.y),
+        ),
+        ("z (altitude, m)", e.z, f64::from(sent.z), f64::from(read.z)),
+        (
+            "param1",
+            e.params[0],
+            f64::from(sent.param1),
+            f64::from(read.param1),
+        ),
+        (
+            "param2",
+            e.params[1],
+            f64::from(sent.param2),
+            f64::from(read.param2),
+        ),
+        (
+            "param3",
+            e.params[2],
+            f64::from(sent.param3),
+            f64::from(read.param3),
+        ),
+        (
+            "param4",
+            e.params[3],
+            f64::from(sent.param4),
+            f64::from(read.param4),
+        ),
+        (
+            "autocontinue",
+            e.autocontinue,
+            f64::from(sent.autocontinue),
+            f64::from(read.autocontinue),
+        ),
+    ];
+    if read.seq != sent.seq {
+        return Err(Box::new(Difference {
+            seq: sent.seq,
+            field: "seq",
+            sent: sent.seq.to_string(),
+            expected: sent.seq.to_string(),
+            read: read.seq.to_string(),
+            rule: None,
+        }));
+    }
+    for (field, f, sent_value, read_value) in fields {
+        if !f.want.holds(read_value) {
+            return Err(Box::new(Difference {
+                seq: sent.seq,
+                field,
+                sent: format!("{sent_value}"),
+                expected: f.want.show(),
+                read: format!("{read_value}"),
+                rule: f.rule,
+            }));
+        }
+    }
+    Ok(())
+}
+
+/// Compares a read-back with what was sent, by what `flavour` keeps of each item.
+pub fn verify(
+    flavour: Flavour,
+    sent: &[MISSION_ITEM_INT_DATA],
+    read: &[MISSION_ITEM_INT_DATA],
+) -> Result<(), TransferError> {
+    if sent.len() != read.len() {
+        return Err(TransferError::CountMismatch {
+            held: read.len(),
+            sent: sent.len(),
+        });
+    }
+    for (a, b) in sent.iter().zip(read) {
+        check(flavour, a, b).map_err(TransferError::Mismatch)?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+#[allow(deprecated)]
+mod tests {
+    use super::*;
+    use crate::link::items::{mission_items, ItemOptions};
+    use MavCmd::*;
+    use MavFrame::*;
+
+    fn item(
+        seq: u16,
+        frame: MavFrame,
+        command: MavCmd,
+        p: [f32; 4],
+        x: i32,
+        y: i32,
+        z: f32,
+    ) -> MISSION_ITEM_INT_DATA {
+        MISSION_ITEM_INT_DATA {
+            param1: p[0],
+            param2: p[1],
+            param3: p[2],
+            param4: p[3],
+            x,
+            y,
+            z,
+            seq,
+            command,
+            frame,
+            autocontinue: 1,
+            ..Default::default()
+        }
+    }
+
+    const NAN: f32 = f32::NAN;
+
+    /// What was sent to the SITLs (`/tmp/probe`-style pymavlink uploads, see sitl/README.md)...
+    fn probe_sent() -> Vec<MISSION_ITEM_INT_DATA> {
+        vec![
+            item(
+                0,
+                MAV_FRAME_GLOBAL,
+                MAV_CMD_NAV_WAYPOINT,
+                [0.0, 0.0, 0.0, NAN],
+                385362001,
+                -1217875000,
+                16.0,
+            ),
+            item(
+                1,
+                MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                MAV_CMD_NAV_TAKEOFF,
+                [0.0, 0.0, 0.0, NAN],
+                385362000,
+                -1217875000,
+                30.0,
+            ),
+            item(
+                2,
+                MAV_FRAME_MISSION,
+                MAV_CMD_DO_CHANGE_SPEED,
+                [1.0, 5.0, -1.0, 0.0],
+                0,
+                0,
+                0.0,
+            ),
+            item(
+                3,
+                MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+                MAV_CMD_NAV_WAYPOINT,
+                [2.5, 2.0, 0.0, NAN],
+                385363802,
+                -1217877294,
+                54.123,
+            ),
+            item(
+                4,
+                MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                MAV_CMD_NAV_WAYPOINT,
+                [7.9, 2.0, 1.0, -90.0],
+                385363803,
+                -1217877294,
+                12.345,
+            ),
+            item(
+                5,
+                MAV_FRAME_MISSION,
+                MAV_CMD_NAV_RETURN_TO_LAUNCH,
+                [0.0; 4],
+                0,
+                0,
+                0.0,
+            ),
+        ]
+    }
+
+    /// ... and what PX4 SITL (PX4 main of 2026-03) answered, field for field.
+    fn px4_read() -> Vec<MISSION_ITEM_INT_DATA> {
+        vec![
+            item(
+                0,
+                MAV_FRAME_GLOBAL_INT,
+                MAV_CMD_NAV_WAYPOINT,
+                [0.0, 0.0, 0.0, NAN],
+                385362001,
+                -1217875000,
+                16.0,
+            ),
+            item(
+                1,
+                MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+                MAV_CMD_NAV_TAKEOFF,
+                [0.0, 0.0, 0.0, NAN],
+                385362000,
+                -1217875000,
+                30.0,
+            ),
+            item(
+                2,
+                MAV_FRAME_MISSION,
+                MAV_CMD_DO_CHANGE_SPEED,
+                [1.0, 5.0, -1.0, 0.0],
+                0,
+                0,
+                0.0,
+            ),
+            item(
+                3,
+                MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+                MAV_CMD_NAV_WAYPOINT,
+                [2.5, 2.0, 0.0, NAN],
+                385363802,
+                -1217877294,
+                54.123,
+            ),
+            item(
+                4,
+                MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+                MAV_CMD_NAV_WAYPOINT,
+                [7.9, 2.0, 0.0, 270.0],
+                385363803,
+                -1217877294,
+                12.345,
+            ),
+            item(
+                5,
+                MAV_FRAME_MISSION,
+                MAV_CMD_NAV_RETURN_TO_LAUNCH,
+                [0.0; 4],
+                0,
+                0,
+                0.0,
+            ),
+        ]
+    }
+
+    /// ... and what ArduCopter SITL answered (item 0: its own home, 16.1 m).
+    fn ardupilot_read() -> Vec<MISSION_ITEM_INT_DATA> {
+        vec![
+            item(
+                0,
+                MAV_FRAME_GLOBAL,
+                MAV_CMD_NAV_WAYPOINT,
+                [0.0; 4],
+                385362000,
+                -1217875000,
+                16.1,
+            ),
+            item(
+                1,
+                MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                MAV_CMD_NAV_TAKEOFF,
+                [0.0; 4],
+                385362000,
+                -1217875000,
+                30.0,
+            ),
+            item(
+                2,
+                MAV_FRAME_GLOBAL,
+                MAV_CMD_DO_CHANGE_SPEED,
+                [1.0, 5.0, -1.0, 0.0],
+                0,
+                0,
+                0.0,
+            ),
+            item(
+                3,
+                MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                MAV_CMD_NAV_WAYPOINT,
+                [2.0, 0.0, 0.0, 0.0],
+                385363802,
+                -1217877294,
+                54.12,
+            ),
+            item(
+                4,
+                MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                MAV_CMD_NAV_WAYPOINT,
+                [7.0, 0.0, 0.0, 0.0],
+                385363803,
+                -1217877294,
+                12.34,
+            ),
+            item(
+                5,
+                MAV_FRAME_GLOBAL,
+                MAV_CMD_NAV_RETURN_TO_LAUNCH,
+                [0.0; 4],
+                0,
+                0,
+                0.0,
+            ),
+        ]
+    }
+
+    #[test]
+    fn what_px4_sitl_answered_verifies_as_px4_and_not_as_sent() {
+        assert_eq!(verify(Flavour::Px4, &probe_sent(), &px4_read()), Ok(()));
+        let err = verify(Flavour::Generic, &probe_sent(), &px4_read()).unwrap_err();
+        assert!(err.to_string().contains("item 0 frame differs"), "{err}");
+    }
+
+    #[test]
+    fn what_ardupilot_sitl_answered_verifies_as_ardupilot_and_not_as_sent() {
+        assert_eq!(
+            verify(Flavour::ArduPilot, &probe_sent(), &ardupilot_read()),
+            Ok(())
+        );
+        assert!(verify(Flavour::Px4, &probe_sent(), &ardupilot_read()).is_err());
+    }
+
+    #[test]
+    fn the_generic_flavour_wants_every_field_as_sent() {
+        let sent = probe_sent();
+        assert_eq!(verify(Flavour::Generic, &sent, &sent), Ok(()));
+    }
+
+    /// Each real difference, applied to the read-back of every flavour, is caught and named.
+    #[test]
+    fn a_real_difference_is_caught_for_every_flavour() {
+        type Change = (&'static str, fn(&mut MISSION_ITEM_INT_DATA));
+        let changes: [Change; 5] = [
+            ("x (latitude, degE7)", |it| it.x += 1),
+            ("z (altitude, m)", |it| it.z += 0.1),
+            ("command", |it| it.command = MAV_CMD_NAV_LOITER_UNLIM),
+            ("param1", |it| it.param1 += 1.0),
+            ("y (longitude, degE7)", |it| it.y -= 1),
+        ];
+        let reads = [
+            (Flavour::Px4, px4_read()),
+            (Flavour::ArduPilot, ardupilot_read()),
+            (Flavour::Generic, probe_sent()),
+        ];
+        for (flavour, read) in reads {
+            // Item 3 is a waypoint with a hold time every flavour keeps.
+            for (field, change) in changes {
+                let mut bad = read.clone();
+                change(&mut bad[3]);
+                match verify(flavour, &probe_sent(), &bad) {
+                    Err(TransferError::Mismatch(d)) => {
+                        assert_eq!((d.seq, d.field), (3, field), "{flavour:?}: {d}")
+                    }
+                    other => panic!("{flavour:?} {field}: {other:?}"),
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn ardupilot_truncates_hold_time_and_altitude_and_the_error_says_so() {
+        let sent = probe_sent()[3].clone();
+        let mut read = ardupilot_read()[3].clone();
+        // The altitude truncated to whole centimetres is ArduPilot's; a hold of 2.5 s is not.
+        assert!(check(Flavour::ArduPilot, &sent, &read).is_ok());
+        read.param1 = 2.5;
+        let d = check(Flavour::ArduPilot, &sent, &read).unwrap_err();
+        assert_eq!(d.field, "param1");
+        assert_eq!(
+            d.to_string(),
+            "item 3 param1 differs: sent 2.5, read back 2.5 (expected 2: ArduPilot stores this \
+             parameter as a whole number (cmd.p1, uint16_t))"
+        );
+    }
+
+    #[test]
+    fn px4s_altitude_round_trip_error_passes_and_a_tenth_of_a_metre_does_not() {
+        let sent = item(
+            1,
+            MAV_FRAME_GLOBAL_RELATIVE_ALT,
+            MAV_CMD_NAV_WAYPOINT,
+            [5.0, 2.0, 0.0, NAN],
+            385363802,
+            -1217877294,
+            49.0,
+        );
+        let mut read = sent.clone();
+        read.frame = MAV_FRAME_GLOBAL_RELATIVE_ALT_INT;
+        // PX4 SITL's answer for the 8-waypoint sample's 49 m waypoint.
+        read.z = 49.000_06;
+        assert!(check(Flavour::Px4, &sent, &read).is_ok());
+        read.z = 49.1;
+        let d = check(Flavour::Px4, &sent, &read).unwrap_err();
+        assert_eq!(d.field, "z (altitude, m)");
+    }
+
+    #[test]
+    fn px4_yaw_is_compared_modulo_a_turn_and_nan_only_with_nan() {
+        let sent = item(
+            1,
+            MAV_FRAME_GLOBAL_RELATIVE_ALT,
+            MAV_CMD_NAV_WAYPOINT,
+            [0.0, 2.0, 0.0, -90.0],
+            1,
+            1,
+            30.0,
+        );
+        let mut read = sent.clone();
+        read.frame = MAV_FRAME_GLOBAL_RELATIVE_ALT_INT;
+        read.param4 = 270.0;
+        assert!(check(Flavour::Px4, &sent, &read).is_ok());
+        read.param4 = 271.0;
+        assert!(check(Flavour::Px4, &sent, &read).is_err());
+        read.param4 = NAN;
+        assert!(check(Flavour::Px4, &sent, &read).is_err());
+    }
+
+    #[test]
+    fn emplans_own_items_verify_against_each_flavours_storage_of_them() {
+        let mission = crate::mission::load(
+            &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("missions/paper-sample-8wp.toml"),
+        )
+        .unwrap();
+        let order: Vec<usize> = (0..mission.waypoints.len()).collect();
+        for flavour in [Flavour::Px4, Flavour::ArduPilot] {
+            let opts = ItemOptions {
+                flavour,
+                ..ItemOptions::default()
+            };
+            let sent = mission_items(&mission, &order, &opts).unwrap();
+            let stored: Vec<_> = sent
+                .iter()
+                .map(|it| {
+                    crate::sim::storage::stored(flavour, it, &crate::sim::storage::Home::default())
+                })
+                .collect();
+            assert_eq!(verify(flavour, &sent, &stored), Ok(()), "{flavour:?}");
+        }
+    }
+}

@@ -1,0 +1,124 @@
+//! Test fixtures shared by the link and sim unit tests, the integration tests and the benches:
+//! the mission items every protocol test uses, defined once, and the small message builders of
+//! the machine tests.
+
+use std::time::Duration;
+
+use super::mav::{
+    MavCmd, MavFrame, MavMessage, MavMissionResult, MavMissionType, MISSION_ACK_DATA,
+    MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA,
+};
+use super::transfer::Action;
+use super::Flavour;
+
+const MISSION: MavMissionType = MavMissionType::MAV_MISSION_TYPE_MISSION;
+
+fn item(seq: u16, command: MavCmd, frame: MavFrame, p: [f32; 4], z: f32) -> MISSION_ITEM_INT_DATA {
+    // Distinct positions 1 degE7 (about 1 cm) apart, north of the sample field.
+    let x = 385_362_000 + i32::from(seq);
+    MISSION_ITEM_INT_DATA {
+        seq,
+        ..super::items::item(command, frame, p, x, -1_217_875_000, z)
+    }
+}
+
+/// `n` NAV_WAYPOINT items numbered 0..n at 30 m relative altitude, each at its own latitude,
+/// with a 5 s hold and no other parameter.
+pub fn waypoints(n: u16) -> Vec<MISSION_ITEM_INT_DATA> {
+    (0..n)
+        .map(|seq| {
+            item(
+                seq,
+                MavCmd::MAV_CMD_NAV_WAYPOINT,
+                MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                [5.0, 0.0, 0.0, 0.0],
+                30.0,
+            )
+        })
+        .collect()
+}
+
+/// A mission of `n` items (at least 3) as emplan builds them for `flavour`: ArduPilot's home at
+/// item 0, NAV_TAKEOFF, NAV_WAYPOINTs (hold 5 s, acceptance radius 2 m, yaw NaN) and
+/// NAV_RETURN_TO_LAUNCH.
+pub fn mission(flavour: Flavour, n: u16) -> Vec<MISSION_ITEM_INT_DATA> {
+    let relative = MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT;
+    let n = n.max(3);
+    (0..n)
+        .map(|seq| {
+            let first = if flavour == Flavour::ArduPilot { 1 } else { 0 };
+            if flavour == Flavour::ArduPilot && seq == 0 {
+                item(
+                    seq,
+                    MavCmd::MAV_CMD_NAV_WAYPOINT,
+                    MavFrame::MAV_FRAME_GLOBAL,
+                    [0.0; 4],
+                    16.0,
+                )
+            } else if seq == first {
+                item(
+                    seq,
+                    MavCmd::MAV_CMD_NAV_TAKEOFF,
+                    relative,
+                    [0.0, 0.0, 0.0, f32::NAN],
+                    30.0,
+                )
+            } else if seq == n - 1 {
+                let mut rtl = item(
+                    seq,
+                    MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH,
+                    MavFrame::MAV_FRAME_MISSION,
+                    [0.0; 4],
+                    0.0,
+                );
+                (rtl.x, rtl.y) = (0, 0);
+                rtl
+            } else {
+                item(
+                    seq,
+                    MavCmd::MAV_CMD_NAV_WAYPOINT,
+                    relative,
+                    [5.0, 2.0, 0.0, f32::NAN],
+                    40.0,
+                )
+            }
+        })
+        .collect()
+}
+
+/// Milliseconds of the fake clock.
+pub fn ms(t: u64) -> Duration {
+    Duration::from_millis(t)
+}
+
+/// The autopilot's request for item `seq`.
+pub fn request(seq: u16) -> MavMessage {
+    MavMessage::MISSION_REQUEST_INT(MISSION_REQUEST_INT_DATA {
+        seq,
+        target_system: 255,
+        target_component: 190,
+        mission_type: MISSION,
+    })
+}
+
+/// A MISSION_ACK with `result`.
+pub fn ack(result: MavMissionResult) -> MavMessage {
+    MavMessage::MISSION_ACK(MISSION_ACK_DATA {
+        target_system: 255,
+        target_component: 190,
+        mavtype: result,
+        mission_type: MISSION,
+        opaque_id: 0,
+    })
+}
+
+/// The items a machine's actions send, by seq.
+pub fn sent_items(actions: &[Action]) -> Vec<u16> {
+    actions
+        .iter()
+        .filter_map(|a| match a {
+            Action::Send(MavMessage::MISSION_ITEM_INT(i)) => Some(i.seq),
+            _ => None,
+        })
+        .collect()
+}
