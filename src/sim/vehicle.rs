@@ -39,7 +39,6 @@ use mavlink::MessageData;
 
 use super::battery::{Monitor, Pack, Reading, SensorNoise};
 use super::flight::{commands, Command, Event, Flight, FlightError, Landed};
-use crate::link::Flavour;
 use crate::link::mav::{
     MavAutopilot, MavBatteryChargeState, MavBatteryFunction, MavBatteryType, MavCmd,
     MavLandedState, MavMessage, MavModeFlag, MavResult, MavSeverity, MavState, MavSysStatusSensor,
@@ -48,6 +47,7 @@ use crate::link::mav::{
     MISSION_CURRENT_DATA, MISSION_ITEM_INT_DATA, MISSION_ITEM_REACHED_DATA, STATUSTEXT_DATA,
     SYS_STATUS_DATA,
 };
+use crate::link::Flavour;
 use crate::mission::{Enu, Geodetic, Origin};
 use crate::physics::{Profile, Vehicle};
 
@@ -259,7 +259,10 @@ const STREAM_IDS: [u32; 8] = [
 fn default_interval_s(flavour: Flavour, id: u32) -> Option<f64> {
     let hz = match (flavour, id) {
         (_, HEARTBEAT_DATA::ID) => 1.0,
-        (Flavour::Px4 | Flavour::Generic, GLOBAL_POSITION_INT_DATA::ID | LOCAL_POSITION_NED_DATA::ID) => 50.0,
+        (
+            Flavour::Px4 | Flavour::Generic,
+            GLOBAL_POSITION_INT_DATA::ID | LOCAL_POSITION_NED_DATA::ID,
+        ) => 50.0,
         (Flavour::Px4 | Flavour::Generic, BATTERY_STATUS_DATA::ID) => 0.5,
         (Flavour::Px4 | Flavour::Generic, SYS_STATUS_DATA::ID | EXTENDED_SYS_STATE_DATA::ID) => 1.0,
         (Flavour::Px4 | Flavour::Generic, MISSION_CURRENT_DATA::ID) => 1.0,
@@ -473,7 +476,9 @@ impl<'v> SimVehicle<'v> {
     /// PX4 MISSION_START; ArduPilot GUIDED, arm, MISSION_START. Returns whether it flies.
     pub fn autostart(&mut self) -> bool {
         let ok = match self.flavour {
-            Flavour::Px4 | Flavour::Generic => self.mission_start(0.0, 0.0) == MavResult::MAV_RESULT_ACCEPTED,
+            Flavour::Px4 | Flavour::Generic => {
+                self.mission_start(0.0, 0.0) == MavResult::MAV_RESULT_ACCEPTED
+            }
             Flavour::ArduPilot => {
                 self.set_mode(Mode::Guided);
                 self.arm() == MavResult::MAV_RESULT_ACCEPTED
@@ -566,7 +571,9 @@ impl<'v> SimVehicle<'v> {
                     return MavResult::MAV_RESULT_DENIED;
                 }
                 let custom = match self.flavour {
-                    Flavour::Px4 | Flavour::Generic => ((p[1] as u32) << 16) | ((p[2] as u32) << 24),
+                    Flavour::Px4 | Flavour::Generic => {
+                        ((p[1] as u32) << 16) | ((p[2] as u32) << 24)
+                    }
                     Flavour::ArduPilot => p[1] as u32,
                 };
                 match Mode::from_custom(self.flavour, custom) {
@@ -705,7 +712,9 @@ impl<'v> SimVehicle<'v> {
                 None => {
                     // PX4: "mission not available"; ArduCopter: AUTO needs a mission.
                     return match self.flavour {
-                        Flavour::Px4 | Flavour::Generic => MavResult::MAV_RESULT_TEMPORARILY_REJECTED,
+                        Flavour::Px4 | Flavour::Generic => {
+                            MavResult::MAV_RESULT_TEMPORARILY_REJECTED
+                        }
                         Flavour::ArduPilot => MavResult::MAV_RESULT_FAILED,
                     };
                 }
@@ -778,8 +787,8 @@ impl<'v> SimVehicle<'v> {
             Flavour::ArduPilot => None,
         };
         let spool_up_s = match self.flavour {
-            Flavour::Px4 | Flavour::Generic => 1.0,       // COM_SPOOLUP_TIME
-            Flavour::ArduPilot => 0.5, // MOT_SPOOL_TIME
+            Flavour::Px4 | Flavour::Generic => 1.0, // COM_SPOOLUP_TIME
+            Flavour::ArduPilot => 0.5,              // MOT_SPOOL_TIME
         };
         self.idle_since_s = None;
         let first = match self.flavour {
@@ -1203,12 +1212,26 @@ pub fn builtin_vehicle() -> Result<Vehicle, crate::physics::PhysicsError> {
 /// Whether two stored items are the same bit for bit (NaN params included, which `==` never
 /// finds equal).
 fn identical(a: &MISSION_ITEM_INT_DATA, b: &MISSION_ITEM_INT_DATA) -> bool {
-    let floats = |i: &MISSION_ITEM_INT_DATA| {
-        [i.param1, i.param2, i.param3, i.param4, i.z].map(f32::to_bits)
-    };
+    let floats =
+        |i: &MISSION_ITEM_INT_DATA| [i.param1, i.param2, i.param3, i.param4, i.z].map(f32::to_bits);
     floats(a) == floats(b)
-        && (a.seq, a.command, a.frame, a.x, a.y, a.current, a.autocontinue)
-            == (b.seq, b.command, b.frame, b.x, b.y, b.current, b.autocontinue)
+        && (
+            a.seq,
+            a.command,
+            a.frame,
+            a.x,
+            a.y,
+            a.current,
+            a.autocontinue,
+        ) == (
+            b.seq,
+            b.command,
+            b.frame,
+            b.x,
+            b.y,
+            b.current,
+            b.autocontinue,
+        )
 }
 
 #[cfg(test)]

@@ -102,7 +102,8 @@ fn redact_json(text: &str) -> String {
 }
 
 /// Text with wall-clock durations replaced: a decimal number followed by " s" and then `)`,
-/// `:`, ` (`, `;` or the end of the line, and the last column of the study's table rows.
+/// `:`, ` (`, `;` or the end of the line, the link's round trip after an upload, and the last
+/// column of the study's table rows.
 fn redact_text(text: &str) -> String {
     text.lines()
         .map(|line| {
@@ -130,6 +131,12 @@ fn redact_text(text: &str) -> String {
                 rest = after;
             }
             out.push_str(rest);
+            // The link's round trip and restarts after an upload: "(round trip 0.4 ms)".
+            if let Some(at) = out.find("(round trip ") {
+                if let Some(end) = out[at..].find(')') {
+                    out.replace_range(at..at + end + 1, "(round trip [t])");
+                }
+            }
             // The study's table: "... |     91.5%     68.5%      0.5%     0.04".
             if out.contains(" | ") && out.contains('%') {
                 if let Some(k) = out.rfind(' ') {
