@@ -3,14 +3,21 @@
 //! subscribers; another sends the ground station's HEARTBEAT at 1 Hz (PX4's data-link-loss
 //! failsafe watches it). The autopilot is discovered from its first HEARTBEAT. When the
 //! transport fails (TCP closed, serial unplugged; UDP never fails) the error is logged and the
-//! receive task reconnects every second until it succeeds or the link is dropped;
+//! receive task reconnects every second until it succeeds or the link is dropped (each
+//! reconnect is counted on `reconnects()`, so telemetry requests can be issued again);
 //! `connect_within` waits for an autopilot whose port is not open yet.
+//!
+//! Taps (`tap()`) get every frame that crosses the link as raw bytes with its wall-clock time,
+//! received and sent, through an unbounded channel: the flight log must never lose a frame to a
+//! slow subscriber, which the broadcast channel of parsed messages may (it lags and drops).
+//! Frames we send are logged as serialised by us (MAVLink 2, unsigned, our own sequence
+//! number): the connection renumbers and signs them on the wire.
 
 use std::sync::Arc;
 use std::time::Duration;
 
-use mavlink::{AsyncMavConnection, MavHeader};
-use tokio::sync::{broadcast, watch};
+use mavlink::{AsyncMavConnection, MAVLinkMessageRaw, MavHeader, Message};
+use tokio::sync::{broadcast, mpsc, watch};
 
 use super::mav::{MavAutopilot, MavMessage, MavModeFlag, MavState, MavType, HEARTBEAT_DATA};
 use super::{Flavour, LinkError};
@@ -39,6 +46,33 @@ pub struct Autopilot {
     pub flavour: Flavour,
 }
 
+/// One MAVLink frame as it crossed the link.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Frame {
+    /// When it was received or sent: microseconds since the Unix epoch (the .tlog timestamp).
+    pub wall_us: u64,
+    /// Sent by us (true) or received (false).
+    pub outgoing: bool,
+    /// The whole frame, header to checksum (and signature).
+    pub bytes: Vec<u8>,
+}
+
+/// Microseconds since the Unix epoch, now.
+pub fn wall_us() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_micros() as u64)
+}
+
+type Taps = Arc<std::sync::Mutex<Vec<mpsc::UnboundedSender<Frame>>>>;
+
+/// Hands a frame to every tap, forgetting taps whose receiver is gone.
+fn to_taps(taps: &Taps, frame: Frame) {
+    if let Ok(mut taps) = taps.lock() {
+        taps.retain(|tap| tap.send(frame.clone()).is_ok());
+    }
+}
+
 type Connection = mavlink::AsyncConnection<MavMessage>;
 /// The current connection, replaced when the receive task reconnects.
 type Shared = Arc<std::sync::RwLock<Arc<Connection>>>;
@@ -65,6 +99,10 @@ pub struct Link {
     conn: Shared,
     header: MavHeader,
     incoming: broadcast::Sender<(MavHeader, MavMessage)>,
+    taps: Taps,
+    /// Our own sequence numbers for the frames we log as sent.
+    sent: std::sync::atomic::AtomicU8,
+    reconnects: watch::Receiver<u64>,
     shutdown: watch::Sender<bool>,
 }
 
@@ -92,11 +130,17 @@ impl Link {
             component_id: identity.component_id,
             sequence: 0,
         };
+        let taps: Taps = Arc::default();
+        let (reconnected, reconnects) = watch::channel(0);
         tokio::spawn(receive(
-            url.to_string(),
-            signing,
-            conn.clone(),
-            incoming.clone(),
+            Receiver {
+                url: url.to_string(),
+                signing,
+                conn: conn.clone(),
+                incoming: incoming.clone(),
+                taps: taps.clone(),
+                reconnected,
+            },
             shutdown.subscribe(),
         ));
         tokio::spawn(heartbeat(conn.clone(), header, shutdown.subscribe()));
@@ -105,6 +149,9 @@ impl Link {
             conn,
             header,
             incoming,
+            taps,
+            sent: std::sync::atomic::AtomicU8::new(0),
+            reconnects,
             shutdown,
         })
     }
@@ -135,9 +182,48 @@ impl Link {
         self.incoming.subscribe()
     }
 
+    /// Every frame that crosses the link from now on, received and sent, never dropped (the
+    /// channel is unbounded: drain it).
+    pub fn tap(&self) -> mpsc::UnboundedReceiver<Frame> {
+        let (tx, rx) = mpsc::unbounded_channel();
+        if let Ok(mut taps) = self.taps.lock() {
+            taps.push(tx);
+        }
+        rx
+    }
+
+    /// How many times the transport has been reopened; changes on each reconnect.
+    pub fn reconnects(&self) -> watch::Receiver<u64> {
+        self.reconnects.clone()
+    }
+
+    /// The connection URL.
+    pub fn url(&self) -> &str {
+        &self.url
+    }
+
     /// Sends one message.
     pub async fn send(&self, message: &MavMessage) -> Result<(), LinkError> {
         let conn = current(&self.conn).ok_or_else(|| LinkError::Closed(self.url.clone()))?;
+        let tapped = self.taps.lock().map(|t| !t.is_empty()).unwrap_or(false);
+        if tapped {
+            let header = MavHeader {
+                sequence: self
+                    .sent
+                    .fetch_add(1, std::sync::atomic::Ordering::Relaxed),
+                ..self.header
+            };
+            let mut raw = mavlink::MAVLinkV2MessageRaw::new();
+            raw.serialize_message(header, message);
+            to_taps(
+                &self.taps,
+                Frame {
+                    wall_us: wall_us(),
+                    outgoing: true,
+                    bytes: raw.raw_bytes().to_vec(),
+                },
+            );
+        }
         conn.send(&self.header, message)
             .await
             .map(|_| ())
@@ -204,37 +290,71 @@ async fn heartbeat(conn: Shared, header: MavHeader, mut shutdown: watch::Receive
     }
 }
 
-async fn receive(
+/// What the receive task owns.
+struct Receiver {
     url: String,
     signing: Option<mavlink::SigningConfig>,
     conn: Shared,
     incoming: broadcast::Sender<(MavHeader, MavMessage)>,
-    mut shutdown: watch::Receiver<bool>,
-) {
+    taps: Taps,
+    reconnected: watch::Sender<u64>,
+}
+
+impl Receiver {
+    /// Hands a received frame to the taps and, when it parses, its message to subscribers.
+    fn deliver(&self, raw: &MAVLinkMessageRaw) {
+        let bytes = match raw {
+            MAVLinkMessageRaw::V1(frame) => frame.raw_bytes(),
+            MAVLinkMessageRaw::V2(frame) => frame.raw_bytes(),
+        };
+        to_taps(
+            &self.taps,
+            Frame {
+                wall_us: wall_us(),
+                outgoing: false,
+                bytes: bytes.to_vec(),
+            },
+        );
+        match MavMessage::parse(raw.version(), raw.message_id(), raw.payload()) {
+            Ok(message) => {
+                let header = MavHeader {
+                    system_id: raw.system_id(),
+                    component_id: raw.component_id(),
+                    sequence: raw.sequence(),
+                };
+                let _ = self.incoming.send((header, message));
+            }
+            // A message of another dialect, or an enum value this one does not know: in the
+            // log (tapped above), not for subscribers.
+            Err(e) => tracing::debug!("frame {} not parsed: {e}", raw.message_id()),
+        }
+    }
+}
+
+async fn receive(rx: Receiver, mut shutdown: watch::Receiver<bool>) {
     loop {
-        let Some(active) = current(&conn) else { return };
+        let Some(active) = current(&rx.conn) else { return };
         tokio::select! {
             _ = shutdown.changed() => return,
             // No timeout around the receive: the shutdown branch ends the wait, and a TCP
             // read cancelled half-way through a frame would lose bytes.
-            received = active.recv() => match received {
-                Ok(message) => {
-                    let _ = incoming.send(message);
-                }
+            received = active.recv_raw() => match received {
+                Ok(raw) => rx.deliver(&raw),
                 Err(mavlink::error::MessageReadError::Io(e)) => {
                     // Never swallowed: reported, then the transport is reopened.
-                    tracing::error!("link {url}: receive failed: {e}; reconnecting");
+                    tracing::error!("link {}: receive failed: {e}; reconnecting", rx.url);
                     loop {
                         tokio::select! {
                             _ = shutdown.changed() => return,
                             _ = tokio::time::sleep(Duration::from_secs(1)) => {}
                         }
-                        match open(&url, signing.clone()).await {
+                        match open(&rx.url, rx.signing.clone()).await {
                             Ok(fresh) => {
-                                if let Ok(mut slot) = conn.write() {
+                                if let Ok(mut slot) = rx.conn.write() {
                                     *slot = Arc::new(fresh);
                                 }
-                                tracing::info!("link {url}: reconnected");
+                                rx.reconnected.send_modify(|n| *n += 1);
+                                tracing::info!("link {}: reconnected", rx.url);
                                 break;
                             }
                             Err(e) => tracing::warn!("{e}; retrying"),
