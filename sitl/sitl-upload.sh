@@ -1,21 +1,25 @@
 #!/usr/bin/env bash
 # Starts a real autopilot in SITL and, right after (no waiting for it to boot), uploads a mission
 # to it with emplan; fails unless emplan reports the upload verified. The SITL is stopped after.
-# Usage: sitl/sitl-upload.sh ardupilot|px4 [EMPLAN_BINARY] [MISSION]
+# Usage: sitl/sitl-upload.sh ardupilot|px4|ardupilot-corrupt [EMPLAN_BINARY] [MISSION]
 #   ardupilot: ../shared/sitl/ardupilot/run.sh INSTANCE 10 (INSTANCE from $SITL_INSTANCE, default
 #              0), emplan --connect tcpout:127.0.0.1:$((5760 + 10*INSTANCE)); ArduPilot refuses
 #              uploads with MAV_MISSION_NO_SPACE while it boots: emplan waits that out.
 #   px4:       sitl/px4-run.sh (one PX4 per machine), emplan --connect udpin:127.0.0.1:14550.
+#   ardupilot-corrupt: as ardupilot, through sitl/corrupting_proxy.py, which moves item 3's
+#              latitude 10 degE7 on its way: ArduPilot accepts and stores a different mission,
+#              and this fails unless emplan's read-back catches it (stage verify, accepted, item 3).
+#              Needs pymavlink: target/sitl-venv is made as sitl/mavsdk_peer.sh makes it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-which=${1:?usage: sitl/sitl-upload.sh ardupilot|px4 [EMPLAN_BINARY] [MISSION]}
+which=${1:?usage: sitl/sitl-upload.sh ardupilot|px4|ardupilot-corrupt [EMPLAN_BINARY] [MISSION]}
 emplan=${2:-target/debug/emplan}
 mission=${3:-missions/paper-sample-8wp.toml}
 shared=${SHARED_SITL:-../shared/sitl}
 [ -d "$shared" ] || shared=/work/shared/sitl
 log=$(mktemp -t emplan-sitl.XXXXXX)
 case "$which" in
-  ardupilot)
+  ardupilot|ardupilot-corrupt)
     inst=${SITL_INSTANCE:-0}
     "$shared/ardupilot/run.sh" "$inst" 10 >"$log" 2>&1 &
     url="tcpout:127.0.0.1:$((5760 + 10 * inst))"
@@ -27,9 +31,38 @@ case "$which" in
   *) echo "unknown autopilot $which (ardupilot or px4)" >&2; exit 2 ;;
 esac
 sitl=$!
-stop() { kill "$sitl" 2>/dev/null || true; wait "$sitl" 2>/dev/null || true; }
+proxy=
+stop() {
+  [ -n "$proxy" ] && kill "$proxy" 2>/dev/null || true
+  kill "$sitl" 2>/dev/null || true
+  wait "$sitl" 2>/dev/null || true
+}
 trap stop EXIT
 start=$(date +%s.%N)
+if [ "$which" = ardupilot-corrupt ]; then
+  venv=target/sitl-venv
+  [ -x "$venv/bin/python" ] || python3 -m venv "$venv"
+  "$venv/bin/pip" install --quiet --disable-pip-version-check pymavlink
+  port=$((5760 + 10 * inst))
+  proxy_port=$((15760 + 10 * inst))
+  # The autopilot's TCP port opens a moment after start.
+  for _ in $(seq 50); do (exec 3<>"/dev/tcp/127.0.0.1/$port") 2>/dev/null && break; sleep 0.2; done
+  "$venv/bin/python" sitl/corrupting_proxy.py "$proxy_port" "$port" 3 >>"$log" 2>&1 &
+  proxy=$!
+  sleep 1
+  if out=$(timeout 90 "$emplan" upload "$mission" --connect "tcpout:127.0.0.1:$proxy_port" --json); then
+    echo "FAIL: emplan reported verified although ArduPilot holds a different item 3:" >&2
+    echo "$out" >&2
+    exit 1
+  fi
+  python3 - "$out" <<'PY'
+import json, sys
+doc = json.loads(sys.argv[1])
+assert (doc["ok"], doc["stage"], doc["accepted"], doc["item"]) == (False, "verify", True, 3), doc
+print(f"ardupilot SITL holding a changed item 3: caught ({doc['error'].split(': verify: ')[-1]})")
+PY
+  exit 0
+fi
 if ! out=$(timeout 90 "$emplan" upload "$mission" --connect "$url" --json); then
   echo "FAIL: emplan upload to $which SITL ($url) did not verify:" >&2
   echo "$out" >&2
