@@ -13,4 +13,5 @@ pub mod physics;
 pub mod plan;
 pub mod planner;
 pub mod rng;
+pub mod session;
 pub mod sim;

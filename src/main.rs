@@ -33,6 +33,15 @@ enum Command {
     Upload(cmd::upload::Args),
     /// Read the autopilot's mission.
     Download(cmd::download::Args),
+    /// Plan, upload, fly (arming only with --arm), record the battery telemetry and report
+    /// every leg's energy against its prediction; without --connect the built-in mock flies it.
+    Fly(cmd::fly::Args),
+    /// Record a flight flown from any ground station until it lands (or Ctrl-C).
+    Record(cmd::record::Args),
+    /// Replay a recorded flight log and report it.
+    Replay(cmd::replay::Args),
+    /// Report recorded flights: per-leg predicted vs measured energy; several flights combined.
+    Report(cmd::report::Args),
     /// Run the built-in mock autopilot.
     MockAutopilot(cmd::mock_autopilot::Args),
     /// The paper's random-mission study: energy order vs distance orders over many missions.
@@ -82,6 +91,10 @@ fn main() -> ExitCode {
         Command::Calibrate(args) => cmd::calibrate::run(args),
         Command::Upload(args) => cmd::upload::run(args),
         Command::Download(args) => cmd::download::run(args),
+        Command::Fly(args) => cmd::fly::run(args),
+        Command::Record(args) => cmd::record::run(args),
+        Command::Replay(args) => cmd::replay::run(args),
+        Command::Report(args) => cmd::report::run(args),
         Command::MockAutopilot(args) => cmd::mock_autopilot::run(args),
         Command::Study(args) => cmd::study::run(args),
         Command::Generate(args) => cmd::generate::run(args),

@@ -4,10 +4,14 @@ pub mod calibrate;
 pub mod convert;
 pub mod download;
 pub mod energy;
+pub mod fly;
 pub mod generate;
 pub mod mock_autopilot;
 pub mod plan;
 pub mod plot;
+pub mod record;
+pub mod replay;
+pub mod report;
 pub mod sorties;
 pub mod study;
 pub mod table;
@@ -99,6 +103,87 @@ impl SolverArgs {
     }
 }
 
+/// Which visiting order to fly.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum OrderArg {
+    /// The minimum-energy order
+    Energy,
+    /// The minimum-distance order, in its cheaper direction
+    Distance,
+    /// The order the mission file lists
+    Listed,
+}
+
+/// What to fly of a mission, and the checks before it goes to the vehicle (`upload`, `fly`).
+#[derive(Debug, clap::Args)]
+pub struct FlightArgs {
+    #[arg(long, value_enum, default_value = "energy")]
+    pub order: OrderArg,
+    /// Fly only sortie K (1-based) of the split `emplan plan --sorties` prints: the mission
+    /// flown on one battery of several, in its own minimum-energy order
+    #[arg(long, value_name = "K", conflicts_with = "order")]
+    pub sortie: Option<usize>,
+    #[command(flatten)]
+    pub model: VehicleArgs,
+    /// Go ahead even when the model says the battery cannot fly the mission with its reserve
+    #[arg(long)]
+    pub allow_infeasible: bool,
+    /// Waypoint acceptance radius sent as param2 (m)
+    #[arg(long, default_value_t = 2.0)]
+    pub acceptance_radius_m: f32,
+    #[command(flatten)]
+    pub solver: SolverArgs,
+}
+
+impl FlightArgs {
+    /// Plans what the command flies: only that order (no baselines for the energy order or a
+    /// sortie, no energy solve for the distance or the listed order).
+    pub fn plan(
+        &self,
+        mission: &emplan::mission::Mission,
+    ) -> anyhow::Result<(emplan::physics::VehicleModel, emplan::planner::Plan)> {
+        use emplan::planner::{plan_mission, Orders, PlanOptions};
+        let model = emplan::physics::VehicleModel::load(&self.model.vehicle, self.model.profile)?;
+        let orders = match (self.sortie, self.order) {
+            (Some(_), _) | (None, OrderArg::Energy) => Orders::Energy,
+            (None, OrderArg::Distance) => Orders::Distance,
+            (None, OrderArg::Listed) => Orders::Listed,
+        };
+        let options = PlanOptions {
+            orders,
+            solver: self.solver.options()?,
+            sorties: self.sortie.is_some(),
+        };
+        let plan = plan_mission(mission, &model, &options)?;
+        Ok((model, plan))
+    }
+
+    /// The flight chosen (`--sortie K` or the order), refused when the battery cannot fly it
+    /// with its reserve unless `--allow-infeasible`.
+    pub fn flight<'a>(
+        &self,
+        plan: &'a emplan::planner::Plan,
+    ) -> anyhow::Result<emplan::planner::Flight<'a>> {
+        use emplan::planner::PlannerError;
+        let flight = plan.flight(self.sortie).map_err(|e| match e {
+            PlannerError::NoSuchSortie { sortie, count } => {
+                anyhow::anyhow!(
+                    "--sortie {sortie}: the mission splits into {count} sorties (1 to {count})"
+                )
+            }
+            other => other.into(),
+        })?;
+        if !self.allow_infeasible {
+            if let Err(refused) = flight.require_feasible() {
+                anyhow::bail!(
+                    "{refused}: not uploaded (split it with `emplan plan --sorties` and upload one with --sortie K, or pass --allow-infeasible to override)"
+                );
+            }
+        }
+        Ok(flight)
+    }
+}
+
 /// Options of every command that talks to an autopilot.
 #[derive(Debug, clap::Args)]
 pub struct LinkArgs {
@@ -144,6 +229,17 @@ impl LinkArgs {
     /// Connects (starting the built-in mock when no `--connect` is given), discovers the
     /// autopilot and returns the link with the transfer settings.
     pub async fn open(&self) -> anyhow::Result<Opened> {
+        self.open_with(emplan::sim::MockConfig::default(), None)
+            .await
+    }
+
+    /// As [`LinkArgs::open`], the built-in mock (when no `--connect` is given) configured by
+    /// `mock` and flying with `vehicle` (None: the built-in S1000).
+    pub async fn open_with(
+        &self,
+        mock: emplan::sim::MockConfig,
+        vehicle: Option<emplan::physics::Vehicle>,
+    ) -> anyhow::Result<Opened> {
         let patience = seconds("discover-s", self.discover_s)?;
         let budget = self.budget_s.map(|b| seconds("budget-s", b)).transpose()?;
         let signing_key = match &self.signing_key {
@@ -153,14 +249,21 @@ impl LinkArgs {
         let (url, describe, mock) = match &self.connect {
             Some(url) => (url.clone(), url.clone(), None),
             None => {
-                let mock = emplan::sim::MockAutopilot::spawn(
-                    "udpin:127.0.0.1:0",
-                    emplan::sim::MockConfig {
-                        signing_key,
-                        ..Default::default()
-                    },
-                )
-                .await?;
+                let config = emplan::sim::MockConfig {
+                    signing_key,
+                    ..mock
+                };
+                let mock = match vehicle {
+                    Some(vehicle) => {
+                        emplan::sim::MockAutopilot::spawn_with_vehicle(
+                            "udpin:127.0.0.1:0",
+                            config,
+                            vehicle,
+                        )
+                        .await?
+                    }
+                    None => emplan::sim::MockAutopilot::spawn("udpin:127.0.0.1:0", config).await?,
+                };
                 let url = format!("udpout:{}", mock.local_addr());
                 let describe = format!("the built-in mock autopilot ({url}; no --connect given)");
                 (url, describe, Some(mock))

@@ -375,3 +375,115 @@ pub fn study_histogram_svg(path: &Path, study: &Study, profile: Profile) -> anyh
     }
     write_svg(path, &svg)
 }
+
+/// A recorded flight (or several) drawn: battery power over vehicle time with every leg shaded
+/// and named, and each leg's predicted against measured energy as paired bars.
+pub fn flight_svg(
+    path: &Path,
+    analyses: &[emplan::link::telemetry::Analysis],
+) -> anyhow::Result<()> {
+    use emplan::flightlog::segment::SegmentKind;
+    let mut svg = String::new();
+    {
+        let rows = analyses.len().max(1);
+        let root =
+            SVGBackend::with_string(&mut svg, (WIDTH_PX, 560 * rows as u32)).into_drawing_area();
+        let err = drawing(path);
+        root.fill(&WHITE).map_err(&err)?;
+        for (area, analysis) in root.split_evenly((rows, 1)).iter().zip(analyses) {
+            let (left, right) = area.split_horizontally(WIDTH_PX * 3 / 5);
+            let power = analysis.segmenter.series().valid_power();
+            let t_max = power.last().map_or(1.0, |p| p.0).max(1.0);
+            let p_max = power.iter().map(|p| p.1).fold(100.0_f64, f64::max) * 1.1;
+            let mut chart = ChartBuilder::on(&left)
+                .caption(
+                    format!("{}: battery power", analysis.report.flight),
+                    (FONT, 20),
+                )
+                .margin(12)
+                .x_label_area_size(44)
+                .y_label_area_size(64)
+                .build_cartesian_2d(0.0..t_max, 0.0..p_max)
+                .map_err(&err)?;
+            chart
+                .configure_mesh()
+                .x_desc("vehicle time (s)")
+                .y_desc("power (W)")
+                .light_line_style(RGBColor(0xee, 0xee, 0xee))
+                .draw()
+                .map_err(&err)?;
+            for segment in analysis.segmenter.segments() {
+                if let SegmentKind::Leg(k) = segment.kind {
+                    let shade = if k % 2 == 0 { 0.10 } else { 0.18 };
+                    chart
+                        .draw_series(std::iter::once(Rectangle::new(
+                            [(segment.start_s, 0.0), (segment.end_s, p_max)],
+                            ENERGY_COLOUR.mix(shade).filled(),
+                        )))
+                        .map_err(&err)?;
+                    let (_, to) = analysis.segmenter.plan().leg_names(k);
+                    chart
+                        .draw_series(std::iter::once(Text::new(
+                            to,
+                            (segment.start_s, p_max * 0.97),
+                            (FONT, 14),
+                        )))
+                        .map_err(&err)?;
+                }
+            }
+            chart
+                .draw_series(LineSeries::new(
+                    power.iter().copied(),
+                    DISTANCE_COLOUR.stroke_width(2),
+                ))
+                .map_err(&err)?;
+            // Predicted vs measured per leg.
+            let legs = &analysis.report.legs;
+            let top = legs
+                .iter()
+                .flat_map(|l| [l.predicted_j, l.measured_j])
+                .flatten()
+                .fold(1.0_f64, f64::max)
+                / 1000.0
+                * 1.15;
+            let n = legs.len().max(1) as f64;
+            let mut bars = ChartBuilder::on(&right)
+                .caption(
+                    "energy per leg: predicted (light) vs measured (dark)",
+                    (FONT, 18),
+                )
+                .margin(12)
+                .x_label_area_size(44)
+                .y_label_area_size(64)
+                .build_cartesian_2d(0.0..n, 0.0..top)
+                .map_err(&err)?;
+            bars.configure_mesh()
+                .x_desc("leg")
+                .y_desc("kJ")
+                .x_labels(legs.len().max(1))
+                .x_label_formatter(&|x| format!("{}", x.floor() as usize + 1))
+                .light_line_style(RGBColor(0xee, 0xee, 0xee))
+                .draw()
+                .map_err(&err)?;
+            for (k, leg) in legs.iter().enumerate() {
+                let x = k as f64;
+                if let Some(p) = leg.predicted_j {
+                    bars.draw_series(std::iter::once(Rectangle::new(
+                        [(x + 0.1, 0.0), (x + 0.48, p / 1000.0)],
+                        ENERGY_COLOUR.mix(0.35).filled(),
+                    )))
+                    .map_err(&err)?;
+                }
+                if let Some(m) = leg.measured_j {
+                    bars.draw_series(std::iter::once(Rectangle::new(
+                        [(x + 0.52, 0.0), (x + 0.9, m / 1000.0)],
+                        ENERGY_COLOUR.filled(),
+                    )))
+                    .map_err(&err)?;
+                }
+            }
+        }
+        root.present().map_err(&err)?;
+    }
+    write_svg(path, &svg)
+}

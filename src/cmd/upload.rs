@@ -5,26 +5,13 @@
 //! and with `--json` a failure prints one JSON document too: `{"ok": false, "stage", "accepted",
 //! "error", "item", "result"}`.
 
-use anyhow::{bail, Context};
+use anyhow::Context;
 use emplan::link::driver::{upload_verified, UploadError};
 use emplan::link::items::{mission_items, ItemOptions};
-use emplan::physics::VehicleModel;
 use emplan::planner::json::{upload_document, UploadPlanJson};
-use emplan::planner::{plan_mission, Orders, PlanOptions, PlannerError};
 use serde::Serialize;
 use std::path::PathBuf;
 use std::process::ExitCode;
-
-/// Which visiting order to fly.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum Order {
-    /// The minimum-energy order
-    Energy,
-    /// The minimum-distance order, in its cheaper direction
-    Distance,
-    /// The order the mission file lists
-    Listed,
-}
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -32,25 +19,11 @@ pub struct Args {
     mission: PathBuf,
     #[command(flatten)]
     link: super::LinkArgs,
-    #[arg(long, value_enum, default_value = "energy")]
-    order: Order,
-    /// Upload only sortie K (1-based) of the split `emplan plan --sorties` prints: the mission
-    /// flown on one battery of several, in its own minimum-energy order
-    #[arg(long, value_name = "K", conflicts_with = "order")]
-    sortie: Option<usize>,
     #[command(flatten)]
-    model: super::VehicleArgs,
-    /// Upload even when the model says the battery cannot fly the mission with its reserve
-    #[arg(long)]
-    allow_infeasible: bool,
-    /// Waypoint acceptance radius sent as param2 (m)
-    #[arg(long, default_value_t = 2.0)]
-    acceptance_radius_m: f32,
+    flight: super::FlightArgs,
     /// Print one JSON document instead of text
     #[arg(long)]
     json: bool,
-    #[command(flatten)]
-    solver: super::SolverArgs,
 }
 
 #[derive(Serialize)]
@@ -111,37 +84,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
 
 fn upload(args: Args) -> anyhow::Result<ExitCode> {
     let mission = emplan::mission::load(&args.mission)?;
-    let model = VehicleModel::load(&args.model.vehicle, args.model.profile)?;
-    // Only what the upload flies is planned: no baselines for the energy order or a sortie,
-    // no energy solve for the distance or the listed order.
-    let orders = match (args.sortie, args.order) {
-        (Some(_), _) | (None, Order::Energy) => Orders::Energy,
-        (None, Order::Distance) => Orders::Distance,
-        (None, Order::Listed) => Orders::Listed,
-    };
-    let options = PlanOptions {
-        orders,
-        solver: args.solver.options()?,
-        sorties: args.sortie.is_some(),
-    };
-    let plan = plan_mission(&mission, &model, &options)?;
-    let flight = plan.flight(args.sortie).map_err(|e| match e {
-        PlannerError::NoSuchSortie { sortie, count } => {
-            anyhow::anyhow!(
-                "--sortie {sortie}: the mission splits into {count} sorties (1 to {count})"
-            )
-        }
-        other => other.into(),
-    })?;
+    let (_, plan) = args.flight.plan(&mission)?;
+    let flight = args.flight.flight(&plan)?;
     let planned = upload_document(&plan, &flight);
     let order = flight.waypoints();
-    if !args.allow_infeasible {
-        if let Err(refused) = flight.require_feasible() {
-            bail!(
-                "{refused}: not uploaded (split it with `emplan plan --sorties` and upload one with --sortie K, or pass --allow-infeasible to override)"
-            );
-        }
-    }
     let runtime = super::runtime()?;
     runtime.block_on(async {
         let opened = args
@@ -153,7 +99,7 @@ fn upload(args: Args) -> anyhow::Result<ExitCode> {
                 cause,
             })?;
         let (link, target, cfg) = (&opened.link, opened.target, opened.config);
-        let opts = ItemOptions { flavour: target.flavour, acceptance_radius_m: args.acceptance_radius_m, ..ItemOptions::default() };
+        let opts = ItemOptions { flavour: target.flavour, acceptance_radius_m: args.flight.acceptance_radius_m, ..ItemOptions::default() };
         let items = mission_items(&mission, &order, &opts).context("building mission items")?;
         if !args.json {
             eprintln!("uploading {} items to {:?} autopilot {} on {}", items.len(), target.flavour, target.system_id, opened.describe);

@@ -118,6 +118,8 @@ pub struct Segmenter {
     flight_end_s: Option<f64>,
     now_s: f64,
     last_position: Option<(f64, Enu)>,
+    /// (time, speed) of the latest positions, for finding when a departure began.
+    recent_speeds: std::collections::VecDeque<(f64, f64)>,
     /// Departure tracking around the current hover point.
     inside_departure: bool,
     exit_s: Option<f64>,
@@ -184,6 +186,7 @@ impl Segmenter {
             flight_end_s: None,
             now_s: 0.0,
             last_position: None,
+            recent_speeds: std::collections::VecDeque::new(),
             inside_departure: false,
             exit_s: None,
             stop_s: None,
@@ -443,6 +446,10 @@ impl Segmenter {
     fn on_position(&mut self, t_s: f64, p: Enu, speed_m_s: f64) {
         let previous = self.last_position;
         self.last_position = Some((t_s, p));
+        self.recent_speeds.push_back((t_s, speed_m_s));
+        while self.recent_speeds.len() > 64 {
+            self.recent_speeds.pop_front();
+        }
         let r = self.cfg.arrival_radius_m;
         match self.phase {
             Phase::Active(SegmentKind::Leg(k)) => {
@@ -498,6 +505,41 @@ impl Segmenter {
         self.on_position_in_hover(t_s, p, previous);
     }
 
+    /// When the motion that left the hover point at `exit_s` began: speed grows from rest as
+    /// (t - t0)^2 under a jerk-limited start (PX4's S-curve, the quintic), so sqrt(speed) is
+    /// linear in time; extrapolated back from the first two moving samples, and bounded by the
+    /// last sample at rest before them. Without such samples, the exit itself.
+    fn motion_start(&self, exit_s: f64) -> f64 {
+        const REST_M_S: f64 = 0.05;
+        let before: Vec<(f64, f64)> = self
+            .recent_speeds
+            .iter()
+            .copied()
+            .filter(|&(t, _)| t <= exit_s + 1e-9)
+            .collect();
+        // The last sample at rest, and the moving samples after it.
+        let rest = before.iter().rposition(|&(_, v)| v <= REST_M_S);
+        let moving: Vec<(f64, f64)> = match rest {
+            Some(i) => before[i + 1..].to_vec(),
+            None => before.clone(),
+        };
+        let lower = rest.map(|i| before[i].0);
+        let estimate = match moving.as_slice() {
+            [(t1, v1), (t2, v2), ..] if v2 > v1 && t2 > t1 => {
+                let (a, b) = (v1.sqrt(), v2.sqrt());
+                Some(t1 - a * (t2 - t1) / (b - a))
+            }
+            [(t1, _), ..] => Some(lower.map_or(*t1, |l| 0.5 * (l + t1))),
+            [] => lower,
+        };
+        let upper = moving.first().map_or(exit_s, |m| m.0).min(exit_s);
+        match (estimate, lower) {
+            (Some(e), Some(l)) => e.clamp(l, upper),
+            (Some(e), None) => e.min(upper),
+            (None, _) => exit_s,
+        }
+    }
+
     /// Departure by position from the current hover point.
     fn on_position_in_hover(&mut self, t_s: f64, p: Enu, previous: Option<(f64, Enu)>) {
         let Some(center) = self.hover_point() else {
@@ -511,12 +553,13 @@ impl Segmenter {
         }
         if self.inside_departure {
             self.inside_departure = false;
-            self.exit_s = Some(match previous {
+            let exit = match previous {
                 Some((t0, p0)) => {
                     t0 + crossing(p0, p, center, self.cfg.departure_m, false) * (t_s - t0)
                 }
                 None => t_s,
-            });
+            };
+            self.exit_s = Some(self.motion_start(exit));
         }
         if d > self.cfg.arrival_radius_m {
             if let Some(exit) = self.exit_s {
@@ -554,18 +597,25 @@ impl Segmenter {
                 let target = self.plan.target_of(*seq);
                 self.on_target(t_s, target);
             }
+            // PX4 (mission_block.cpp) and ArduCopter (verify_nav_wp) report an item reached
+            // when they leave it, after its hold: for the item being hovered at (or the
+            // take-off) it is the departure, sent at the same instant as MISSION_CURRENT moves
+            // on, so either one arriving marks it.
             Reading::ItemReached { seq } => match self.phase {
-                Phase::Active(SegmentKind::Settle(k))
+                Phase::Active(SegmentKind::Settle(k) | SegmentKind::Hover(k))
                     if self.plan.points.get(k).is_some_and(|p| p.seq == *seq) =>
                 {
-                    let settled = self.stop_s.unwrap_or(t_s);
-                    self.close(settled, true, false);
-                    self.open(SegmentKind::Hover(k), settled);
+                    let t = self.departure_time(t_s);
+                    self.depart(t);
+                }
+                Phase::Active(SegmentKind::Takeoff) if self.plan.takeoff_seq == Some(*seq) => {
+                    let t = self.departure_time(t_s);
+                    self.depart(t);
                 }
                 Phase::Active(SegmentKind::Leg(k))
                     if self.plan.points.get(k).is_some_and(|p| p.seq == *seq) =>
                 {
-                    self.leg_cut_short(k, t_s, true);
+                    self.leg_cut_short(k, t_s, false);
                 }
                 _ => {}
             },
@@ -784,25 +834,39 @@ mod tests {
     fn a_lost_mission_current_change_is_recovered_from_the_departure_seen_in_positions() {
         let (flight, _) = fly();
         let leg2 = flight.part(SegmentKind::Leg(2)).copied().expect("leg 2");
-        // Every MISSION_CURRENT naming C is lost (the change and PX4's 1 Hz repeats).
-        let stamped: Vec<Stamped> = flight
+        let leg_start = |stamped: &[Stamped]| {
+            let s =
+                Segmenter::run(square_plan(), SegmentConfig::default(), stamped).expect("valid");
+            s.completed()
+                .iter()
+                .find(|x| x.kind == SegmentKind::Leg(2))
+                .copied()
+                .expect("leg 2")
+                .start_s
+        };
+        // Every MISSION_CURRENT naming C is lost (the change and PX4's 1 Hz repeats): the
+        // reached message of B, sent as the vehicle leaves it, marks the departure.
+        let no_current: Vec<Stamped> = flight
             .stamped()
             .into_iter()
             .filter(|m| !matches!(m.reading, Reading::MissionCurrent { seq: 3, .. }))
             .collect();
-        let s = Segmenter::run(square_plan(), SegmentConfig::default(), &stamped).expect("valid");
-        let leg = s
-            .completed()
-            .iter()
-            .find(|x| x.kind == SegmentKind::Leg(2))
-            .copied()
-            .expect("leg 2");
-        // Leaving at 5 m/s, the vehicle is 2 m out 0.4 s after the true departure; the departure
-        // is confirmed 4 m out, and the leg starts at the 2 m exit.
+        let start = leg_start(&no_current);
         assert!(
-            (leg.start_s - (leg2.start_s + 0.4)).abs() < 0.01,
-            "start {} vs true {}",
-            leg.start_s,
+            (start - leg2.start_s).abs() < 0.01,
+            "start {start} vs true {}",
+            leg2.start_s
+        );
+        // Both lost: the departure is found in the positions, back where the motion began
+        // (within a position sample, 0.1 s), not where the vehicle left the 2 m radius.
+        let no_message: Vec<Stamped> = no_current
+            .into_iter()
+            .filter(|m| !matches!(m.reading, Reading::ItemReached { seq: 2 }))
+            .collect();
+        let start = leg_start(&no_message);
+        assert!(
+            (start - leg2.start_s).abs() < 0.1,
+            "start {start} vs true {}",
             leg2.start_s
         );
     }

@@ -208,9 +208,7 @@ impl Link {
         let tapped = self.taps.lock().map(|t| !t.is_empty()).unwrap_or(false);
         if tapped {
             let header = MavHeader {
-                sequence: self
-                    .sent
-                    .fetch_add(1, std::sync::atomic::Ordering::Relaxed),
+                sequence: self.sent.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
                 ..self.header
             };
             let mut raw = mavlink::MAVLinkV2MessageRaw::new();
@@ -333,7 +331,9 @@ impl Receiver {
 
 async fn receive(rx: Receiver, mut shutdown: watch::Receiver<bool>) {
     loop {
-        let Some(active) = current(&rx.conn) else { return };
+        let Some(active) = current(&rx.conn) else {
+            return;
+        };
         tokio::select! {
             _ = shutdown.changed() => return,
             // No timeout around the receive: the shutdown branch ends the wait, and a TCP

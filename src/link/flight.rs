@@ -94,7 +94,10 @@ pub struct StartConfig {
 impl Default for StartConfig {
     fn default() -> Self {
         StartConfig {
-            retry: Duration::from_secs(1),
+            // Short: PX4 disarms an armed vehicle that has not taken off after COM_DISARM_PRFLT
+            // (10 s; a tenth of that in wall time for SITL at 10x), so a lost MISSION_START
+            // must be sent again well within it. A handful of commands, not a flood.
+            retry: Duration::from_millis(250),
             budget: Duration::from_secs(60),
         }
     }
@@ -436,9 +439,9 @@ mod tests {
     fn an_unanswered_command_is_resent_every_retry_period() {
         let mut s = Start::new(target(Flavour::Px4), StartConfig::default());
         s.start(ms(0));
-        assert!(s.tick(ms(900)).is_empty());
-        assert_eq!(commands(&s.tick(ms(1000))), vec![(ARM, 1.0, 0.0)]);
-        assert_eq!(commands(&s.tick(ms(2000))), vec![(ARM, 1.0, 0.0)]);
+        assert!(s.tick(ms(200)).is_empty());
+        assert_eq!(commands(&s.tick(ms(250))), vec![(ARM, 1.0, 0.0)]);
+        assert_eq!(commands(&s.tick(ms(500))), vec![(ARM, 1.0, 0.0)]);
     }
 
     #[test]
@@ -455,10 +458,10 @@ mod tests {
             &ack(ARM, MavResult::MAV_RESULT_TEMPORARILY_REJECTED),
         );
         assert!(s.finished().is_none());
-        assert_eq!(commands(&s.tick(ms(1000))), vec![(ARM, 1.0, 0.0)]);
-        s.handle(ms(1010), &ack(ARM, OK));
+        assert_eq!(commands(&s.tick(ms(250))), vec![(ARM, 1.0, 0.0)]);
+        s.handle(ms(260), &ack(ARM, OK));
         assert_eq!(
-            commands(&s.handle(ms(1020), &heartbeat(true, 0))),
+            commands(&s.handle(ms(270), &heartbeat(true, 0))),
             vec![(START, 0.0, 0.0)]
         );
     }

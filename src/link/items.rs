@@ -1,7 +1,9 @@
 //! Mission items from a mission and a visiting order: optional NAV_TAKEOFF to the origin height,
 //! one NAV_WAYPOINT per waypoint (latitude/longitude as degE7, altitude relative to home, param1
-//! hover seconds, param2 acceptance radius), optional DO_CHANGE_SPEED, and NAV_RETURN_TO_LAUNCH
-//! or NAV_LAND at the end. Frames PX4 accepts: GLOBAL_RELATIVE_ALT (3) for navigation items,
+//! hover seconds, param2 acceptance radius), optional DO_CHANGE_SPEED, and the ending: by
+//! default a NAV_WAYPOINT back at the origin hover point, then NAV_LAND there (the return leg
+//! and the landing the plan priced: PX4's RTL would first climb to RTL_RETURN_ALT, which is not
+//! the planned leg); NAV_RETURN_TO_LAUNCH or a bare NAV_LAND on request. Frames PX4 accepts: GLOBAL_RELATIVE_ALT (3) for navigation items,
 //! MISSION (2) for commands (research notes mavlink.md section 2.6, recommendation 6). ArduPilot
 //! gets its home item at seq 0.
 
@@ -12,6 +14,9 @@ use crate::mission::Mission;
 /// How a mission ends.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Ending {
+    /// Fly the return leg to the origin hover point as a waypoint (hold 0), then land there:
+    /// what the plan prices (the return leg, then the landing (0, -h)).
+    ReturnAndLand,
     ReturnToLaunch,
     Land,
 }
@@ -34,7 +39,7 @@ impl Default for ItemOptions {
             takeoff: true,
             acceptance_radius_m: 2.0,
             cruise_speed_m_s: None,
-            ending: Ending::ReturnToLaunch,
+            ending: Ending::ReturnAndLand,
         }
     }
 }
@@ -127,6 +132,16 @@ pub fn mission_items(
             alt as f32,
         ));
     }
+    if opts.ending == Ending::ReturnAndLand {
+        items.push(item(
+            MavCmd::MAV_CMD_NAV_WAYPOINT,
+            relative,
+            [0.0, opts.acceptance_radius_m, 0.0, f32::NAN],
+            lat,
+            lon,
+            mission.origin.height_above_home_m as f32,
+        ));
+    }
     items.push(match opts.ending {
         Ending::ReturnToLaunch => item(
             MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH,
@@ -136,7 +151,7 @@ pub fn mission_items(
             0,
             0.0,
         ),
-        Ending::Land => item(
+        Ending::Land | Ending::ReturnAndLand => item(
             MavCmd::MAV_CMD_NAV_LAND,
             relative,
             [0.0, 0.0, 0.0, f32::NAN],
@@ -183,22 +198,41 @@ mod tests {
     }
 
     #[test]
-    fn px4_items_are_takeoff_waypoints_in_order_then_return_to_launch() {
+    fn px4_items_are_takeoff_waypoints_in_order_then_the_origin_and_a_landing_there() {
         let m = sample();
         let items = mission_items(&m, &[2, 0, 1], &ItemOptions::default()).unwrap();
-        assert_eq!(items.len(), 5);
+        assert_eq!(items.len(), 6);
         assert_eq!(items[0].command, MavCmd::MAV_CMD_NAV_TAKEOFF);
         assert_eq!(items[0].z, 30.0);
-        assert_eq!(items[4].command, MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH);
-        assert_eq!(items[4].frame, MavFrame::MAV_FRAME_MISSION);
         let (lat, lon, alt) = m.waypoint_relative(2).unwrap();
         assert_eq!((items[1].x, items[1].y), (deg_e7(lat), deg_e7(lon)));
         assert!((items[1].z as f64 - alt).abs() < 1e-3 && (alt - 54.0).abs() < 0.01);
         assert_eq!(items[1].param1, 5.0);
+        // The return leg ends at the origin hover point (hold 0), then the landing there.
+        let home = m.origin.home;
+        assert_eq!(items[4].command, MavCmd::MAV_CMD_NAV_WAYPOINT);
+        assert_eq!(
+            (items[4].x, items[4].y, items[4].z, items[4].param1),
+            (deg_e7(home.lat_deg), deg_e7(home.lon_deg), 30.0, 0.0)
+        );
+        assert_eq!(items[5].command, MavCmd::MAV_CMD_NAV_LAND);
+        assert_eq!((items[5].x, items[5].y), (items[4].x, items[4].y));
         assert!(items.iter().enumerate().all(|(k, it)| it.seq as usize == k));
-        assert!(items[1..4]
+        assert!(items
             .iter()
             .all(|it| it.frame == MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT));
+    }
+
+    #[test]
+    fn return_to_launch_ends_with_one_rtl_item_in_the_mission_frame() {
+        let opts = ItemOptions {
+            ending: Ending::ReturnToLaunch,
+            ..ItemOptions::default()
+        };
+        let items = mission_items(&sample(), &[2, 0, 1], &opts).unwrap();
+        assert_eq!(items.len(), 5);
+        assert_eq!(items[4].command, MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH);
+        assert_eq!(items[4].frame, MavFrame::MAV_FRAME_MISSION);
     }
 
     #[test]

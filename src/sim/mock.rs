@@ -329,7 +329,16 @@ async fn run(
     let start = Instant::now();
     let mut peer: Option<SocketAddr> = None;
     let mut buf = vec![0u8; 4096];
-    let mut tick = tokio::time::interval(Duration::from_millis(20));
+    // A flying mock steps finely, so that a speed-up spreads its telemetry over wall time as a
+    // vehicle would instead of delivering 0.4 s of flight in one burst every 20 ms (a ground
+    // station stamps BATTERY_STATUS, which has no time field, by when it arrives).
+    let period = if config.flight.is_some() {
+        Duration::from_millis(2)
+    } else {
+        Duration::from_millis(20)
+    };
+    let mut tick = tokio::time::interval(period);
+    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let mut beat = tokio::time::interval(Duration::from_secs(1));
     loop {
         let replies: Vec<MavMessage> = tokio::select! {

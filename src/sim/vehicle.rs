@@ -607,7 +607,7 @@ impl<'v> SimVehicle<'v> {
         if self.flavour == Flavour::Px4 && id == HEARTBEAT_DATA::ID {
             return failed;
         }
-        let next_step = self.step + 1;
+        let step = self.step;
         let Some(stream) = self.streams.iter_mut().find(|s| s.id == id) else {
             return failed;
         };
@@ -618,7 +618,14 @@ impl<'v> SimVehicle<'v> {
         } else {
             Some(steps(f64::from(interval_us) * 1e-6))
         };
-        stream.next_step = next_step;
+        // Scheduled on multiples of the interval since boot, so streams of the same rate go out
+        // in the same step, the timed ones (positions) first: a ground station stamping an
+        // untimed message (BATTERY_STATUS has no time field) by the latest timed one then
+        // stamps it exactly, even when a speed-up delivers a burst of steps at once.
+        stream.next_step = match stream.interval_steps {
+            Some(interval) if interval > 0 => (step / interval + 1) * interval,
+            _ => step + 1,
+        };
         MavResult::MAV_RESULT_ACCEPTED
     }
 

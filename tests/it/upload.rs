@@ -220,7 +220,7 @@ async fn a_reboot_mid_upload_is_outlasted_by_starting_again_from_count() {
 #[tokio::test]
 async fn an_ardupilot_mock_is_waited_out_while_it_boots_and_verifies_despite_its_own_home() {
     // Item 0 reads back as the mock's home (16.1 m where the mission says 16.0), acceptance
-    // radius and NaN yaw as 0, RTL in MAV_FRAME_GLOBAL: ArduPilot's storage, not a difference.
+    // radius and NaN yaw as 0: ArduPilot's storage, not a difference.
     let config = MockConfig {
         flavour: Flavour::ArduPilot,
         ..MockConfig::default()
@@ -229,7 +229,8 @@ async fn an_ardupilot_mock_is_waited_out_while_it_boots_and_verifies_despite_its
     let report = result.unwrap();
     assert!(report.verified);
     assert!(report.refusals >= 1, "the 2 s boot refusal was seen");
-    assert_eq!(stored.len(), 8 + 3);
+    // Home, take-off, the 8 waypoints, the return to the origin, the landing.
+    assert_eq!(stored.len(), 1 + 1 + 8 + 1 + 1);
     assert_eq!(stored[0].z, items[0].z);
 }
 

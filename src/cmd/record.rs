@@ -1,0 +1,107 @@
+//! `emplan record --connect URL --log-dir DIR`: records a flight flown from any ground station:
+//! asks for the telemetry it needs, waits for arming, reads the mission the autopilot holds to
+//! know the legs (named after `--mission`'s waypoints, priced with the vehicle model), logs
+//! until the vehicle has landed and disarmed (or Ctrl-C, which closes the files cleanly), and
+//! prints the report.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use emplan::session::{
+    keep_streams, plan_from_items, request_streams, spawn_recorder, FlightEvent, RecorderConfig,
+};
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    link: super::LinkArgs,
+    /// Directory the flight's log directory is made in
+    #[arg(long, default_value = "flights")]
+    log_dir: PathBuf,
+    /// Mission file naming the waypoints of the mission the vehicle flies
+    #[arg(long)]
+    mission: Option<PathBuf>,
+    #[command(flatten)]
+    model: super::VehicleArgs,
+    /// Print one JSON document (the report) instead of text
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    if args.link.connect.is_none() {
+        anyhow::bail!("record needs --connect URL: the vehicle whose flight to record (the built-in mock flies only for `emplan fly`)");
+    }
+    let mission = args
+        .mission
+        .as_deref()
+        .map(emplan::mission::load)
+        .transpose()?;
+    let model = emplan::physics::VehicleModel::load(&args.model.vehicle, args.model.profile)?;
+    super::runtime()?.block_on(async {
+        let opened = args.link.open().await?;
+        let (link, target) = (&opened.link, opened.target);
+        let recorder = spawn_recorder(link, RecorderConfig::new(&args.log_dir));
+        request_streams(link, &target).await?;
+        let mut events = recorder.subscribe();
+        eprintln!(
+            "recording flights of {:?} autopilot {} on {} into {}; Ctrl-C stops",
+            target.flavour,
+            target.system_id,
+            opened.describe,
+            args.log_dir.display()
+        );
+        let watch = async {
+            loop {
+                match events.recv().await {
+                    Ok(FlightEvent::Started { dir, .. }) => {
+                        eprintln!("armed: recording to {}", dir.display());
+                        // What the vehicle flies: its mission, read back now.
+                        match emplan::link::driver::download(link, &target, opened.config).await {
+                            Ok(items) => match plan_from_items(
+                                mission.as_ref().map_or("flight", |m| m.name.as_str()),
+                                &items,
+                                target.flavour,
+                                mission.as_ref(),
+                                Some(&model),
+                            ) {
+                                Ok(plan) => recorder.set_plan(plan),
+                                Err(e) => eprintln!("the vehicle's mission cannot be measured: {e}; recording the telemetry only"),
+                            },
+                            Err(e) => eprintln!("reading the vehicle's mission failed: {e}; recording the telemetry only"),
+                        }
+                    }
+                    Ok(FlightEvent::Part { kind, part, .. }) => {
+                        eprintln!("  {}", super::report::part_line(kind, &part))
+                    }
+                    Ok(FlightEvent::Failed { error, .. }) => eprintln!("recording failed: {error}"),
+                    Ok(FlightEvent::Ended { dir, report, .. }) => return Some((dir, report.map(|r| *r))),
+                    Err(tokio::sync::broadcast::error::RecvError::Lagged(_)) => {}
+                    Err(tokio::sync::broadcast::error::RecvError::Closed) => return None,
+                }
+            }
+        };
+        let ended = tokio::select! {
+            ended = watch => ended,
+            _ = tokio::signal::ctrl_c() => None,
+            streams = keep_streams(link, &target) => {
+                if let Err(e) = streams { eprintln!("telemetry requests: {e}"); }
+                None
+            }
+        };
+        recorder.close().await;
+        match ended {
+            Some((dir, Some(report))) => {
+                if args.json {
+                    println!("{}", serde_json::to_string_pretty(&report.json())?);
+                } else {
+                    super::report::print(&report);
+                    println!("log: {}", dir.display());
+                }
+            }
+            Some((dir, None)) => println!("log: {} (no mission to measure against)", dir.display()),
+            None => eprintln!("stopped; every flight recorded so far is closed (replay it with `emplan replay DIR/flight.tlog`)"),
+        }
+        Ok(ExitCode::SUCCESS)
+    })
+}

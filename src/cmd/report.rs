@@ -1,0 +1,229 @@
+//! `emplan report LOG_DIR...`: each recorded flight replayed and measured against its plan
+//! (predicted vs measured energy per leg, take-off, settles, hovers, landing, totals, flags);
+//! several flights of the same legs combined (mean and spread per leg). Also the text views of
+//! a report that `fly`, `record` and `replay` print.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::Context;
+use emplan::flightlog::report::{combine, FlightReport, PartReport};
+use emplan::flightlog::segment::{SegmentConfig, SegmentKind};
+use emplan::link::telemetry::Analysis;
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Flight directories (with flight.tlog), or directories holding them
+    #[arg(required = true)]
+    log_dirs: Vec<PathBuf>,
+    /// Mission file naming the waypoints, for logs without plan.json
+    #[arg(long)]
+    mission: Option<PathBuf>,
+    #[command(flatten)]
+    model: super::VehicleArgs,
+    /// Print one JSON document instead of text (one flight: its report; several: the combined
+    /// report)
+    #[arg(long)]
+    json: bool,
+    /// Draw power over time with the legs marked, and predicted vs measured energy per leg
+    #[arg(long, value_name = "FILE.svg")]
+    plot: Option<PathBuf>,
+}
+
+/// One line of a part: `leg A -> B: 5.62 kJ measured, 5.61 predicted (+0.2%), 11.3 s [flags]`.
+pub fn part_line(kind: SegmentKind, p: &PartReport) -> String {
+    let what = match kind {
+        SegmentKind::Takeoff => "take-off".to_string(),
+        SegmentKind::Leg(_) => format!("leg {} -> {}", p.from, p.to),
+        SegmentKind::Settle(_) => format!("settle at {}", p.to),
+        SegmentKind::Hover(_) => format!("hover at {}", p.to),
+        SegmentKind::Landing => "landing".to_string(),
+    };
+    let kj = |j: Option<f64>| j.map_or("-".to_string(), |j| format!("{:.2}", j / 1000.0));
+    let error = p
+        .error_pct()
+        .map_or(String::new(), |e| format!(" ({e:+.1}%)"));
+    let flags = if p.flags.is_empty() {
+        String::new()
+    } else {
+        format!(
+            " [{}]",
+            p.flags
+                .iter()
+                .map(|f| f.name())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    };
+    format!(
+        "{what}: {} kJ measured, {} kJ predicted{error}, {:.1} s{flags}",
+        kj(p.measured_j),
+        kj(p.predicted_j),
+        p.duration_s
+    )
+}
+
+/// The report as a table.
+pub fn print(report: &FlightReport) {
+    println!(
+        "flight {}{}",
+        report.flight,
+        if report.complete { "" } else { " (incomplete)" }
+    );
+    println!(
+        "{:<26} {:>12} {:>12} {:>8} {:>8}  flags",
+        "part", "predicted_kj", "measured_kj", "error", "time_s"
+    );
+    let row = |name: String, p: &PartReport| {
+        let kj = |j: Option<f64>| j.map_or("-".to_string(), |j| format!("{:.3}", j / 1000.0));
+        println!(
+            "{:<26} {:>12} {:>12} {:>8} {:>8.1}  {}",
+            name,
+            kj(p.predicted_j),
+            kj(p.measured_j),
+            p.error_pct().map_or("-".into(), |e| format!("{e:+.1}%")),
+            p.duration_s,
+            p.flags
+                .iter()
+                .map(|f| f.name())
+                .collect::<Vec<_>>()
+                .join(",")
+        );
+    };
+    if let Some(t) = &report.takeoff {
+        row("take-off".into(), t);
+    }
+    for (k, leg) in report.legs.iter().enumerate() {
+        row(format!("leg {}: {} -> {}", k + 1, leg.from, leg.to), leg);
+    }
+    let sum = |parts: &[PartReport]| -> (Option<f64>, Option<f64>) {
+        let m: Option<f64> = parts.iter().map(|p| p.measured_j).sum();
+        let p: Option<f64> = parts.iter().map(|p| p.predicted_j).sum();
+        (p, m)
+    };
+    let (sp, sm) = sum(&report.settles);
+    let (hp, hm) = sum(&report.hovers);
+    let kj = |j: Option<f64>| j.map_or("-".to_string(), |j| format!("{:.3}", j / 1000.0));
+    println!(
+        "{:<26} {:>12} {:>12}",
+        format!("settles ({})", report.settles.len()),
+        kj(sp),
+        kj(sm)
+    );
+    println!(
+        "{:<26} {:>12} {:>12}",
+        format!("hovers ({})", report.hovers.len()),
+        kj(hp),
+        kj(hm)
+    );
+    if let Some(l) = &report.landing {
+        row("landing".into(), l);
+    }
+    let error = match (report.predicted_j, report.measured_j) {
+        (Some(p), Some(m)) if p > 0.0 => format!("{:+.1}%", (m - p) / p * 100.0),
+        _ => "-".into(),
+    };
+    println!(
+        "{:<26} {:>12} {:>12} {:>8} {:>8.1}  {}",
+        "total",
+        kj(report.predicted_j),
+        kj(report.measured_j),
+        error,
+        report.duration_s,
+        report
+            .flags
+            .iter()
+            .map(|f| f.name())
+            .collect::<Vec<_>>()
+            .join(",")
+    );
+}
+
+/// The flight directories named: each directory with a flight.tlog, or the ones inside it.
+fn flights(dirs: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    for dir in dirs {
+        if dir.join(emplan::flightlog::recorder::TLOG_FILE).is_file() {
+            out.push(dir.clone());
+            continue;
+        }
+        let inside = emplan::session::flight_dirs(dir)
+            .with_context(|| format!("reading {}", dir.display()))?;
+        if inside.is_empty() {
+            anyhow::bail!(
+                "{}: not a flight directory (no flight.tlog) and holds none",
+                dir.display()
+            );
+        }
+        out.extend(inside);
+    }
+    Ok(out)
+}
+
+/// Replays one flight directory or .tlog.
+pub fn analyse(
+    tlog: &Path,
+    mission: Option<&emplan::mission::Mission>,
+    model: Option<&emplan::physics::VehicleModel>,
+) -> anyhow::Result<Analysis> {
+    emplan::session::replay(tlog, mission, model, SegmentConfig::default())
+        .with_context(|| format!("replaying {}", tlog.display()))
+}
+
+pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    let mission = args
+        .mission
+        .as_deref()
+        .map(emplan::mission::load)
+        .transpose()?;
+    let model = emplan::physics::VehicleModel::load(&args.model.vehicle, args.model.profile).ok();
+    let mut analyses = Vec::new();
+    for dir in flights(&args.log_dirs)? {
+        let tlog = dir.join(emplan::flightlog::recorder::TLOG_FILE);
+        analyses.push(analyse(&tlog, mission.as_ref(), model.as_ref())?);
+    }
+    if let Some(path) = &args.plot {
+        super::plot::flight_svg(path, &analyses)?;
+        eprintln!("wrote {}", path.display());
+    }
+    let reports: Vec<FlightReport> = analyses.into_iter().map(|a| a.report).collect();
+    if let [report] = reports.as_slice() {
+        if args.json {
+            println!("{}", serde_json::to_string_pretty(&report.json())?);
+        } else {
+            print(report);
+        }
+        return Ok(ExitCode::SUCCESS);
+    }
+    let combined = combine(&reports);
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&combined.json())?);
+    } else {
+        for report in &reports {
+            print(report);
+            println!();
+        }
+        print_combined(&combined);
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn print_combined(combined: &emplan::flightlog::report::CombinedReport) {
+    let json = combined.json();
+    println!(
+        "{} flights combined: per leg, measured kJ mean ± std (n), predicted kJ, error of the mean",
+        json.flights.len()
+    );
+    for leg in &json.legs {
+        let measured = leg.measured_stats_kj.as_ref().map_or("-".to_string(), |s| {
+            format!("{:.3} ± {:.3} ({})", s.mean, s.std, s.n)
+        });
+        println!(
+            "  {} -> {}: {measured}, predicted {}, {}",
+            leg.from,
+            leg.to,
+            leg.predicted_kj.map_or("-".into(), |p| format!("{p:.3}")),
+            leg.error_pct.map_or("-".into(), |e| format!("{e:+.1}%"))
+        );
+    }
+}

@@ -1,0 +1,188 @@
+//! `fly`: upload the planned flight and prove it arrived, hand the recorder what to measure it
+//! against, start it (arming only when asked: with a real vehicle the pilot may start it), and
+//! wait until the recorder has seen it land and disarm; the recorder's report is the answer.
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use tokio::sync::broadcast::error::RecvError;
+
+use super::machine::{drive, keep_streams, request_streams};
+use super::plan::flight_plan;
+use super::recorder::{FlightEvent, RecorderHandle};
+use crate::flightlog::report::FlightReport;
+use crate::link::connection::{Autopilot, Link};
+use crate::link::driver::{upload_verified, UploadError, UploadReport};
+use crate::link::flight::{Start, StartConfig, StartError};
+use crate::link::items::{mission_items, ItemOptions};
+use crate::link::transfer::TransferConfig;
+use crate::link::LinkError;
+use crate::mission::Mission;
+use crate::planner::{Flight, Plan};
+
+/// How to fly.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FlyOptions {
+    /// Arm and start the mission (PX4: arm, MISSION_START; ArduPilot: GUIDED, arm, AUTO,
+    /// MISSION_START). Without it, emplan waits for the pilot to start the mission.
+    pub arm: bool,
+    pub start: StartConfig,
+    /// Acceptance radius sent with each waypoint (m).
+    pub acceptance_radius_m: f32,
+    /// The longest emplan waits (wall time) from the upload to the landing.
+    pub timeout: Duration,
+}
+
+impl Default for FlyOptions {
+    fn default() -> Self {
+        FlyOptions {
+            arm: false,
+            start: StartConfig::default(),
+            acceptance_radius_m: 2.0,
+            timeout: Duration::from_secs(3600),
+        }
+    }
+}
+
+/// Why a flight did not end in a report.
+#[derive(Debug, thiserror::Error)]
+pub enum FlyError {
+    #[error("mission items: the order names a waypoint the mission does not have")]
+    Items,
+    #[error(transparent)]
+    Upload(#[from] UploadError),
+    #[error("flight plan: {0}")]
+    Plan(String),
+    #[error("start: {0}")]
+    Start(#[from] StartError),
+    #[error("link: {0}")]
+    Link(#[from] LinkError),
+    #[error(
+        "the flight did not end within {seconds:.0} s{}",
+        .dir.as_ref().map(|d| format!(" (recorded so far in {})", d.display())).unwrap_or_else(|| " (it never started: was it armed?)".into())
+    )]
+    Timeout { seconds: f64, dir: Option<PathBuf> },
+    #[error("recording: {0}")]
+    Recorder(String),
+    #[error("the vehicle disarmed after {duration_s:.1} s without flying a leg of the mission (log in {})", .dir.display())]
+    NotFlown { duration_s: f64, dir: PathBuf },
+}
+
+impl FlyError {
+    /// The stage it failed in (the `stage` of the failure JSON).
+    pub fn stage(&self) -> String {
+        match self {
+            FlyError::Items | FlyError::Plan(_) => "plan".into(),
+            FlyError::Upload(e) => e.stage.to_string(),
+            FlyError::Start(_) => "start".into(),
+            FlyError::Link(_) => "connect".into(),
+            FlyError::Timeout { .. } => "flight".into(),
+            FlyError::Recorder(_) => "record".into(),
+            FlyError::NotFlown { .. } => "flight".into(),
+        }
+    }
+}
+
+/// A flight flown and recorded.
+#[derive(Debug, Clone)]
+pub struct Flown {
+    pub upload: UploadReport,
+    pub dir: PathBuf,
+    pub report: Option<FlightReport>,
+}
+
+/// Flies `flight` of `plan` (for `mission`) on `target`, recorded by `recorder` (spawned on the
+/// same link). `on_event` sees every flight event as it comes (for live lines).
+#[allow(clippy::too_many_arguments)]
+pub async fn fly(
+    link: &Link,
+    target: &Autopilot,
+    transfer: TransferConfig,
+    recorder: &RecorderHandle,
+    mission: &Mission,
+    plan: &Plan,
+    flight: &Flight<'_>,
+    opts: &FlyOptions,
+    mut on_event: impl FnMut(&FlightEvent),
+    progress: impl FnMut(usize, usize),
+) -> Result<Flown, FlyError> {
+    let items_opts = ItemOptions {
+        flavour: target.flavour,
+        acceptance_radius_m: opts.acceptance_radius_m,
+        ..ItemOptions::default()
+    };
+    let items = mission_items(mission, &flight.waypoints(), &items_opts).ok_or(FlyError::Items)?;
+    let measured_against = flight_plan(mission, plan, flight, target.flavour)
+        .map_err(|e| FlyError::Plan(e.to_string()))?;
+    // The rates first: at its defaults PX4 sends BATTERY_STATUS every 2 s.
+    request_streams(link, target).await?;
+    let upload = upload_verified(link, target, &items, transfer, progress).await?;
+    recorder.set_plan(measured_against);
+    let mut events = recorder.subscribe();
+    let flying = async {
+        if opts.arm {
+            let mut start = Start::new(*target, opts.start);
+            drive(link, target, &mut start).await?;
+            if let Some(Err(e)) = start.finished() {
+                return Err(FlyError::Start(e.clone()));
+            }
+        }
+        let mut dir = None;
+        loop {
+            match events.recv().await {
+                Ok(event) => {
+                    on_event(&event);
+                    match event {
+                        FlightEvent::Started { dir: d, .. } => dir = Some(d),
+                        FlightEvent::Ended { dir, report, .. } => {
+                            if let Some(r) = report.as_ref().filter(|r| r.legs.is_empty()) {
+                                return Err(FlyError::NotFlown {
+                                    duration_s: r.duration_s,
+                                    dir,
+                                });
+                            }
+                            return Ok((dir, report.map(|r| *r)));
+                        }
+                        FlightEvent::Failed { error, .. } => {
+                            tracing::error!("recording: {error}");
+                        }
+                        FlightEvent::Part { .. } => {}
+                    }
+                }
+                Err(RecvError::Lagged(n)) => tracing::warn!("{n} flight events missed"),
+                Err(RecvError::Closed) => {
+                    return Err(FlyError::Recorder(format!(
+                        "the recorder stopped{}",
+                        dir.as_ref()
+                            .map(|d: &PathBuf| format!(" (flight in {})", d.display()))
+                            .unwrap_or_default()
+                    )))
+                }
+            }
+        }
+    };
+    let started = std::time::Instant::now();
+    let outcome = tokio::select! {
+        outcome = tokio::time::timeout(opts.timeout, flying) => outcome,
+        streams = keep_streams(link, target) => {
+            return Err(streams.err().map_or_else(|| FlyError::Recorder("telemetry requests ended".into()), FlyError::Link))
+        }
+    };
+    match outcome {
+        Ok(Ok((dir, report))) => Ok(Flown {
+            upload,
+            dir,
+            report,
+        }),
+        Ok(Err(e)) => Err(e),
+        Err(_) => Err(FlyError::Timeout {
+            seconds: started.elapsed().as_secs_f64(),
+            dir: recorder
+                .live()
+                .borrow()
+                .flight
+                .as_ref()
+                .map(|f| f.dir.clone()),
+        }),
+    }
+}

@@ -1,0 +1,23 @@
+//! A live session with a vehicle over a link: the telemetry streams emplan asks for (asked again
+//! after every reconnect), the flight recorder that logs every flight from arming to disarming
+//! (one directory per flight: flight.tlog, samples.csv, plan.json, report.json), and `fly`
+//! (verified upload, start, record, report).
+//!
+//! This is the async glue above `link` (MAVLink, sans-IO machines), `flightlog` (files,
+//! segmentation, energy; no tokio) and `planner`: what is decided lives in those layers, so a
+//! `replay` of a recorded log gives the report the live run gave. The recorder's file work runs
+//! on a thread of its own (blocking writes and fsyncs never stall the link's tasks).
+
+pub mod fly;
+pub mod machine;
+pub mod plan;
+pub mod recorder;
+pub mod replay;
+
+pub use fly::{fly, Flown, FlyError, FlyOptions};
+pub use machine::{drive, keep_streams, request_streams, CommandMachine};
+pub use plan::{flight_plan, plan_from_items, predicted, FlightItems};
+pub use recorder::{
+    flight_dirs, spawn_recorder, FlightEvent, Live, RecorderConfig, RecorderHandle,
+};
+pub use replay::{mission_in_tlog, plan_for_tlog, replay, ReplayError};

@@ -1,0 +1,348 @@
+//! What a flight is measured against (`flightlog::FlightPlan`): from a planner `Plan` when emplan
+//! planned and uploaded the mission (`fly`), or from the mission items the autopilot holds when
+//! someone else did (`record` reads them back, `replay` finds them in the log), priced with the
+//! vehicle's energy table.
+//!
+//! The items follow the layout `link::items` uploads: [home at seq 0 on ArduPilot] NAV_TAKEOFF
+//! to the origin height, the waypoints, a NAV_WAYPOINT back at the origin, NAV_LAND. Items of
+//! another layout are read as far as they go: the take-off's position and altitude give the
+//! origin, every NAV_WAYPOINT after it is a point, the first landing or RTL ends the flight.
+
+use crate::flightlog::plan::{FlightPlan, PlannedPoint, Predicted, PredictedLeg, ORIGIN_NAME};
+use crate::flightlog::FlightLogError;
+use crate::link::mav::{MavCmd, MavFrame, MISSION_ITEM_INT_DATA};
+use crate::link::Flavour;
+use crate::mission::{Enu, Geodetic, Mission, Origin};
+use crate::physics::VehicleModel;
+use crate::planner::{Flight, Plan};
+
+/// The prediction of `flight` (the flown order or a sortie of `plan`): each leg to the 4 m rule
+/// and its settle, take-off, landing, hover power.
+pub fn predicted(plan: &Plan, flight: &Flight<'_>) -> Predicted {
+    Predicted {
+        takeoff_j: plan.budget.takeoff.total_energy_j(),
+        landing_j: plan.budget.landing.total_energy_j(),
+        legs: flight
+            .legs
+            .iter()
+            .map(|leg| PredictedLeg {
+                energy_j: leg.predicted.energy_j,
+                duration_s: leg.predicted.duration_s,
+                settle_energy_j: leg.predicted.settle_energy_j,
+                settle_duration_s: leg.predicted.settle_duration_s,
+            })
+            .collect(),
+        hover_power_w: plan.budget.hover_power_w,
+    }
+}
+
+/// The FlightPlan of `flight` uploaded to an autopilot of `flavour` with `link::items`' layout.
+pub fn flight_plan(
+    mission: &Mission,
+    plan: &Plan,
+    flight: &Flight<'_>,
+    flavour: Flavour,
+) -> Result<FlightPlan, FlightLogError> {
+    let first_seq = if flavour == Flavour::ArduPilot { 1 } else { 0 };
+    FlightPlan::for_mission(
+        mission,
+        &flight.waypoints(),
+        first_seq,
+        Some(predicted(plan, flight)),
+    )
+}
+
+/// Why mission items could not be read as a flight.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum FlightItemsError {
+    #[error("the mission has no NAV_TAKEOFF: emplan measures flights that take off from the origin (items {0})")]
+    NoTakeoff(String),
+    #[error("the mission visits no waypoint after its take-off")]
+    NoWaypoints,
+    #[error("item {seq}: {what}")]
+    Item { seq: u16, what: String },
+    #[error("pricing the legs: {0}")]
+    Pricing(String),
+    #[error("{0}")]
+    Plan(String),
+}
+
+impl From<FlightLogError> for FlightItemsError {
+    fn from(e: FlightLogError) -> Self {
+        FlightItemsError::Plan(e.to_string())
+    }
+}
+
+/// A mission as the autopilot holds it, read as a flight.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FlightItems {
+    pub home: Geodetic,
+    pub origin_height_m: f64,
+    pub takeoff_seq: u16,
+    /// (seq, position in the origin frame, hold s) of every waypoint after the take-off.
+    pub points: Vec<(u16, Enu, f64)>,
+    pub land_seq: Option<u16>,
+}
+
+fn degrees(e7: i32) -> f64 {
+    f64::from(e7) / 1e7
+}
+
+/// Reads `items` (held by an autopilot of `flavour`) as a flight. The home altitude (AMSL) is
+/// ArduPilot's home item when there is one, else `home_alt_m` (what only the geometry of the
+/// positions needs: altitudes are relative to home).
+pub fn read_items(
+    items: &[MISSION_ITEM_INT_DATA],
+    flavour: Flavour,
+    home_alt_m: f64,
+) -> Result<FlightItems, FlightItemsError> {
+    let summary = || {
+        items
+            .iter()
+            .map(|i| format!("{}:{:?}", i.seq, i.command))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let takeoff = items
+        .iter()
+        .find(|i| i.command == MavCmd::MAV_CMD_NAV_TAKEOFF)
+        .ok_or_else(|| FlightItemsError::NoTakeoff(summary()))?;
+    let home_item = (flavour == Flavour::ArduPilot)
+        .then(|| items.iter().find(|i| i.seq == 0))
+        .flatten();
+    let home = Geodetic {
+        lat_deg: degrees(takeoff.x),
+        lon_deg: degrees(takeoff.y),
+        alt_m: home_item.map_or(home_alt_m, |h| f64::from(h.z)),
+    };
+    #[allow(deprecated)]
+    let relative = |i: &MISSION_ITEM_INT_DATA| {
+        matches!(
+            i.frame,
+            MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT | MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+        )
+    };
+    if !relative(takeoff) {
+        return Err(FlightItemsError::Item {
+            seq: takeoff.seq,
+            what: format!(
+                "take-off in frame {:?}: only altitudes relative to home are read",
+                takeoff.frame
+            ),
+        });
+    }
+    let origin = Origin {
+        home,
+        height_above_home_m: f64::from(takeoff.z),
+    };
+    let mut points = Vec::new();
+    let mut land_seq = None;
+    for item in items.iter().filter(|i| i.seq > takeoff.seq) {
+        match item.command {
+            MavCmd::MAV_CMD_NAV_WAYPOINT => {
+                if !relative(item) {
+                    return Err(FlightItemsError::Item {
+                        seq: item.seq,
+                        what: format!(
+                            "waypoint in frame {:?}: only altitudes relative to home are read",
+                            item.frame
+                        ),
+                    });
+                }
+                let enu = origin.to_enu(Geodetic {
+                    lat_deg: degrees(item.x),
+                    lon_deg: degrees(item.y),
+                    alt_m: home.alt_m + f64::from(item.z),
+                });
+                points.push((item.seq, enu, f64::from(item.param1.max(0.0))));
+            }
+            MavCmd::MAV_CMD_NAV_LAND | MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH => {
+                land_seq = Some(item.seq);
+                break;
+            }
+            _ => {}
+        }
+    }
+    if points.is_empty() {
+        return Err(FlightItemsError::NoWaypoints);
+    }
+    Ok(FlightItems {
+        home,
+        origin_height_m: origin.height_above_home_m,
+        takeoff_seq: takeoff.seq,
+        points,
+        land_seq,
+    })
+}
+
+/// A FlightPlan from the mission items an autopilot holds. Points are named after the
+/// waypoints of `mission` they coincide with (within 1 m), "origin" for the origin, or
+/// "item N"; legs are priced with `model` when given. The flight returns to the origin: a last
+/// point away from the origin gets the origin appended only in the name of its leg (the
+/// landing then starts there).
+pub fn plan_from_items(
+    name: &str,
+    items: &[MISSION_ITEM_INT_DATA],
+    flavour: Flavour,
+    mission: Option<&Mission>,
+    model: Option<&VehicleModel>,
+) -> Result<FlightPlan, FlightItemsError> {
+    let home_alt_m = mission.map_or(0.0, |m| m.origin.home.alt_m);
+    let read = read_items(items, flavour, home_alt_m)?;
+    let name_of = |enu: &Enu| {
+        let near = |a: &Enu, b: &Enu| {
+            (a.x_east_m - b.x_east_m)
+                .hypot(a.y_north_m - b.y_north_m)
+                .hypot(a.z_up_m - b.z_up_m)
+                < 1.0
+        };
+        if near(enu, &Enu::default()) {
+            return Some(ORIGIN_NAME.to_string());
+        }
+        mission.and_then(|m| {
+            m.waypoints
+                .iter()
+                .find(|w| near(&w.position, enu))
+                .map(|w| w.name.clone())
+        })
+    };
+    let points: Vec<PlannedPoint> = read
+        .points
+        .iter()
+        .map(|&(seq, enu, hold_s)| PlannedPoint {
+            seq,
+            name: name_of(&enu).unwrap_or_else(|| format!("item {seq}")),
+            enu,
+            hold_s,
+        })
+        .collect();
+    let predicted = match model {
+        Some(model) => Some(price_points(model, read.origin_height_m, &points)?),
+        None => None,
+    };
+    let plan = FlightPlan {
+        mission: name.to_string(),
+        home: read.home,
+        origin_height_m: read.origin_height_m,
+        points,
+        takeoff_seq: Some(read.takeoff_seq),
+        land_seq: read.land_seq,
+        predicted,
+    };
+    plan.validate()?;
+    Ok(plan)
+}
+
+/// Prices the legs origin -> points[0] -> ... with the vehicle's table, and the take-off and
+/// landing at the origin height.
+fn price_points(
+    model: &VehicleModel,
+    origin_height_m: f64,
+    points: &[PlannedPoint],
+) -> Result<Predicted, FlightItemsError> {
+    let pricing = |e: crate::physics::PhysicsError| FlightItemsError::Pricing(e.to_string());
+    let budget = model.budget(origin_height_m).map_err(pricing)?;
+    let mut from = Enu::default();
+    let mut legs = Vec::with_capacity(points.len());
+    for point in points {
+        let to = point.enu;
+        let xf = (to.x_east_m - from.x_east_m).hypot(to.y_north_m - from.y_north_m);
+        let zf = to.z_up_m - from.z_up_m;
+        let leg = model.leg(xf, zf).map_err(|e| {
+            FlightItemsError::Pricing(format!(
+                "leg to {} (Xf {xf:.1} m, Zf {zf:.1} m): {e}",
+                point.name
+            ))
+        })?;
+        legs.push(PredictedLeg {
+            energy_j: leg.energy_j,
+            duration_s: leg.duration_s,
+            settle_energy_j: leg.settle_energy_j,
+            settle_duration_s: leg.settle_duration_s,
+        });
+        from = to;
+    }
+    Ok(Predicted {
+        takeoff_j: budget.takeoff.total_energy_j(),
+        landing_j: budget.landing.total_energy_j(),
+        legs,
+        hover_power_w: budget.hover_power_w,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::link::items::{mission_items, ItemOptions};
+
+    fn sample() -> Mission {
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("missions/paper-sample-3wp.toml");
+        crate::mission::load(&path).unwrap()
+    }
+
+    #[test]
+    fn uploaded_items_read_back_as_the_flight_plan_fly_would_write() {
+        let m = sample();
+        for flavour in [Flavour::Px4, Flavour::ArduPilot] {
+            let opts = ItemOptions {
+                flavour,
+                ..ItemOptions::default()
+            };
+            let items = mission_items(&m, &[2, 0, 1], &opts).unwrap();
+            let read = plan_from_items("x", &items, flavour, Some(&m), None).unwrap();
+            let direct = FlightPlan::for_mission(
+                &m,
+                &[2, 0, 1],
+                u16::from(flavour == Flavour::ArduPilot),
+                None,
+            )
+            .unwrap();
+            assert_eq!(read.takeoff_seq, direct.takeoff_seq);
+            assert_eq!(read.land_seq, direct.land_seq);
+            assert_eq!(read.points.len(), direct.points.len());
+            for (a, b) in read.points.iter().zip(&direct.points) {
+                assert_eq!((a.seq, &a.name, a.hold_s), (b.seq, &b.name, b.hold_s));
+                // degE7 rounding: about a centimetre.
+                assert!(
+                    (a.enu.x_east_m - b.enu.x_east_m).abs() < 0.02,
+                    "{a:?} {b:?}"
+                );
+                assert!(
+                    (a.enu.y_north_m - b.enu.y_north_m).abs() < 0.02,
+                    "{a:?} {b:?}"
+                );
+                assert!((a.enu.z_up_m - b.enu.z_up_m).abs() < 0.02, "{a:?} {b:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn items_without_a_takeoff_or_waypoints_are_refused_with_what_was_found() {
+        let m = sample();
+        let items = mission_items(&m, &[0], &ItemOptions::default()).unwrap();
+        let no_takeoff: Vec<_> = items
+            .iter()
+            .filter(|i| i.command != MavCmd::MAV_CMD_NAV_TAKEOFF)
+            .cloned()
+            .collect();
+        let err = plan_from_items("x", &no_takeoff, Flavour::Px4, None, None).unwrap_err();
+        assert!(matches!(err, FlightItemsError::NoTakeoff(_)), "{err}");
+        let only_takeoff = &items[..1];
+        assert_eq!(
+            plan_from_items("x", only_takeoff, Flavour::Px4, None, None).unwrap_err(),
+            FlightItemsError::NoWaypoints
+        );
+    }
+
+    #[test]
+    fn points_far_from_every_named_waypoint_are_named_by_their_item() {
+        let m = sample();
+        let mut items = mission_items(&m, &[0, 1], &ItemOptions::default()).unwrap();
+        items[1].x += 1000; // about 11 m north
+        let plan = plan_from_items("x", &items, Flavour::Px4, Some(&m), None).unwrap();
+        assert_eq!(plan.points[0].name, "item 1");
+        assert_eq!(plan.points[1].name, m.waypoints[1].name);
+        assert_eq!(plan.points[2].name, ORIGIN_NAME);
+    }
+}

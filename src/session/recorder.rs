@@ -1,0 +1,513 @@
+//! The flight recorder: logs every flight seen on a link, whoever started it, from arming to
+//! disarming, into a flight directory of its own (`flightlog::recorder`), segments it against
+//! the flight plan as it flies, and writes its report when it lands.
+//!
+//! One thread owns the files (blocking writes and fsyncs); a task forwards it every frame of
+//! the link's tap (never dropped) and a 250 ms tick for the time-driven flush. The frames of
+//! the last few seconds before arming are kept and written first, so a flight's log begins
+//! before its take-off. Each flight decodes its frames with a fresh `link::telemetry::Telemetry`
+//! from its first logged frame, exactly as `replay` will, so the live report and the replayed
+//! one agree.
+//!
+//! Handles: `set_plan` (what the next flight, or the one in progress, is measured against: a
+//! plan set mid-flight is applied to everything recorded so far), `subscribe` (flight events:
+//! started, each part completed, ended with its report), `live` (the latest state: vehicle,
+//! battery, the part in progress), `close` (finishes an open flight cleanly).
+
+use std::collections::VecDeque;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use tokio::sync::{broadcast, mpsc, oneshot, watch};
+
+use crate::flightlog::plan::FlightPlan;
+use crate::flightlog::recorder::{flight_name, write_report, Recorder};
+use crate::flightlog::report::{FlightReport, PartReport};
+use crate::flightlog::segment::{SegmentConfig, SegmentKind, Segmenter};
+use crate::flightlog::telemetry::{Reading, Stamped, VehicleState};
+use crate::link::connection::{wall_us, Frame, Link};
+use crate::link::telemetry::Telemetry;
+
+/// How the recorder works.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecorderConfig {
+    /// Where flight directories are made.
+    pub log_dir: PathBuf,
+    pub segment: SegmentConfig,
+    /// Frames kept from before arming, written at the start of a flight's log.
+    pub preroll: Duration,
+    /// Recording goes on this long (wall time) after the disarm.
+    pub tail: Duration,
+}
+
+impl RecorderConfig {
+    pub fn new(log_dir: impl Into<PathBuf>) -> RecorderConfig {
+        RecorderConfig {
+            log_dir: log_dir.into(),
+            segment: SegmentConfig::default(),
+            preroll: Duration::from_secs(5),
+            tail: Duration::from_millis(500),
+        }
+    }
+}
+
+/// What happens to flights.
+#[derive(Debug, Clone)]
+pub enum FlightEvent {
+    /// A flight directory was opened (at arming, or at once when the vehicle was already
+    /// flying).
+    Started { flight: String, dir: PathBuf },
+    /// A part of the flight is complete (take-off, a leg, a settle, a hover, the landing).
+    Part {
+        flight: String,
+        kind: SegmentKind,
+        part: PartReport,
+    },
+    /// The flight ended (disarmed, or the recorder closed); its files are complete. The report
+    /// is absent when no flight plan was ever set.
+    Ended {
+        flight: String,
+        dir: PathBuf,
+        report: Option<Box<FlightReport>>,
+    },
+    /// The recorder could not write; the flight's files hold what was written before.
+    Failed { flight: String, error: String },
+}
+
+/// The latest battery sample.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct BatteryNow {
+    pub voltage_v: Option<f64>,
+    pub current_a: Option<f64>,
+    pub power_w: Option<f64>,
+    pub consumed_mah: Option<f64>,
+    pub remaining_pct: Option<f64>,
+}
+
+/// The flight being recorded.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LiveFlight {
+    pub flight: String,
+    pub dir: PathBuf,
+    /// Vehicle time since the flight's first logged frame.
+    pub t_s: f64,
+    /// The part in progress with its energy so far (measured) and its prediction.
+    pub in_progress: Option<(SegmentKind, PartReport)>,
+    /// Parts completed so far.
+    pub parts: usize,
+}
+
+/// The latest state the recorder knows.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Live {
+    pub vehicle: VehicleState,
+    pub battery: Option<BatteryNow>,
+    pub flight: Option<LiveFlight>,
+    /// Frames seen on the link.
+    pub frames: u64,
+}
+
+enum Input {
+    Frame(Frame),
+    Tick(u64),
+    Plan(Box<FlightPlan>),
+    Close(oneshot::Sender<()>),
+}
+
+/// A running recorder.
+pub struct RecorderHandle {
+    input: mpsc::UnboundedSender<Input>,
+    events: broadcast::Sender<FlightEvent>,
+    live: watch::Receiver<Live>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl RecorderHandle {
+    /// The plan the next flight (or the one in progress) is measured against.
+    pub fn set_plan(&self, plan: FlightPlan) {
+        let _ = self.input.send(Input::Plan(Box::new(plan)));
+    }
+
+    /// Flight events from now on.
+    pub fn subscribe(&self) -> broadcast::Receiver<FlightEvent> {
+        self.events.subscribe()
+    }
+
+    /// The latest state.
+    pub fn live(&self) -> watch::Receiver<Live> {
+        self.live.clone()
+    }
+
+    /// Finishes the flight in progress (its report marked incomplete) and stops.
+    pub async fn close(mut self) {
+        let (done, wait) = oneshot::channel();
+        if self.input.send(Input::Close(done)).is_ok() {
+            let _ = wait.await;
+        }
+        if let Some(thread) = self.thread.take() {
+            let _ = tokio::task::spawn_blocking(move || thread.join()).await;
+        }
+    }
+}
+
+/// Starts recording every flight on `link`.
+pub fn spawn_recorder(link: &Link, cfg: RecorderConfig) -> RecorderHandle {
+    let (input, mut inputs) = mpsc::unbounded_channel();
+    let (events, _) = broadcast::channel(1024);
+    let (live_tx, live) = watch::channel(Live::default());
+    let mut tap = link.tap();
+    let forward = input.clone();
+    tokio::spawn(async move {
+        let mut tick = tokio::time::interval(Duration::from_millis(250));
+        loop {
+            let sent = tokio::select! {
+                frame = tap.recv() => match frame {
+                    Some(frame) => forward.send(Input::Frame(frame)),
+                    None => return,
+                },
+                _ = tick.tick() => forward.send(Input::Tick(wall_us())),
+            };
+            if sent.is_err() {
+                return;
+            }
+        }
+    });
+    let thread_events = events.clone();
+    let thread = std::thread::Builder::new()
+        .name("flight-recorder".into())
+        .spawn(move || {
+            let mut state = State::new(cfg, thread_events, live_tx);
+            while let Some(input) = inputs.blocking_recv() {
+                match input {
+                    Input::Frame(frame) => state.frame(frame),
+                    Input::Tick(now_us) => state.tick(now_us),
+                    Input::Plan(plan) => state.set_plan(*plan),
+                    Input::Close(done) => {
+                        state.end_flight(wall_us());
+                        let _ = done.send(());
+                        return;
+                    }
+                }
+            }
+            state.end_flight(wall_us());
+        })
+        .ok();
+    RecorderHandle {
+        input,
+        events,
+        live,
+        thread,
+    }
+}
+
+/// A flight being recorded.
+struct Open {
+    name: String,
+    recorder: Recorder,
+    telemetry: Telemetry,
+    /// Every reading so far (a plan set mid-flight is applied to all of them).
+    stamped: Vec<Stamped>,
+    segmenter: Option<Segmenter>,
+    /// Parts already announced.
+    announced: usize,
+    /// When the flight ends (wall time), once it has disarmed.
+    ends_at_us: Option<u64>,
+    failed: bool,
+}
+
+struct State {
+    cfg: RecorderConfig,
+    events: broadcast::Sender<FlightEvent>,
+    live_tx: watch::Sender<Live>,
+    live: Live,
+    /// Decodes everything, for the vehicle's state between flights.
+    watch: Telemetry,
+    preroll: VecDeque<Frame>,
+    plan: Option<FlightPlan>,
+    open: Option<Open>,
+    was_armed: Option<bool>,
+    last_live_us: u64,
+}
+
+impl State {
+    fn new(
+        cfg: RecorderConfig,
+        events: broadcast::Sender<FlightEvent>,
+        live_tx: watch::Sender<Live>,
+    ) -> State {
+        State {
+            cfg,
+            events,
+            live_tx,
+            live: Live::default(),
+            watch: Telemetry::new(),
+            preroll: VecDeque::new(),
+            plan: None,
+            open: None,
+            was_armed: None,
+            last_live_us: 0,
+        }
+    }
+
+    fn frame(&mut self, frame: Frame) {
+        self.live.frames += 1;
+        let now_us = frame.wall_us;
+        let mut armed_now = None;
+        if let Some(s) = self.watch.frame(frame.wall_us, &frame.bytes) {
+            self.live.vehicle.update(&s.reading);
+            match &s.reading {
+                Reading::Heartbeat { armed, .. } => armed_now = Some(*armed),
+                Reading::Battery(b) => {
+                    self.live.battery = Some(BatteryNow {
+                        voltage_v: b.voltage_v,
+                        current_a: b.current_a,
+                        power_w: b.voltage_v.zip(b.current_a).map(|(v, i)| v * i),
+                        consumed_mah: b.consumed_mah,
+                        remaining_pct: b.remaining_pct,
+                    })
+                }
+                _ => {}
+            }
+        }
+        if let Some(open) = self.open.as_mut() {
+            record(open, &self.events, &frame);
+        } else {
+            self.preroll.push_back(frame);
+            let keep_us = self.cfg.preroll.as_micros() as u64;
+            while self
+                .preroll
+                .front()
+                .is_some_and(|f| now_us.saturating_sub(f.wall_us) > keep_us)
+            {
+                self.preroll.pop_front();
+            }
+        }
+        if let Some(armed) = armed_now {
+            // A new flight at arming, or at once when the first heartbeat says it is flying.
+            let rising = armed && self.was_armed != Some(true);
+            if rising {
+                if self.open.as_ref().is_some_and(|o| o.ends_at_us.is_some()) {
+                    self.end_flight(now_us);
+                }
+                if self.open.is_none() {
+                    self.start_flight(now_us);
+                }
+            }
+            if !armed && self.was_armed == Some(true) {
+                if let Some(open) = self.open.as_mut() {
+                    open.ends_at_us
+                        .get_or_insert(now_us + self.cfg.tail.as_micros() as u64);
+                }
+            }
+            self.was_armed = Some(armed);
+        }
+        self.tick(now_us);
+    }
+
+    fn tick(&mut self, now_us: u64) {
+        if let Some(open) = self.open.as_mut() {
+            if !open.failed {
+                if let Err(e) = open.recorder.tick(now_us) {
+                    fail(open, &self.events, e.to_string());
+                }
+            }
+            if open.ends_at_us.is_some_and(|at| now_us >= at) {
+                self.end_flight(now_us);
+            }
+        }
+        if now_us.saturating_sub(self.last_live_us) >= 200_000 {
+            self.last_live_us = now_us;
+            self.publish();
+        }
+    }
+
+    fn publish(&mut self) {
+        self.live.flight = self.open.as_ref().map(|open| {
+            let (t_s, in_progress, parts) = match &open.segmenter {
+                Some(seg) => {
+                    let in_progress = seg.in_progress().and_then(|segment| {
+                        let report = FlightReport::build(&open.name, seg);
+                        let part = report
+                            .parts()
+                            .find(|p| p.start_s == segment.start_s)
+                            .cloned();
+                        part.map(|p| (segment.kind, p))
+                    });
+                    (seg.now_s(), in_progress, seg.completed().len())
+                }
+                None => (open.stamped.last().map_or(0.0, |s| s.t_s), None, 0),
+            };
+            LiveFlight {
+                flight: open.name.clone(),
+                dir: open.recorder.dir().to_path_buf(),
+                t_s,
+                in_progress,
+                parts,
+            }
+        });
+        let _ = self.live_tx.send(self.live.clone());
+    }
+
+    fn set_plan(&mut self, plan: FlightPlan) {
+        if let Some(open) = self.open.as_mut() {
+            if open.segmenter.is_none() {
+                if let Err(e) = open.recorder.write_plan(&plan) {
+                    fail(open, &self.events, e.to_string());
+                }
+                match Segmenter::new(plan.clone(), self.cfg.segment) {
+                    Ok(mut seg) => {
+                        for s in &open.stamped {
+                            seg.push(s);
+                        }
+                        open.segmenter = Some(seg);
+                        announce(open, &self.events);
+                    }
+                    Err(e) => fail(open, &self.events, e.to_string()),
+                }
+            }
+        }
+        self.plan = Some(plan);
+    }
+
+    fn start_flight(&mut self, now_us: u64) {
+        let start_us = self.preroll.front().map_or(now_us, |f| f.wall_us);
+        let mission = self
+            .plan
+            .as_ref()
+            .map_or_else(|| "flight".to_string(), |p| p.mission.clone());
+        let recorder = match Recorder::create(&self.cfg.log_dir, &mission, start_us) {
+            Ok(r) => r,
+            Err(e) => {
+                let _ = self.events.send(FlightEvent::Failed {
+                    flight: mission,
+                    error: e.to_string(),
+                });
+                return;
+            }
+        };
+        let name = flight_name(recorder.dir());
+        let dir = recorder.dir().to_path_buf();
+        let mut open = Open {
+            name: name.clone(),
+            recorder,
+            telemetry: Telemetry::new(),
+            stamped: Vec::new(),
+            segmenter: None,
+            announced: 0,
+            ends_at_us: None,
+            failed: false,
+        };
+        if let Some(plan) = &self.plan {
+            if let Err(e) = open.recorder.write_plan(plan) {
+                fail(&mut open, &self.events, e.to_string());
+            }
+            match Segmenter::new(plan.clone(), self.cfg.segment) {
+                Ok(seg) => open.segmenter = Some(seg),
+                Err(e) => fail(&mut open, &self.events, e.to_string()),
+            }
+        }
+        let _ = self.events.send(FlightEvent::Started { flight: name, dir });
+        for frame in std::mem::take(&mut self.preroll) {
+            record(&mut open, &self.events, &frame);
+        }
+        self.open = Some(open);
+    }
+
+    /// Ends the flight in progress, if any: the segmenter finished, report.json written, files
+    /// closed.
+    fn end_flight(&mut self, now_us: u64) {
+        let Some(mut open) = self.open.take() else {
+            return;
+        };
+        let report = open.segmenter.as_mut().map(|seg| {
+            seg.finish();
+            FlightReport::build(&open.name, seg)
+        });
+        announce(&mut open, &self.events);
+        let dir = open.recorder.dir().to_path_buf();
+        if let Some(report) = &report {
+            if let Err(e) = write_report(&dir, report) {
+                fail(&mut open, &self.events, e.to_string());
+            }
+        }
+        let _ = open.recorder.tick(now_us);
+        if let Err(e) = open.recorder.close() {
+            let _ = self.events.send(FlightEvent::Failed {
+                flight: open.name.clone(),
+                error: e.to_string(),
+            });
+        }
+        let _ = self.events.send(FlightEvent::Ended {
+            flight: open.name,
+            dir,
+            report: report.map(Box::new),
+        });
+        self.publish();
+    }
+}
+
+/// Logs one frame of the open flight and feeds its reading to the segmenter.
+fn record(open: &mut Open, events: &broadcast::Sender<FlightEvent>, frame: &Frame) {
+    let stamped = open.telemetry.frame(frame.wall_us, &frame.bytes);
+    if !open.failed {
+        if let Err(e) = open
+            .recorder
+            .record(frame.wall_us, &frame.bytes, stamped.as_ref())
+        {
+            fail(open, events, e.to_string());
+        }
+    }
+    if let Some(s) = stamped {
+        if let Some(seg) = open.segmenter.as_mut() {
+            seg.push(&s);
+        }
+        open.stamped.push(s);
+        announce(open, events);
+    }
+}
+
+/// Sends an event for every part completed since the last call.
+fn announce(open: &mut Open, events: &broadcast::Sender<FlightEvent>) {
+    let Some(seg) = open.segmenter.as_ref() else {
+        return;
+    };
+    let completed = seg.completed();
+    if completed.len() <= open.announced {
+        return;
+    }
+    let report = FlightReport::build(&open.name, seg);
+    for segment in &completed[open.announced..] {
+        if let Some(part) = report
+            .parts()
+            .find(|p| p.start_s == segment.start_s && p.end_s == segment.end_s)
+        {
+            let _ = events.send(FlightEvent::Part {
+                flight: open.name.clone(),
+                kind: segment.kind,
+                part: part.clone(),
+            });
+        }
+    }
+    open.announced = completed.len();
+}
+
+fn fail(open: &mut Open, events: &broadcast::Sender<FlightEvent>, error: String) {
+    tracing::error!("flight {}: recording failed: {error}", open.name);
+    open.failed = true;
+    let _ = events.send(FlightEvent::Failed {
+        flight: open.name.clone(),
+        error,
+    });
+}
+
+/// The flight directories under `log_dir`, oldest first (by name: they start with their UTC
+/// start time).
+pub fn flight_dirs(log_dir: &Path) -> std::io::Result<Vec<PathBuf>> {
+    let mut dirs: Vec<PathBuf> = std::fs::read_dir(log_dir)?
+        .filter_map(|e| e.ok())
+        .map(|e| e.path())
+        .filter(|p| p.join(crate::flightlog::recorder::TLOG_FILE).is_file())
+        .collect();
+    dirs.sort();
+    Ok(dirs)
+}
