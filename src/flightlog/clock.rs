@@ -6,7 +6,12 @@
 //! SYSTEM_TIME, ...) give the vehicle time exactly; they are the clock's anchors. Messages without
 //! it (BATTERY_STATUS, SYS_STATUS, HEARTBEAT, MISSION_CURRENT, ...) are stamped by extrapolating
 //! from the latest anchor at the measured rate (vehicle seconds per wall second, estimated over
-//! the last `window_s` of wall time, clamped, 1 until anchors span `min_span_s`). Stamps never go
+//! the last `window_s` of wall time, clamped, 1 until anchors span `min_span_s`), but never
+//! further past the latest anchor than `hold_factor` times the usual spacing of the anchors: a
+//! message that arrives late (a radio's or a simulator's burst, a hiccup of the ground station)
+//! was still sent before the next anchor, so wall time must not carry it beyond (at 20x a 15 ms
+//! delay would otherwise move it 0.3 s of flight); when the anchors have stopped, extrapolation
+//! runs on. Stamps never go
 //! backwards: a reboot that resets `time_boot_ms` starts a new epoch, offset so the flight's time
 //! continues; a timed message slightly older than the last stamp is held at it. With no timed
 //! messages at all the clock is the wall clock. The output is a pure function of the inputs, so a
@@ -26,6 +31,8 @@ pub struct ClockConfig {
     pub max_rate: f64,
     /// A `time_boot_ms` this much below the last one is a reboot (a new epoch), not reordering.
     pub reboot_jump_s: f64,
+    /// An untimed message is stamped at most this many anchor spacings past the latest anchor.
+    pub hold_factor: f64,
 }
 
 impl Default for ClockConfig {
@@ -36,6 +43,7 @@ impl Default for ClockConfig {
             min_rate: 0.05,
             max_rate: 1000.0,
             reboot_jump_s: 2.0,
+            hold_factor: 1.5,
         }
     }
 }
@@ -56,6 +64,8 @@ pub struct VehicleClock {
     last_boot_ms: Option<u32>,
     last_t_s: f64,
     epochs: u32,
+    /// Smoothed vehicle time between distinct anchors.
+    spacing_s: Option<f64>,
 }
 
 impl Default for VehicleClock {
@@ -77,6 +87,7 @@ impl VehicleClock {
             last_boot_ms: None,
             last_t_s: 0.0,
             epochs: 0,
+            spacing_s: None,
         }
     }
 
@@ -112,7 +123,19 @@ impl VehicleClock {
         let wall_us = wall_us.max(self.last_wall_us);
         self.last_wall_us = wall_us;
         let t_s = match boot_ms {
-            None => self.extrapolate(wall_us),
+            None => {
+                let t = self.extrapolate(wall_us);
+                // Held back only while the anchors are merely late; when they have stopped
+                // (no anchor for four spacings of wall time, at least a quarter second) the
+                // untimed messages run on at the measured rate.
+                let waited_s = wall_us.saturating_sub(self.reference.0) as f64 * 1e-6;
+                match self.spacing_s {
+                    Some(spacing) if waited_s <= (4.0 * spacing / self.rate).max(0.25) => {
+                        t.min(self.reference.1 + self.cfg.hold_factor * spacing)
+                    }
+                    _ => t,
+                }
+            }
             Some(boot_ms) => self.anchor(wall_us, boot_ms),
         };
         let t_s = if t_s.is_finite() {
@@ -138,6 +161,16 @@ impl VehicleClock {
             }
         }
         let t_s = boot_s + self.offset_s.unwrap_or(0.0);
+        if let Some(&(_, last_t)) = self.anchors.back() {
+            let delta = t_s - last_t;
+            // Two streams sent in one step give a zero spacing: only distinct times count.
+            if delta > 1e-3 && !rebooted {
+                self.spacing_s = Some(match self.spacing_s {
+                    Some(s) => s + 0.1 * (delta - s),
+                    None => delta,
+                });
+            }
+        }
         if self.last_boot_ms.is_none_or(|last| boot_ms >= last) || rebooted {
             self.last_boot_ms = Some(boot_ms);
         }
@@ -253,6 +286,21 @@ mod tests {
         let wall_last = START_US + (19.95 / 10.0 * 1e6) as u64;
         let t = clock.stamp(wall_last + 1_000_000, None);
         assert!((t - (last + 10.0)).abs() < 0.1, "last {last}, then {t}");
+    }
+
+    #[test]
+    fn an_untimed_message_arriving_late_is_not_carried_past_the_next_anchor() {
+        let mut clock = VehicleClock::default();
+        run(&mut clock, 20.0, 0, 20.0);
+        let last = clock.now_s();
+        // A 20 ms hiccup at 20x: by the wall clock 0.4 s of flight, but the message was sent
+        // before the next anchor (0.1 s on): held at 1.5 spacings.
+        let wall_last = START_US + (19.95 / 20.0 * 1e6) as u64;
+        let t = clock.stamp(wall_last + 20_000, None);
+        assert!(
+            t - last <= 0.15 + 1e-9 && t >= last,
+            "last {last}, then {t}"
+        );
     }
 
     #[test]

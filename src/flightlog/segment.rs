@@ -379,18 +379,48 @@ impl Segmenter {
         }
     }
 
-    /// When a departure the autopilot announced at `t_s` really began.
+    /// When a departure the autopilot announced at `t_s` really began: at the exit from the
+    /// hover point seen in the positions when that came first (the announcement was late: a
+    /// repeat after the change was lost); else, when the vehicle is already moving at `t_s`,
+    /// where its motion began (a late announcement before the exit); else `t_s`.
     fn departure_time(&self, t_s: f64) -> f64 {
-        match self.exit_s {
-            Some(e)
-                if !self.inside_departure
-                    && e <= t_s
-                    && t_s - e <= self.cfg.mission_current_lag_s =>
-            {
-                e
+        let lag = self.cfg.mission_current_lag_s;
+        if let Some(e) = self.exit_s {
+            if !self.inside_departure && e <= t_s && t_s - e <= lag {
+                return e;
             }
-            _ => t_s,
         }
+        let rest = self.rest_speed_m_s(t_s);
+        // Moving before `t_s`: two moving samples by then, or one taken before it (a sample at
+        // the announcement's own time says nothing about when the motion began).
+        let run: Vec<f64> = self
+            .recent_speeds
+            .iter()
+            .rev()
+            .filter(|&&(t, _)| t <= t_s + 1e-9)
+            .take_while(|&&(_, v)| v > rest)
+            .map(|&(t, _)| t)
+            .collect();
+        let moving = run.len() >= 2 || run.first().is_some_and(|&t| t < t_s - 1e-3);
+        if moving {
+            let start = self.motion_start(t_s, rest);
+            if start < t_s && t_s - start <= lag {
+                return start;
+            }
+        }
+        t_s
+    }
+
+    /// The speed below which the vehicle counts as hovering: what it showed while hovering
+    /// here before (GPS velocity noise on a real vehicle), at least 0.05 m/s.
+    fn rest_speed_m_s(&self, t_s: f64) -> f64 {
+        let noise = self
+            .recent_speeds
+            .iter()
+            .filter(|&&(t, _)| t >= self.open_start_s && t < t_s - self.cfg.mission_current_lag_s)
+            .map(|&(_, v)| v)
+            .fold(0.0, f64::max);
+        (1.5 * noise).max(0.05)
     }
 
     fn on_target(&mut self, t_s: f64, target: Target) {
@@ -505,12 +535,11 @@ impl Segmenter {
         self.on_position_in_hover(t_s, p, previous);
     }
 
-    /// When the motion that left the hover point at `exit_s` began: speed grows from rest as
+    /// When the motion that left the hover point by `exit_s` began: speed grows from rest as
     /// (t - t0)^2 under a jerk-limited start (PX4's S-curve, the quintic), so sqrt(speed) is
     /// linear in time; extrapolated back from the first two moving samples, and bounded by the
     /// last sample at rest before them. Without such samples, the exit itself.
-    fn motion_start(&self, exit_s: f64) -> f64 {
-        const REST_M_S: f64 = 0.05;
+    fn motion_start(&self, exit_s: f64, rest_m_s: f64) -> f64 {
         let before: Vec<(f64, f64)> = self
             .recent_speeds
             .iter()
@@ -518,7 +547,7 @@ impl Segmenter {
             .filter(|&(t, _)| t <= exit_s + 1e-9)
             .collect();
         // The last sample at rest, and the moving samples after it.
-        let rest = before.iter().rposition(|&(_, v)| v <= REST_M_S);
+        let rest = before.iter().rposition(|&(_, v)| v <= rest_m_s);
         let moving: Vec<(f64, f64)> = match rest {
             Some(i) => before[i + 1..].to_vec(),
             None => before.clone(),
@@ -559,7 +588,8 @@ impl Segmenter {
                 }
                 None => t_s,
             };
-            self.exit_s = Some(self.motion_start(exit));
+            let rest = self.rest_speed_m_s(exit);
+            self.exit_s = Some(self.motion_start(exit, rest));
         }
         if d > self.cfg.arrival_radius_m {
             if let Some(exit) = self.exit_s {

@@ -688,7 +688,8 @@ pub fn default_streams() -> Vec<StreamRequest> {
         StreamRequest::of::<mav::SYS_STATUS_DATA>(10.0),
         StreamRequest::of::<mav::GLOBAL_POSITION_INT_DATA>(10.0),
         StreamRequest::of::<mav::LOCAL_POSITION_NED_DATA>(10.0),
-        StreamRequest::of::<mav::MISSION_CURRENT_DATA>(2.0),
+        // 10 Hz: a leg begins when the item changes; a lost change is caught by the next one.
+        StreamRequest::of::<mav::MISSION_CURRENT_DATA>(10.0),
         StreamRequest::of::<mav::EXTENDED_SYS_STATE_DATA>(2.0),
     ]
 }

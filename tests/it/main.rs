@@ -3,6 +3,7 @@
 mod cli;
 mod flight;
 mod flightlog;
+mod fly;
 mod mission;
 mod physics;
 mod snapshots;
