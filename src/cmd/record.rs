@@ -58,13 +58,20 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                         eprintln!("armed: recording to {}", dir.display());
                         // What the vehicle flies: its mission, read back now.
                         match emplan::link::driver::download(link, &target, opened.config).await {
-                            Ok(items) => match plan_from_items(
-                                mission.as_ref().map_or("flight", |m| m.name.as_str()),
+                            Ok(items) => match emplan::link::items::read_flight(
                                 &items,
                                 target.flavour,
-                                mission.as_ref(),
-                                Some(&model),
-                            ) {
+                                mission.as_ref().map_or(0.0, |m| m.origin.home.alt_m),
+                            )
+                            .map_err(Into::into)
+                            .and_then(|read| {
+                                plan_from_items(
+                                    mission.as_ref().map_or("flight", |m| m.name.as_str()),
+                                    &read,
+                                    mission.as_ref(),
+                                    Some(&model),
+                                )
+                            }) {
                                 Ok(plan) => recorder.set_plan(plan),
                                 Err(e) => eprintln!("the vehicle's mission cannot be measured: {e}; recording the telemetry only"),
                             },

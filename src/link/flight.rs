@@ -420,9 +420,18 @@ mod tests {
         let guided = ardupilot_mode::GUIDED as f32;
         let auto = ardupilot_mode::AUTO as f32;
         assert_eq!(commands(&s.start(ms(0))), vec![(MODE, 1.0, guided)]);
-        assert_eq!(commands(&s.handle(ms(5), &ack(MODE, OK))), vec![(ARM, 1.0, 0.0)]);
-        assert_eq!(commands(&s.handle(ms(7), &ack(ARM, OK))), vec![(MODE, 1.0, auto)]);
-        assert_eq!(commands(&s.handle(ms(9), &ack(MODE, OK))), vec![(START, 0.0, 0.0)]);
+        assert_eq!(
+            commands(&s.handle(ms(5), &ack(MODE, OK))),
+            vec![(ARM, 1.0, 0.0)]
+        );
+        assert_eq!(
+            commands(&s.handle(ms(7), &ack(ARM, OK))),
+            vec![(MODE, 1.0, auto)]
+        );
+        assert_eq!(
+            commands(&s.handle(ms(9), &ack(MODE, OK))),
+            vec![(START, 0.0, 0.0)]
+        );
         s.handle(ms(11), &ack(START, OK));
         assert_eq!(s.finished(), Some(&Ok(())));
     }
@@ -445,7 +454,10 @@ mod tests {
             ..Default::default()
         });
         s.handle(ms(5), &text);
-        s.handle(ms(10), &ack(ARM, MavResult::MAV_RESULT_TEMPORARILY_REJECTED));
+        s.handle(
+            ms(10),
+            &ack(ARM, MavResult::MAV_RESULT_TEMPORARILY_REJECTED),
+        );
         assert!(s.finished().is_none());
         assert_eq!(commands(&s.tick(ms(100))), vec![(ARM, 1.0, 0.0)]);
         assert_eq!(

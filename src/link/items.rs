@@ -9,7 +9,7 @@
 
 use super::mav::{MavCmd, MavFrame, MavMissionType, MISSION_ITEM_INT_DATA};
 use super::Flavour;
-use crate::mission::Mission;
+use crate::mission::{Enu, Geodetic, Mission, Origin};
 
 /// How a mission ends.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -182,6 +182,123 @@ pub fn item_json(item: &MISSION_ITEM_INT_DATA) -> serde_json::Value {
         "x": item.x,
         "y": item.y,
         "z": item.z,
+    })
+}
+
+/// Why mission items could not be read as a flight.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ReadItemsError {
+    #[error("the mission has no NAV_TAKEOFF: emplan measures flights that take off from the origin (items {0})")]
+    NoTakeoff(String),
+    #[error("the mission visits no waypoint after its take-off")]
+    NoWaypoints,
+    #[error("item {seq}: {what}")]
+    Item { seq: u16, what: String },
+}
+
+/// A mission as the autopilot holds it, read as a flight.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FlightItems {
+    pub home: Geodetic,
+    pub origin_height_m: f64,
+    pub takeoff_seq: u16,
+    /// (seq, position in the origin frame, hold s) of every waypoint after the take-off.
+    pub points: Vec<(u16, Enu, f64)>,
+    pub land_seq: Option<u16>,
+}
+
+fn degrees(e7: i32) -> f64 {
+    f64::from(e7) / 1e7
+}
+
+/// Reads `items` (held by an autopilot of `flavour`) as a flight: the layout [`mission_items`]
+/// uploads ([home at seq 0 on ArduPilot] NAV_TAKEOFF to the origin height, the waypoints, a
+/// NAV_WAYPOINT back at the origin, NAV_LAND) or any other read as far as it goes: the take-off's
+/// position and altitude give the origin, every NAV_WAYPOINT after it is a point, the first
+/// landing or RTL ends the flight. The home altitude (AMSL) is
+/// ArduPilot's home item when there is one, else `home_alt_m` (what only the geometry of the
+/// positions needs: altitudes are relative to home).
+pub fn read_flight(
+    items: &[MISSION_ITEM_INT_DATA],
+    flavour: Flavour,
+    home_alt_m: f64,
+) -> Result<FlightItems, ReadItemsError> {
+    let summary = || {
+        items
+            .iter()
+            .map(|i| format!("{}:{:?}", i.seq, i.command))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let takeoff = items
+        .iter()
+        .find(|i| i.command == MavCmd::MAV_CMD_NAV_TAKEOFF)
+        .ok_or_else(|| ReadItemsError::NoTakeoff(summary()))?;
+    let home_item = (flavour == Flavour::ArduPilot)
+        .then(|| items.iter().find(|i| i.seq == 0))
+        .flatten();
+    let home = Geodetic {
+        lat_deg: degrees(takeoff.x),
+        lon_deg: degrees(takeoff.y),
+        alt_m: home_item.map_or(home_alt_m, |h| f64::from(h.z)),
+    };
+    #[allow(deprecated)]
+    let relative = |i: &MISSION_ITEM_INT_DATA| {
+        matches!(
+            i.frame,
+            MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT | MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+        )
+    };
+    if !relative(takeoff) {
+        return Err(ReadItemsError::Item {
+            seq: takeoff.seq,
+            what: format!(
+                "take-off in frame {:?}: only altitudes relative to home are read",
+                takeoff.frame
+            ),
+        });
+    }
+    let origin = Origin {
+        home,
+        height_above_home_m: f64::from(takeoff.z),
+    };
+    let mut points = Vec::new();
+    let mut land_seq = None;
+    for item in items.iter().filter(|i| i.seq > takeoff.seq) {
+        match item.command {
+            MavCmd::MAV_CMD_NAV_WAYPOINT => {
+                if !relative(item) {
+                    return Err(ReadItemsError::Item {
+                        seq: item.seq,
+                        what: format!(
+                            "waypoint in frame {:?}: only altitudes relative to home are read",
+                            item.frame
+                        ),
+                    });
+                }
+                let enu = origin.to_enu(Geodetic {
+                    lat_deg: degrees(item.x),
+                    lon_deg: degrees(item.y),
+                    alt_m: home.alt_m + f64::from(item.z),
+                });
+                points.push((item.seq, enu, f64::from(item.param1.max(0.0))));
+            }
+            MavCmd::MAV_CMD_NAV_LAND | MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH => {
+                land_seq = Some(item.seq);
+                break;
+            }
+            _ => {}
+        }
+    }
+    if points.is_empty() {
+        return Err(ReadItemsError::NoWaypoints);
+    }
+    Ok(FlightItems {
+        home,
+        origin_height_m: origin.height_above_home_m,
+        takeoff_seq: takeoff.seq,
+        points,
+        land_seq,
     })
 }
 

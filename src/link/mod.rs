@@ -5,6 +5,7 @@
 //! Invariant: this module and `sim` are the only ones that know MAVLink types; degE7 and the
 //! MAVLink frames are converted here, once.
 
+pub mod commands;
 pub mod connection;
 pub mod driver;
 pub mod flavour;

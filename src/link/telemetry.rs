@@ -459,6 +459,46 @@ pub fn analyse_flight_dir(dir: &Path, cfg: SegmentConfig) -> Result<Analysis, Te
     analyse_tlog(&dir.join(TLOG_FILE), plan, &flight_name(dir), cfg)
 }
 
+/// The last complete mission (every item of the latest MISSION_COUNT, in either direction) in a
+/// .tlog, and the flavour of the autopilot that flew it.
+pub fn mission_in_tlog(
+    path: &Path,
+) -> Result<(Option<Vec<mav::MISSION_ITEM_INT_DATA>>, Flavour), TelemetryError> {
+    let mut flavour = Flavour::Generic;
+    let mut count: Option<u16> = None;
+    let mut items: Vec<Option<mav::MISSION_ITEM_INT_DATA>> = Vec::new();
+    let mut complete: Option<Vec<mav::MISSION_ITEM_INT_DATA>> = None;
+    for record in TlogReader::open(path)? {
+        let Ok(record) = record else { break };
+        let Ok((_, message)) = parse_frame(&record.frame) else {
+            continue;
+        };
+        match message {
+            MavMessage::HEARTBEAT(hb) if is_autopilot(&hb) => {
+                flavour = Flavour::from_autopilot(hb.autopilot)
+            }
+            MavMessage::MISSION_COUNT(c)
+                if c.mission_type == mav::MavMissionType::MAV_MISSION_TYPE_MISSION =>
+            {
+                count = Some(c.count);
+                items = vec![None; usize::from(c.count)];
+            }
+            MavMessage::MISSION_ITEM_INT(item)
+                if item.mission_type == mav::MavMissionType::MAV_MISSION_TYPE_MISSION =>
+            {
+                if let Some(slot) = items.get_mut(usize::from(item.seq)) {
+                    *slot = Some(item);
+                }
+                if count.is_some() && items.iter().all(Option::is_some) {
+                    complete = Some(items.iter().flatten().cloned().collect());
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok((complete, flavour))
+}
+
 /// Parses one raw MAVLink 1 or 2 frame (signed frames included; the signature is not checked
 /// here, the link did that on receipt).
 pub fn parse_frame(frame: &[u8]) -> Result<(MavHeader, MavMessage), TelemetryError> {

@@ -7,10 +7,10 @@ use std::time::Duration;
 
 use tokio::sync::broadcast::error::RecvError;
 
-use super::machine::{drive, keep_streams, request_streams};
 use super::plan::flight_plan;
 use super::recorder::{FlightEvent, RecorderHandle};
 use crate::flightlog::report::FlightReport;
+use crate::link::commands::{drive, keep_streams, request_streams};
 use crate::link::connection::{Autopilot, Link};
 use crate::link::driver::{upload_verified, UploadError, UploadReport};
 use crate::link::flight::{Start, StartConfig, StartError};

@@ -9,15 +9,14 @@
 //! on a thread of its own (blocking writes and fsyncs never stall the link's tasks).
 
 pub mod fly;
-pub mod machine;
 pub mod plan;
 pub mod recorder;
 pub mod replay;
 
+pub use crate::link::commands::{keep_streams, request_streams};
 pub use fly::{fly, Flown, FlyError, FlyOptions};
-pub use machine::{drive, keep_streams, request_streams, CommandMachine};
-pub use plan::{flight_plan, plan_from_items, predicted, FlightItems};
+pub use plan::{flight_plan, plan_from_items, predicted, FlightItemsError};
 pub use recorder::{
     flight_dirs, spawn_recorder, FlightEvent, Live, RecorderConfig, RecorderHandle,
 };
-pub use replay::{mission_in_tlog, plan_for_tlog, replay, ReplayError};
+pub use replay::{plan_for_tlog, replay, ReplayError};

@@ -3,16 +3,13 @@
 //! someone else did (`record` reads them back, `replay` finds them in the log), priced with the
 //! vehicle's energy table.
 //!
-//! The items follow the layout `link::items` uploads: [home at seq 0 on ArduPilot] NAV_TAKEOFF
-//! to the origin height, the waypoints, a NAV_WAYPOINT back at the origin, NAV_LAND. Items of
-//! another layout are read as far as they go: the take-off's position and altitude give the
-//! origin, every NAV_WAYPOINT after it is a point, the first landing or RTL ends the flight.
+//! The items are read as a flight by `link::items::read_flight` (the MAVLink side).
 
 use crate::flightlog::plan::{FlightPlan, PlannedPoint, Predicted, PredictedLeg, ORIGIN_NAME};
 use crate::flightlog::FlightLogError;
-use crate::link::mav::{MavCmd, MavFrame, MISSION_ITEM_INT_DATA};
+use crate::link::items::{FlightItems, ReadItemsError};
 use crate::link::Flavour;
-use crate::mission::{Enu, Geodetic, Mission, Origin};
+use crate::mission::{Enu, Mission};
 use crate::physics::VehicleModel;
 use crate::planner::{Flight, Plan};
 
@@ -52,15 +49,11 @@ pub fn flight_plan(
     )
 }
 
-/// Why mission items could not be read as a flight.
+/// Why a flight could not be read or priced.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum FlightItemsError {
-    #[error("the mission has no NAV_TAKEOFF: emplan measures flights that take off from the origin (items {0})")]
-    NoTakeoff(String),
-    #[error("the mission visits no waypoint after its take-off")]
-    NoWaypoints,
-    #[error("item {seq}: {what}")]
-    Item { seq: u16, what: String },
+    #[error(transparent)]
+    Items(#[from] ReadItemsError),
     #[error("pricing the legs: {0}")]
     Pricing(String),
     #[error("{0}")]
@@ -73,122 +66,18 @@ impl From<FlightLogError> for FlightItemsError {
     }
 }
 
-/// A mission as the autopilot holds it, read as a flight.
-#[derive(Debug, Clone, PartialEq)]
-pub struct FlightItems {
-    pub home: Geodetic,
-    pub origin_height_m: f64,
-    pub takeoff_seq: u16,
-    /// (seq, position in the origin frame, hold s) of every waypoint after the take-off.
-    pub points: Vec<(u16, Enu, f64)>,
-    pub land_seq: Option<u16>,
-}
-
-fn degrees(e7: i32) -> f64 {
-    f64::from(e7) / 1e7
-}
-
-/// Reads `items` (held by an autopilot of `flavour`) as a flight. The home altitude (AMSL) is
-/// ArduPilot's home item when there is one, else `home_alt_m` (what only the geometry of the
-/// positions needs: altitudes are relative to home).
-pub fn read_items(
-    items: &[MISSION_ITEM_INT_DATA],
-    flavour: Flavour,
-    home_alt_m: f64,
-) -> Result<FlightItems, FlightItemsError> {
-    let summary = || {
-        items
-            .iter()
-            .map(|i| format!("{}:{:?}", i.seq, i.command))
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
-    let takeoff = items
-        .iter()
-        .find(|i| i.command == MavCmd::MAV_CMD_NAV_TAKEOFF)
-        .ok_or_else(|| FlightItemsError::NoTakeoff(summary()))?;
-    let home_item = (flavour == Flavour::ArduPilot)
-        .then(|| items.iter().find(|i| i.seq == 0))
-        .flatten();
-    let home = Geodetic {
-        lat_deg: degrees(takeoff.x),
-        lon_deg: degrees(takeoff.y),
-        alt_m: home_item.map_or(home_alt_m, |h| f64::from(h.z)),
-    };
-    #[allow(deprecated)]
-    let relative = |i: &MISSION_ITEM_INT_DATA| {
-        matches!(
-            i.frame,
-            MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT | MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
-        )
-    };
-    if !relative(takeoff) {
-        return Err(FlightItemsError::Item {
-            seq: takeoff.seq,
-            what: format!(
-                "take-off in frame {:?}: only altitudes relative to home are read",
-                takeoff.frame
-            ),
-        });
-    }
-    let origin = Origin {
-        home,
-        height_above_home_m: f64::from(takeoff.z),
-    };
-    let mut points = Vec::new();
-    let mut land_seq = None;
-    for item in items.iter().filter(|i| i.seq > takeoff.seq) {
-        match item.command {
-            MavCmd::MAV_CMD_NAV_WAYPOINT => {
-                if !relative(item) {
-                    return Err(FlightItemsError::Item {
-                        seq: item.seq,
-                        what: format!(
-                            "waypoint in frame {:?}: only altitudes relative to home are read",
-                            item.frame
-                        ),
-                    });
-                }
-                let enu = origin.to_enu(Geodetic {
-                    lat_deg: degrees(item.x),
-                    lon_deg: degrees(item.y),
-                    alt_m: home.alt_m + f64::from(item.z),
-                });
-                points.push((item.seq, enu, f64::from(item.param1.max(0.0))));
-            }
-            MavCmd::MAV_CMD_NAV_LAND | MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH => {
-                land_seq = Some(item.seq);
-                break;
-            }
-            _ => {}
-        }
-    }
-    if points.is_empty() {
-        return Err(FlightItemsError::NoWaypoints);
-    }
-    Ok(FlightItems {
-        home,
-        origin_height_m: origin.height_above_home_m,
-        takeoff_seq: takeoff.seq,
-        points,
-        land_seq,
-    })
-}
-
-/// A FlightPlan from the mission items an autopilot holds. Points are named after the
+/// A FlightPlan from the mission items an autopilot holds, read by `link::items::read_flight`
+/// (its home altitude from the mission's when there is no home item). Points are named after the
 /// waypoints of `mission` they coincide with (within 1 m), "origin" for the origin, or
 /// "item N"; legs are priced with `model` when given. The flight returns to the origin: a last
 /// point away from the origin gets the origin appended only in the name of its leg (the
 /// landing then starts there).
 pub fn plan_from_items(
     name: &str,
-    items: &[MISSION_ITEM_INT_DATA],
-    flavour: Flavour,
+    read: &FlightItems,
     mission: Option<&Mission>,
     model: Option<&VehicleModel>,
 ) -> Result<FlightPlan, FlightItemsError> {
-    let home_alt_m = mission.map_or(0.0, |m| m.origin.home.alt_m);
-    let read = read_items(items, flavour, home_alt_m)?;
     let name_of = |enu: &Enu| {
         let near = |a: &Enu, b: &Enu| {
             (a.x_east_m - b.x_east_m)
@@ -273,7 +162,18 @@ fn price_points(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::link::items::{mission_items, ItemOptions};
+    use crate::link::items::{mission_items, read_flight, ItemOptions};
+    use crate::link::mav::{MavCmd, MISSION_ITEM_INT_DATA};
+
+    fn from_items(
+        items: &[MISSION_ITEM_INT_DATA],
+        flavour: Flavour,
+        mission: Option<&Mission>,
+    ) -> Result<FlightPlan, FlightItemsError> {
+        let home_alt_m = mission.map_or(0.0, |m| m.origin.home.alt_m);
+        let read = read_flight(items, flavour, home_alt_m)?;
+        plan_from_items("x", &read, mission, None)
+    }
 
     fn sample() -> Mission {
         let path =
@@ -290,7 +190,7 @@ mod tests {
                 ..ItemOptions::default()
             };
             let items = mission_items(&m, &[2, 0, 1], &opts).unwrap();
-            let read = plan_from_items("x", &items, flavour, Some(&m), None).unwrap();
+            let read = from_items(&items, flavour, Some(&m)).unwrap();
             let direct = FlightPlan::for_mission(
                 &m,
                 &[2, 0, 1],
@@ -326,12 +226,15 @@ mod tests {
             .filter(|i| i.command != MavCmd::MAV_CMD_NAV_TAKEOFF)
             .cloned()
             .collect();
-        let err = plan_from_items("x", &no_takeoff, Flavour::Px4, None, None).unwrap_err();
-        assert!(matches!(err, FlightItemsError::NoTakeoff(_)), "{err}");
+        let err = from_items(&no_takeoff, Flavour::Px4, None).unwrap_err();
+        assert!(
+            matches!(err, FlightItemsError::Items(ReadItemsError::NoTakeoff(_))),
+            "{err}"
+        );
         let only_takeoff = &items[..1];
         assert_eq!(
-            plan_from_items("x", only_takeoff, Flavour::Px4, None, None).unwrap_err(),
-            FlightItemsError::NoWaypoints
+            from_items(only_takeoff, Flavour::Px4, None).unwrap_err(),
+            FlightItemsError::Items(ReadItemsError::NoWaypoints)
         );
     }
 
@@ -340,7 +243,7 @@ mod tests {
         let m = sample();
         let mut items = mission_items(&m, &[0, 1], &ItemOptions::default()).unwrap();
         items[1].x += 1000; // about 11 m north
-        let plan = plan_from_items("x", &items, Flavour::Px4, Some(&m), None).unwrap();
+        let plan = from_items(&items, Flavour::Px4, Some(&m)).unwrap();
         assert_eq!(plan.points[0].name, "item 1");
         assert_eq!(plan.points[1].name, m.waypoints[1].name);
         assert_eq!(plan.points[2].name, ORIGIN_NAME);

@@ -9,10 +9,8 @@ use std::path::Path;
 use crate::flightlog::plan::FlightPlan;
 use crate::flightlog::recorder::{flight_name, PLAN_FILE};
 use crate::flightlog::segment::SegmentConfig;
-use crate::flightlog::tlog::TlogReader;
-use crate::link::mav::{MavMessage, MISSION_ITEM_INT_DATA};
-use crate::link::telemetry::{analyse_tlog, is_autopilot, parse_frame, Analysis, TelemetryError};
-use crate::link::Flavour;
+use crate::link::items::read_flight;
+use crate::link::telemetry::{analyse_tlog, mission_in_tlog, Analysis, TelemetryError};
 use crate::mission::Mission;
 use crate::physics::VehicleModel;
 
@@ -34,47 +32,6 @@ pub enum ReplayError {
     },
 }
 
-/// The last complete mission (every item of the latest MISSION_COUNT, in either direction) in a
-/// .tlog, and the flavour of the autopilot that flew it.
-pub fn mission_in_tlog(
-    path: &Path,
-) -> Result<(Option<Vec<MISSION_ITEM_INT_DATA>>, Flavour), TelemetryError> {
-    let mut flavour = Flavour::Generic;
-    let mut count: Option<u16> = None;
-    let mut items: Vec<Option<MISSION_ITEM_INT_DATA>> = Vec::new();
-    let mut complete: Option<Vec<MISSION_ITEM_INT_DATA>> = None;
-    for record in TlogReader::open(path)? {
-        let Ok(record) = record else { break };
-        let Ok((_, message)) = parse_frame(&record.frame) else {
-            continue;
-        };
-        match message {
-            MavMessage::HEARTBEAT(hb) if is_autopilot(&hb) => {
-                flavour = Flavour::from_autopilot(hb.autopilot)
-            }
-            MavMessage::MISSION_COUNT(c)
-                if c.mission_type == crate::link::mav::MavMissionType::MAV_MISSION_TYPE_MISSION =>
-            {
-                count = Some(c.count);
-                items = vec![None; usize::from(c.count)];
-            }
-            MavMessage::MISSION_ITEM_INT(item)
-                if item.mission_type
-                    == crate::link::mav::MavMissionType::MAV_MISSION_TYPE_MISSION =>
-            {
-                if let Some(slot) = items.get_mut(usize::from(item.seq)) {
-                    *slot = Some(item);
-                }
-                if count.is_some() && items.iter().all(Option::is_some) {
-                    complete = Some(items.iter().flatten().cloned().collect());
-                }
-            }
-            _ => {}
-        }
-    }
-    Ok((complete, flavour))
-}
-
 /// The plan a log is measured against: plan.json beside it, or the mission in the log.
 pub fn plan_for_tlog(
     tlog: &Path,
@@ -91,8 +48,14 @@ pub fn plan_for_tlog(
     let (items, flavour) = mission_in_tlog(tlog)?;
     let items = items.ok_or_else(|| ReplayError::NoPlan { file: file.clone() })?;
     let name = mission.map_or_else(|| "flight".to_string(), |m| m.name.clone());
-    plan_from_items(&name, &items, flavour, mission, model)
-        .map_err(|cause| ReplayError::Items { file, cause })
+    let home_alt_m = mission.map_or(0.0, |m| m.origin.home.alt_m);
+    let items_error = |cause: FlightItemsError| ReplayError::Items {
+        file: file.clone(),
+        cause,
+    };
+    let read = read_flight(&items, flavour, home_alt_m)
+        .map_err(|e| items_error(FlightItemsError::from(e)))?;
+    plan_from_items(&name, &read, mission, model).map_err(items_error)
 }
 
 /// Replays a .tlog and measures it against its plan (see [`plan_for_tlog`]).

@@ -1,5 +1,5 @@
-//! Running the small command machines on a link: starting a mission (`link::flight::Start`)
-//! and asking for telemetry rates (`link::telemetry::StreamRequests`). Both are sans-IO
+//! Running the small command machines on a link: starting a mission (`flight::Start`) and asking
+//! for telemetry rates (`telemetry::StreamRequests`). Both are sans-IO
 //! (`start/handle/tick` return the messages to send); this feeds them the target autopilot's
 //! messages and a 50 ms tick.
 
@@ -8,11 +8,11 @@ use std::time::Duration;
 use tokio::sync::broadcast::error::RecvError;
 use tokio::time::Instant;
 
-use crate::link::connection::{Autopilot, Identity, Link};
-use crate::link::flight::Start;
-use crate::link::mav::MavMessage;
-use crate::link::telemetry::{default_streams, StreamConfig, StreamRequests};
-use crate::link::LinkError;
+use super::connection::{Autopilot, Identity, Link};
+use super::flight::Start;
+use super::mav::MavMessage;
+use super::telemetry::{default_streams, RequestOutcome, StreamConfig, StreamRequests};
+use super::LinkError;
 
 /// A machine that talks to the autopilot in commands until it is done.
 pub trait CommandMachine {
@@ -103,7 +103,7 @@ pub async fn request_streams(link: &Link, target: &Autopilot) -> Result<Vec<Stri
     let refused: Vec<String> = requests
         .outcomes()
         .into_iter()
-        .filter(|(_, outcome)| *outcome != crate::link::telemetry::RequestOutcome::Accepted)
+        .filter(|(_, outcome)| *outcome != RequestOutcome::Accepted)
         .map(|(request, outcome)| format!("{} ({outcome:?})", request.name))
         .collect();
     if refused.is_empty() {
