@@ -2,12 +2,15 @@
 """Checks the report JSON `emplan fly --json` printed for a flight on a simulated autopilot.
 
 usage: check_report.py REPORT.json [--unmeasurable] [--mission-within PCT] [--legs-within PCT]
+                       [--px4-parameters]
 
 Default: every leg was found (the legs chain origin -> ... -> origin) and measured (a number,
 no fake_current or unmeasurable flag), the flight is complete (it landed), and its log directory
 holds flight.tlog, samples.csv, plan.json and report.json. --unmeasurable instead requires every
 leg to be found but flagged unmeasurable (no number). --mission-within / --legs-within bound the
-errors against the prediction. Prints the per-leg comparison either way.
+errors against the prediction. --px4-parameters requires that emplan read every trajectory
+parameter from PX4 (PARAM_REQUEST_READ) and prints the ones that differ from the vehicle file.
+Prints the per-leg comparison either way.
 """
 import json
 import os
@@ -60,6 +63,15 @@ def main():
         e = total.get("error_pct")
         if e is None or abs(e) > mission_pct:
             problems.append(f"mission energy {e}% beyond {mission_pct}%")
+    if "--px4-parameters" in args:
+        params = doc.get("px4_parameters")
+        if params is None:
+            problems.append("no px4_parameters in the report: emplan did not read PX4's parameters")
+        else:
+            print(f"PX4 parameters read: {params['read']}, unanswered: {params['unanswered']}, "
+                  f"differing from the vehicle file: {params['differing']}")
+            if params["unanswered"] or params["read"] == 0:
+                problems.append(f"PX4 parameters not all read: {params}")
     log_dir = doc.get("log_dir", "")
     for name in ("flight.tlog", "samples.csv", "plan.json", "report.json"):
         if not os.path.isfile(os.path.join(log_dir, name)):

@@ -351,9 +351,10 @@ def trial(client, p, seed, mission, items_file, want, emplan, direct=False):
 
 
 def prepare(items, emplan, workdir):
-    """A mission of `items` items (takeoff, waypoints, RTL) and the items emplan sends for it."""
+    """A mission of `items` items (takeoff, waypoints, back over the origin, land) and the items
+    emplan sends for it."""
     mission = os.path.join(workdir, f"lossy-{items}.toml")
-    subprocess.run([emplan, "generate", mission, "--waypoints", str(items - 2), "--xy", "50", "--z", "20",
+    subprocess.run([emplan, "generate", mission, "--waypoints", str(items - 3), "--xy", "50", "--z", "20",
                     "--seed", "1"], check=True, capture_output=True)
     # A clean upload to the built-in mock gives the items (what every client then sends).
     run = subprocess.run([emplan, "upload", mission, "--order", "listed", "--allow-infeasible", "--json",

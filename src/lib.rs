@@ -13,5 +13,6 @@ pub mod physics;
 pub mod plan;
 pub mod planner;
 pub mod rng;
+pub mod service;
 pub mod session;
 pub mod sim;

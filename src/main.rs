@@ -7,12 +7,32 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+/// The version and the git revision it was built from.
+const VERSION: &str = concat!(
+    env!("CARGO_PKG_VERSION"),
+    " (",
+    env!("EMPLAN_GIT_REVISION"),
+    ")"
+);
+
 /// Minimum-energy mission planning for multirotors.
 #[derive(Debug, Parser)]
-#[command(name = "emplan", version, about)]
+#[command(name = "emplan", version = VERSION, about)]
 struct Cli {
+    /// No progress lines on stderr (they are drawn only on a terminal anyway)
+    #[arg(long, short, global = true)]
+    quiet: bool,
     #[command(subcommand)]
     command: Command,
+    /// Diagnostics on stderr as text, or as one JSON object a line (for log collectors)
+    #[arg(long, global = true, value_enum, default_value = "text")]
+    log_format: LogFormat,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum LogFormat {
+    Text,
+    Json,
 }
 
 #[derive(Debug, Subcommand)]
@@ -42,8 +62,14 @@ enum Command {
     Replay(cmd::replay::Args),
     /// Report recorded flights: per-leg predicted vs measured energy; several flights combined.
     Report(cmd::report::Args),
+    /// The field-day service: hold the vehicle link, plan every mission in a folder, upload
+    /// on request, record and report every flight; an HTTP API on loopback.
+    Serve(cmd::serve::Args),
     /// Run the built-in mock autopilot.
     MockAutopilot(cmd::mock_autopilot::Args),
+    /// A physical battery for PX4 SITL (started with SIM_BAT_ENABLE=0): follows the vehicle's
+    /// motion on its onboard link and reports the vehicle model's battery as a smart battery.
+    BatterySim(cmd::battery_sim::Args),
     /// The paper's random-mission study: energy order vs distance orders over many missions.
     ///
     /// Each mission has N waypoints uniform in [-XY, XY] m east and north and [-Z, Z] m up around
@@ -62,6 +88,11 @@ enum Command {
     /// at least 5 m above home (the mission minimum is 2 m). With the same N, XY, Z and seed,
     /// `--mission K` writes mission K of `emplan study`.
     Generate(cmd::generate::Args),
+    /// Print a shell completion script: `emplan completions bash > ~/.local/share/bash-completion/completions/emplan`.
+    Completions {
+        /// bash, zsh, fish, elvish or powershell
+        shell: clap_complete::Shell,
+    },
 }
 
 fn main() -> ExitCode {
@@ -74,14 +105,24 @@ fn main() -> ExitCode {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
-    tracing_subscriber::fmt()
-        .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env()
-                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn")),
-        )
-        .with_writer(std::io::stderr)
-        .init();
     let cli = Cli::parse();
+    cmd::progress::set_quiet(cli.quiet);
+    // The service reports what it does (flights, uploads) by default; other commands only
+    // warnings. RUST_LOG overrides.
+    let level = if matches!(cli.command, Command::Serve(_)) {
+        "info"
+    } else {
+        "warn"
+    };
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level));
+    let logs = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr);
+    match cli.log_format {
+        LogFormat::Text => logs.with_ansi(colour()).init(),
+        LogFormat::Json => logs.json().init(),
+    }
     let result = match cli.command {
         Command::Plan(args) => cmd::plan::run(args),
         Command::Convert(args) => cmd::convert::run(args),
@@ -95,15 +136,46 @@ fn main() -> ExitCode {
         Command::Record(args) => cmd::record::run(args),
         Command::Replay(args) => cmd::replay::run(args),
         Command::Report(args) => cmd::report::run(args),
+        Command::Serve(args) => cmd::serve::run(args),
         Command::MockAutopilot(args) => cmd::mock_autopilot::run(args),
+        Command::BatterySim(args) => cmd::battery_sim::run(args),
         Command::Study(args) => cmd::study::run(args),
         Command::Generate(args) => cmd::generate::run(args),
+        Command::Completions { shell } => {
+            use clap::CommandFactory;
+            clap_complete::generate(shell, &mut Cli::command(), "emplan", &mut std::io::stdout());
+            Ok(ExitCode::SUCCESS)
+        }
     };
     match result {
         Ok(code) => code,
         Err(err) => {
-            eprintln!("error: {err:#}");
+            eprintln!("error: {}", error_text(&err));
             ExitCode::FAILURE
         }
     }
+}
+
+/// Whether stderr may carry colour: a terminal, and no `NO_COLOR` set (https://no-color.org).
+/// clap and indicatif read `NO_COLOR` themselves.
+fn colour() -> bool {
+    use std::io::IsTerminal;
+    std::io::stderr().is_terminal() && std::env::var_os("NO_COLOR").is_none_or(|v| v.is_empty())
+}
+
+/// An error and its causes joined by ": ", each said once: a cause whose text its parent
+/// already carries (an OS error quoted in a file error) is not repeated.
+fn error_text(err: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in err.chain() {
+        let message = cause.to_string();
+        if text.contains(&message) {
+            continue;
+        }
+        if !text.is_empty() {
+            text.push_str(": ");
+        }
+        text.push_str(&message);
+    }
+    text
 }

@@ -15,6 +15,14 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    if args.link.connect.is_none() {
+        // A fresh built-in mock holds no mission: downloading from it would only ever say 0.
+        anyhow::bail!(
+            "download reads a vehicle's mission: give --connect URL (udpin:HOST:PORT, \
+             tcpout:HOST:PORT, serial:DEV:BAUD; a mock started with `emplan mock-autopilot` \
+             works too)"
+        );
+    }
     let runtime = super::runtime()?;
     runtime.block_on(async {
         let opened = args.link.open().await?;

@@ -3,7 +3,7 @@
 use std::process::ExitCode;
 
 use anyhow::Context;
-use emplan::physics::{simulate_operation, Vehicle};
+use emplan::physics::simulate_operation;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -21,7 +21,7 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let vehicle = Vehicle::load(&args.model.vehicle)?;
+    let vehicle = args.model.vehicle()?;
     let profile = args.model.profile.unwrap_or(vehicle.default_profile());
     let op = simulate_operation(&vehicle, profile, args.xf, args.zf)
         .with_context(|| format!("simulating Xf {} m, Zf {} m", args.xf, args.zf))?;

@@ -1,5 +1,6 @@
 //! One module per `emplan` subcommand: argument structs (clap) and the code that runs them.
 
+pub mod battery_sim;
 pub mod calibrate;
 pub mod convert;
 pub mod download;
@@ -9,9 +10,11 @@ pub mod generate;
 pub mod mock_autopilot;
 pub mod plan;
 pub mod plot;
+pub mod progress;
 pub mod record;
 pub mod replay;
 pub mod report;
+pub mod serve;
 pub mod sorties;
 pub mod study;
 pub mod table;
@@ -57,13 +60,58 @@ pub fn setting_error(e: emplan::plan::study::StudyError) -> anyhow::Error {
 /// Options of every command that prices legs with a vehicle model.
 #[derive(Debug, Clone, clap::Args)]
 pub struct VehicleArgs {
-    /// Vehicle directory holding vehicle.toml and its energy tables
-    #[arg(long, default_value = "models/s1000")]
-    pub vehicle: std::path::PathBuf,
+    /// Vehicle directory holding vehicle.toml and its energy tables (default: $EMPLAN_VEHICLE,
+    /// else the S1000 built into emplan)
+    #[arg(long, value_name = "DIR")]
+    pub vehicle: Option<std::path::PathBuf>,
     /// Flight profile pricing the legs: ptf, hvb or px4 (default: the vehicle's, px4 for the
     /// shipped S1000 since that is what an uploaded mission flies)
     #[arg(long)]
     pub profile: Option<emplan::physics::Profile>,
+}
+
+/// The variable naming a vehicle directory when `--vehicle` is not given.
+pub const VEHICLE_VARIABLE: &str = "EMPLAN_VEHICLE";
+
+impl VehicleArgs {
+    /// Where the vehicle comes from, and what chose it (for errors): `--vehicle`, else
+    /// `$EMPLAN_VEHICLE`, else the built-in S1000.
+    pub fn source(&self) -> (emplan::physics::VehicleSource, String) {
+        use emplan::physics::VehicleSource;
+        if let Some(dir) = &self.vehicle {
+            return (
+                VehicleSource::Dir(dir.clone()),
+                format!("--vehicle {}", dir.display()),
+            );
+        }
+        match std::env::var_os(VEHICLE_VARIABLE).filter(|v| !v.is_empty()) {
+            Some(dir) => {
+                let dir = std::path::PathBuf::from(dir);
+                let chosen = format!("{VEHICLE_VARIABLE}={}", dir.display());
+                (VehicleSource::Dir(dir), chosen)
+            }
+            None => (VehicleSource::BuiltIn, "the built-in vehicle".into()),
+        }
+    }
+
+    /// The vehicle's parameters; an error names what chose the vehicle.
+    pub fn vehicle(&self) -> anyhow::Result<emplan::physics::Vehicle> {
+        let (source, chosen) = self.source();
+        source
+            .vehicle()
+            .map_err(|e| vehicle_error(e.into(), &chosen))
+    }
+
+    /// The vehicle with the table of the chosen profile; an error names what chose the vehicle.
+    pub fn model(&self) -> anyhow::Result<emplan::physics::VehicleModel> {
+        let (source, chosen) = self.source();
+        emplan::physics::VehicleModel::open(&source, self.profile)
+            .map_err(|e| vehicle_error(e.into(), &chosen))
+    }
+}
+
+fn vehicle_error(error: anyhow::Error, chosen: &str) -> anyhow::Error {
+    error.context(format!("the vehicle chosen by {chosen}"))
 }
 
 /// Options of every command that orders waypoints.
@@ -73,8 +121,8 @@ pub struct SolverArgs {
     /// heuristic beyond), held-karp, branch-cut or heuristic
     #[arg(long, default_value = "auto")]
     pub solver: emplan::plan::solver::Solver,
-    /// Wall-clock budget per tour solve (s); a solve cut short reports its best tour and a
-    /// proven lower bound
+    /// Wall-clock budget of the command's solves together (s); a solve cut short reports its
+    /// best tour and a proven lower bound
     #[arg(long, default_value_t = 60.0)]
     pub time_limit: f64,
     /// Seed of the heuristic (same seed and kick budget: same tour)
@@ -114,6 +162,16 @@ pub enum OrderArg {
     Listed,
 }
 
+impl From<OrderArg> for emplan::planner::FlownOrder {
+    fn from(order: OrderArg) -> Self {
+        match order {
+            OrderArg::Energy => emplan::planner::FlownOrder::Energy,
+            OrderArg::Distance => emplan::planner::FlownOrder::Distance,
+            OrderArg::Listed => emplan::planner::FlownOrder::Listed,
+        }
+    }
+}
+
 /// What to fly of a mission, and the checks before it goes to the vehicle (`upload`, `fly`).
 #[derive(Debug, clap::Args)]
 pub struct FlightArgs {
@@ -135,26 +193,41 @@ pub struct FlightArgs {
     pub solver: SolverArgs,
 }
 
+/// A planner refusal in the words of the command line (`--sortie 3: ...`, how to override an
+/// over-budget flight).
+pub fn flight_error(e: emplan::planner::PlannerError) -> anyhow::Error {
+    use emplan::planner::PlannerError;
+    match e {
+        PlannerError::NoSuchSortie { sortie, count } => anyhow::anyhow!(
+            "--sortie {sortie}: the mission splits into {count} sorties (1 to {count})"
+        ),
+        refused @ PlannerError::OverBudget { .. } => anyhow::anyhow!(
+            "{refused}: not uploaded (split it with `emplan plan --sorties` and upload one with --sortie K, or pass --allow-infeasible to override)"
+        ),
+        other => other.into(),
+    }
+}
+
 impl FlightArgs {
-    /// Plans what the command flies: only that order (no baselines for the energy order or a
-    /// sortie, no energy solve for the distance or the listed order).
+    /// The library's choice of what to fly.
+    pub fn choice(&self) -> emplan::planner::FlightChoice {
+        emplan::planner::FlightChoice {
+            order: self.order.into(),
+            sortie: self.sortie,
+            allow_infeasible: self.allow_infeasible,
+        }
+    }
+
+    /// Plans what the command flies (see [`emplan::planner::FlightChoice`]).
     pub fn plan(
         &self,
         mission: &emplan::mission::Mission,
     ) -> anyhow::Result<(emplan::physics::VehicleModel, emplan::planner::Plan)> {
-        use emplan::planner::{plan_mission, Orders, PlanOptions};
-        let model = emplan::physics::VehicleModel::load(&self.model.vehicle, self.model.profile)?;
-        let orders = match (self.sortie, self.order) {
-            (Some(_), _) | (None, OrderArg::Energy) => Orders::Energy,
-            (None, OrderArg::Distance) => Orders::Distance,
-            (None, OrderArg::Listed) => Orders::Listed,
-        };
-        let options = PlanOptions {
-            orders,
-            solver: self.solver.options()?,
-            sorties: self.sortie.is_some(),
-        };
-        let plan = plan_mission(mission, &model, &options)?;
+        let model = self.model.model()?;
+        let (choice, solver) = (self.choice(), self.solver.options()?);
+        let plan = progress::solving(&format!("planning {}", mission.name), || {
+            choice.plan(mission, &model, solver)
+        })?;
         Ok((model, plan))
     }
 
@@ -164,23 +237,60 @@ impl FlightArgs {
         &self,
         plan: &'a emplan::planner::Plan,
     ) -> anyhow::Result<emplan::planner::Flight<'a>> {
-        use emplan::planner::PlannerError;
-        let flight = plan.flight(self.sortie).map_err(|e| match e {
-            PlannerError::NoSuchSortie { sortie, count } => {
-                anyhow::anyhow!(
-                    "--sortie {sortie}: the mission splits into {count} sorties (1 to {count})"
+        self.choice().flight(plan).map_err(flight_error)
+    }
+}
+
+/// Going through a running `emplan serve` instead of opening a link (`upload`, `fly`): two
+/// processes must not fight over one radio.
+#[derive(Debug, clap::Args)]
+pub struct ServiceArgs {
+    /// Go through the service at this URL (http://HOST:PORT, what `emplan serve` prints): the
+    /// mission file must be in its missions folder; same output and exit codes
+    #[arg(long, value_name = "URL", conflicts_with = "connect")]
+    pub service: Option<String>,
+    /// File holding the service's token (default: the EMPLAN_TOKEN environment variable, then
+    /// flights/token, where `emplan serve` creates it by default)
+    #[arg(long, value_name = "FILE", requires = "service")]
+    pub token_file: Option<std::path::PathBuf>,
+}
+
+impl ServiceArgs {
+    /// The client of the service, when one was given, with its token.
+    pub fn client(&self) -> anyhow::Result<Option<emplan::service::Client>> {
+        use emplan::service::Token;
+        let Some(url) = &self.service else {
+            return Ok(None);
+        };
+        let token = match (&self.token_file, std::env::var("EMPLAN_TOKEN")) {
+            (Some(file), _) => {
+                let text = std::fs::read_to_string(file)
+                    .map_err(|e| anyhow::anyhow!("--token-file {}: {e}", file.display()))?;
+                Some(
+                    Token::new(&text)
+                        .map_err(|e| anyhow::anyhow!("--token-file {}: {e}", file.display()))?,
                 )
             }
-            other => other.into(),
-        })?;
-        if !self.allow_infeasible {
-            if let Err(refused) = flight.require_feasible() {
-                anyhow::bail!(
-                    "{refused}: not uploaded (split it with `emplan plan --sorties` and upload one with --sortie K, or pass --allow-infeasible to override)"
-                );
+            (None, Ok(text)) => {
+                Some(Token::new(&text).map_err(|e| anyhow::anyhow!("EMPLAN_TOKEN: {e}"))?)
             }
-        }
-        Ok(flight)
+            (None, Err(_)) => std::fs::read_to_string("flights/token")
+                .ok()
+                .and_then(|t| Token::new(&t).ok()),
+        };
+        Ok(Some(emplan::service::Client::new(url, token)?))
+    }
+}
+
+impl FlightArgs {
+    /// The upload request a service gets for these options.
+    pub fn service_request(&self) -> anyhow::Result<emplan::service::remote::UploadRequest> {
+        Ok(emplan::service::remote::UploadRequest {
+            choice: self.choice(),
+            acceptance_radius_m: self.acceptance_radius_m,
+            profile: self.model.profile,
+            solver: self.solver.options()?,
+        })
     }
 }
 
@@ -269,7 +379,7 @@ impl LinkArgs {
                 (url, describe, Some(mock))
             }
         };
-        let signing = signing_key.map(|key| mavlink::SigningConfig::new(key, 0, true, false));
+        let signing = signing_key.map(emplan::link::signing_config);
         let link = emplan::link::connection::Link::connect_within(
             &url,
             Default::default(),

@@ -6,7 +6,6 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::Context;
-use emplan::physics::VehicleModel;
 use emplan::planner::json::{plan_document, BatteryJson, PlanJson};
 use emplan::planner::{plan_mission, Explanation, Orders, Plan, PlanOptions};
 
@@ -40,16 +39,15 @@ const ATSP_UNITS_PER_J: f64 = 10.0;
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let mission = emplan::mission::load(&args.mission)?;
-    let model = VehicleModel::load(&args.model.vehicle, args.model.profile)?;
-    let plan = plan_mission(
-        &mission,
-        &model,
-        &PlanOptions {
-            orders: Orders::All,
-            solver: args.solver.options()?,
-            sorties: args.sorties,
-        },
-    )?;
+    let model = args.model.model()?;
+    let options = PlanOptions {
+        orders: Orders::All,
+        solver: args.solver.options()?,
+        sorties: args.sorties,
+    };
+    let plan = super::progress::solving(&format!("planning {}", mission.name), || {
+        plan_mission(&mission, &model, &options)
+    })?;
     if let Some(path) = &args.export_atsp {
         let text = emplan::plan::tsplib::to_text(&mission.name, &plan.energy, ATSP_UNITS_PER_J)
             .with_context(|| format!("exporting {}", path.display()))?;

@@ -37,7 +37,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         .as_deref()
         .map(emplan::mission::load)
         .transpose()?;
-    let model = emplan::physics::VehicleModel::load(&args.model.vehicle, args.model.profile)?;
+    let model = args.model.model()?;
     super::runtime()?.block_on(async {
         let opened = args.link.open().await?;
         let (link, target) = (&opened.link, opened.target);

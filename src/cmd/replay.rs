@@ -25,7 +25,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         .as_deref()
         .map(emplan::mission::load)
         .transpose()?;
-    let model = emplan::physics::VehicleModel::load(&args.model.vehicle, args.model.profile)?;
+    let model = args.model.model()?;
     let analysis = super::report::analyse(&args.tlog, mission.as_ref(), Some(&model))?;
     if let Some(torn) = analysis.replay.torn_tail {
         eprintln!(

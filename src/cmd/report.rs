@@ -176,7 +176,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         .as_deref()
         .map(emplan::mission::load)
         .transpose()?;
-    let model = emplan::physics::VehicleModel::load(&args.model.vehicle, args.model.profile).ok();
+    let model = args.model.model().ok();
     let mut analyses = Vec::new();
     for dir in flights(&args.log_dirs)? {
         let tlog = dir.join(emplan::flightlog::recorder::TLOG_FILE);

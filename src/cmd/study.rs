@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{anyhow, bail};
-use emplan::physics::{Profile, VehicleModel};
+use emplan::physics::Profile;
 use emplan::plan::study::StudySettings;
 use emplan::planner::study::{self, check_envelope, study_document, StudyJson, StudyRunError};
 
@@ -116,23 +116,16 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     for s in &settings {
         s.validate().map_err(super::setting_error)?;
     }
-    let model = VehicleModel::load(&args.model.vehicle, args.model.profile)?;
+    let model = args.model.model()?;
     for s in &settings {
         check_envelope(s, &model.table).map_err(refusal)?;
     }
 
     let mut docs = Vec::with_capacity(settings.len());
     for s in &settings {
-        let bar = if args.json {
-            indicatif::ProgressBar::hidden()
-        } else {
-            indicatif::ProgressBar::new(s.missions as u64)
-        };
-        bar.set_style(
-            indicatif::ProgressStyle::with_template(
-                "{prefix} [{bar:40}] {pos}/{len} missions, {eta} left",
-            )
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        let bar = super::progress::bar(
+            s.missions as u64,
+            "{prefix} [{bar:40}] {pos}/{len} missions, {eta} left",
         );
         bar.set_prefix(format!("N={} XY={} Z={}", s.waypoints, s.xy_m, s.z_m));
         let done = study::run(s, &model, &|| bar.inc(1)).map_err(refusal)?;

@@ -22,8 +22,11 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let text = std::fs::read_to_string(&args.file)
         .with_context(|| format!("reading {}", args.file.display()))?;
     let instance = tsplib::parse(&text).with_context(|| format!("{}", args.file.display()))?;
-    let solved = solver::solve(&instance.matrix, &args.solver.options()?)
-        .with_context(|| format!("solving {}", instance.name))?;
+    let options = args.solver.options()?;
+    let solved = super::progress::solving(&format!("solving {}", instance.name), || {
+        solver::solve(&instance.matrix, &options)
+    })
+    .with_context(|| format!("solving {}", instance.name))?;
     let report = tsplib::solution_json(&instance, &solved);
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);

@@ -153,6 +153,56 @@ impl SamplesWriter {
         })
     }
 
+    /// Opens an existing samples.csv to go on appending rows (a flight resumed after a
+    /// crash): a torn last line is cut off first. A file cut inside its header line gets the
+    /// header again; a file with another header is refused. The row count includes the rows
+    /// kept.
+    pub fn resume(path: &Path) -> Result<SamplesWriter, FlightLogError> {
+        let bytes = std::fs::read(path).map_err(io_error(path))?;
+        let header = COLUMNS.join(",") + "\n";
+        let keep = bytes
+            .iter()
+            .rposition(|&b| b == b'\n')
+            .map_or(0, |end| end + 1);
+        if keep < header.len() {
+            if !header
+                .as_bytes()
+                .starts_with(&bytes[..bytes.len().min(header.len())])
+            {
+                return Err(FlightLogError::Csv {
+                    file: path.display().to_string(),
+                    line: 1,
+                    column: String::new(),
+                    reason: "not samples.csv's header".into(),
+                });
+            }
+            let mut file = AppendFile::reopen(path, 0)?;
+            file.write(header.as_bytes())?;
+            return Ok(SamplesWriter {
+                file,
+                line: String::with_capacity(256),
+                rows: 0,
+            });
+        }
+        if !bytes.starts_with(header.as_bytes()) {
+            return Err(FlightLogError::Csv {
+                file: path.display().to_string(),
+                line: 1,
+                column: String::new(),
+                reason: "not samples.csv's header".into(),
+            });
+        }
+        let rows = bytes[header.len()..keep]
+            .split(|&b| b == b'\n')
+            .filter(|l| !l.is_empty())
+            .count() as u64;
+        Ok(SamplesWriter {
+            file: AppendFile::reopen(path, keep as u64)?,
+            line: String::with_capacity(256),
+            rows,
+        })
+    }
+
     pub fn path(&self) -> &Path {
         self.file.path()
     }
@@ -427,6 +477,31 @@ mod tests {
                 "cut {cut}"
             );
         }
+    }
+
+    #[test]
+    fn a_resumed_file_cut_at_any_byte_goes_on_with_whole_rows_only() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("samples.csv");
+        let mut text = COLUMNS.join(",") + "\n";
+        let mut ends = Vec::new();
+        for k in 0..3 {
+            format_row(&row(k), &mut text);
+            ends.push(text.len());
+        }
+        for cut in 0..=text.len() {
+            std::fs::write(&path, &text.as_bytes()[..cut]).expect("written");
+            let mut w = SamplesWriter::resume(&path).expect("resumed");
+            let kept = ends.iter().filter(|&&e| e <= cut).count();
+            assert_eq!(w.rows(), kept as u64, "cut {cut}");
+            w.append(&row(9)).expect("appended");
+            w.sync().expect("synced");
+            let back = read_samples(&path).unwrap_or_else(|e| panic!("cut at {cut}: {e}"));
+            assert_eq!(back.len(), kept + 1, "cut {cut}");
+            assert!(close(&back[kept], &row(9)), "cut {cut}");
+        }
+        std::fs::write(&path, "time,volts\n1,2\n").expect("written");
+        assert!(SamplesWriter::resume(&path).is_err());
     }
 
     #[test]

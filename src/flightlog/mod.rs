@@ -59,8 +59,8 @@ pub(crate) fn io_error(
     }
 }
 
-/// A new file written only at its end through a buffer, flushed to the OS and synced to disk
-/// when its owner says.
+/// A file written only at its end through a buffer, flushed to the OS and synced to disk when
+/// its owner says: new, or reopened to go on after a crash.
 #[derive(Debug)]
 pub(crate) struct AppendFile {
     path: std::path::PathBuf,
@@ -75,6 +75,23 @@ impl AppendFile {
             .create_new(true)
             .open(path)
             .map_err(io_error(path))?;
+        Ok(AppendFile {
+            path: path.to_path_buf(),
+            out: std::io::BufWriter::with_capacity(64 * 1024, file),
+        })
+    }
+
+    /// Opens an existing `path` to append to it after its first `keep` bytes (what follows
+    /// them, a record torn by a crash, is cut off first).
+    pub(crate) fn reopen(path: &std::path::Path, keep: u64) -> Result<AppendFile, FlightLogError> {
+        use std::io::{Seek, SeekFrom};
+        let mut file = std::fs::OpenOptions::new()
+            .write(true)
+            .open(path)
+            .map_err(io_error(path))?;
+        file.set_len(keep).map_err(io_error(path))?;
+        file.seek(SeekFrom::End(0)).map_err(io_error(path))?;
+        file.sync_data().map_err(io_error(path))?;
         Ok(AppendFile {
             path: path.to_path_buf(),
             out: std::io::BufWriter::with_capacity(64 * 1024, file),

@@ -20,7 +20,7 @@ use super::plan::FlightPlan;
 use super::report::FlightReport;
 use super::samples::{BatteryFeed, FeedConfig};
 use super::telemetry::{Reading, Stamped, VehicleState};
-use super::tlog::TlogWriter;
+use super::tlog::{Tlog, TlogWriter};
 use super::FlightLogError;
 
 /// The files of a flight directory.
@@ -170,6 +170,50 @@ impl Recorder {
             last_flush_us: start_wall_us,
             last_sync_us: start_wall_us,
         })
+    }
+
+    /// Reopens the flight directory `dir` to go on recording a flight whose recording was cut
+    /// off (emplan killed mid-flight and restarted): flight.tlog and samples.csv are appended
+    /// to after their torn tails are cut off, and a report.json written when the recording
+    /// stopped is removed (the flight is not over). Returns the recorder and the frames already
+    /// in the log: decode them and hand their readings to [`Recorder::restore`] so that the
+    /// vehicle state and the battery feed go on where they were.
+    pub fn resume(
+        dir: &Path,
+        now_wall_us: u64,
+        cfg: RecorderConfig,
+    ) -> Result<(Recorder, Tlog), FlightLogError> {
+        let (tlog, kept) = TlogWriter::resume(&dir.join(TLOG_FILE))?;
+        let samples_path = dir.join(SAMPLES_FILE);
+        let samples = if samples_path.exists() {
+            SamplesWriter::resume(&samples_path)?
+        } else {
+            SamplesWriter::create(&samples_path)?
+        };
+        let report = dir.join(REPORT_FILE);
+        if report.exists() {
+            std::fs::remove_file(&report).map_err(super::io_error(&report))?;
+        }
+        sync_dir(dir);
+        let recorder = Recorder {
+            dir: dir.to_path_buf(),
+            tlog,
+            samples,
+            state: VehicleState::default(),
+            feed: BatteryFeed::new(cfg.feed),
+            cfg,
+            last_flush_us: now_wall_us,
+            last_sync_us: now_wall_us,
+        };
+        Ok((recorder, kept))
+    }
+
+    /// Takes in a reading already in the log of a resumed flight, without writing anything.
+    pub fn restore(&mut self, stamped: &Stamped) {
+        self.state.update(&stamped.reading);
+        if let Reading::Battery(b) = &stamped.reading {
+            let _ = self.feed.push(stamped.t_s, stamped.wall_us, b);
+        }
     }
 
     /// The flight directory.

@@ -293,7 +293,8 @@ impl From<&PartReport> for PartJson {
 }
 
 impl PartJson {
-    fn to_part(&self) -> PartReport {
+    /// The part a JSON view shows (energies back in J).
+    pub fn to_part(&self) -> PartReport {
         PartReport {
             from: self.from.clone(),
             to: self.to.clone(),

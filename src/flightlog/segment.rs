@@ -381,8 +381,9 @@ impl Segmenter {
 
     /// When a departure the autopilot announced at `t_s` really began: at the exit from the
     /// hover point seen in the positions when that came first (the announcement was late: a
-    /// repeat after the change was lost); else, when the vehicle is already moving at `t_s`,
-    /// where its motion began (a late announcement before the exit); else `t_s`.
+    /// repeat after the change was lost); else, when the vehicle is already under way at `t_s`
+    /// (faster than `stop_speed_m_s`), where its motion began (a late announcement before the
+    /// exit); else `t_s`.
     fn departure_time(&self, t_s: f64) -> f64 {
         let lag = self.cfg.mission_current_lag_s;
         if let Some(e) = self.exit_s {
@@ -402,7 +403,15 @@ impl Segmenter {
             .map(|&(t, _)| t)
             .collect();
         let moving = run.len() >= 2 || run.first().is_some_and(|&t| t < t_s - 1e-3);
-        if moving {
+        // Late only if the vehicle is clearly under way by then: one still creeping about its
+        // hover point (PX4 SITL's SIH holds at 0.1-0.2 m/s) left when it was told to.
+        let under_way = self
+            .recent_speeds
+            .iter()
+            .rev()
+            .find(|&&(t, _)| t <= t_s + 1e-9)
+            .is_some_and(|&(_, v)| v > self.cfg.stop_speed_m_s);
+        if moving && under_way {
             let start = self.motion_start(t_s, rest);
             if start < t_s && t_s - start <= lag {
                 return start;

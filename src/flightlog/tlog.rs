@@ -61,6 +61,25 @@ impl TlogWriter {
         })
     }
 
+    /// Opens an existing .tlog to go on appending to it (a flight resumed after a crash): a
+    /// torn last record is cut off first, so that what follows reads. Returns the writer (its
+    /// count includes the records kept) and the records kept. A log with anything but a torn
+    /// tail wrong in it is refused (appending after a corrupt record would hide the new ones
+    /// from every reader).
+    pub fn resume(path: &Path) -> Result<(TlogWriter, Tlog), FlightLogError> {
+        let log = read_tlog(path)?;
+        let keep = log.torn_tail.unwrap_or_else(|| {
+            log.records
+                .last()
+                .map_or(0, |r| r.offset + 8 + r.frame.len() as u64)
+        });
+        let writer = TlogWriter {
+            file: AppendFile::reopen(path, keep)?,
+            records: log.records.len() as u64,
+        };
+        Ok((writer, log))
+    }
+
     pub fn path(&self) -> &Path {
         self.file.path()
     }
@@ -250,6 +269,19 @@ pub fn read_tlog(path: &Path) -> Result<Tlog, FlightLogError> {
 mod tests {
     use super::*;
 
+    /// Reads the tlog at `path`, checks it whole and holding exactly `records`.
+    fn read_whole(path: &Path, records: &[(u64, Vec<u8>)]) -> Tlog {
+        let log = read_tlog(path).expect("read");
+        assert_eq!(log.torn_tail, None);
+        let back: Vec<(u64, Vec<u8>)> = log
+            .records
+            .iter()
+            .map(|r| (r.wall_us, r.frame.clone()))
+            .collect();
+        assert_eq!(back, records);
+        log
+    }
+
     /// A MAVLink 2 frame of `payload` bytes (the reader does not check CRCs or ids).
     fn frame_v2(payload: u8, signed: bool, fill: u8) -> Vec<u8> {
         let flags = if signed { IFLAG_SIGNED } else { 0 };
@@ -303,14 +335,7 @@ mod tests {
         }
         w.sync().expect("synced");
         assert_eq!(w.records(), 4);
-        let log = read_tlog(&path).expect("read");
-        assert_eq!(log.torn_tail, None);
-        let back: Vec<(u64, Vec<u8>)> = log
-            .records
-            .iter()
-            .map(|r| (r.wall_us, r.frame.clone()))
-            .collect();
-        assert_eq!(back, records);
+        let log = read_whole(&path, &records);
         assert_eq!(log.records[1].offset, 8 + 48);
     }
 
@@ -352,6 +377,36 @@ mod tests {
             text.contains("bad.tlog") && text.contains(&format!("byte {at}")),
             "{text}"
         );
+    }
+
+    #[test]
+    fn a_resumed_log_cuts_its_torn_tail_and_reads_old_and_new_records_in_order() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("flight.tlog");
+        let (bytes, records) = sample_bytes();
+        // Killed in the middle of the third record.
+        let cut = 8 + 48 + 8 + 17 + 20;
+        std::fs::write(&path, &bytes[..cut]).expect("written");
+        let (mut w, kept) = TlogWriter::resume(&path).expect("resumed");
+        assert_eq!(kept.records.len(), 2);
+        assert_eq!(kept.torn_tail, Some(8 + 48 + 8 + 17));
+        assert_eq!(w.records(), 2);
+        for (t, f) in &records[2..] {
+            w.append(*t, f).expect("appended");
+        }
+        w.sync().expect("synced");
+        read_whole(&path, &records);
+    }
+
+    #[test]
+    fn a_log_with_garbage_in_the_middle_is_not_resumed() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("flight.tlog");
+        let (mut bytes, _) = sample_bytes();
+        bytes[8 + 48 + 8] = 0x42;
+        std::fs::write(&path, &bytes).expect("written");
+        assert!(TlogWriter::resume(&path).is_err());
+        assert_eq!(std::fs::read(&path).expect("read"), bytes);
     }
 
     #[test]

@@ -1,7 +1,9 @@
-//! Running the small command machines on a link: starting a mission (`flight::Start`) and asking
-//! for telemetry rates (`telemetry::StreamRequests`). Both are sans-IO
+//! Running the small command machines on a link: starting a mission (`flight::Start`), asking
+//! for telemetry rates (`telemetry::StreamRequests`) and reading parameters by name
+//! (`params::ParamReads`). All are sans-IO
 //! (`start/handle/tick` return the messages to send); this feeds them the target autopilot's
-//! messages and a 50 ms tick.
+//! messages and a 50 ms tick. [`heartbeats`] follows the autopilot's heartbeat (who, armed,
+//! when last heard) for a process that holds a link all day.
 
 use std::time::Duration;
 
@@ -9,9 +11,13 @@ use tokio::sync::broadcast::error::RecvError;
 use tokio::time::Instant;
 
 use super::connection::{Autopilot, Identity, Link};
+use super::flavour::Flavour;
 use super::flight::Start;
 use super::mav::MavMessage;
-use super::telemetry::{default_streams, RequestOutcome, StreamConfig, StreamRequests};
+use super::params::{ParamConfig, ParamReads};
+use super::telemetry::{
+    default_streams, is_autopilot, RequestOutcome, StreamConfig, StreamRequests,
+};
 use super::LinkError;
 
 /// A machine that talks to the autopilot in commands until it is done.
@@ -46,6 +52,21 @@ impl CommandMachine for StreamRequests {
     }
     fn tick(&mut self, now: Duration) -> Vec<MavMessage> {
         StreamRequests::tick(self, now)
+    }
+    fn done(&self) -> bool {
+        self.finished()
+    }
+}
+
+impl CommandMachine for ParamReads {
+    fn start(&mut self, now: Duration) -> Vec<MavMessage> {
+        ParamReads::start(self, now)
+    }
+    fn handle(&mut self, now: Duration, message: &MavMessage) -> Vec<MavMessage> {
+        ParamReads::handle(self, now, message)
+    }
+    fn tick(&mut self, now: Duration) -> Vec<MavMessage> {
+        ParamReads::tick(self, now)
     }
     fn done(&self) -> bool {
         self.finished()
@@ -117,6 +138,25 @@ pub async fn request_streams(link: &Link, target: &Autopilot) -> Result<Vec<Stri
     Ok(refused)
 }
 
+/// Reads the parameters `names` from `target` (PARAM_REQUEST_READ by name, resent until
+/// answered or given up): every name with its value, None when the autopilot never answered
+/// (it has no such parameter, or the link lost every try).
+pub async fn read_params(
+    link: &Link,
+    target: &Autopilot,
+    names: &[&str],
+) -> Result<Vec<(String, Option<f64>)>, LinkError> {
+    let cfg = ParamConfig {
+        target_system: target.system_id,
+        target_component: target.component_id,
+        flavour: target.flavour,
+        ..ParamConfig::default()
+    };
+    let mut reads = ParamReads::new(cfg, names);
+    drive(link, target, &mut reads).await?;
+    Ok(reads.values())
+}
+
 /// Asks for the telemetry again after every reconnect of the link (the first request is
 /// [`request_streams`]'). Never returns unless the link fails: run it beside the work that needs
 /// the streams (`tokio::select!`).
@@ -129,4 +169,49 @@ pub async fn keep_streams(link: &Link, target: &Autopilot) -> Result<(), LinkErr
         }
         request_streams(link, target).await?;
     }
+}
+
+/// An autopilot's heartbeat, as last heard.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Heard {
+    pub autopilot: Autopilot,
+    /// When it arrived.
+    pub at: Instant,
+    pub armed: bool,
+}
+
+/// Follows the autopilots' heartbeats on `link` (not a ground station's or another
+/// component's): the latest in the returned watch, until the link closes or the task is
+/// aborted.
+pub fn heartbeats(
+    link: &Link,
+) -> (
+    tokio::sync::watch::Receiver<Option<Heard>>,
+    tokio::task::JoinHandle<()>,
+) {
+    let (tx, heard) = tokio::sync::watch::channel(None);
+    let mut rx = link.subscribe();
+    let task = tokio::spawn(async move {
+        loop {
+            match rx.recv().await {
+                Ok((header, MavMessage::HEARTBEAT(hb))) if is_autopilot(&hb) => {
+                    let autopilot = Autopilot {
+                        system_id: u8::try_from(header.system_id).unwrap_or(u8::MAX),
+                        component_id: header.component_id,
+                        flavour: Flavour::from_autopilot(hb.autopilot),
+                    };
+                    tx.send_replace(Some(Heard {
+                        autopilot,
+                        at: Instant::now(),
+                        armed: hb
+                            .base_mode
+                            .contains(super::mav::MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED),
+                    }));
+                }
+                Ok(_) | Err(RecvError::Lagged(_)) => {}
+                Err(RecvError::Closed) => return,
+            }
+        }
+    });
+    (heard, task)
 }

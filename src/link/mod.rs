@@ -11,6 +11,7 @@ pub mod driver;
 pub mod flavour;
 pub mod flight;
 pub mod items;
+pub mod params;
 pub mod readback;
 pub mod telemetry;
 pub mod testing;
@@ -32,6 +33,11 @@ pub enum LinkError {
     Send { what: String, reason: String },
     #[error("signing key {file}: {reason}")]
     SigningKey { file: String, reason: String },
+}
+
+/// How emplan signs with `key` (link id 0; unsigned frames from the vehicle refused).
+pub fn signing_config(key: [u8; 32]) -> mavlink::SigningConfig {
+    mavlink::SigningConfig::new(key, 0, true, false)
 }
 
 /// Reads a MAVLink 2 signing key file: 32 raw bytes, or 64 hexadecimal characters (optionally

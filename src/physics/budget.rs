@@ -4,17 +4,21 @@
 //!
 //! Take-off and landing are simulated as the vertical operations (0, +h) and (0, -h) of the
 //! mission's profile, start to settled hover, like every leg (paper notes section 2: an operation
-//! is a hover-to-hover move); hovering costs the model's hover power for the waypoint's hover
-//! time.
+//! is a hover-to-hover move), except with the `px4` profile, which flies them as PX4 does
+//! (`Model::takeoff`, `Model::landing`: NAV_TAKEOFF climbs at MPC_TKO_SPEED below
+//! MPC_LAND_ALT1 and is done NAV_MC_ALT_RAD below its altitude; NAV_LAND slows to
+//! MPC_LAND_SPEED near the ground and ends at touchdown); hovering costs the model's hover power
+//! for the waypoint's hover time.
 
-use super::{hover_power_w, simulate_operation, Operation, PhysicsError, Profile, Vehicle};
+use super::operation::Model;
+use super::{hover_power_w, Operation, PhysicsError, Profile, Vehicle};
 
 /// The fixed costs of flights from one origin with one vehicle and profile, and its battery.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Budget {
-    /// The take-off: operation (0, +h) from the ground to hover at the origin.
+    /// The take-off from the ground to hover at the origin.
     pub takeoff: Operation,
-    /// The landing: operation (0, -h) from hover at the origin to the ground.
+    /// The landing from hover at the origin to the ground.
     pub landing: Operation,
     /// Battery power in hover (W).
     pub hover_power_w: f64,
@@ -57,9 +61,16 @@ impl Budget {
             }
         };
         let h = height_above_home_m;
+        if !h.is_finite() {
+            return Err(pricing("take-off")(PhysicsError::NotFinite {
+                what: "height_above_home_m",
+                value: h,
+            }));
+        }
+        let model = Model::new(vehicle);
         Ok(Budget {
-            takeoff: simulate_operation(vehicle, profile, 0.0, h).map_err(pricing("take-off"))?,
-            landing: simulate_operation(vehicle, profile, 0.0, -h).map_err(pricing("landing"))?,
+            takeoff: model.takeoff(profile, h).map_err(pricing("take-off"))?,
+            landing: model.landing(profile, h).map_err(pricing("landing"))?,
             hover_power_w: hover_power_w(vehicle).map_err(pricing("hover"))?,
             usable_j: vehicle.mission_budget_j(),
             reserve_pct: vehicle.planning.reserve_pct,
@@ -106,14 +117,15 @@ impl Budget {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::physics::simulate_operation;
     use crate::physics::vehicle::shipped;
 
     #[test]
     fn the_budget_prices_take_off_as_a_climb_and_landing_as_a_descent_of_the_origin_height() {
         let v = shipped();
-        let b = Budget::new(&v, Profile::Px4, 30.0).unwrap();
-        let climb = simulate_operation(&v, Profile::Px4, 0.0, 30.0).unwrap();
-        let descent = simulate_operation(&v, Profile::Px4, 0.0, -30.0).unwrap();
+        let b = Budget::new(&v, Profile::Hvb, 30.0).unwrap();
+        let climb = simulate_operation(&v, Profile::Hvb, 0.0, 30.0).unwrap();
+        let descent = simulate_operation(&v, Profile::Hvb, 0.0, -30.0).unwrap();
         assert_eq!(b.takeoff_j(), climb.total_energy_j());
         assert_eq!(b.landing_j(), descent.total_energy_j());
         assert!(b.takeoff_j() > b.hover_j(climb.total_duration_s()) * 0.5);
@@ -121,6 +133,22 @@ mod tests {
         // 200 Wh usable, 20 % reserve.
         assert_eq!(b.usable_j, 576_000.0);
         assert_eq!(b.reserve_pct, 20.0);
+    }
+
+    #[test]
+    fn the_px4_budget_prices_px4s_own_take_off_and_landing() {
+        let v = shipped();
+        let b = Budget::new(&v, Profile::Px4, 30.0).unwrap();
+        let model = Model::new(&v);
+        assert_eq!(b.takeoff, model.takeoff(Profile::Px4, 30.0).unwrap());
+        assert_eq!(b.landing, model.landing(Profile::Px4, 30.0).unwrap());
+        // NAV_TAKEOFF's slow climb below MPC_LAND_ALT1 and NAV_LAND's slow final metres take
+        // longer than the plain vertical operations.
+        let climb = simulate_operation(&v, Profile::Px4, 0.0, 30.0).unwrap();
+        let descent = simulate_operation(&v, Profile::Px4, 0.0, -30.0).unwrap();
+        assert!(b.takeoff.total_duration_s() > climb.total_duration_s() + 2.0);
+        assert!(b.landing.total_duration_s() > descent.total_duration_s() + 5.0);
+        assert!(b.landing_j() > descent.total_energy_j());
     }
 
     #[test]

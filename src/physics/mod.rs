@@ -11,17 +11,19 @@
 
 pub mod body;
 pub mod budget;
+pub mod builtin;
 pub mod calibration;
 pub mod model;
 pub mod operation;
 pub mod powertrain;
 pub mod profile;
+pub mod px4;
 pub mod rotor;
 pub mod table;
 pub mod vehicle;
 
 pub use budget::{BatteryCheck, Budget};
-pub use model::VehicleModel;
+pub use model::{VehicleModel, VehicleSource};
 pub use operation::{hover_power_w, level_flight_power_w, simulate_operation, Operation};
 pub use profile::Profile;
 pub use table::{EnergyTable, LegEnergy};

@@ -2,10 +2,38 @@
 //! profile's energy table, loaded together so that a table is never used with another vehicle
 //! or profile than its own.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use super::budget::Budget;
-use super::{EnergyTable, LegEnergy, PhysicsError, Profile, Vehicle};
+use super::{builtin, EnergyTable, LegEnergy, PhysicsError, Profile, Vehicle};
+
+/// Where a vehicle and its tables come from.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum VehicleSource {
+    /// The shipped S1000, compiled into the binary ([`builtin`]).
+    BuiltIn,
+    /// A directory holding `vehicle.toml` and its `<profile>.table` files.
+    Dir(PathBuf),
+}
+
+impl VehicleSource {
+    /// The vehicle's parameters.
+    pub fn vehicle(&self) -> Result<Vehicle, PhysicsError> {
+        match self {
+            VehicleSource::BuiltIn => builtin::vehicle(),
+            VehicleSource::Dir(dir) => Vehicle::load(dir),
+        }
+    }
+}
+
+impl std::fmt::Display for VehicleSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            VehicleSource::BuiltIn => f.write_str(builtin::NAME),
+            VehicleSource::Dir(dir) => write!(f, "{}", dir.display()),
+        }
+    }
+}
 
 /// A vehicle with the energy table of one profile.
 #[derive(Debug, Clone)]
@@ -19,9 +47,21 @@ impl VehicleModel {
     /// Loads `dir/vehicle.toml` and its table for `profile` (the vehicle's default profile when
     /// none is given); a missing or stale table is an error naming the file.
     pub fn load(dir: &Path, profile: Option<Profile>) -> Result<VehicleModel, PhysicsError> {
-        let vehicle = Vehicle::load(dir)?;
+        Self::open(&VehicleSource::Dir(dir.to_path_buf()), profile)
+    }
+
+    /// The vehicle of `source` with its table for `profile` (the vehicle's default profile
+    /// when none is given).
+    pub fn open(
+        source: &VehicleSource,
+        profile: Option<Profile>,
+    ) -> Result<VehicleModel, PhysicsError> {
+        let vehicle = source.vehicle()?;
         let profile = profile.unwrap_or(vehicle.default_profile());
-        let table = EnergyTable::load(dir, profile, &vehicle)?;
+        let table = match source {
+            VehicleSource::BuiltIn => builtin::table(profile, &vehicle)?,
+            VehicleSource::Dir(dir) => EnergyTable::load(dir, profile, &vehicle)?,
+        };
         Ok(VehicleModel {
             vehicle,
             profile,

@@ -6,9 +6,10 @@
 
 use super::body::demand;
 use super::powertrain::Powertrain;
-use super::profile::{line_limit, s_curve, trapezoid, Schedule};
+use super::profile::{line_limit, trapezoid, Schedule};
+use super::px4;
 use super::rotor::Rotor;
-use super::vehicle::Vehicle;
+use super::vehicle::{Px4Params, Vehicle};
 use super::{PhysicsError, Profile};
 
 /// The paper's operation-end rule: energy counts until within this distance of the end point.
@@ -85,6 +86,13 @@ enum Path {
         xf_m: f64,
         zf_m: f64,
     },
+    /// A motion simulated in time steps (PX4's trajectory generator, `physics::px4`) to the
+    /// end point (xf, zf).
+    Sampled {
+        samples: px4::Samples,
+        xf_m: f64,
+        zf_m: f64,
+    },
 }
 
 impl Path {
@@ -92,6 +100,7 @@ impl Path {
         match self {
             Path::Line { schedule, .. } => schedule.duration_s(),
             Path::Axes { x, z, .. } => x.duration_s().max(z.duration_s()),
+            Path::Sampled { samples, .. } => samples.duration_s(),
         }
     }
 
@@ -112,6 +121,10 @@ impl Path {
                 let sign = if *zf_m < 0.0 { -1.0 } else { 1.0 };
                 (sx.v_m_s, sign * sz.v_m_s, sx.a_m_s2, sign * sz.a_m_s2)
             }
+            Path::Sampled { samples, .. } => {
+                let [_, _, vx, vz, ax, az] = samples.at(t);
+                (vx, vz, ax, az)
+            }
         }
     }
 
@@ -126,6 +139,10 @@ impl Path {
                 let sign = if *zf_m < 0.0 { -1.0 } else { 1.0 };
                 (x.at(t).s_m, sign * z.at(t).s_m)
             }
+            Path::Sampled { samples, .. } => {
+                let [x, z, ..] = samples.at(t);
+                (x, z)
+            }
         }
     }
 
@@ -136,19 +153,66 @@ impl Path {
                 schedule, length_m, ..
             } => length_m - schedule.at(t).s_m,
             Path::Axes { x, z, xf_m, zf_m } => (xf_m - x.at(t).s_m).hypot(zf_m.abs() - z.at(t).s_m),
+            Path::Sampled {
+                samples,
+                xf_m,
+                zf_m,
+            } => {
+                let [x, z, ..] = samples.at(t);
+                (xf_m - x).hypot(zf_m - z)
+            }
         }
+    }
+
+    /// The first time within `r` of the end point (straight-line distance).
+    fn arrival_s(&self, r: f64) -> f64 {
+        let duration = self.duration_s();
+        if let Path::Sampled {
+            samples,
+            xf_m,
+            zf_m,
+        } = self
+        {
+            return samples.first_within(*xf_m, *zf_m, r).unwrap_or(duration);
+        }
+        // The remaining distance never grows along a schedule: bisection on time.
+        if self.remaining_m(0.0) <= r {
+            return 0.0;
+        }
+        let (mut lo, mut hi) = (0.0, duration);
+        for _ in 0..80 {
+            let mid = 0.5 * (lo + hi);
+            if self.remaining_m(mid) <= r {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        hi
     }
 }
 
 /// The motion a profile flies for one operation, in the leg's vertical plane (x horizontal along
-/// the leg, z up, both from the start point), rest to rest, and the profile's settle time in
-/// hover after it. The one trajectory construction: operations are simulated along it and the
-/// mock autopilot (`sim`) flies it.
+/// the leg, z up, both from the start point), rest to rest, and what ends it at the end point:
+/// the profile's settle time in hover after it, or (PX4) the acceptance that starts the
+/// waypoint's hold while the vehicle still brakes. The one trajectory construction: operations
+/// are simulated along it and the mock autopilot (`sim`) flies it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Trajectory {
     path: Path,
     settle_s: f64,
     steps: usize,
+    acceptance: Option<Acceptance>,
+}
+
+/// Where an autopilot counts an end point reached and starts its hold, not waiting for the
+/// vehicle to come to rest (PX4 mission_block.cpp `is_mission_item_reached_or_completed`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Acceptance {
+    /// Within this horizontally (NAV_ACC_RAD, the item's acceptance radius)...
+    pub horizontal_m: f64,
+    /// ...and this vertically (NAV_MC_ALT_RAD).
+    pub vertical_m: f64,
 }
 
 impl Trajectory {
@@ -176,6 +240,36 @@ impl Trajectory {
     pub fn settle_s(&self) -> f64 {
         self.settle_s
     }
+
+    /// The autopilot's acceptance of the end point, when it does not wait for rest (PX4).
+    pub fn acceptance(&self) -> Option<Acceptance> {
+        self.acceptance
+    }
+
+    /// The first time the autopilot counts the end point reached by its acceptance (None:
+    /// no acceptance rule, or never).
+    pub fn accepted_s(&self) -> Option<f64> {
+        let a = self.acceptance?;
+        match &self.path {
+            Path::Sampled {
+                samples,
+                xf_m,
+                zf_m,
+            } => samples.first_accepted(*xf_m, *zf_m, a.horizontal_m, a.vertical_m),
+            _ => None,
+        }
+    }
+}
+
+/// The largest speed along `path`, sampled `steps` times.
+fn path_peak_speed(path: &Path, steps: usize) -> f64 {
+    let duration = path.duration_s();
+    (0..=steps)
+        .map(|k| {
+            let (vx, vz, _, _) = path.kinematics(duration * k as f64 / steps as f64);
+            vx.hypot(vz)
+        })
+        .fold(0.0, f64::max)
 }
 
 /// A vehicle's models, built once and reused for many operations (table builds).
@@ -243,33 +337,41 @@ impl<'a> Model<'a> {
     fn fly(&self, trajectory: &Trajectory) -> Result<Operation, PhysicsError> {
         let (path, steps, settle_s) = (&trajectory.path, trajectory.steps, trajectory.settle_s);
         let duration = path.duration_s();
-        // First time within the arrival radius (the remaining distance never grows:
-        // bisection on time).
-        let t_arrive = if path.remaining_m(0.0) <= ARRIVAL_RADIUS_M {
-            0.0
-        } else {
-            let (mut lo, mut hi) = (0.0, duration);
-            for _ in 0..80 {
-                let mid = 0.5 * (lo + hi);
-                if path.remaining_m(mid) <= ARRIVAL_RADIUS_M {
-                    hi = mid;
-                } else {
-                    lo = mid;
-                }
-            }
-            hi
+        let t_arrive = path.arrival_s(ARRIVAL_RADIUS_M);
+        // A sampled motion is integrated at its own samples.
+        let steps = match path {
+            Path::Sampled { samples, .. } => samples.points.len().max(steps),
+            _ => steps,
         };
         let n1 = ((steps as f64 * t_arrive / duration.max(1e-9)).round() as usize).max(8);
         let n2 = steps.saturating_sub(n1).max(8);
         // Tilt is a planning limit: the PTF search enforces it; HVB and PX4 fly what they fly.
         let energy = self.energy_j(path, (0.0, t_arrive), n1, false)?;
+        if let Some(t_accept) = trajectory.accepted_s() {
+            // PX4: the waypoint's hold starts at its acceptance and overlaps the rest of the
+            // braking. The settle is the motion from the 4 m crossing to the acceptance, plus
+            // what the braking after it costs above hovering (the hold is priced as hover).
+            let t_accept = t_accept.clamp(t_arrive, duration);
+            let n_a = ((steps as f64 * (t_accept - t_arrive) / duration.max(1e-9)).round()
+                as usize)
+                .max(8);
+            let n_b = ((steps as f64 * (duration - t_accept) / duration.max(1e-9)).round()
+                as usize)
+                .max(8);
+            let to_accept = self.energy_j(path, (t_arrive, t_accept), n_a, false)?;
+            let tail = self.energy_j(path, (t_accept, duration), n_b, false)?;
+            let tail_over_hover = tail - self.hover_power_w()? * (duration - t_accept);
+            let peak = path_peak_speed(path, steps);
+            return Ok(Operation {
+                energy_j: energy,
+                duration_s: t_arrive,
+                settle_energy_j: to_accept + tail_over_hover,
+                settle_duration_s: t_accept - t_arrive,
+                peak_speed_m_s: peak,
+            });
+        }
         let rest = self.energy_j(path, (t_arrive, duration), n2, false)?;
-        let peak = (0..=steps)
-            .map(|k| {
-                let (vx, vz, _, _) = path.kinematics(duration * k as f64 / steps as f64);
-                vx.hypot(vz)
-            })
-            .fold(0.0, f64::max);
+        let peak = path_peak_speed(path, steps);
         Ok(Operation {
             energy_j: energy,
             duration_s: t_arrive,
@@ -288,24 +390,7 @@ impl<'a> Model<'a> {
         zf_m: f64,
     ) -> Result<Operation, PhysicsError> {
         let trajectory = self.trajectory(profile, xf_m, zf_m)?;
-        if trajectory.duration_s() <= 0.0 {
-            return Ok(Operation {
-                energy_j: 0.0,
-                duration_s: 0.0,
-                settle_energy_j: 0.0,
-                settle_duration_s: 0.0,
-                peak_speed_m_s: 0.0,
-            });
-        }
-        self.fly(&trajectory).map_err(|e| match e {
-            PhysicsError::NoTrajectory { .. } => e,
-            other => PhysicsError::NoTrajectory {
-                xf_m,
-                zf_m,
-                profile,
-                reason: other.to_string(),
-            },
-        })
+        self.priced(&trajectory, xf_m, zf_m, profile)
     }
 
     /// The trajectory `profile` flies from hover to hover over horizontal distance `xf_m` and
@@ -342,6 +427,7 @@ impl<'a> Model<'a> {
                 },
                 settle_s: 0.0,
                 steps: 8,
+                acceptance: None,
             });
         }
         let dir = (xf_m / length, zf_m / length);
@@ -407,6 +493,7 @@ impl<'a> Model<'a> {
                     path: quintic(t_best),
                     settle_s: 0.0,
                     steps,
+                    acceptance: None,
                 })
             }
             Profile::Hvb => {
@@ -428,38 +515,110 @@ impl<'a> Model<'a> {
                     path,
                     settle_s: h.settle_s,
                     steps: h.steps as usize,
+                    acceptance: None,
                 })
             }
             Profile::Px4 => {
                 let x = &v.px4;
-                let v_line = line_limit(
-                    dir.0,
-                    dir.1,
-                    x.mpc_xy_cruise_m_s,
-                    x.mpc_z_v_auto_up_m_s,
-                    x.mpc_z_v_auto_dn_m_s,
-                );
-                let a_line = line_limit(
-                    dir.0,
-                    dir.1,
-                    x.mpc_acc_hor_m_s2,
-                    x.mpc_acc_up_max_m_s2,
-                    x.mpc_acc_down_max_m_s2,
-                );
-                // PX4 limits jerk per axis: the line's jerk is bounded by the larger component.
-                let j_line = x.mpc_jerk_auto_m_s3 / dir.0.abs().max(dir.1.abs());
-                let path = Path::Line {
-                    schedule: s_curve(length, v_line, a_line, j_line),
-                    length_m: length,
-                    dir,
-                };
-                Ok(Trajectory {
-                    path,
-                    settle_s: x.settle_s,
-                    steps: x.steps as usize,
-                })
+                let samples = px4::leg(x, xf_m, zf_m).map_err(|e| no_trajectory(e.to_string()))?;
+                Ok(px4_trajectory(x, samples, xf_m, zf_m))
             }
         }
+    }
+
+    /// The take-off `profile` flies from the ground to `height_m` (PX4: NAV_TAKEOFF, its slow
+    /// climb near the ground; the others: the operation (0, +h)).
+    pub fn takeoff_trajectory(
+        &self,
+        profile: Profile,
+        height_m: f64,
+    ) -> Result<Trajectory, PhysicsError> {
+        match profile {
+            Profile::Px4 if height_m > 0.0 => {
+                let x = &self.vehicle.px4;
+                let samples = px4::takeoff(x, height_m)?;
+                Ok(px4_trajectory(x, samples, 0.0, height_m))
+            }
+            _ => self.trajectory(profile, 0.0, height_m),
+        }
+    }
+
+    /// The landing `profile` flies from hover `height_m` above the ground to touchdown (PX4:
+    /// NAV_LAND, slowing to MPC_LAND_SPEED near the ground; the others: the operation (0, -h)).
+    pub fn landing_trajectory(
+        &self,
+        profile: Profile,
+        height_m: f64,
+    ) -> Result<Trajectory, PhysicsError> {
+        match profile {
+            Profile::Px4 if height_m > 0.0 => {
+                let x = &self.vehicle.px4;
+                let samples = px4::landing(x, height_m)?;
+                Ok(Trajectory {
+                    // On the ground at the end: no acceptance, no settle.
+                    acceptance: None,
+                    ..px4_trajectory(x, samples, 0.0, -height_m)
+                })
+            }
+            _ => self.trajectory(profile, 0.0, -height_m),
+        }
+    }
+
+    /// The take-off to `height_m` priced: to the end of the climb (PX4: to its acceptance
+    /// NAV_MC_ALT_RAD below, where the mission goes on), and its settle.
+    pub fn takeoff(&self, profile: Profile, height_m: f64) -> Result<Operation, PhysicsError> {
+        let t = self.takeoff_trajectory(profile, height_m)?;
+        self.priced(&t, 0.0, height_m, profile)
+    }
+
+    /// The landing from `height_m` priced, to touchdown.
+    pub fn landing(&self, profile: Profile, height_m: f64) -> Result<Operation, PhysicsError> {
+        let t = self.landing_trajectory(profile, height_m)?;
+        self.priced(&t, 0.0, -height_m, profile)
+    }
+
+    fn priced(
+        &self,
+        trajectory: &Trajectory,
+        xf_m: f64,
+        zf_m: f64,
+        profile: Profile,
+    ) -> Result<Operation, PhysicsError> {
+        if trajectory.duration_s() <= 0.0 {
+            return Ok(Operation {
+                energy_j: 0.0,
+                duration_s: 0.0,
+                settle_energy_j: 0.0,
+                settle_duration_s: 0.0,
+                peak_speed_m_s: 0.0,
+            });
+        }
+        self.fly(trajectory).map_err(|e| match e {
+            PhysicsError::NoTrajectory { .. } => e,
+            other => PhysicsError::NoTrajectory {
+                xf_m,
+                zf_m,
+                profile,
+                reason: other.to_string(),
+            },
+        })
+    }
+}
+
+/// A PX4 motion as a trajectory: sampled, no settle hover, PX4's acceptance of the end point.
+fn px4_trajectory(x: &Px4Params, samples: px4::Samples, xf_m: f64, zf_m: f64) -> Trajectory {
+    Trajectory {
+        path: Path::Sampled {
+            samples,
+            xf_m,
+            zf_m,
+        },
+        settle_s: 0.0,
+        steps: x.steps as usize,
+        acceptance: Some(Acceptance {
+            horizontal_m: x.nav_acc_rad_m,
+            vertical_m: x.nav_mc_alt_rad_m,
+        }),
     }
 }
 
@@ -594,7 +753,16 @@ mod tests {
             assert_eq!(t.kinematics(t.duration_s() + 1.0), (0.0, 0.0, 0.0, 0.0));
             assert!(t.remaining_m(0.0) > 41.0 && t.remaining_m(t.duration_s()) < 1e-6);
             let op = model.operation(profile, 40.0, -10.0).unwrap();
-            assert!((op.total_duration_s() - t.duration_s() - t.settle_s()).abs() < 1e-9);
+            match t.accepted_s() {
+                // PX4 ends the operation where it accepts the point (its hold starts there).
+                Some(accepted) => {
+                    assert!(accepted < t.duration_s() && t.acceptance().is_some());
+                    assert!((op.total_duration_s() - accepted).abs() < 1e-9, "{op:?}");
+                }
+                None => {
+                    assert!((op.total_duration_s() - t.duration_s() - t.settle_s()).abs() < 1e-9)
+                }
+            }
         }
         assert_eq!(
             model

@@ -6,8 +6,12 @@
 //!   section 4) and the duration T chosen to minimise energy under speed and tilt limits;
 //! - `hvb`: the high-velocity baseline, a trapezoidal speed profile at the speed and
 //!   acceleration limits, then a settle in hover;
-//! - `px4`: PX4 mission mode, a jerk-limited S-curve (seven constant-jerk phases) with the PX4
-//!   cruise, climb, descent, acceleration and jerk parameters, then a settle in hover.
+//! - `px4`: PX4 mission mode, PX4's own trajectory generator run in time steps (`physics::px4`:
+//!   jerk-limited velocity smoothing, the braking law near the waypoint, the trajectory slowed
+//!   while the vehicle trails it), ending where PX4 accepts the point and starts its hold.
+//!
+//! [`s_curve`] (the seven constant-jerk phases of a rest-to-rest move) is kept as the textbook
+//! jerk-limited schedule.
 
 use std::fmt;
 use std::str::FromStr;

@@ -336,24 +336,33 @@ impl EnergyTable {
             file: file.clone(),
             source_text: format!("{e} (build it with `emplan table build --profile {profile}`)"),
         })?;
-        let table = Self::from_text(&text, &file)?;
+        Self::from_text(&text, &file)?.checked(profile, vehicle, file)
+    }
+
+    /// This table if it holds `profile` and was built from `vehicle` (`file` names it).
+    pub fn checked(
+        self,
+        profile: Profile,
+        vehicle: &Vehicle,
+        file: String,
+    ) -> Result<EnergyTable, PhysicsError> {
         let expected = vehicle.parameter_hash(profile);
-        if table.profile != profile {
+        if self.profile != profile {
             return Err(PhysicsError::TableFormat {
                 file,
                 line: 3,
-                problem: format!("holds the {} profile, not {profile}", table.profile),
+                problem: format!("holds the {} profile, not {profile}", self.profile),
             });
         }
-        if table.vehicle_hash != expected {
+        if self.vehicle_hash != expected {
             return Err(PhysicsError::StaleTable {
                 file,
                 profile,
-                table_hash: table.vehicle_hash,
+                table_hash: self.vehicle_hash,
                 vehicle_hash: expected,
             });
         }
-        Ok(table)
+        Ok(self)
     }
 }
 

@@ -15,6 +15,26 @@ pub struct Planning {
     pub default_profile: Profile,
     pub usable_energy_wh: f64,
     pub reserve_pct: f64,
+    /// Operating limits: a mission outside them is refused (`--allow-infeasible` overrides only
+    /// the battery reserve, never these). Defaults for vehicle files written before they existed.
+    #[serde(default = "default_max_height_above_home_m")]
+    pub max_height_above_home_m: f64,
+    #[serde(default = "default_max_leg_m")]
+    pub max_leg_m: f64,
+    #[serde(default = "default_max_speed_m_s")]
+    pub max_speed_m_s: f64,
+}
+
+fn default_max_height_above_home_m() -> f64 {
+    120.0
+}
+
+fn default_max_leg_m() -> f64 {
+    1000.0
+}
+
+fn default_max_speed_m_s() -> f64 {
+    16.0
 }
 
 /// Rigid body and environment.
@@ -91,19 +111,139 @@ pub struct HvbParams {
     pub steps: u32,
 }
 
-/// PX4 mission-mode trajectory parameters (PX4 parameter names, units in the key).
+/// PX4 mission-mode trajectory parameters (PX4 parameter names, units in the key): what
+/// `physics::px4` runs PX4's trajectory generator with.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Px4Params {
     pub mpc_xy_cruise_m_s: f64,
+    pub mpc_xy_vel_max_m_s: f64,
     pub mpc_z_v_auto_up_m_s: f64,
     pub mpc_z_v_auto_dn_m_s: f64,
     pub mpc_acc_hor_m_s2: f64,
     pub mpc_acc_up_max_m_s2: f64,
     pub mpc_acc_down_max_m_s2: f64,
     pub mpc_jerk_auto_m_s3: f64,
-    pub settle_s: f64,
+    pub mpc_xy_err_max_m: f64,
+    pub mpc_tko_speed_m_s: f64,
+    pub mpc_tko_ramp_t_s: f64,
+    /// Vertical velocity gain (MPC_Z_VEL_P_ACC, 1/s): PX4's take-off ramp starts its upward
+    /// velocity limit at -g / this (zero thrust) and raises it to MPC_TKO_SPEED over
+    /// MPC_TKO_RAMP_T; the vehicle lifts off where the limit passes zero (thrust = weight).
+    pub mpc_z_vel_p_acc_per_s: f64,
+    pub mpc_land_speed_m_s: f64,
+    pub mpc_land_alt1_m: f64,
+    pub mpc_land_alt2_m: f64,
+    pub mpc_z_vel_max_dn_m_s: f64,
+    /// Landing crawl below MPC_LAND_ALT3, which PX4 does only with a distance sensor: 0 for a
+    /// vehicle without one.
+    pub mpc_land_alt3_m: f64,
+    pub mpc_land_crwl_m_s: f64,
+    /// Waypoint acceptance radius (NAV_ACC_RAD; what emplan sends as each item's param2).
+    pub nav_acc_rad_m: f64,
+    pub nav_mc_alt_rad_m: f64,
+    /// The vehicle's horizontal error behind its trajectory setpoint when it leaves a waypoint,
+    /// closed exponentially with this time constant (not PX4 parameters: the vehicle's
+    /// tracking, which slows PX4's trajectory through MPC_XY_ERR_MAX).
+    pub departure_error_m: f64,
+    pub departure_error_decay_s: f64,
     pub steps: u32,
+}
+
+/// A trajectory parameter the autopilot holds at another value than the vehicle file says.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParamDifference {
+    /// PX4's name.
+    pub name: &'static str,
+    /// The vehicle file's [px4] value.
+    pub file_value: f64,
+    /// The autopilot's.
+    pub autopilot_value: f64,
+}
+
+impl Px4Params {
+    /// The parameters read from an autopilot (PX4 names; None: not answered) that differ from
+    /// this set by more than float32 round-off (PARAM_VALUE carries a float32), in
+    /// [`Px4Params::autopilot_values`]' order.
+    pub fn differences(&self, read: &[(String, Option<f64>)]) -> Vec<ParamDifference> {
+        self.autopilot_values()
+            .into_iter()
+            .filter_map(|(name, file_value)| {
+                let autopilot_value = read
+                    .iter()
+                    .find(|(n, _)| n == name)
+                    .and_then(|(_, v)| *v)
+                    .filter(|v| v.is_finite())?;
+                let tolerance = 1e-5 * file_value.abs().max(1.0);
+                ((autopilot_value - file_value).abs() > tolerance).then_some(ParamDifference {
+                    name,
+                    file_value,
+                    autopilot_value,
+                })
+            })
+            .collect()
+    }
+
+    /// The parameters the autopilot holds, by PX4 name (PX4 main of 2026-03; MPC_Z_V_AUTO_UP/DN
+    /// were MPC_Z_VEL_MAX_UP/DN in auto modes before v1.14), with this set's values.
+    pub fn autopilot_values(&self) -> Vec<(&'static str, f64)> {
+        vec![
+            ("MPC_XY_CRUISE", self.mpc_xy_cruise_m_s),
+            ("MPC_XY_VEL_MAX", self.mpc_xy_vel_max_m_s),
+            ("MPC_Z_V_AUTO_UP", self.mpc_z_v_auto_up_m_s),
+            ("MPC_Z_V_AUTO_DN", self.mpc_z_v_auto_dn_m_s),
+            ("MPC_ACC_HOR", self.mpc_acc_hor_m_s2),
+            ("MPC_ACC_UP_MAX", self.mpc_acc_up_max_m_s2),
+            ("MPC_ACC_DOWN_MAX", self.mpc_acc_down_max_m_s2),
+            ("MPC_JERK_AUTO", self.mpc_jerk_auto_m_s3),
+            ("MPC_XY_ERR_MAX", self.mpc_xy_err_max_m),
+            ("MPC_TKO_SPEED", self.mpc_tko_speed_m_s),
+            ("MPC_TKO_RAMP_T", self.mpc_tko_ramp_t_s),
+            ("MPC_Z_VEL_P_ACC", self.mpc_z_vel_p_acc_per_s),
+            ("MPC_LAND_SPEED", self.mpc_land_speed_m_s),
+            ("MPC_LAND_ALT1", self.mpc_land_alt1_m),
+            ("MPC_LAND_ALT2", self.mpc_land_alt2_m),
+            ("MPC_LAND_ALT3", self.mpc_land_alt3_m),
+            ("MPC_LAND_CRWL", self.mpc_land_crwl_m_s),
+            ("MPC_Z_VEL_MAX_DN", self.mpc_z_vel_max_dn_m_s),
+            ("NAV_ACC_RAD", self.nav_acc_rad_m),
+            ("NAV_MC_ALT_RAD", self.nav_mc_alt_rad_m),
+        ]
+    }
+
+    /// This set with the autopilot's values of the parameters named in `values` (PX4 names as
+    /// [`Px4Params::autopilot_values`] gives them; other names and non-finite values are
+    /// ignored).
+    pub fn with_autopilot_values(&self, values: &[(String, f64)]) -> Px4Params {
+        let mut p = self.clone();
+        for (name, value) in values.iter().filter(|(_, v)| v.is_finite()) {
+            let slot = match name.as_str() {
+                "MPC_XY_CRUISE" => &mut p.mpc_xy_cruise_m_s,
+                "MPC_XY_VEL_MAX" => &mut p.mpc_xy_vel_max_m_s,
+                "MPC_Z_V_AUTO_UP" => &mut p.mpc_z_v_auto_up_m_s,
+                "MPC_Z_V_AUTO_DN" => &mut p.mpc_z_v_auto_dn_m_s,
+                "MPC_ACC_HOR" => &mut p.mpc_acc_hor_m_s2,
+                "MPC_ACC_UP_MAX" => &mut p.mpc_acc_up_max_m_s2,
+                "MPC_ACC_DOWN_MAX" => &mut p.mpc_acc_down_max_m_s2,
+                "MPC_JERK_AUTO" => &mut p.mpc_jerk_auto_m_s3,
+                "MPC_XY_ERR_MAX" => &mut p.mpc_xy_err_max_m,
+                "MPC_TKO_SPEED" => &mut p.mpc_tko_speed_m_s,
+                "MPC_TKO_RAMP_T" => &mut p.mpc_tko_ramp_t_s,
+                "MPC_Z_VEL_P_ACC" => &mut p.mpc_z_vel_p_acc_per_s,
+                "MPC_LAND_SPEED" => &mut p.mpc_land_speed_m_s,
+                "MPC_LAND_ALT1" => &mut p.mpc_land_alt1_m,
+                "MPC_LAND_ALT2" => &mut p.mpc_land_alt2_m,
+                "MPC_LAND_ALT3" => &mut p.mpc_land_alt3_m,
+                "MPC_LAND_CRWL" => &mut p.mpc_land_crwl_m_s,
+                "MPC_Z_VEL_MAX_DN" => &mut p.mpc_z_vel_max_dn_m_s,
+                "NAV_ACC_RAD" => &mut p.nav_acc_rad_m,
+                "NAV_MC_ALT_RAD" => &mut p.nav_mc_alt_rad_m,
+                _ => continue,
+            };
+            *slot = *value;
+        }
+        p
+    }
 }
 
 /// A vehicle: everything the energy model needs.
@@ -172,6 +312,30 @@ impl Vehicle {
             100_000.0,
         )?;
         check("planning.reserve_pct", p.reserve_pct, 0.0, 90.0)?;
+        check(
+            "planning.max_height_above_home_m",
+            p.max_height_above_home_m,
+            1.0,
+            10_000.0,
+        )?;
+        check("planning.max_leg_m", p.max_leg_m, 1.0, 100_000.0)?;
+        check("planning.max_speed_m_s", p.max_speed_m_s, 0.5, 100.0)?;
+        // No profile may plan faster than the vehicle can fly.
+        for (key, speed) in [
+            ("ptf.max_speed_xy_m_s", self.ptf.max_speed_xy_m_s),
+            ("hvb.speed_xy_m_s", self.hvb.speed_xy_m_s),
+            ("px4.mpc_xy_cruise_m_s", self.px4.mpc_xy_cruise_m_s),
+        ] {
+            if speed > p.max_speed_m_s {
+                return Err(fail(
+                    key,
+                    format!(
+                        "{speed} m/s is above the vehicle's planning.max_speed_m_s of {} m/s",
+                        p.max_speed_m_s
+                    ),
+                ));
+            }
+        }
         let b = &self.body;
         check("body.mass_kg", b.mass_kg, 0.1, 200.0)?;
         check("body.gravity_m_s2", b.gravity_m_s2, 9.7, 9.9)?;
@@ -271,7 +435,46 @@ impl Vehicle {
             20.0,
         )?;
         check("px4.mpc_jerk_auto_m_s3", x.mpc_jerk_auto_m_s3, 0.2, 100.0)?;
-        check("px4.settle_s", x.settle_s, 0.0, 60.0)?;
+        check("px4.mpc_xy_vel_max_m_s", x.mpc_xy_vel_max_m_s, 0.5, 40.0)?;
+        check("px4.mpc_xy_err_max_m", x.mpc_xy_err_max_m, 0.0, 100.0)?;
+        check("px4.mpc_tko_speed_m_s", x.mpc_tko_speed_m_s, 0.1, 20.0)?;
+        check("px4.mpc_tko_ramp_t_s", x.mpc_tko_ramp_t_s, 0.1, 60.0)?;
+        check(
+            "px4.mpc_z_vel_p_acc_per_s",
+            x.mpc_z_vel_p_acc_per_s,
+            0.5,
+            30.0,
+        )?;
+        check("px4.mpc_land_speed_m_s", x.mpc_land_speed_m_s, 0.1, 20.0)?;
+        check("px4.mpc_land_alt1_m", x.mpc_land_alt1_m, 0.0, 1000.0)?;
+        check(
+            "px4.mpc_land_alt2_m",
+            x.mpc_land_alt2_m,
+            0.0,
+            x.mpc_land_alt1_m,
+        )?;
+        check(
+            "px4.mpc_z_vel_max_dn_m_s",
+            x.mpc_z_vel_max_dn_m_s,
+            0.1,
+            20.0,
+        )?;
+        check(
+            "px4.mpc_land_alt3_m",
+            x.mpc_land_alt3_m,
+            0.0,
+            x.mpc_land_alt2_m,
+        )?;
+        check("px4.mpc_land_crwl_m_s", x.mpc_land_crwl_m_s, 0.05, 20.0)?;
+        check("px4.nav_acc_rad_m", x.nav_acc_rad_m, 0.05, 200.0)?;
+        check("px4.nav_mc_alt_rad_m", x.nav_mc_alt_rad_m, 0.05, 200.0)?;
+        check("px4.departure_error_m", x.departure_error_m, 0.0, 100.0)?;
+        check(
+            "px4.departure_error_decay_s",
+            x.departure_error_decay_s,
+            0.01,
+            600.0,
+        )?;
         check("px4.steps", f64::from(x.steps), 20.0, 100_000.0)?;
         Ok(())
     }
@@ -356,6 +559,60 @@ mod tests {
         assert!(
             err.contains("v.toml") && err.contains("unknown field"),
             "{err}"
+        );
+    }
+
+    #[test]
+    fn px4_parameters_map_to_the_px4_section_by_their_px4_names_both_ways() {
+        let v = shipped();
+        let named = v.px4.autopilot_values();
+        assert_eq!(named.len(), 20);
+        // Read back unchanged, every name lands on its own key.
+        let same: Vec<(String, f64)> = named.iter().map(|(n, x)| (n.to_string(), *x)).collect();
+        assert_eq!(v.px4.with_autopilot_values(&same), v.px4);
+        for (k, (name, value)) in named.iter().enumerate() {
+            let changed = v
+                .px4
+                .with_autopilot_values(&[(name.to_string(), value + 1.0)])
+                .autopilot_values();
+            for (j, (_, x)) in changed.iter().enumerate() {
+                let want = if j == k { value + 1.0 } else { named[j].1 };
+                assert_eq!(*x, want, "{name} moved {}", named[j].0);
+            }
+        }
+        let ignored = v.px4.with_autopilot_values(&[
+            ("SYS_AUTOSTART".into(), 4001.0),
+            ("MPC_XY_CRUISE".into(), f64::NAN),
+        ]);
+        assert_eq!(ignored, v.px4);
+    }
+
+    #[test]
+    fn only_parameters_read_off_by_more_than_float32_round_off_differ() {
+        let p = shipped().px4;
+        let read = vec![
+            // As a float32 carries it: not a difference.
+            (
+                "MPC_XY_CRUISE".to_string(),
+                Some(f64::from(p.mpc_xy_cruise_m_s as f32)),
+            ),
+            ("MPC_ACC_HOR".to_string(), Some(p.mpc_acc_hor_m_s2 + 0.5)),
+            ("NAV_ACC_RAD".to_string(), Some(p.nav_acc_rad_m * 2.0)),
+            // Unanswered, or not one of ours: nothing to compare.
+            ("MPC_JERK_AUTO".to_string(), None),
+            ("SYS_AUTOSTART".to_string(), Some(4001.0)),
+        ];
+        let d = p.differences(&read);
+        let named: Vec<(&str, f64, f64)> = d
+            .iter()
+            .map(|x| (x.name, x.file_value, x.autopilot_value))
+            .collect();
+        assert_eq!(
+            named,
+            [
+                ("MPC_ACC_HOR", p.mpc_acc_hor_m_s2, p.mpc_acc_hor_m_s2 + 0.5),
+                ("NAV_ACC_RAD", p.nav_acc_rad_m, p.nav_acc_rad_m * 2.0),
+            ]
         );
     }
 

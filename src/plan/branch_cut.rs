@@ -25,6 +25,7 @@ use std::time::{Duration, Instant};
 
 use microlp::{ComparisonOp, LinearExpr, OptimizationDirection, Problem, Solution, Variable};
 
+use super::progress::{self, Event};
 use super::subtour::violated_sides;
 use super::{assignment, CostMatrix, PlanError, Tour};
 
@@ -199,6 +200,11 @@ pub fn solve(m: &CostMatrix, incumbent: &[usize], options: &Options) -> Result<O
         }
         nodes += 1;
         let is_root = nodes == 1;
+        if nodes % 32 == 1 {
+            // The best bound of the tree: the least over the open nodes and this one.
+            let open_bound = stack.iter().map(|o| o.bound).fold(open.bound, f64::min);
+            progress::report(Event::Bound(open_bound.min(best_cost)));
+        }
         let (bound, first, x) = match search.evaluate(&open.fixings, is_root, best_cost)? {
             Evaluated::Infeasible => continue,
             Evaluated::TimedOut(bound) => {
@@ -228,6 +234,7 @@ pub fn solve(m: &CostMatrix, incumbent: &[usize], options: &Options) -> Result<O
                     if cost < best_cost {
                         best_cost = cost;
                         best_order = order;
+                        progress::report(Event::Incumbent(best_cost));
                     }
                 }
             }

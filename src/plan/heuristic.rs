@@ -34,6 +34,8 @@
 use std::collections::VecDeque;
 use std::time::Instant;
 
+use super::progress::{self, Event};
+
 use super::{is_tour_order, CostMatrix};
 use crate::rng::Rng;
 
@@ -177,6 +179,7 @@ pub fn solve(m: &CostMatrix, initial: Option<&[usize]>, opts: &Options) -> Outco
     let mut best_cost = m_tour_cost(m, &s.tour);
     s.cost = best_cost;
     let mut best_tour = s.tour.clone();
+    progress::report(Event::Incumbent(best_cost));
     let budget = opts.max_kicks.unwrap_or_else(|| default_kicks(n));
     let mut rng = Rng::new(opts.seed);
     let mut kicks = 0u64;
@@ -184,9 +187,15 @@ pub fn solve(m: &CostMatrix, initial: Option<&[usize]>, opts: &Options) -> Outco
     // current one or than the current one of `LATE_ACCEPTANCE` kicks ago.
     let mut history = vec![s.cost; LATE_ACCEPTANCE];
     while stop == Stop::Kicks && kicks < budget {
-        if kicks.is_multiple_of(16) && out_of_time(&started) {
-            stop = Stop::TimeLimit;
-            break;
+        if kicks.is_multiple_of(16) {
+            if out_of_time(&started) {
+                stop = Stop::TimeLimit;
+                break;
+            }
+            progress::report(Event::Kicks {
+                done: kicks,
+                budget,
+            });
         }
         let slot = (kicks % history.len() as u64) as usize;
         kicks += 1;
@@ -201,6 +210,7 @@ pub fn solve(m: &CostMatrix, initial: Option<&[usize]>, opts: &Options) -> Outco
                 s.cost = m_tour_cost(m, &s.tour);
                 best_cost = s.cost;
                 best_tour.copy_from_slice(&s.tour);
+                progress::report(Event::Incumbent(best_cost));
             }
         } else {
             s.undo();

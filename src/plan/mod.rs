@@ -13,6 +13,7 @@ pub mod geometry;
 pub mod held_karp;
 pub mod heuristic;
 pub mod orders;
+pub mod progress;
 pub mod solver;
 pub mod sorties;
 pub mod study;

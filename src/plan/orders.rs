@@ -6,6 +6,7 @@
 use serde::Serialize;
 
 use super::held_karp::{self, Lexicographic};
+use super::progress::{self, Event};
 use super::solver::{self, Solved};
 use super::{CostMatrix, Geometry, PlanError};
 
@@ -185,24 +186,52 @@ pub fn baseline(
 }
 
 /// Every order `emplan plan` reports: the energy order (if `energy` is given) once, then each
-/// distance baseline forward and reverse.
+/// distance baseline forward and reverse. `options.time_limit` bounds all the solves together:
+/// each gets its share of the time left (the energy order twice a baseline's), and what a solve
+/// leaves unused goes to the ones after it.
 pub fn plan_orders(
     geometry: &Geometry,
     energy: Option<&CostMatrix>,
     options: &solver::Options,
 ) -> Result<Vec<SolvedOrder>, PlanError> {
-    let mut orders = Vec::new();
-    if let Some(energy) = energy {
-        orders.push(energy_order(geometry, energy, options)?);
-    }
-    for objective in [
+    let deadline = std::time::Instant::now() + options.time_limit.min(YEAR);
+    let baselines = [
         Objective::Distance,
         Objective::Horizontal,
         Objective::Vertical,
-    ] {
-        orders.extend(baseline(geometry, objective, options)?);
+    ];
+    let mut weight_left = baselines.len() as f64 + if energy.is_some() { 2.0 } else { 0.0 };
+    let mut share = |weight: f64| {
+        let left = deadline.saturating_duration_since(std::time::Instant::now());
+        let limit = left.mul_f64(weight / weight_left);
+        weight_left -= weight;
+        solver::Options {
+            time_limit: limit,
+            ..*options
+        }
+    };
+    let mut orders = Vec::new();
+    if let Some(energy) = energy {
+        progress::report(Event::Order(objective_name(Objective::Energy)));
+        orders.push(energy_order(geometry, energy, &share(2.0))?);
+    }
+    for objective in baselines {
+        progress::report(Event::Order(objective_name(objective)));
+        orders.extend(baseline(geometry, objective, &share(1.0))?);
     }
     Ok(orders)
+}
+
+/// A time limit past any solve (keeps `Instant` arithmetic from overflowing).
+const YEAR: std::time::Duration = std::time::Duration::from_secs(365 * 24 * 3600);
+
+fn objective_name(objective: Objective) -> &'static str {
+    match objective {
+        Objective::Energy => "energy order",
+        Objective::Distance => "min-distance order",
+        Objective::Horizontal => "min-horizontal order",
+        Objective::Vertical => "min-vertical order",
+    }
 }
 
 #[cfg(test)]

@@ -7,6 +7,7 @@ use std::time::{Duration, Instant};
 
 use serde::Serialize;
 
+use super::progress::{self, Event};
 use super::{bound, branch_cut, held_karp, heuristic, CostMatrix, PlanError, Tour};
 
 /// Which solver to run.
@@ -129,10 +130,14 @@ pub fn solve(m: &CostMatrix, options: &Options) -> Result<Solved, PlanError> {
         }
     };
     match solver {
-        Solver::HeldKarp => Ok(finish(held_karp::solve(m)?, None, None)),
+        Solver::HeldKarp => {
+            progress::report(Event::Phase("Held-Karp"));
+            Ok(finish(held_karp::solve(m)?, None, None))
+        }
         Solver::BranchCut => {
             let ils = run_heuristic(m, options, options.time_limit.mul_f64(HEURISTIC_SHARE))?;
             let left = options.time_limit.saturating_sub(started.elapsed());
+            progress::report(Event::Phase("branch-and-cut"));
             let out = branch_cut::solve(
                 m,
                 &ils.order,
@@ -151,7 +156,9 @@ pub fn solve(m: &CostMatrix, options: &Options) -> Result<Solved, PlanError> {
             )?;
             // The DFJ bound always includes the assignment bound, even with no time left.
             let left = options.time_limit.saturating_sub(started.elapsed());
+            progress::report(Event::Phase("lower bound"));
             let proof = bound::dfj_bound(m, &ils.order, left)?;
+            progress::report(Event::Bound(proof.lower_bound.max(proof.assignment_bound)));
             tracing::info!(
                 lower_bound = proof.lower_bound,
                 assignment_bound = proof.assignment_bound,
@@ -180,6 +187,7 @@ fn run_heuristic(
     options: &Options,
     budget: Duration,
 ) -> Result<heuristic::Outcome, PlanError> {
+    progress::report(Event::Phase("heuristic"));
     m.check_finite()?;
     Ok(heuristic::solve(
         m,

@@ -260,6 +260,67 @@ impl Plan {
     }
 }
 
+/// The order an upload flies (`emplan upload --order`, the service's upload request).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FlownOrder {
+    /// The minimum-energy order.
+    #[default]
+    Energy,
+    /// The minimum-distance order, in its cheaper direction.
+    Distance,
+    /// The order the mission file lists.
+    Listed,
+}
+
+/// What to fly of a mission: an order, or one sortie of the split (`upload`, `fly`, the
+/// service). Planning computes only that order (no baselines for the energy order or a sortie,
+/// no energy solve for the distance or the listed order).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct FlightChoice {
+    pub order: FlownOrder,
+    /// Sortie K (1-based) of the minimum-energy split into sorties, one battery each.
+    pub sortie: Option<usize>,
+    /// Go ahead when the model says the battery cannot fly it with its reserve.
+    pub allow_infeasible: bool,
+}
+
+impl FlightChoice {
+    /// The plan options that compute what this choice flies.
+    pub fn options(&self, solver: solver::Options) -> PlanOptions {
+        let orders = match (self.sortie, self.order) {
+            (Some(_), _) | (None, FlownOrder::Energy) => Orders::Energy,
+            (None, FlownOrder::Distance) => Orders::Distance,
+            (None, FlownOrder::Listed) => Orders::Listed,
+        };
+        PlanOptions {
+            orders,
+            solver,
+            sorties: self.sortie.is_some(),
+        }
+    }
+
+    /// Plans `mission` for this choice.
+    pub fn plan(
+        &self,
+        mission: &Mission,
+        model: &VehicleModel,
+        solver: solver::Options,
+    ) -> Result<Plan, PlannerError> {
+        plan_mission(mission, model, &self.options(solver))
+    }
+
+    /// The flight chosen from `plan` (made by [`FlightChoice::plan`]), refused when the battery
+    /// cannot fly it with its reserve unless `allow_infeasible`.
+    pub fn flight<'a>(&self, plan: &'a Plan) -> Result<Flight<'a>, PlannerError> {
+        let flight = plan.flight(self.sortie)?;
+        if !self.allow_infeasible {
+            flight.require_feasible()?;
+        }
+        Ok(flight)
+    }
+}
+
 /// Everything planning can refuse.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum PlannerError {
@@ -293,6 +354,18 @@ pub enum PlannerError {
     #[error("sortie {sortie}: the mission splits into {count} sorties (1 to {count})")]
     NoSuchSortie { sortie: usize, count: usize },
     #[error(
+        "{what}: {value} m {measure}, above the vehicle's limit planning.{limit} = {max} m (an \
+         operating limit: --allow-infeasible does not override it)"
+    )]
+    OutsideLimit {
+        /// The waypoint, the origin or the leg at fault.
+        what: String,
+        measure: &'static str,
+        value: f64,
+        limit: &'static str,
+        max: f64,
+    },
+    #[error(
         "the model predicts {:.1} kJ for this mission but the battery has {:.1} kJ usable after \
          its {reserve_pct}% reserve",
         .predicted_j / 1000.0,
@@ -303,6 +376,63 @@ pub enum PlannerError {
         usable_j: f64,
         reserve_pct: f64,
     },
+}
+
+/// Refuses a mission whose origin or any waypoint is higher above home than the vehicle may fly.
+fn within_height_limit(
+    mission: &Mission,
+    planning: &crate::physics::vehicle::Planning,
+) -> Result<(), PlannerError> {
+    let max = planning.max_height_above_home_m;
+    let origin = mission.origin.height_above_home_m;
+    let heights = std::iter::once(("origin".to_string(), origin)).chain(
+        mission
+            .waypoints
+            .iter()
+            .map(|w| (format!("waypoint {}", w.name), origin + w.position.z_up_m)),
+    );
+    let over: Vec<(String, f64)> = heights.filter(|(_, h)| *h > max || h.is_nan()).collect();
+    let Some(highest) = over.iter().map(|(_, h)| *h).reduce(f64::max) else {
+        return Ok(());
+    };
+    let mut what: Vec<String> = over.iter().take(5).map(|(w, _)| w.clone()).collect();
+    if over.len() > 5 {
+        what.push(format!("{} more", over.len() - 5));
+    }
+    Err(PlannerError::OutsideLimit {
+        what: what.join(", "),
+        measure: if over.len() > 1 {
+            "above home at the highest"
+        } else {
+            "above home"
+        },
+        value: highest,
+        limit: "max_height_above_home_m",
+        max,
+    })
+}
+
+/// Refuses a flight with a leg longer than the vehicle may fly in one go.
+fn within_leg_limit(
+    legs: &[Leg],
+    names: &[String],
+    planning: &crate::physics::vehicle::Planning,
+) -> Result<(), PlannerError> {
+    let max = planning.max_leg_m;
+    match legs.iter().find(|l| l.distance_m > max) {
+        Some(l) => Err(PlannerError::OutsideLimit {
+            what: format!(
+                "leg {} -> {}",
+                names.get(l.from).map_or("?", String::as_str),
+                names.get(l.to).map_or("?", String::as_str)
+            ),
+            measure: "long",
+            value: (l.distance_m * 10.0).round() / 10.0,
+            limit: "max_leg_m",
+            max,
+        }),
+        None => Ok(()),
+    }
 }
 
 /// The order of `objective` among `orders` with the least energy, the first on a tie.
@@ -321,6 +451,7 @@ pub fn plan_mission(
     model: &VehicleModel,
     options: &PlanOptions,
 ) -> Result<Plan, PlannerError> {
+    within_height_limit(mission, &model.vehicle.planning)?;
     let geometry = Geometry::from_mission(mission);
     let names: Vec<String> = std::iter::once("origin".to_string())
         .chain(mission.waypoints.iter().map(|w| w.name.clone()))
@@ -411,6 +542,10 @@ pub fn plan_mission(
         Orders::All | Orders::Energy | Orders::Listed => 0,
     };
 
+    if let Some(order) = orders.get(flown) {
+        within_leg_limit(&order.legs, &names, &model.vehicle.planning)?;
+    }
+
     let budget = model
         .budget(mission.origin.height_above_home_m)
         .map_err(PlannerError::Budget)?;
@@ -458,8 +593,10 @@ pub fn plan_mission(
             .sorties
             .into_iter()
             .map(|s| {
+                let legs = legs(&s.order)?;
+                within_leg_limit(&legs, &names, &model.vehicle.planning)?;
                 Ok(Sortie {
-                    legs: legs(&s.order)?,
+                    legs,
                     battery: budget.check(s.legs_j, s.hover_j),
                     nodes: s.order,
                 })

@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use tokio::sync::broadcast::error::RecvError;
 
-use super::plan::flight_plan;
+use super::plan::{flight_plan, flight_plan_predicted, predicted_by_simulation};
 use super::recorder::{FlightEvent, RecorderHandle};
 use crate::flightlog::report::FlightReport;
 use crate::link::commands::{drive, keep_streams, request_streams};
@@ -18,6 +18,7 @@ use crate::link::items::{mission_items, ItemOptions};
 use crate::link::transfer::TransferConfig;
 use crate::link::LinkError;
 use crate::mission::Mission;
+use crate::physics::Vehicle;
 use crate::planner::{Flight, Plan};
 
 /// How to fly.
@@ -31,6 +32,10 @@ pub struct FlyOptions {
     pub acceptance_radius_m: f32,
     /// The longest emplan waits (wall time) from the upload to the landing.
     pub timeout: Duration,
+    /// Measure the flight against this vehicle's legs simulated directly (the plan's profile)
+    /// instead of the plan's table prices: the vehicle as the autopilot flies it, when its
+    /// trajectory parameters differ from the vehicle file's (`params::check_px4_params`).
+    pub priced_with: Option<Vehicle>,
 }
 
 impl Default for FlyOptions {
@@ -40,6 +45,7 @@ impl Default for FlyOptions {
             start: StartConfig::default(),
             acceptance_radius_m: 2.0,
             timeout: Duration::from_secs(3600),
+            priced_with: None,
         }
     }
 }
@@ -112,8 +118,20 @@ pub async fn fly(
         ..ItemOptions::default()
     };
     let items = mission_items(mission, &flight.waypoints(), &items_opts).ok_or(FlyError::Items)?;
-    let measured_against = flight_plan(mission, plan, flight, target.flavour)
-        .map_err(|e| FlyError::Plan(e.to_string()))?;
+    let measured_against = match &opts.priced_with {
+        None => flight_plan(mission, plan, flight, target.flavour),
+        Some(vehicle) => {
+            let predicted = predicted_by_simulation(
+                vehicle,
+                plan.profile,
+                mission.origin.height_above_home_m,
+                flight,
+            )
+            .map_err(|e| FlyError::Plan(e.to_string()))?;
+            flight_plan_predicted(mission, flight, target.flavour, predicted)
+        }
+    }
+    .map_err(|e| FlyError::Plan(e.to_string()))?;
     // The rates first: at its defaults PX4 sends BATTERY_STATUS every 2 s.
     request_streams(link, target).await?;
     let upload = upload_verified(link, target, &items, transfer, progress).await?;

@@ -9,13 +9,19 @@
 //! on a thread of its own (blocking writes and fsyncs never stall the link's tasks).
 
 pub mod fly;
+pub mod params;
 pub mod plan;
 pub mod recorder;
 pub mod replay;
+pub mod upload;
 
 pub use crate::link::commands::{keep_streams, request_streams};
 pub use fly::{fly, Flown, FlyError, FlyOptions};
-pub use plan::{flight_plan, plan_from_items, predicted, FlightItemsError};
+pub use params::{check_px4_params, ParamCheck};
+pub use plan::{
+    flight_plan, flight_plan_predicted, plan_from_items, predicted, predicted_by_simulation,
+    FlightItemsError,
+};
 pub use recorder::{
     flight_dirs, spawn_recorder, FlightEvent, Live, RecorderConfig, RecorderHandle,
 };

@@ -10,7 +10,8 @@ use crate::flightlog::FlightLogError;
 use crate::link::items::{FlightItems, ReadItemsError};
 use crate::link::Flavour;
 use crate::mission::{Enu, Mission};
-use crate::physics::VehicleModel;
+use crate::physics::operation::Model;
+use crate::physics::{Budget, Profile, Vehicle, VehicleModel};
 use crate::planner::{Flight, Plan};
 
 /// The prediction of `flight` (the flown order or a sortie of `plan`): each leg to the 4 m rule
@@ -33,6 +34,46 @@ pub fn predicted(plan: &Plan, flight: &Flight<'_>) -> Predicted {
     }
 }
 
+/// The prediction of `flight` priced by simulating each leg, the take-off and the landing of
+/// `vehicle` with `profile` directly, not from the table: for an autopilot whose trajectory
+/// parameters differ from the vehicle file's (a few legs simulate in milliseconds).
+pub fn predicted_by_simulation(
+    vehicle: &Vehicle,
+    profile: Profile,
+    origin_height_m: f64,
+    flight: &Flight<'_>,
+) -> Result<Predicted, FlightItemsError> {
+    let pricing = |e: crate::physics::PhysicsError| FlightItemsError::Pricing(e.to_string());
+    let budget = Budget::new(vehicle, profile, origin_height_m).map_err(pricing)?;
+    let model = Model::new(vehicle);
+    let legs = flight
+        .legs
+        .iter()
+        .map(|leg| {
+            let op = model
+                .operation(profile, leg.horizontal_m, leg.vertical_m)
+                .map_err(|e| {
+                    FlightItemsError::Pricing(format!(
+                        "leg {} (Xf {:.1} m, Zf {:.1} m): {e}",
+                        leg.to, leg.horizontal_m, leg.vertical_m
+                    ))
+                })?;
+            Ok(PredictedLeg {
+                energy_j: op.energy_j,
+                duration_s: op.duration_s,
+                settle_energy_j: op.settle_energy_j,
+                settle_duration_s: op.settle_duration_s,
+            })
+        })
+        .collect::<Result<Vec<_>, FlightItemsError>>()?;
+    Ok(Predicted {
+        takeoff_j: budget.takeoff.total_energy_j(),
+        landing_j: budget.landing.total_energy_j(),
+        legs,
+        hover_power_w: budget.hover_power_w,
+    })
+}
+
 /// The FlightPlan of `flight` uploaded to an autopilot of `flavour` with `link::items`' layout.
 pub fn flight_plan(
     mission: &Mission,
@@ -40,13 +81,19 @@ pub fn flight_plan(
     flight: &Flight<'_>,
     flavour: Flavour,
 ) -> Result<FlightPlan, FlightLogError> {
+    flight_plan_predicted(mission, flight, flavour, predicted(plan, flight))
+}
+
+/// The FlightPlan of `flight` uploaded to an autopilot of `flavour`, measured against
+/// `predicted`.
+pub fn flight_plan_predicted(
+    mission: &Mission,
+    flight: &Flight<'_>,
+    flavour: Flavour,
+    predicted: Predicted,
+) -> Result<FlightPlan, FlightLogError> {
     let first_seq = if flavour == Flavour::ArduPilot { 1 } else { 0 };
-    FlightPlan::for_mission(
-        mission,
-        &flight.waypoints(),
-        first_seq,
-        Some(predicted(plan, flight)),
-    )
+    FlightPlan::for_mission(mission, &flight.waypoints(), first_seq, Some(predicted))
 }
 
 /// Why a flight could not be read or priced.

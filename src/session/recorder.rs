@@ -21,10 +21,13 @@ use std::time::Duration;
 use tokio::sync::{broadcast, mpsc, oneshot, watch};
 
 use crate::flightlog::plan::FlightPlan;
-use crate::flightlog::recorder::{flight_name, write_report, Recorder};
+use crate::flightlog::recorder::{
+    flight_name, read_report, write_report, Recorder, PLAN_FILE, TLOG_FILE,
+};
 use crate::flightlog::report::{FlightReport, PartReport};
 use crate::flightlog::segment::{SegmentConfig, SegmentKind, Segmenter};
 use crate::flightlog::telemetry::{Reading, Stamped, VehicleState};
+use crate::flightlog::tlog::read_tlog;
 use crate::link::connection::{wall_us, Frame, Link};
 use crate::link::telemetry::Telemetry;
 
@@ -38,6 +41,12 @@ pub struct RecorderConfig {
     pub preroll: Duration,
     /// Recording goes on this long (wall time) after the disarm.
     pub tail: Duration,
+    /// Resume a flight whose recording was cut off (emplan killed or stopped mid-flight and
+    /// started again): when the first heartbeat says the vehicle is armed, the newest flight
+    /// directory is appended to instead of a new one made, if its log ends within this long
+    /// (wall time) before now, its last heartbeat was armed, it comes from the same autopilot
+    /// and it has no complete report. None: every flight seen gets a new directory.
+    pub resume_within: Option<Duration>,
 }
 
 impl RecorderConfig {
@@ -47,6 +56,7 @@ impl RecorderConfig {
             segment: SegmentConfig::default(),
             preroll: Duration::from_secs(5),
             tail: Duration::from_millis(500),
+            resume_within: None,
         }
     }
 }
@@ -55,8 +65,12 @@ impl RecorderConfig {
 #[derive(Debug, Clone)]
 pub enum FlightEvent {
     /// A flight directory was opened (at arming, or at once when the vehicle was already
-    /// flying).
-    Started { flight: String, dir: PathBuf },
+    /// flying), or reopened to go on recording a flight cut off (`resumed`).
+    Started {
+        flight: String,
+        dir: PathBuf,
+        resumed: bool,
+    },
     /// A part of the flight is complete (take-off, a leg, a settle, a hover, the landing).
     Part {
         flight: String,
@@ -123,7 +137,10 @@ pub struct RecorderHandle {
 }
 
 impl RecorderHandle {
-    /// The plan the next flight (or the one in progress) is measured against.
+    /// The plan the flight in progress is measured against (everything recorded so far is
+    /// measured again when it replaces another one, and its parts announced again), or the
+    /// next flight's when none is in progress (or the one in progress has disarmed). A flight
+    /// uses up the plan: the one after it starts without one unless another is set.
     pub fn set_plan(&self, plan: FlightPlan) {
         let _ = self.input.send(Input::Plan(Box::new(plan)));
     }
@@ -289,7 +306,7 @@ impl State {
                 if self.open.as_ref().is_some_and(|o| o.ends_at_us.is_some()) {
                     self.end_flight(now_us);
                 }
-                if self.open.is_none() {
+                if self.open.is_none() && !(self.was_armed.is_none() && self.resume(now_us)) {
                     self.start_flight(now_us);
                 }
             }
@@ -349,24 +366,31 @@ impl State {
     }
 
     fn set_plan(&mut self, plan: FlightPlan) {
-        if let Some(open) = self.open.as_mut() {
-            if open.segmenter.is_none() {
-                if let Err(e) = open.recorder.write_plan(&plan) {
-                    fail(open, &self.events, e.to_string());
-                }
-                match Segmenter::new(plan.clone(), self.cfg.segment) {
-                    Ok(mut seg) => {
-                        for s in &open.stamped {
-                            seg.push(s);
-                        }
-                        open.segmenter = Some(seg);
-                        announce(open, &self.events);
-                    }
-                    Err(e) => fail(open, &self.events, e.to_string()),
-                }
-            }
+        if self.open.as_ref().is_some_and(|o| o.ends_at_us.is_some()) {
+            // The flight in progress has disarmed: the plan is the next one's.
+            self.end_flight(wall_us());
         }
-        self.plan = Some(plan);
+        let Some(open) = self.open.as_mut() else {
+            self.plan = Some(plan);
+            return;
+        };
+        if open.segmenter.as_ref().is_some_and(|s| *s.plan() == plan) {
+            return;
+        }
+        if let Err(e) = open.recorder.write_plan(&plan) {
+            fail(open, &self.events, e.to_string());
+        }
+        match Segmenter::new(plan, self.cfg.segment) {
+            Ok(mut seg) => {
+                for s in &open.stamped {
+                    seg.push(s);
+                }
+                open.segmenter = Some(seg);
+                open.announced = 0;
+                announce(open, &self.events);
+            }
+            Err(e) => fail(open, &self.events, e.to_string()),
+        }
     }
 
     fn start_flight(&mut self, now_us: u64) {
@@ -406,19 +430,116 @@ impl State {
                 Err(e) => fail(&mut open, &self.events, e.to_string()),
             }
         }
-        let _ = self.events.send(FlightEvent::Started { flight: name, dir });
+        let _ = self.events.send(FlightEvent::Started {
+            flight: name,
+            dir,
+            resumed: false,
+        });
         for frame in std::mem::take(&mut self.preroll) {
             record(&mut open, &self.events, &frame);
         }
         self.open = Some(open);
     }
 
+    /// Goes on recording into the newest flight directory when its recording was cut off in
+    /// flight (see [`RecorderConfig::resume_within`]); returns whether it did. The frames
+    /// already logged go through a fresh decoder and segmenter, as in a replay of the whole
+    /// log, so the report at the end is the replay's.
+    fn resume(&mut self, now_us: u64) -> bool {
+        let Some(within) = self.cfg.resume_within else {
+            return false;
+        };
+        let Some(dir) = flight_dirs(&self.cfg.log_dir)
+            .ok()
+            .and_then(|dirs| dirs.last().cloned())
+        else {
+            return false;
+        };
+        if read_report(&dir).is_ok_and(|r| r.complete) {
+            return false;
+        }
+        let Ok(log) = read_tlog(&dir.join(TLOG_FILE)) else {
+            return false;
+        };
+        let mut telemetry = Telemetry::new();
+        let mut stamped = Vec::new();
+        let mut state = VehicleState::default();
+        for record in &log.records {
+            if let Some(s) = telemetry.frame(record.wall_us, &record.frame) {
+                state.update(&s.reading);
+                stamped.push(s);
+            }
+        }
+        let recent = log
+            .records
+            .last()
+            .is_some_and(|r| now_us.saturating_sub(r.wall_us) <= within.as_micros() as u64);
+        let same_vehicle =
+            telemetry.autopilot().is_some() && telemetry.autopilot() == self.watch.autopilot();
+        if !(recent && same_vehicle && state.armed == Some(true)) {
+            return false;
+        }
+        let (mut recorder, _) = match Recorder::resume(&dir, now_us, Default::default()) {
+            Ok(r) => r,
+            Err(e) => {
+                tracing::warn!("not resuming {}: {e}", dir.display());
+                return false;
+            }
+        };
+        for s in &stamped {
+            recorder.restore(s);
+        }
+        let name = flight_name(&dir);
+        let plan = FlightPlan::read_json(&dir.join(PLAN_FILE))
+            .ok()
+            .or_else(|| self.plan.clone());
+        let mut open = Open {
+            name: name.clone(),
+            recorder,
+            telemetry,
+            stamped,
+            segmenter: None,
+            announced: 0,
+            ends_at_us: None,
+            failed: false,
+        };
+        if let Some(plan) = plan {
+            match Segmenter::new(plan, self.cfg.segment) {
+                Ok(mut seg) => {
+                    for s in &open.stamped {
+                        seg.push(s);
+                    }
+                    // Parts completed before the cut were announced by the run that recorded
+                    // them.
+                    open.announced = seg.completed().len();
+                    open.segmenter = Some(seg);
+                }
+                Err(e) => fail(&mut open, &self.events, e.to_string()),
+            }
+        }
+        tracing::info!(
+            "resuming the recording of flight {name} ({} frames already logged)",
+            log.records.len()
+        );
+        let _ = self.events.send(FlightEvent::Started {
+            flight: name,
+            dir,
+            resumed: true,
+        });
+        for frame in std::mem::take(&mut self.preroll) {
+            record(&mut open, &self.events, &frame);
+        }
+        self.open = Some(open);
+        true
+    }
+
     /// Ends the flight in progress, if any: the segmenter finished, report.json written, files
-    /// closed.
+    /// closed; the plan it used is used up.
     fn end_flight(&mut self, now_us: u64) {
         let Some(mut open) = self.open.take() else {
             return;
         };
+        self.plan = None;
         let report = open.segmenter.as_mut().map(|seg| {
             seg.finish();
             FlightReport::build(&open.name, seg)
@@ -510,4 +631,154 @@ pub fn flight_dirs(log_dir: &Path) -> std::io::Result<Vec<PathBuf>> {
         .collect();
     dirs.sort();
     Ok(dirs)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::flightlog::energy::Flag;
+    use crate::flightlog::segment::SegmentKind;
+    use crate::flightlog::synthetic::{square_plan, SyntheticConfig, SyntheticFlight};
+    use crate::link::telemetry::{analyse_flight_dir, encode, frame_bytes};
+    use crate::link::Flavour;
+
+    /// The frames PX4 would send of the scripted flight (each message at its wall time).
+    fn frames(flight: &SyntheticFlight) -> Vec<Frame> {
+        flight
+            .messages
+            .iter()
+            .enumerate()
+            .map(|(k, m)| Frame {
+                wall_us: m.wall_us,
+                outgoing: false,
+                bytes: frame_bytes(
+                    &mavlink::MavHeader {
+                        system_id: 1,
+                        component_id: 1,
+                        sequence: k as u8,
+                    },
+                    &encode(&m.reading, Flavour::Px4),
+                ),
+            })
+            .collect()
+    }
+
+    fn state(log_dir: &Path, resume: bool) -> (State, broadcast::Receiver<FlightEvent>) {
+        let (events, rx) = broadcast::channel(4096);
+        let (live_tx, _) = watch::channel(Live::default());
+        let cfg = RecorderConfig {
+            resume_within: resume.then(|| Duration::from_secs(60)),
+            ..RecorderConfig::new(log_dir)
+        };
+        (State::new(cfg, events, live_tx), rx)
+    }
+
+    fn drain(rx: &mut broadcast::Receiver<FlightEvent>) -> Vec<FlightEvent> {
+        std::iter::from_fn(|| rx.try_recv().ok()).collect()
+    }
+
+    #[test]
+    fn a_recorder_restarted_mid_flight_goes_on_in_the_same_directory_and_reports_as_a_replay() {
+        let log = tempfile::tempdir().expect("temp dir");
+        let plan = square_plan();
+        let flight = SyntheticFlight::fly(&plan, &SyntheticConfig::default());
+        let frames = frames(&flight);
+        let leg1 = flight.part(SegmentKind::Leg(1)).copied().expect("leg 1");
+        let cut_s = leg1.start_s + 0.5 * (leg1.end_s - leg1.start_s);
+        let cut = flight
+            .messages
+            .iter()
+            .position(|m| m.t_s >= cut_s)
+            .expect("cut inside the flight");
+        // The first run records up to the cut and dies without closing anything (as SIGKILL:
+        // nothing flushed by a destructor either).
+        let (mut first, mut rx) = state(log.path(), false);
+        first.set_plan(plan.clone());
+        for frame in &frames[..cut] {
+            first.frame(frame.clone());
+        }
+        let started = drain(&mut rx);
+        assert!(matches!(
+            started.first(),
+            Some(FlightEvent::Started { resumed: false, .. })
+        ));
+        std::mem::forget(first);
+        // Two seconds of telemetry are lost while emplan restarts.
+        let restart = flight
+            .messages
+            .iter()
+            .position(|m| m.t_s >= cut_s + 2.0)
+            .expect("restart inside the flight");
+        let (mut second, mut rx) = state(log.path(), true);
+        for frame in &frames[restart..] {
+            second.frame(frame.clone());
+        }
+        second.end_flight(frames.last().expect("frames").wall_us + 1_000_000);
+        let events = drain(&mut rx);
+        let Some(FlightEvent::Started { dir, resumed, .. }) = events.first() else {
+            panic!("no start: {events:?}");
+        };
+        assert!(*resumed);
+        let dirs = flight_dirs(log.path()).expect("log dir");
+        assert_eq!(dirs, vec![dir.clone()], "one flight directory");
+        let Some(FlightEvent::Ended {
+            report: Some(report),
+            ..
+        }) = events.last()
+        else {
+            panic!("no report: {events:?}");
+        };
+        assert!(report.complete, "{:?}", report.flags);
+        assert_eq!(report.legs.len(), plan.points.len());
+        // Parts finished before the cut were announced by the first run only.
+        let parts = events
+            .iter()
+            .filter(|e| matches!(e, FlightEvent::Part { .. }))
+            .count();
+        assert!(parts > 0 && parts < report.parts().count(), "{parts}");
+        // The gap is in leg 1, flagged; the report is what a replay of the whole log gives.
+        assert!(report.legs[1].flags.contains(&Flag::TelemetryGap));
+        let replayed = analyse_flight_dir(dir, SegmentConfig::default()).expect("replays");
+        assert_eq!(replayed.report, **report);
+        let on_disk = crate::flightlog::recorder::read_report(dir).expect("report.json");
+        assert!(on_disk.complete);
+    }
+
+    #[test]
+    fn a_flight_that_ended_or_a_log_too_old_is_not_resumed() {
+        let log = tempfile::tempdir().expect("temp dir");
+        let flight = SyntheticFlight::fly(&square_plan(), &SyntheticConfig::default());
+        let frames = frames(&flight);
+        let (mut first, _rx) = state(log.path(), false);
+        first.set_plan(square_plan());
+        for frame in &frames {
+            first.frame(frame.clone());
+        }
+        first.end_flight(frames.last().expect("frames").wall_us + 1_000_000);
+        let mid = frames.len() / 2;
+        // Armed at the first heartbeat, but the newest flight has its complete report.
+        let (mut second, mut rx) = state(log.path(), true);
+        for frame in &frames[mid..mid + 50] {
+            second.frame(frame.clone());
+        }
+        assert!(matches!(
+            drain(&mut rx).first(),
+            Some(FlightEvent::Started { resumed: false, .. })
+        ));
+        std::mem::forget(second);
+        assert_eq!(flight_dirs(log.path()).expect("log dir").len(), 2);
+        // The newest one was cut off, but an hour ago.
+        let (mut third, mut rx) = state(log.path(), true);
+        for frame in &frames[mid..mid + 50] {
+            let mut frame = frame.clone();
+            frame.wall_us += 3_600_000_000;
+            third.frame(frame);
+        }
+        assert!(matches!(
+            drain(&mut rx).first(),
+            Some(FlightEvent::Started { resumed: false, .. })
+        ));
+        std::mem::forget(third);
+        assert_eq!(flight_dirs(log.path()).expect("log dir").len(), 3);
+    }
 }

@@ -10,25 +10,29 @@
 //! plane (the leg's horizontal direction does not matter to the planar model). So a leg flown
 //! here costs exactly the energy the planner predicted for it.
 //!
-//! Items: NAV_TAKEOFF climbs vertically from where the vehicle stands to the item's height;
-//! NAV_WAYPOINT flies to the point, is reached within its acceptance radius (param2, PX4's
-//! NAV_ACC_RAD 2 m when 0) and completes once the vehicle has come to rest and settled and the
-//! hold time (param1) since reaching it has passed (PX4 mission_block.cpp
-//! `is_mission_item_reached_or_completed`, ArduCopter mode_auto.cpp `verify_nav_wp`: the hold
-//! counts from reaching the radius); NAV_LOITER_TIME / NAV_LOITER_UNLIM the same with param1 /
+//! Items: NAV_TAKEOFF climbs vertically from where the vehicle stands to the item's height (the
+//! profile's take-off: PX4's NAV_TAKEOFF with its slow climb near the ground for the px4
+//! profile); NAV_WAYPOINT flies to the point, is reached within its acceptance radius (param2,
+//! PX4's NAV_ACC_RAD 2 m when 0; with the px4 profile as PX4 does: within it horizontally and
+//! NAV_MC_ALT_RAD vertically) and completes once the hold time (param1) since reaching it has
+//! passed: with the px4 profile at once, while the vehicle may still brake (PX4
+//! mission_block.cpp `is_mission_item_reached_or_completed`), with the others also once it has
+//! come to rest and settled (ArduCopter mode_auto.cpp `verify_nav_wp`: the hold counts from
+//! reaching the radius); a take-off flown with the px4 profile completes NAV_MC_ALT_RAD below
+//! its height, still climbing; NAV_LOITER_TIME / NAV_LOITER_UNLIM as waypoints with param1 /
 //! forever; NAV_DELAY hovers param1 s; DO_CHANGE_SPEED sets the cruise speed of later legs;
 //! DO_JUMP jumps param2 times; NAV_LAND flies above the point at the current height (when not
 //! there), settles, descends and touches down; NAV_RETURN_TO_LAUNCH (simplified: no climb to a
-//! return altitude) flies above home, settles, descends and touches down. The take-off climb and
-//! the landing descent are the profile's operations (0, +h) and (0, -h), as the planner prices
-//! them (not PX4's slower MPC_TKO_SPEED / MPC_LAND_SPEED).
+//! return altitude) flies above home, settles, descends and touches down. The descent is the
+//! profile's landing (PX4's NAV_LAND, slowing near the ground, for the px4 profile), as the
+//! planner prices it.
 //!
 //! Time is simulated seconds passed in by the caller ([`Flight::advance`]); nothing here reads a
 //! clock.
 
 use crate::link::mav::{MavCmd, MavFrame, MISSION_ITEM_INT_DATA};
 use crate::mission::{Geodetic, Origin};
-use crate::physics::operation::{Model, Trajectory};
+use crate::physics::operation::{Acceptance, Model, Trajectory};
 use crate::physics::{PhysicsError, Profile, Vehicle};
 
 /// A point in the home-centred local frame: metres east, north and up from home.
@@ -245,6 +249,11 @@ struct Line {
     /// Unit horizontal direction (east, north) of the leg.
     heading: [f64; 2],
     start_s: f64,
+    /// Where the vehicle is off the line when it starts (PX4 accepted the item before: the
+    /// vehicle catches up with the line from the last point), closed exponentially over
+    /// `catch_up_s`.
+    offset: Local,
+    catch_up_s: f64,
 }
 
 impl Line {
@@ -257,13 +266,20 @@ impl Line {
         let (x, z) = self.trajectory.position_m(tau);
         let (vx, vz, _, _) = self.trajectory.kinematics(tau);
         let [ex, ny] = self.heading;
+        let left = (-tau / self.catch_up_s.max(1e-3)).exp();
+        let closing = -left / self.catch_up_s.max(1e-3);
+        let o = self.offset;
         (
             [
-                self.from[0] + ex * x,
-                self.from[1] + ny * x,
-                self.from[2] + z,
+                self.from[0] + ex * x + o[0] * left,
+                self.from[1] + ny * x + o[1] * left,
+                self.from[2] + z + o[2] * left,
             ],
-            [ex * vx, ny * vx, vz],
+            [
+                ex * vx + o[0] * closing,
+                ny * vx + o[1] * closing,
+                vz + o[2] * closing,
+            ],
         )
     }
 }
@@ -286,9 +302,10 @@ enum Motion {
 /// Why a line is flown.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Purpose {
-    /// A leg to a point (an item's, the take-off climb, or above a landing point), then a
-    /// settle in hover.
+    /// A leg to a point (an item's, or above a landing point), then a settle in hover.
     Leg,
+    /// The take-off climb from the ground (the profile's take-off: PX4's NAV_TAKEOFF).
+    Climb,
     /// The landing descent, then touchdown.
     Descent,
 }
@@ -303,6 +320,9 @@ struct Progress {
     rest_s: Option<f64>,
     /// The profile's settle time after that line.
     settle_s: f64,
+    /// The autopilot's acceptance of the item's point when it does not wait for rest (PX4):
+    /// reached by this rule, the hold counts from there and the item completes without rest.
+    acceptance: Option<Acceptance>,
 }
 
 /// The simulated vehicle's flight: position, motion, mission progress and electrical power.
@@ -424,6 +444,11 @@ impl<'v> Flight<'v> {
     /// point, then).
     pub fn physics_errors(&self) -> u32 {
         self.physics_errors
+    }
+
+    /// Whether the vehicle stands at ground height (a take-off from here climbs from the ground).
+    fn on_ground_height(&self) -> bool {
+        self.on_ground() || self.position[2] <= ABOVE_POINT_M
     }
 
     /// The landed state (MAV_LANDED_STATE).
@@ -604,6 +629,7 @@ impl<'v> Flight<'v> {
             reached_s: None,
             rest_s: None,
             settle_s: 0.0,
+            acceptance: None,
         });
         if self.in_mission {
             events.push(Event::Current(seq));
@@ -621,7 +647,12 @@ impl<'v> Flight<'v> {
         let here = self.position;
         match command {
             Command::Takeoff { up_m } => {
-                self.fly_to([here[0], here[1], up_m.max(here[2])], Purpose::Leg, events);
+                let purpose = if self.on_ground_height() {
+                    Purpose::Climb
+                } else {
+                    Purpose::Leg
+                };
+                self.fly_to([here[0], here[1], up_m.max(here[2])], purpose, events);
             }
             Command::Waypoint { at, .. } | Command::Loiter { at, .. } => {
                 self.fly_to(at, Purpose::Leg, events)
@@ -662,7 +693,26 @@ impl<'v> Flight<'v> {
 
     /// Flies a line to `to` (when already there, the line is stationary and ends at once).
     fn fly_to(&mut self, to: Local, purpose: Purpose, events: &mut Vec<Event>) {
-        let from = self.position;
+        // A leg begun while the take-off still climbs (PX4 accepted it NAV_MC_ALT_RAD below its
+        // height) runs from the take-off point, as PX4's line from the previous waypoint does;
+        // the vehicle closes the gap to it as it goes.
+        let from = match &self.motion {
+            Motion::Flying {
+                line,
+                purpose: Purpose::Climb,
+            } if purpose == Purpose::Leg => line.at(line.end_s()).0,
+            _ => self.position,
+        };
+        self.fly_line(from, to, purpose, events);
+    }
+
+    /// Flies the line `from` -> `to`; the vehicle, where it is, closes the gap to the line.
+    fn fly_line(&mut self, from: Local, to: Local, purpose: Purpose, events: &mut Vec<Event>) {
+        let offset = [
+            self.position[0] - from[0],
+            self.position[1] - from[1],
+            self.position[2] - from[2],
+        ];
         let (dx, dy) = (to[0] - from[0], to[1] - from[1]);
         let xf_m = dx.hypot(dy);
         let heading = if xf_m > 1e-9 {
@@ -670,7 +720,18 @@ impl<'v> Flight<'v> {
         } else {
             [1.0, 0.0]
         };
-        let trajectory = match self.trajectory(xf_m, to[2] - from[2]) {
+        let zf_m = to[2] - from[2];
+        let trajectory = match purpose {
+            Purpose::Leg => self.trajectory(xf_m, zf_m),
+            Purpose::Climb if xf_m < ABOVE_POINT_M => {
+                self.model.takeoff_trajectory(self.profile, zf_m)
+            }
+            Purpose::Descent if xf_m < ABOVE_POINT_M => {
+                self.model.landing_trajectory(self.profile, -zf_m)
+            }
+            Purpose::Climb | Purpose::Descent => self.trajectory(xf_m, zf_m),
+        };
+        let trajectory = match trajectory {
             Ok(t) => t,
             Err(_) => {
                 // The physics cannot fly it: move there at once so the mission goes on.
@@ -681,11 +742,16 @@ impl<'v> Flight<'v> {
                 return;
             }
         };
+        if let Some(p) = self.progress.as_mut() {
+            p.acceptance = trajectory.acceptance();
+        }
         let line = Line {
             trajectory,
             from,
             heading,
             start_s: self.now_s,
+            offset,
+            catch_up_s: self.vehicle.px4.departure_error_decay_s,
         };
         if line.trajectory.duration_s() <= 0.0 {
             self.motion = Motion::Hover;
@@ -712,10 +778,19 @@ impl<'v> Flight<'v> {
     /// Heads for the landing point: a horizontal leg first when not above it, else the descent.
     fn head_for_landing(&mut self, at: [f64; 2], events: &mut Vec<Event>) {
         let here = self.position;
-        if (at[0] - here[0]).hypot(at[1] - here[1]) > ABOVE_POINT_M {
+        // PX4 moves to the landing point first only when it is farther than NAV_ACC_RAD
+        // (mission.cpp `do_need_move_to_land`); else it descends at once.
+        let above_m = if self.profile == Profile::Px4 {
+            self.vehicle.px4.nav_acc_rad_m.max(ABOVE_POINT_M)
+        } else {
+            ABOVE_POINT_M
+        };
+        if (at[0] - here[0]).hypot(at[1] - here[1]) > above_m {
             self.fly_to([at[0], at[1], here[2]], Purpose::Leg, events);
         } else {
-            self.fly_to([here[0], here[1], 0.0], Purpose::Descent, events);
+            // The descent's setpoint is the landing point: the vehicle drifts onto it.
+            let above = [at[0], at[1], here[2]];
+            self.fly_line(above, [at[0], at[1], 0.0], Purpose::Descent, events);
         }
     }
 
@@ -760,10 +835,31 @@ impl<'v> Flight<'v> {
             _ => None,
         };
         if let Some((at, radius_m)) = target {
-            if p.reached_s.is_none() && distance(self.position, at) <= radius_m {
+            let inside = match p.acceptance {
+                // PX4: within the item's radius horizontally and NAV_MC_ALT_RAD vertically.
+                Some(a) => {
+                    let horizontal = (self.position[0] - at[0]).hypot(self.position[1] - at[1]);
+                    horizontal <= radius_m && (self.position[2] - at[2]).abs() <= a.vertical_m
+                }
+                None => distance(self.position, at) <= radius_m,
+            };
+            if p.reached_s.is_none() && inside {
                 p.reached_s = Some(now);
                 self.progress = Some(p);
             }
+        }
+        // PX4 does not wait for rest: a waypoint is done its hold after being reached, a
+        // take-off once within NAV_MC_ALT_RAD of its height (mission_block.cpp).
+        if let Some(a) = p.acceptance.filter(|_| p.rest_s.is_none()) {
+            let done = match command {
+                Command::Waypoint { hold_s, .. } => p.reached_s.is_some_and(|r| now >= r + hold_s),
+                Command::Takeoff { up_m } => self.position[2] >= up_m - a.vertical_m,
+                _ => false,
+            };
+            if done {
+                self.finish(p.seq, events);
+            }
+            return;
         }
         let Some(rest_s) = p.rest_s else {
             return;
@@ -772,7 +868,8 @@ impl<'v> Flight<'v> {
         let done = match command {
             Command::Takeoff { .. } => settled,
             Command::Waypoint { hold_s, .. } => {
-                settled && p.reached_s.is_some_and(|r| now >= r + hold_s)
+                (settled || p.acceptance.is_some())
+                    && p.reached_s.is_some_and(|r| now >= r + hold_s)
             }
             Command::Loiter { hold_s, .. } => match (hold_s, p.reached_s) {
                 (Some(h), Some(r)) => settled && now >= r + h,
@@ -951,10 +1048,10 @@ mod tests {
         events
     }
 
-    #[test]
-    fn a_waypoint_completes_once_settled_and_its_hold_since_reaching_the_radius_has_passed() {
-        let v = shipped();
-        let mut f = Flight::new(&v, Profile::Px4).unwrap();
+    /// Flies take-off to 20 m, a waypoint 40 m east (hold 4 s, radius 2 m) and a landing there
+    /// with `profile`; returns the events with their times.
+    fn fly_one_waypoint(v: &Vehicle, profile: Profile) -> (Flight<'_>, Vec<(f64, Event)>) {
+        let mut f = Flight::new(v, profile).unwrap();
         f.arm();
         let (x, y) = at(40.0, 0.0);
         let items = [
@@ -983,46 +1080,59 @@ mod tests {
         let events = f.start(commands(&items, HOME, false).unwrap(), 0, 1.0);
         assert_eq!(events, [Event::Current(0)]);
         let events = run(&mut f, 300.0, |f| f.complete());
-        let when = |e: Event| {
-            events
-                .iter()
-                .find(|(_, x)| *x == e)
-                .map(|(t, _)| *t)
-                .unwrap()
-        };
-        assert!((when(Event::Liftoff) - 1.0).abs() < 0.011);
+        (f, events)
+    }
+
+    fn when(events: &[(f64, Event)], e: Event) -> f64 {
+        events
+            .iter()
+            .find(|(_, x)| *x == e)
+            .map(|(t, _)| *t)
+            .unwrap()
+    }
+
+    fn mission_events(events: &[(f64, Event)]) -> Vec<Event> {
+        events
+            .iter()
+            .map(|(_, e)| *e)
+            .filter(|e| {
+                matches!(
+                    e,
+                    Event::Reached(_) | Event::Touchdown | Event::Landed | Event::Complete
+                )
+            })
+            .collect()
+    }
+
+    #[test]
+    fn px4_takes_a_point_reached_within_its_acceptance_and_leaves_after_the_hold_while_still_braking(
+    ) {
+        let v = shipped();
+        let (f, events) = fly_one_waypoint(&v, Profile::Px4);
+        assert!((when(&events, Event::Liftoff) - 1.0).abs() < 0.011);
         let model = Model::new(&v);
-        let climb = model.trajectory(Profile::Px4, 0.0, 20.0).unwrap();
+        // The take-off is done NAV_MC_ALT_RAD below its height, still climbing.
+        let climb = model.takeoff_trajectory(Profile::Px4, 20.0).unwrap();
+        let climb_done = climb.accepted_s().unwrap();
+        assert!(climb_done < climb.duration_s() - 1.0);
+        let leg_start = when(&events, Event::Current(1));
+        assert!(
+            (leg_start - (1.0 + climb_done)).abs() < 0.011,
+            "{leg_start} {climb_done}"
+        );
+        // The waypoint is reached within 2 m horizontally and 0.8 m vertically, from 0.8 m
+        // below: later than the trajectory from the origin height says, but well before its
+        // end; the 4 s hold counts from there and the vehicle leaves before it is at rest.
         let leg = model.trajectory(Profile::Px4, 40.0, 0.0).unwrap();
-        let settle = v.px4.settle_s;
-        let leg_start = when(Event::Current(1));
+        let accepted = leg.accepted_s().unwrap();
+        let done = when(&events, Event::Reached(1));
         assert!(
-            (leg_start - (1.0 + climb.duration_s() + settle)).abs() < 0.011,
-            "{leg_start}"
+            done > leg_start + accepted + 4.0 && done < leg_start + accepted + 4.5,
+            "{done} {leg_start} {accepted}"
         );
-        // Within 2 m of the waypoint before the trajectory ends; the 4 s hold from there ends
-        // after the trajectory's end plus its 1 s settle.
-        let mut t_radius = 0.0;
-        while leg.remaining_m(t_radius) > 2.0 {
-            t_radius += 0.001;
-        }
-        let done = when(Event::Reached(1));
-        assert!(
-            (done - (leg_start + t_radius + 4.0)).abs() < 0.02,
-            "{done} {leg_start} {t_radius}"
-        );
-        assert!(done > leg_start + leg.duration_s() + settle);
+        assert!(done < leg_start + leg.duration_s());
         assert_eq!(
-            events
-                .iter()
-                .map(|(_, e)| *e)
-                .filter(|e| {
-                    matches!(
-                        e,
-                        Event::Reached(_) | Event::Touchdown | Event::Landed | Event::Complete
-                    )
-                })
-                .collect::<Vec<_>>(),
+            mission_events(&events),
             [
                 Event::Reached(0),
                 Event::Reached(1),
@@ -1034,6 +1144,35 @@ mod tests {
         );
         assert!(f.on_ground() && f.position()[2] == 0.0);
         assert_eq!(f.physics_errors(), 0);
+    }
+
+    #[test]
+    fn without_an_acceptance_rule_a_waypoint_completes_once_settled_and_its_hold_has_passed() {
+        let v = shipped();
+        let (f, events) = fly_one_waypoint(&v, Profile::Hvb);
+        let model = Model::new(&v);
+        let climb = model.trajectory(Profile::Hvb, 0.0, 20.0).unwrap();
+        let leg = model.trajectory(Profile::Hvb, 40.0, 0.0).unwrap();
+        let settle = v.hvb.settle_s;
+        let leg_start = when(&events, Event::Current(1));
+        assert!(
+            (leg_start - (1.0 + climb.duration_s() + settle)).abs() < 0.011,
+            "{leg_start}"
+        );
+        // Within 2 m before the trajectory ends; the 4 s hold from there ends after the
+        // trajectory's end plus its settle.
+        let mut t_radius = 0.0;
+        while leg.remaining_m(t_radius) > 2.0 {
+            t_radius += 0.001;
+        }
+        let done = when(&events, Event::Reached(1));
+        assert!(
+            (done - (leg_start + t_radius + 4.0)).abs() < 0.02,
+            "{done} {leg_start} {t_radius}"
+        );
+        assert!(done > leg_start + leg.duration_s() + settle);
+        assert_eq!(mission_events(&events).len(), 6);
+        assert!(f.on_ground() && f.physics_errors() == 0);
     }
 
     #[test]

@@ -17,7 +17,7 @@ use tokio::time::Instant;
 
 use super::server::{MissionServer, ProtocolFaults, ServerConfig, ServerStats};
 use super::storage::Home;
-use super::vehicle::{builtin_vehicle, FlightConfig, SimVehicle, Snapshot};
+use super::vehicle::{FlightConfig, SimVehicle, Snapshot};
 use crate::link::mav::{
     MavMessage, MavMissionResult, MavModeFlag, MavState, MavType, HEARTBEAT_DATA,
     MISSION_ITEM_INT_DATA,
@@ -181,7 +181,8 @@ impl MockAutopilot {
     /// Binds `listen` and starts the mock on the current tokio runtime; a flight flies the
     /// built-in S1000 (the shipped models/s1000 vehicle).
     pub async fn spawn(listen: &str, config: MockConfig) -> Result<MockHandle, SimError> {
-        let vehicle = builtin_vehicle().map_err(|e| SimError::Vehicle(e.to_string()))?;
+        let vehicle =
+            crate::physics::builtin::vehicle().map_err(|e| SimError::Vehicle(e.to_string()))?;
         Self::spawn_with_vehicle(listen, config, vehicle).await
     }
 

@@ -5,9 +5,12 @@
 //! each flavour keeps of an item; `mock` the async shell that owns a UDP socket, sends
 //! heartbeats and injects transport faults. The simulated flight is sans-IO too: `flight` (the
 //! motion along the mission, physics power), `battery` (pack and monitor) and `vehicle`
-//! (commands, modes, telemetry streams and faults, per flavour).
+//! (commands, modes, telemetry streams and faults, per flavour). `battery_sim` is the same pack
+//! for a real autopilot that has none (PX4 SITL): it follows the vehicle's motion in its
+//! telemetry and reports the physics model's battery as a smart battery (`emplan battery-sim`).
 
 pub mod battery;
+pub mod battery_sim;
 pub mod flight;
 pub mod mock;
 pub mod server;
@@ -16,4 +19,4 @@ pub mod vehicle;
 
 pub use mock::{Faults, MockAutopilot, MockConfig, MockHandle, SimError, DEFAULT_SPEEDUP};
 pub use storage::Home;
-pub use vehicle::{builtin_vehicle, FlightConfig, Gap, SimVehicle, Snapshot, TelemetryFaults};
+pub use vehicle::{FlightConfig, Gap, SimVehicle, Snapshot, TelemetryFaults};

@@ -327,6 +327,8 @@ pub struct SimVehicle<'v> {
     /// When the land detector confirmed a landing (the disarm follows).
     landed_s: Option<f64>,
     heading_rad: f64,
+    /// The trajectory parameters a PX4 holds (the vehicle's [px4] section, by PX4 name).
+    params: Vec<(&'static str, f64)>,
     out: Vec<MavMessage>,
 }
 
@@ -386,6 +388,7 @@ impl<'v> SimVehicle<'v> {
             idle_since_s: None,
             landed_s: None,
             heading_rad: 0.0,
+            params: vehicle.px4.autopilot_values(),
             out: Vec::new(),
         })
     }
@@ -518,6 +521,7 @@ impl<'v> SimVehicle<'v> {
                 }
                 return self.take_out();
             }
+            MavMessage::PARAM_REQUEST_READ(r) => return self.param_value(from, r),
             _ => return Vec::new(),
         };
         let for_us = (target.0 == 0 || target.0 == self.system_id)
@@ -534,6 +538,47 @@ impl<'v> SimVehicle<'v> {
             target_system: from.0,
             target_component: from.1,
         }));
+        self.take_out()
+    }
+
+    /// PX4 answers PARAM_REQUEST_READ by name (index -1) or by index with PARAM_VALUE, and an
+    /// unknown name with nothing (mavlink_parameters.cpp); the ArduPilot flavour holds none of
+    /// these names.
+    fn param_value(
+        &mut self,
+        _from: (u8, u8),
+        request: &crate::link::mav::PARAM_REQUEST_READ_DATA,
+    ) -> Vec<MavMessage> {
+        let for_us = request.target_system == self.system_id
+            && (request.target_component == 0 || request.target_component == self.component_id);
+        if !for_us || self.flavour == Flavour::ArduPilot {
+            return Vec::new();
+        }
+        let index = if request.param_index < 0 {
+            let Ok(name) = request.param_id.to_str() else {
+                return Vec::new();
+            };
+            self.params.iter().position(|(n, _)| *n == name)
+        } else {
+            usize::try_from(request.param_index)
+                .ok()
+                .filter(|&k| k < self.params.len())
+        };
+        let Some(k) = index else {
+            return Vec::new();
+        };
+        let (name, value) = self.params[k];
+        let mut answer = crate::link::params::encode(
+            self.flavour,
+            name,
+            value,
+            crate::link::mav::MavParamType::MAV_PARAM_TYPE_REAL32,
+        );
+        if let MavMessage::PARAM_VALUE(p) = &mut answer {
+            p.param_count = self.params.len() as u16;
+            p.param_index = k as u16;
+        }
+        self.out.push(answer);
         self.take_out()
     }
 
@@ -1207,15 +1252,6 @@ fn percent(fraction: f64) -> i8 {
     (fraction * 100.0).round().clamp(0.0, 100.0) as i8
 }
 
-/// The shipped S1000 vehicle, built into the binary so the mock flies from any directory
-/// (the same file the committed energy tables were built from).
-pub fn builtin_vehicle() -> Result<Vehicle, crate::physics::PhysicsError> {
-    Vehicle::from_toml(
-        include_str!("../../models/s1000/vehicle.toml"),
-        "models/s1000/vehicle.toml (built in)",
-    )
-}
-
 /// Whether two stored items are the same bit for bit (NaN params included, which `==` never
 /// finds equal).
 fn identical(a: &MISSION_ITEM_INT_DATA, b: &MISSION_ITEM_INT_DATA) -> bool {
@@ -1514,7 +1550,13 @@ mod tests {
                 eprintln!(
                     "{what}: leg {k}: measured {measured:.0} J, predicted {predicted:.0} J, {error_pct:+.2} %"
                 );
-                assert!(error_pct.abs() < 1.5, "{what}: leg {k}: {error_pct:+.2} %");
+                // PX4 takes the take-off reached NAV_MC_ALT_RAD (0.8 m) below its height and
+                // goes on while still climbing: the first leg starts lower than priced.
+                let tolerance = if k == 0 { 3.0 } else { 1.5 };
+                assert!(
+                    error_pct.abs() < tolerance,
+                    "{what}: leg {k}: {error_pct:+.2} %"
+                );
             }
         }
     }
@@ -1534,15 +1576,22 @@ mod tests {
         };
         let (mission, _, log) = fly_px4_sample(filtered, 50.0);
         let (_, _, unfiltered_log) = fly_px4_sample(FlightConfig::default(), 50.0);
+        let unfiltered = leg_energies(&mission, &unfiltered_log, &unfiltered_log);
         let mut worst: f64 = 0.0;
-        for (k, (measured, predicted)) in leg_energies(&mission, &log, &log).iter().enumerate() {
-            let error_pct = 100.0 * (measured / predicted - 1.0);
-            eprintln!("filtered leg {k}: measured {measured:.0} J, predicted {predicted:.0} J, {error_pct:+.2} %");
-            worst = worst.max(error_pct.abs());
+        for (k, ((measured, _), (plain, _))) in leg_energies(&mission, &log, &log)
+            .iter()
+            .zip(&unfiltered)
+            .enumerate()
+        {
+            let shift_pct = 100.0 * (measured / plain - 1.0);
+            eprintln!(
+                "filtered leg {k}: {measured:.0} J, unfiltered {plain:.0} J, {shift_pct:+.2} %"
+            );
+            worst = worst.max(shift_pct.abs());
         }
-        // The lag moves energy across the 4 m cut (the power changes fast there): measurably,
-        // but within 2.5 %; over the whole flight the filter preserves the integral.
-        assert!(worst > 0.5 && worst < 2.5, "worst leg {worst:.2} %");
+        // The lag moves energy across the 4 m cut (PX4's braking changes the power there):
+        // measurably, but within 1 %; over the whole flight the filter preserves the integral.
+        assert!(worst > 0.1 && worst < 1.0, "worst leg {worst:.2} %");
         let (a, b) = (flight_energy_j(&log), flight_energy_j(&unfiltered_log));
         assert!((a / b - 1.0).abs() < 1e-3, "{a} J vs {b} J");
     }
@@ -1760,7 +1809,11 @@ mod tests {
         let mut log = Log::new();
         run_until(&mut v, &mut log, 0.9, |_| false);
         assert!(v.flight().on_ground(), "spooling up for a second first");
-        run_until(&mut v, &mut log, 1.5, |_| false);
+        // Then PX4's thrust ramp to lift-off, then the climb.
+        let lift_off_s = crate::physics::px4::lift_off_s(&vehicle.px4);
+        run_until(&mut v, &mut log, lift_off_s, |_| false);
+        assert!(v.flight().position()[2] < 1e-6, "still on the ground");
+        run_until(&mut v, &mut log, 1.0, |_| false);
         assert!(
             v.flight().position()[2] > 0.1,
             "{:?}",

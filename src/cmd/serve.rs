@@ -1,0 +1,158 @@
+//! `emplan serve`: the field-day service (`emplan::service`): holds the vehicle link, plans
+//! every mission file in `--missions`, records every flight into `--log-dir`, and answers the
+//! HTTP API on `--http` (loopback by default). Prints the service's URL on stdout once it
+//! listens; Ctrl-C or SIGTERM stop it cleanly (exit 0).
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::Arc;
+
+use anyhow::Context;
+use emplan::service::{ServiceConfig, Token, VehicleLink, DEFAULT_RESUME_WITHIN};
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// MAVLink connection to the vehicle: udpin:HOST:PORT, udpout:HOST:PORT, tcpin:, tcpout:,
+    /// serial:DEV:BAUD. Without it the built-in mock autopilot (PX4 flavour) flies on
+    /// loopback, started at each uploaded mission's home
+    #[arg(long)]
+    connect: Option<String>,
+    /// Folder of mission files (.toml, .plan, .waypoints): each is planned when it appears or
+    /// changes
+    #[arg(long)]
+    missions: PathBuf,
+    /// Directory the flight directories are made in
+    #[arg(long, default_value = "flights")]
+    log_dir: PathBuf,
+    /// Address of the HTTP API (port 0: any free port; the URL is printed on stdout)
+    #[arg(long, default_value = "127.0.0.1:8080")]
+    http: std::net::SocketAddr,
+    /// File holding the token that requests changing the vehicle must carry (created with a
+    /// fresh random token, readable by its owner only, when absent; default: LOG_DIR/token)
+    #[arg(long)]
+    token_file: Option<PathBuf>,
+    #[command(flatten)]
+    model: super::VehicleArgs,
+    #[command(flatten)]
+    solver: super::SolverArgs,
+    /// Time allowed for one transfer, upload and read-back (s; default: 30 s plus two of the
+    /// autopilot's re-request periods per item)
+    #[arg(long)]
+    budget_s: Option<f64>,
+    /// MAVLink 2 signing key file (32 raw bytes or 64 hex characters)
+    #[arg(long)]
+    signing_key: Option<PathBuf>,
+    /// After a restart, go on recording a flight still in the air if its log was cut off at
+    /// most this long ago (s)
+    #[arg(long, default_value_t = DEFAULT_RESUME_WITHIN.as_secs_f64())]
+    resume_within_s: f64,
+    /// Built-in mock only: simulated seconds per wall second
+    #[arg(long, default_value_t = emplan::sim::DEFAULT_SPEEDUP)]
+    speedup: f64,
+    /// Built-in mock only: seed of its sensor noise
+    #[arg(long, default_value_t = 1)]
+    mock_seed: u64,
+}
+
+/// Resolves on Ctrl-C or SIGTERM.
+async fn stop_signal() {
+    #[cfg(unix)]
+    {
+        use tokio::signal::unix::{signal, SignalKind};
+        match signal(SignalKind::terminate()) {
+            Ok(mut term) => {
+                tokio::select! {
+                    _ = tokio::signal::ctrl_c() => {}
+                    _ = term.recv() => {}
+                }
+            }
+            Err(_) => {
+                let _ = tokio::signal::ctrl_c().await;
+            }
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = tokio::signal::ctrl_c().await;
+    }
+}
+
+pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    let seconds = |flag: &str, value: f64| -> anyhow::Result<std::time::Duration> {
+        if !(value.is_finite() && value > 0.0 && value <= 3.2e7) {
+            anyhow::bail!("--{flag} {value}: expected a positive number of seconds");
+        }
+        Ok(std::time::Duration::from_secs_f64(value))
+    };
+    let transfer_budget = args.budget_s.map(|b| seconds("budget-s", b)).transpose()?;
+    let resume_within = seconds("resume-within-s", args.resume_within_s)?;
+    let model = args.model.model()?;
+    let signing_key = match &args.signing_key {
+        Some(path) => Some(emplan::link::read_signing_key(path)?),
+        None => None,
+    };
+    let vehicle = match &args.connect {
+        Some(url) => VehicleLink::Connect {
+            url: url.clone(),
+            signing_key,
+        },
+        None => VehicleLink::Mock {
+            config: Box::new(emplan::sim::MockConfig {
+                flight: Some(emplan::sim::FlightConfig {
+                    profile: Some(model.profile),
+                    seed: args.mock_seed,
+                    ..Default::default()
+                }),
+                speedup: args.speedup,
+                seed: args.mock_seed,
+                signing_key,
+                ..Default::default()
+            }),
+            vehicle: Some(Box::new(model.vehicle.clone())),
+        },
+    };
+    let token_file = args
+        .token_file
+        .clone()
+        .unwrap_or_else(|| args.log_dir.join("token"));
+    let (token, created) = Token::load_or_create(&token_file)?;
+    if !args.http.ip().is_loopback() {
+        tracing::warn!(
+            "the API listens on {} beyond this machine: reads need no token",
+            args.http
+        );
+    }
+    let cfg = ServiceConfig {
+        vehicle,
+        missions_dir: args.missions.clone(),
+        log_dir: args.log_dir.clone(),
+        token,
+        model: Arc::new(model),
+        solver: args.solver.options()?,
+        transfer_budget,
+        resume_within,
+    };
+    // Several threads: HTTP clients and the link's tasks side by side (the recorder writes on
+    // a thread of its own).
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()?;
+    runtime.block_on(async {
+        let listener = tokio::net::TcpListener::bind(args.http)
+            .await
+            .with_context(|| format!("--http {}", args.http))?;
+        let addr = listener.local_addr()?;
+        eprintln!(
+            "emplan serve: API on http://{addr}/api/ ; missions from {} ; flights into {} ; token in {}{}; Ctrl-C stops",
+            args.missions.display(),
+            args.log_dir.display(),
+            token_file.display(),
+            if created { " (new)" } else { "" }
+        );
+        println!("http://{addr}");
+        use std::io::Write;
+        let _ = std::io::stdout().flush();
+        emplan::service::run(listener, cfg, stop_signal()).await?;
+        Ok(ExitCode::SUCCESS)
+    })
+}

@@ -1,0 +1,229 @@
+//! What a conversion between mission formats keeps: a mission is written in the target format,
+//! read back, and compared setting by setting with the original, so that `emplan convert` can
+//! refuse (or, when asked, list) every setting the target format drops or changes. Positions
+//! are compared in the origin's local frame to a millimetre, hover times to a millisecond:
+//! what is below a format's printed precision is not a loss.
+
+use std::path::Path;
+
+use super::{load_str, to_string, Format, Mission, MissionError};
+
+/// One setting the conversion would not carry over as it is.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Loss {
+    /// The setting, as the mission file names it (`min_height_above_home_m`, `waypoint C
+    /// hover_s`).
+    pub setting: String,
+    /// Its value in the original, as text.
+    pub from: String,
+    /// What the converted file holds instead.
+    pub to: String,
+}
+
+impl std::fmt::Display for Loss {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}: {} -> {}", self.setting, self.from, self.to)
+    }
+}
+
+/// Records `setting` when `b` is more than `tolerance` from `a`.
+fn number(out: &mut Vec<Loss>, setting: String, a: f64, b: f64, tolerance: f64) {
+    if (a - b).abs() > tolerance || a.is_nan() != b.is_nan() {
+        out.push(Loss {
+            setting,
+            from: format!("{a}"),
+            to: format!("{b}"),
+        });
+    }
+}
+
+const POSITION_TOLERANCE_M: f64 = 1e-3;
+const TIME_TOLERANCE_S: f64 = 1e-3;
+
+/// The text of `mission` for the file `output` (its extension chooses the format) and every
+/// setting that file would not give back.
+pub fn convert(mission: &Mission, output: &Path) -> Result<(String, Vec<Loss>), MissionError> {
+    let format = Format::from_path(output)?;
+    let text = to_string(mission, format)?;
+    let back = load_str(&text, format, Some(output))?;
+    Ok((text, losses(mission, &back)))
+}
+
+/// The settings of `original` that `converted` does not hold as they are.
+pub fn losses(original: &Mission, converted: &Mission) -> Vec<Loss> {
+    let mut out = Vec::new();
+    let (o, c) = (&original.origin, &converted.origin);
+    // Home moved: its offset in the original's frame.
+    let home_shift = original.origin.to_enu(c.home);
+    let shift_m = (home_shift.x_east_m.powi(2) + home_shift.y_north_m.powi(2)).sqrt();
+    number(
+        &mut out,
+        "origin home (horizontal shift, m)".into(),
+        0.0,
+        shift_m,
+        POSITION_TOLERANCE_M,
+    );
+    number(
+        &mut out,
+        "origin home_alt_amsl_m".into(),
+        o.home.alt_m,
+        c.home.alt_m,
+        POSITION_TOLERANCE_M,
+    );
+    number(
+        &mut out,
+        "origin height_above_home_m".into(),
+        o.height_above_home_m,
+        c.height_above_home_m,
+        POSITION_TOLERANCE_M,
+    );
+    number(
+        &mut out,
+        "default_hover_s".into(),
+        original.default_hover_s,
+        converted.default_hover_s,
+        TIME_TOLERANCE_S,
+    );
+    number(
+        &mut out,
+        "min_height_above_home_m".into(),
+        original.min_height_above_home_m,
+        converted.min_height_above_home_m,
+        POSITION_TOLERANCE_M,
+    );
+    for (k, w) in original.waypoints.iter().enumerate() {
+        let Some(v) = converted.waypoints.get(k) else {
+            break;
+        };
+        let (a, b) = (w.position, v.position);
+        let moved_m = ((a.x_east_m - b.x_east_m).powi(2)
+            + (a.y_north_m - b.y_north_m).powi(2)
+            + (a.z_up_m - b.z_up_m).powi(2))
+        .sqrt();
+        number(
+            &mut out,
+            format!("waypoint {} position (moved, m)", w.name),
+            0.0,
+            moved_m,
+            POSITION_TOLERANCE_M,
+        );
+        number(
+            &mut out,
+            format!("waypoint {} hover_s", w.name),
+            w.hover_s,
+            v.hover_s,
+            TIME_TOLERANCE_S,
+        );
+        if w.name != v.name {
+            out.push(Loss {
+                setting: format!("waypoint {} name", k + 1),
+                from: w.name.clone(),
+                to: v.name.clone(),
+            });
+        }
+    }
+    if original.name != converted.name {
+        out.push(Loss {
+            setting: "name".into(),
+            from: original.name.clone(),
+            to: converted.name.clone(),
+        });
+    }
+    if original.waypoints.len() != converted.waypoints.len() {
+        out.push(Loss {
+            setting: "waypoints (count)".into(),
+            from: original.waypoints.len().to_string(),
+            to: converted.waypoints.len().to_string(),
+        });
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample(file: &str) -> Mission {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("missions")
+            .join(file);
+        super::super::load(&path).unwrap()
+    }
+
+    #[test]
+    fn a_mission_converted_to_its_own_format_loses_nothing() {
+        let m = sample("paper-sample-8wp.toml");
+        let (_, losses) = convert(&m, Path::new("paper-sample-8wp.toml")).unwrap();
+        assert_eq!(losses, vec![]);
+    }
+
+    #[test]
+    fn waypoints_drop_the_minimum_height_and_the_default_hover_and_say_their_values() {
+        let mut m = sample("paper-sample-8wp.toml");
+        m.min_height_above_home_m = 5.0;
+        m.default_hover_s = 8.0;
+        let (_, losses) = convert(&m, Path::new("paper-sample-8wp.waypoints")).unwrap();
+        let said: Vec<String> = losses.iter().map(Loss::to_string).collect();
+        assert!(
+            said.contains(&"min_height_above_home_m: 5 -> 2".to_string()),
+            "{said:?}"
+        );
+        assert!(
+            said.contains(&"default_hover_s: 8 -> 0".to_string()),
+            "{said:?}"
+        );
+    }
+
+    #[test]
+    fn every_shipped_mission_round_trips_through_every_format_or_names_what_it_loses() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("missions");
+        let mut files: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .collect();
+        files.sort();
+        assert!(files.len() >= 6);
+        for file in files {
+            let m = super::super::load(&file).unwrap();
+            let stem = file.file_stem().unwrap().to_str().unwrap().to_string();
+            for ext in ["toml", "plan", "waypoints"] {
+                let out = Path::new("/converted").join(format!("{stem}.{ext}"));
+                let (text, lost) = convert(&m, &out).unwrap();
+                let there = load_str(&text, Format::from_path(&out).unwrap(), Some(&out)).unwrap();
+                if ext == "waypoints" {
+                    // QGC WPL 110 holds no names, default hover or minimum height: only those
+                    // may be lost, and positions and hover times survive.
+                    for l in &lost {
+                        assert!(
+                            l.setting.ends_with(" name")
+                                || l.setting == "default_hover_s"
+                                || l.setting == "min_height_above_home_m",
+                            "{}: {l}",
+                            file.display()
+                        );
+                    }
+                } else {
+                    assert_eq!(lost, vec![], "{} -> {ext}", file.display());
+                }
+                // And back to the format it came from: nothing more is lost.
+                let (_, back) = convert(&there, &file).unwrap();
+                let (_, direct) = convert(&m, &file).unwrap();
+                assert_eq!(back, vec![], "{} -> {ext} -> back", file.display());
+                assert_eq!(direct, vec![], "{}", file.display());
+            }
+        }
+    }
+
+    #[test]
+    fn a_renamed_or_moved_waypoint_is_a_loss_naming_it() {
+        let m = sample("paper-sample-3wp.toml");
+        let mut other = m.clone();
+        other.waypoints[1].position.z_up_m += 0.5;
+        other.waypoints[2].hover_s += 1.0;
+        let said: Vec<String> = losses(&m, &other).iter().map(Loss::to_string).collect();
+        let (b, c) = (&m.waypoints[1].name, &m.waypoints[2].name);
+        assert_eq!(said.len(), 2, "{said:?}");
+        assert!(said[0].starts_with(&format!("waypoint {b} position (moved, m): 0 -> 0.5")));
+        assert!(said[1].starts_with(&format!("waypoint {c} hover_s")));
+    }
+}

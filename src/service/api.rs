@@ -1,0 +1,539 @@
+//! The HTTP API under `/api/` (axum), thin over the service's tasks: reads come from the mission
+//! catalog (a watch channel), the event hub and the flight directories; what changes the
+//! vehicle goes to the vehicle actor and needs the bearer token. `/` is left for a dashboard.
+//!
+//! - `GET /api/missions`: `{"dir", "missions": [SUMMARY]}`; `GET /api/missions/{name}`: the
+//!   summary with `origin`, `points` and `plan` (what `emplan plan --json` prints).
+//! - `POST /api/missions/{name}/upload` (token): body `{"order", "sortie", "allow_infeasible",
+//!   "acceptance_radius_m", "profile", "solver", "time_limit_s", "seed", "kicks"}` (all
+//!   optional); answers `emplan upload --json`'s document plus `"link"`, or the failure
+//!   document `{"ok": false, "stage", "accepted", "error", "item", "result"}`.
+//! - `POST /api/vehicle/start` (token): arm and start the mission the vehicle holds.
+//! - `GET /api/vehicle`, `GET /api/link`, `GET /api/battery?since_ms=`: link, vehicle and
+//!   battery state, the flight in progress with its parts so far, the battery's last minutes.
+//! - `GET /api/flights`, `GET /api/flights/{name}`, `GET /api/flights/{name}/report`,
+//!   `GET /api/flights/{name}/files/{file}`: recorded flights, their reports and files.
+//! - `GET /api/events`: server-sent events (see `events`).
+
+use std::convert::Infallible;
+use std::path::{Path as FsPath, PathBuf};
+use std::sync::Arc;
+
+use axum::body::{Body, Bytes};
+use axum::extract::{Path, Query, State};
+use axum::http::{header, HeaderMap, StatusCode};
+use axum::response::sse::{Event as SseEvent, KeepAlive, Sse};
+use axum::response::{IntoResponse, Response};
+use axum::routing::{get, post};
+use axum::{Json, Router};
+use serde::Deserialize;
+use tokio::sync::{broadcast, watch};
+
+use super::events::{Event, Hub};
+use super::missions::CatalogRx;
+use super::vehicle::{UploadJob, VehicleHandle};
+use super::{Refusal, Token};
+use crate::flightlog::recorder::{read_report, PLAN_FILE, REPORT_FILE, SAMPLES_FILE, TLOG_FILE};
+use crate::physics::{Profile, VehicleModel};
+use crate::plan::solver;
+use crate::planner::{FlightChoice, FlownOrder};
+use crate::session::flight_dirs;
+
+/// What every handler reaches.
+#[derive(Debug)]
+pub struct Shared {
+    pub vehicle: VehicleHandle,
+    pub catalog: CatalogRx,
+    pub hub: Arc<Hub>,
+    pub token: Token,
+    pub log_dir: PathBuf,
+    pub model: Arc<VehicleModel>,
+    pub solver: solver::Options,
+    /// Turns true when the service stops (event streams end).
+    pub stop: watch::Receiver<bool>,
+}
+
+type AppState = Arc<Shared>;
+
+/// The routes.
+pub fn router(shared: Shared) -> Router {
+    Router::new()
+        .route("/api/missions", get(missions))
+        .route("/api/missions/{name}", get(mission))
+        .route("/api/missions/{name}/upload", post(upload))
+        .route("/api/vehicle", get(vehicle))
+        .route("/api/vehicle/start", post(start))
+        .route("/api/link", get(link))
+        .route("/api/battery", get(battery))
+        .route("/api/flights", get(flights))
+        .route("/api/flights/{name}", get(flight))
+        .route("/api/flights/{name}/report", get(report))
+        .route("/api/flights/{name}/files/{file}", get(file))
+        .route("/api/events", get(events))
+        .route("/api/{*rest}", get(not_found).post(not_found))
+        .fallback(not_found)
+        .layer(axum::middleware::map_response(json_errors))
+        .with_state(Arc::new(shared))
+}
+
+/// Every error answered as a JSON failure document: axum's own refusals (a path or query that
+/// does not parse, a method not allowed, a body too large) are plain text; they get the
+/// document with their text as the message.
+async fn json_errors(response: Response) -> Response {
+    let status = response.status();
+    let is_json = response
+        .headers()
+        .get(header::CONTENT_TYPE)
+        .is_some_and(|v| v.as_bytes().starts_with(b"application/json"));
+    if !(status.is_client_error() || status.is_server_error()) || is_json {
+        return response;
+    }
+    let text = match axum::body::to_bytes(response.into_body(), 64 * 1024).await {
+        Ok(bytes) if !bytes.is_empty() => String::from_utf8_lossy(&bytes).trim().to_string(),
+        _ => status
+            .canonical_reason()
+            .unwrap_or("request refused")
+            .to_lowercase(),
+    };
+    Refusal::new(status.as_u16(), "request", &text).into_response()
+}
+
+impl IntoResponse for Refusal {
+    fn into_response(self) -> Response {
+        let status = StatusCode::from_u16(self.status).unwrap_or(StatusCode::INTERNAL_SERVER_ERROR);
+        let mut response = (status, Json(self.doc)).into_response();
+        if status == StatusCode::UNAUTHORIZED {
+            response.headers_mut().insert(
+                header::WWW_AUTHENTICATE,
+                header::HeaderValue::from_static("Bearer"),
+            );
+        }
+        response
+    }
+}
+
+async fn not_found() -> Refusal {
+    Refusal::new(
+        404,
+        "request",
+        "no such endpoint (see README: the service's API)",
+    )
+}
+
+/// Checks the bearer token of a request that changes the vehicle.
+fn authorize(headers: &HeaderMap, token: &Token) -> Result<(), Refusal> {
+    let offered = headers
+        .get(header::AUTHORIZATION)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.strip_prefix("Bearer "));
+    match offered {
+        None => Err(Refusal::new(
+            401,
+            "auth",
+            "this request changes the vehicle: it needs the service's token (Authorization: Bearer TOKEN)",
+        )),
+        Some(t) if token.matches(t.trim()) => Ok(()),
+        Some(_) => {
+            tracing::warn!("a request with a wrong token was refused");
+            Err(Refusal::new(401, "auth", "wrong token"))
+        }
+    }
+}
+
+async fn missions(State(s): State<AppState>) -> Json<serde_json::Value> {
+    let catalog = s.catalog.borrow().clone();
+    let list: Vec<serde_json::Value> = catalog.entries.values().map(|e| e.summary()).collect();
+    Json(serde_json::json!({"dir": catalog.dir, "missions": list}))
+}
+
+fn unknown_mission(dir: &FsPath, name: &str) -> Refusal {
+    Refusal::new(
+        404,
+        "mission",
+        &format!(
+            "no mission file {name:?} in the missions folder {}",
+            dir.display()
+        ),
+    )
+}
+
+async fn mission(
+    State(s): State<AppState>,
+    Path(name): Path<String>,
+) -> Result<Json<serde_json::Value>, Refusal> {
+    let catalog = s.catalog.borrow().clone();
+    let entry = catalog
+        .get(&name)
+        .ok_or_else(|| unknown_mission(&catalog.dir, &name))?;
+    Ok(Json(entry.detail()))
+}
+
+/// The body of an upload request (every field optional).
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct UploadRequest {
+    #[serde(default)]
+    order: FlownOrder,
+    sortie: Option<usize>,
+    #[serde(default)]
+    allow_infeasible: bool,
+    acceptance_radius_m: Option<f32>,
+    /// Refused unless it is the service's own profile.
+    profile: Option<String>,
+    solver: Option<String>,
+    time_limit_s: Option<f64>,
+    seed: Option<u64>,
+    kicks: Option<u64>,
+}
+
+fn bad_request(message: String) -> Refusal {
+    Refusal::new(400, "request", &message)
+}
+
+impl UploadRequest {
+    fn parse(body: &[u8]) -> Result<UploadRequest, Refusal> {
+        if body.iter().all(u8::is_ascii_whitespace) {
+            return Ok(UploadRequest::default());
+        }
+        serde_json::from_slice(body).map_err(|e| {
+            bad_request(format!(
+                "upload request body, line {} column {}: {e}",
+                e.line(),
+                e.column()
+            ))
+        })
+    }
+
+    fn solver(&self, defaults: solver::Options) -> Result<solver::Options, Refusal> {
+        let mut options = defaults;
+        if let Some(name) = &self.solver {
+            options.solver = name
+                .parse()
+                .map_err(|e| bad_request(format!("solver {name:?}: {e}")))?;
+        }
+        if let Some(t) = self.time_limit_s {
+            if !(t.is_finite() && t >= 0.0) {
+                return Err(bad_request(format!(
+                    "time_limit_s {t}: expected a non-negative number of seconds"
+                )));
+            }
+            options.time_limit = std::time::Duration::from_secs_f64(t.min(1e9));
+        }
+        if let Some(seed) = self.seed {
+            options.seed = seed;
+        }
+        if self.kicks.is_some() {
+            options.kicks = self.kicks;
+        }
+        Ok(options)
+    }
+}
+
+async fn upload(
+    State(s): State<AppState>,
+    Path(name): Path<String>,
+    headers: HeaderMap,
+    body: Bytes,
+) -> Result<Json<serde_json::Value>, Refusal> {
+    authorize(&headers, &s.token)?;
+    let request = UploadRequest::parse(&body)?;
+    let span = tracing::info_span!(
+        "upload",
+        mission = %name,
+        order = ?request.order,
+        sortie = request.sortie,
+    );
+    let outcome = upload_mission(&s, &name, request, span.clone()).await;
+    span.in_scope(|| match &outcome {
+        Ok(_) => tracing::info!("uploaded and verified"),
+        Err(r) => tracing::warn!(status = r.status, "refused: {}", r.message()),
+    });
+    let (ok, result) = match &outcome {
+        Ok(doc) => (true, doc.clone()),
+        Err(r) => (false, r.doc.clone()),
+    };
+    s.hub.publish(&Event::Upload { name, ok, result });
+    outcome.map(Json)
+}
+
+async fn upload_mission(
+    s: &Shared,
+    name: &str,
+    request: UploadRequest,
+    span: tracing::Span,
+) -> Result<serde_json::Value, Refusal> {
+    let catalog = s.catalog.borrow().clone();
+    let entry = catalog
+        .get(name)
+        .ok_or_else(|| unknown_mission(&catalog.dir, name))?;
+    let Some(mission) = entry.mission.clone() else {
+        let message = match &entry.outcome {
+            super::missions::Outcome::Failed(p) => p.message.clone(),
+            _ => format!("{name} is not read yet"),
+        };
+        return Err(Refusal::new(422, "mission", &message));
+    };
+    if let Some(profile) = &request.profile {
+        let asked: Profile = profile
+            .parse()
+            .map_err(|e| bad_request(format!("profile {profile:?}: {e}")))?;
+        if asked != s.model.profile {
+            return Err(Refusal::new(
+                422,
+                "plan",
+                &format!(
+                    "the service plans with profile {} (serve --profile), not {asked}",
+                    s.model.profile
+                ),
+            ));
+        }
+    }
+    let solver = request.solver(s.solver)?;
+    let acceptance_radius_m = request.acceptance_radius_m.unwrap_or(2.0);
+    if !(acceptance_radius_m.is_finite()
+        && acceptance_radius_m > 0.0
+        && acceptance_radius_m <= 100.0)
+    {
+        return Err(bad_request(format!(
+            "acceptance_radius_m {acceptance_radius_m}: expected a radius in (0, 100] m"
+        )));
+    }
+    let choice = FlightChoice {
+        order: request.order,
+        sortie: request.sortie,
+        allow_infeasible: request.allow_infeasible,
+    };
+    let model = s.model.clone();
+    let planning = mission.clone();
+    let plan = tokio::task::spawn_blocking(move || choice.plan(&planning, &model, solver))
+        .await
+        .map_err(|e| Refusal::new(500, "plan", &format!("planning stopped: {e}")))?
+        .map_err(|e| Refusal::new(422, "plan", &e.to_string()))?;
+    if let Err(e) = choice.flight(&plan) {
+        let hint = match e {
+            crate::planner::PlannerError::OverBudget { .. } => {
+                ": not uploaded (upload one sortie, or send \"allow_infeasible\": true to override)"
+            }
+            _ => "",
+        };
+        return Err(Refusal::new(422, "plan", &format!("{e}{hint}")));
+    }
+    s.vehicle
+        .upload(UploadJob {
+            name: name.to_string(),
+            mission,
+            plan: Arc::new(plan),
+            choice,
+            acceptance_radius_m,
+            span,
+        })
+        .await
+}
+
+async fn start(
+    State(s): State<AppState>,
+    headers: HeaderMap,
+) -> Result<Json<serde_json::Value>, Refusal> {
+    authorize(&headers, &s.token)?;
+    s.vehicle.start().await?;
+    Ok(Json(serde_json::json!({"ok": true})))
+}
+
+async fn vehicle(State(s): State<AppState>) -> Json<serde_json::Value> {
+    Json(serde_json::json!({
+        "link": s.vehicle.status(),
+        "telemetry": s.hub.telemetry(),
+        "flight": s.hub.flight(),
+    }))
+}
+
+async fn link(State(s): State<AppState>) -> Json<serde_json::Value> {
+    Json(serde_json::json!(s.vehicle.status()))
+}
+
+#[derive(Debug, Deserialize)]
+struct Since {
+    since_ms: Option<u64>,
+}
+
+async fn battery(State(s): State<AppState>, Query(q): Query<Since>) -> Json<serde_json::Value> {
+    Json(serde_json::json!({
+        "now": s.hub.telemetry().and_then(|t| t.battery),
+        "history": s.hub.battery_history(q.since_ms),
+    }))
+}
+
+/// The flight directory `name` under `log_dir`, if it is one (a plain name holding a .tlog).
+pub fn flight_dir(log_dir: &FsPath, name: &str) -> Option<PathBuf> {
+    let plain =
+        !name.is_empty() && !name.starts_with('.') && !name.contains(['/', '\\']) && name != "..";
+    let dir = log_dir.join(name);
+    (plain && dir.join(TLOG_FILE).is_file()).then_some(dir)
+}
+
+/// The files of a flight directory that exist, as API paths.
+fn files(dir: &FsPath, name: &str) -> serde_json::Value {
+    let mut out = serde_json::Map::new();
+    for (key, file) in [
+        ("tlog", TLOG_FILE),
+        ("samples", SAMPLES_FILE),
+        ("plan", PLAN_FILE),
+        ("report", REPORT_FILE),
+    ] {
+        if dir.join(file).is_file() {
+            out.insert(
+                key.into(),
+                format!("/api/flights/{name}/files/{file}").into(),
+            );
+        }
+    }
+    serde_json::Value::Object(out)
+}
+
+fn flight_summary(dir: &FsPath, recording: Option<&str>) -> serde_json::Value {
+    let name = crate::flightlog::recorder::flight_name(dir);
+    let report = read_report(dir).ok().map(|r| r.json());
+    serde_json::json!({
+        "name": name,
+        "recording": recording == Some(name.as_str()),
+        "complete": report.as_ref().map(|r| r.complete),
+        "total": report.as_ref().map(|r| &r.total),
+        "legs": report.as_ref().map(|r| r.legs.len()),
+        "files": files(dir, &name),
+    })
+}
+
+fn recording(hub: &Hub) -> Option<String> {
+    hub.flight().filter(|f| f.recording).map(|f| f.flight)
+}
+
+async fn flights(State(s): State<AppState>) -> Result<Json<serde_json::Value>, Refusal> {
+    let log_dir = s.log_dir.clone();
+    let now = recording(&s.hub);
+    let list = tokio::task::spawn_blocking(move || -> std::io::Result<Vec<serde_json::Value>> {
+        let dirs = match flight_dirs(&log_dir) {
+            Ok(d) => d,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Vec::new(),
+            Err(e) => return Err(e),
+        };
+        // Newest first.
+        Ok(dirs
+            .iter()
+            .rev()
+            .map(|d| flight_summary(d, now.as_deref()))
+            .collect())
+    })
+    .await
+    .map_err(|e| Refusal::new(500, "service", &e.to_string()))?
+    .map_err(|e| {
+        Refusal::new(
+            500,
+            "service",
+            &format!("log directory {}: {e}", s.log_dir.display()),
+        )
+    })?;
+    Ok(Json(serde_json::json!({"dir": s.log_dir, "flights": list})))
+}
+
+fn unknown_flight(log_dir: &FsPath, name: &str) -> Refusal {
+    Refusal::new(
+        404,
+        "flight",
+        &format!("no flight {name:?} under {}", log_dir.display()),
+    )
+}
+
+async fn flight(
+    State(s): State<AppState>,
+    Path(name): Path<String>,
+) -> Result<Json<serde_json::Value>, Refusal> {
+    let dir = flight_dir(&s.log_dir, &name).ok_or_else(|| unknown_flight(&s.log_dir, &name))?;
+    let now = recording(&s.hub);
+    let mut doc = flight_summary(&dir, now.as_deref());
+    if let Some(map) = doc.as_object_mut() {
+        let plan = crate::flightlog::plan::FlightPlan::read_json(&dir.join(PLAN_FILE)).ok();
+        map.insert("mission".into(), serde_json::json!(plan.map(|p| p.mission)));
+        map.insert("dir".into(), serde_json::json!(dir));
+        map.insert(
+            "report".into(),
+            serde_json::json!(read_report(&dir).ok().map(|r| r.json())),
+        );
+        if now.as_deref() == Some(name.as_str()) {
+            map.insert("live".into(), serde_json::json!(s.hub.flight()));
+        }
+    }
+    Ok(Json(doc))
+}
+
+async fn report(
+    State(s): State<AppState>,
+    Path(name): Path<String>,
+) -> Result<Json<serde_json::Value>, Refusal> {
+    let dir = flight_dir(&s.log_dir, &name).ok_or_else(|| unknown_flight(&s.log_dir, &name))?;
+    let report = read_report(&dir).map_err(|e| {
+        Refusal::new(
+            404,
+            "flight",
+            &format!("flight {name} has no report yet ({e})"),
+        )
+    })?;
+    Ok(Json(serde_json::json!(report.json())))
+}
+
+async fn file(
+    State(s): State<AppState>,
+    Path((name, file)): Path<(String, String)>,
+) -> Result<Response, Refusal> {
+    let dir = flight_dir(&s.log_dir, &name).ok_or_else(|| unknown_flight(&s.log_dir, &name))?;
+    let content_type = match file.as_str() {
+        TLOG_FILE => "application/octet-stream",
+        SAMPLES_FILE => "text/csv",
+        PLAN_FILE | REPORT_FILE => "application/json",
+        _ => {
+            return Err(Refusal::new(
+                404,
+                "flight",
+                &format!(
+                    "{file:?} is not a flight file ({TLOG_FILE}, {SAMPLES_FILE}, {PLAN_FILE}, {REPORT_FILE})"
+                ),
+            ))
+        }
+    };
+    let bytes = tokio::fs::read(dir.join(&file))
+        .await
+        .map_err(|e| Refusal::new(404, "flight", &format!("{name}/{file}: {e}")))?;
+    let disposition = format!("attachment; filename=\"{name}-{file}\"");
+    Ok((
+        [
+            (header::CONTENT_TYPE, content_type.to_string()),
+            (header::CONTENT_DISPOSITION, disposition),
+        ],
+        Body::from(bytes),
+    )
+        .into_response())
+}
+
+async fn events(State(s): State<AppState>) -> Response {
+    let rx = s.hub.subscribe();
+    let stop = s.stop.clone();
+    if *stop.borrow() {
+        return Refusal::new(503, "service", "the service is stopping").into_response();
+    }
+    let stream = futures_util::stream::unfold((rx, stop), |(mut rx, mut stop)| async move {
+        let event = tokio::select! {
+            _ = stop.changed() => return None,
+            received = rx.recv() => match received {
+                Ok(text) => SseEvent::default().data(&*text),
+                Err(broadcast::error::RecvError::Lagged(missed)) => {
+                    let lagged = serde_json::to_string(&Event::Lagged { missed }).unwrap_or_default();
+                    SseEvent::default().data(lagged)
+                }
+                Err(broadcast::error::RecvError::Closed) => return None,
+            },
+        };
+        Some((Ok::<_, Infallible>(event), (rx, stop)))
+    });
+    Sse::new(stream)
+        .keep_alive(KeepAlive::default())
+        .into_response()
+}

@@ -1,0 +1,181 @@
+//! `emplan serve`: one long-running process that holds the vehicle link all day, plans every
+//! mission file dropped into a folder, uploads on request, records every flight whoever started
+//! it, and reports each flight's per-leg energy when it lands; a local HTTP API and a stream of
+//! server-sent events for the command line (`upload`/`fly --service`) and a dashboard.
+//!
+//! Shape (mini-redis): [`run`] takes the listener and the shutdown signal, so tests run the real
+//! service on `127.0.0.1:0`. Tasks: the vehicle actor (`vehicle`: owns the link, the autopilot,
+//! the recorder, the built-in mock; uploads and starts go to it as `(command, oneshot)`), the
+//! missions task (`missions`: owns the catalog, watches the folder, plans), the event forwarder
+//! (`events`: recorder events and telemetry to the hub that feeds the event stream), and the
+//! axum routes (`api`), thin over them. No lock is held across an await. `client` is the HTTP
+//! client of `--service`; `token` the bearer token.
+//!
+//! Shutdown: the signal stops the HTTP server (no new requests; event streams end; requests in
+//! progress finish), then the vehicle actor closes the flight log (an open flight's files are
+//! finished, its report written and marked incomplete) and the built-in mock stops. A restart
+//! while the vehicle still flies goes on recording into the same flight directory.
+
+pub mod api;
+pub mod client;
+pub mod events;
+pub mod missions;
+pub mod remote;
+pub mod token;
+pub mod vehicle;
+
+use std::future::Future;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Duration;
+
+use tokio::net::TcpListener;
+use tokio::sync::watch;
+
+pub use client::{Client, ClientError};
+pub use token::Token;
+pub use vehicle::{LinkState, LinkStatus, VehicleLink};
+
+use crate::physics::VehicleModel;
+use crate::plan::solver;
+use crate::session::RecorderConfig;
+
+/// Why the service could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum ServiceError {
+    #[error("token file {file}: {reason}")]
+    Token { file: String, reason: String },
+    #[error("missions folder {dir}: {reason}")]
+    Missions { dir: String, reason: String },
+    #[error("log directory {dir}: {reason}")]
+    LogDir { dir: String, reason: String },
+    #[error("HTTP server: {0}")]
+    Http(#[source] std::io::Error),
+    #[error("vehicle thread: {0}")]
+    Thread(#[source] std::io::Error),
+}
+
+/// A request refused or failed: the HTTP status and the failure document (`{"ok": false,
+/// "stage", "accepted", "error", "item", "result"}`, as `emplan upload --json` prints it).
+#[derive(Debug, Clone)]
+pub struct Refusal {
+    pub status: u16,
+    pub doc: serde_json::Value,
+}
+
+impl Refusal {
+    pub fn new(status: u16, stage: &str, error: &str) -> Refusal {
+        Refusal {
+            status,
+            doc: crate::session::upload::failure_json(stage, None, error),
+        }
+    }
+
+    /// The error message of the document.
+    pub fn message(&self) -> String {
+        self.doc
+            .get("error")
+            .and_then(|e| e.as_str())
+            .unwrap_or("")
+            .to_string()
+    }
+}
+
+/// Everything the service needs besides its listener and shutdown signal.
+#[derive(Debug, Clone)]
+pub struct ServiceConfig {
+    /// How to reach the vehicle (a URL, or the built-in mock).
+    pub vehicle: VehicleLink,
+    /// The folder of mission files.
+    pub missions_dir: PathBuf,
+    /// Where flight directories are made.
+    pub log_dir: PathBuf,
+    /// What a request that changes the vehicle must carry.
+    pub token: Token,
+    /// The vehicle model (and profile) missions are planned and flights predicted with.
+    pub model: Arc<VehicleModel>,
+    pub solver: solver::Options,
+    /// Time allowed for one transfer (None: the default for its item count).
+    pub transfer_budget: Option<Duration>,
+    /// Resume recording a flight cut off this recently (see `RecorderConfig::resume_within`).
+    pub resume_within: Duration,
+}
+
+/// How long after its recording was cut off a flight is resumed by default: about a battery.
+pub const DEFAULT_RESUME_WITHIN: Duration = Duration::from_secs(30 * 60);
+
+/// Runs the service on `listener` until `shutdown` resolves; returns once the flight log is
+/// closed.
+pub async fn run(
+    listener: TcpListener,
+    cfg: ServiceConfig,
+    shutdown: impl Future<Output = ()> + Send + 'static,
+) -> Result<(), ServiceError> {
+    if !cfg.missions_dir.is_dir() {
+        return Err(ServiceError::Missions {
+            dir: cfg.missions_dir.display().to_string(),
+            reason: "not a directory".into(),
+        });
+    }
+    std::fs::create_dir_all(&cfg.log_dir).map_err(|e| ServiceError::LogDir {
+        dir: cfg.log_dir.display().to_string(),
+        reason: e.to_string(),
+    })?;
+    let (http_stop_tx, http_stop) = watch::channel(false);
+    let (stop_tx, stop) = watch::channel(false);
+    let hub = Arc::new(events::Hub::new());
+    let (catalog, missions_task) = missions::spawn(
+        cfg.missions_dir.clone(),
+        missions::PlanSettings {
+            model: cfg.model.clone(),
+            solver: cfg.solver,
+        },
+        hub.clone(),
+        stop.clone(),
+    );
+    let (vehicle, vehicle_done) = vehicle::spawn(
+        vehicle::VehicleConfig {
+            link: cfg.vehicle.clone(),
+            transfer_budget: cfg.transfer_budget,
+            recorder: RecorderConfig {
+                resume_within: Some(cfg.resume_within),
+                ..RecorderConfig::new(&cfg.log_dir)
+            },
+        },
+        cfg.model.clone(),
+        catalog.clone(),
+        hub.clone(),
+        stop.clone(),
+    )
+    .map_err(ServiceError::Thread)?;
+    let app = api::router(api::Shared {
+        vehicle,
+        catalog,
+        hub,
+        token: cfg.token.clone(),
+        log_dir: cfg.log_dir.clone(),
+        model: cfg.model.clone(),
+        solver: cfg.solver,
+        stop: http_stop,
+    });
+    if let Ok(addr) = listener.local_addr() {
+        tracing::info!(
+            "serving on http://{addr}/api/ (missions in {}, flights in {})",
+            cfg.missions_dir.display(),
+            cfg.log_dir.display()
+        );
+    }
+    let served = axum::serve(listener, app)
+        .with_graceful_shutdown(async move {
+            shutdown.await;
+            tracing::info!("stopping: no new requests; closing the event streams");
+            let _ = http_stop_tx.send(true);
+        })
+        .await;
+    // Requests in progress have finished: the vehicle actor closes the flight log.
+    let _ = stop_tx.send(true);
+    let _ = vehicle_done.await;
+    let _ = missions_task.await;
+    tracing::info!("stopped; flight log closed");
+    served.map_err(ServiceError::Http)
+}

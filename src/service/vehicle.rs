@@ -1,0 +1,790 @@
+//! The vehicle actor: one task owns everything that talks to the vehicle (the `Link`, the
+//! autopilot found on it, the flight recorder on its tap, the built-in mock when there is no
+//! `--connect`). Handlers send it `(command, oneshot)`: uploads and starts run one at a time, in
+//! the order asked, so two clients never interleave on the radio. Between commands it keeps the
+//! link (connect until it works, the autopilot's heartbeat watched: `connecting`,
+//! `waiting_for_heartbeat`, `connected`, `lost`), asks for the telemetry streams again after
+//! every reconnect or return of the heartbeat, and when a flight starts reads back the mission
+//! the vehicle holds: the flight is measured against what it flies, whoever uploaded it.
+//!
+//! Reads (link state, telemetry, flights) never wait for it: they come from watch channels and
+//! the event hub.
+
+use std::net::SocketAddr;
+use std::sync::Arc;
+use std::time::Duration;
+
+use serde::Serialize;
+use tokio::sync::{broadcast, mpsc, oneshot, watch};
+use tokio::time::Instant;
+use tracing::Instrument;
+
+use super::events::{self, Hub};
+use super::missions::CatalogRx;
+use super::Refusal;
+use crate::flightlog::plan::FlightPlan;
+use crate::flightlog::recorder::PLAN_FILE;
+use crate::link::commands::{drive, heartbeats, Heard};
+use crate::link::connection::{Autopilot, Identity, Link};
+use crate::link::driver::{download, upload_verified};
+use crate::link::flight::{Start, StartConfig};
+use crate::link::items::{item_json, mission_items, read_flight, ItemOptions};
+use crate::link::transfer::TransferConfig;
+use crate::mission::{Geodetic, Mission, Origin};
+use crate::physics::{Vehicle, VehicleModel};
+use crate::planner::json::upload_document;
+use crate::planner::{FlightChoice, Plan};
+use crate::session::upload::{failure_json, UploadJson};
+use crate::session::{
+    flight_plan, plan_from_items, request_streams, spawn_recorder, FlightEvent, RecorderConfig,
+    RecorderHandle,
+};
+use crate::sim::{MockAutopilot, MockConfig, MockHandle};
+
+/// How to reach the vehicle.
+#[derive(Debug, Clone)]
+pub enum VehicleLink {
+    /// A MAVLink connection URL (`udpin:`, `udpout:`, `tcpin:`, `tcpout:`, `serial:DEV:BAUD`),
+    /// with an optional MAVLink 2 signing key.
+    Connect {
+        url: String,
+        signing_key: Option<[u8; 32]>,
+    },
+    /// The built-in mock autopilot on loopback (`config.flight` makes it fly), flying `vehicle`
+    /// (None: the built-in S1000). Its home follows the missions uploaded (it is restarted at
+    /// a mission's home before an upload from elsewhere, while disarmed).
+    Mock {
+        config: Box<MockConfig>,
+        vehicle: Option<Box<Vehicle>>,
+    },
+}
+
+/// The vehicle side of the service.
+#[derive(Debug, Clone)]
+pub struct VehicleConfig {
+    pub link: VehicleLink,
+    /// Time allowed for one transfer (None: the link's default for its item count).
+    pub transfer_budget: Option<Duration>,
+    pub recorder: RecorderConfig,
+}
+
+/// The state of the link to the vehicle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LinkState {
+    /// The transport does not open yet (a TCP port not listening, a serial device absent).
+    Connecting,
+    /// Open, no autopilot heard yet.
+    WaitingForHeartbeat,
+    /// The autopilot's heartbeat arrives.
+    Connected,
+    /// The autopilot's heartbeat stopped (radio out of range, vehicle off).
+    Lost,
+}
+
+/// What a client sees of the link.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LinkStatus {
+    pub state: LinkState,
+    pub url: String,
+    /// The vehicle is emplan's built-in mock autopilot (it has no pilot: the service starts
+    /// its missions).
+    pub builtin_mock: bool,
+    pub autopilot: Option<Autopilot>,
+    /// Times the transport was reopened.
+    pub reconnects: u64,
+    /// The last connection error, while connecting.
+    pub error: Option<String>,
+}
+
+/// An upload asked of the vehicle: `choice` of `plan` (planned for that choice) of `mission`.
+#[derive(Debug)]
+pub struct UploadJob {
+    /// The mission's name in the catalog (its file name).
+    pub name: String,
+    pub mission: Arc<Mission>,
+    pub plan: Arc<Plan>,
+    pub choice: FlightChoice,
+    pub acceptance_radius_m: f32,
+    /// The request's span (`upload`).
+    pub span: tracing::Span,
+}
+
+enum Command {
+    Upload(
+        Box<UploadJob>,
+        oneshot::Sender<Result<serde_json::Value, Refusal>>,
+    ),
+    Start(oneshot::Sender<Result<(), Refusal>>),
+}
+
+/// How handlers reach the vehicle actor.
+#[derive(Debug, Clone)]
+pub struct VehicleHandle {
+    commands: mpsc::Sender<Command>,
+    status: watch::Receiver<LinkStatus>,
+}
+
+impl std::fmt::Debug for Command {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Command::Upload(job, _) => write!(f, "Upload({})", job.name),
+            Command::Start(_) => f.write_str("Start"),
+        }
+    }
+}
+
+fn gone() -> Refusal {
+    Refusal::new(503, "service", "the service is stopping")
+}
+
+impl VehicleHandle {
+    /// Uploads (verified) and answers the upload document, or refuses.
+    pub async fn upload(&self, job: UploadJob) -> Result<serde_json::Value, Refusal> {
+        let (tx, rx) = oneshot::channel();
+        self.commands
+            .send(Command::Upload(Box::new(job), tx))
+            .await
+            .map_err(|_| gone())?;
+        rx.await.unwrap_or_else(|_| Err(gone()))
+    }
+
+    /// Arms the vehicle and starts the mission it holds.
+    pub async fn start(&self) -> Result<(), Refusal> {
+        let (tx, rx) = oneshot::channel();
+        self.commands
+            .send(Command::Start(tx))
+            .await
+            .map_err(|_| gone())?;
+        rx.await.unwrap_or_else(|_| Err(gone()))
+    }
+
+    /// The link's state now.
+    pub fn status(&self) -> LinkStatus {
+        self.status.borrow().clone()
+    }
+
+    /// The link's state as it changes.
+    pub fn watch_status(&self) -> watch::Receiver<LinkStatus> {
+        self.status.clone()
+    }
+}
+
+/// A heartbeat older than this means the link is lost.
+const HEARTBEAT_LOST: Duration = Duration::from_secs(3);
+
+/// Starts the vehicle actor on a thread of its own with its own single-threaded runtime (the
+/// link's receive task, the heartbeat, the built-in mock and the actor share it, as in `fly`):
+/// however busy the HTTP side is, nothing queues in front of the receive task, so the socket's
+/// buffer does not overflow at high telemetry rates. It runs until `stop` turns true (then
+/// closes the flight log); the returned receiver resolves when it has.
+pub fn spawn(
+    cfg: VehicleConfig,
+    model: Arc<VehicleModel>,
+    catalog: CatalogRx,
+    hub: Arc<Hub>,
+    stop: watch::Receiver<bool>,
+) -> Result<(VehicleHandle, oneshot::Receiver<()>), std::io::Error> {
+    let (commands, rx) = mpsc::channel(16);
+    let (url, builtin_mock) = match &cfg.link {
+        VehicleLink::Connect { url, .. } => (url.clone(), false),
+        VehicleLink::Mock { .. } => ("the built-in mock autopilot".to_string(), true),
+    };
+    let (status_tx, status) = watch::channel(LinkStatus {
+        state: LinkState::Connecting,
+        url,
+        builtin_mock,
+        autopilot: None,
+        reconnects: 0,
+        error: None,
+    });
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()?;
+    let (done_tx, done) = oneshot::channel();
+    std::thread::Builder::new()
+        .name("vehicle".into())
+        .spawn(move || {
+            runtime.block_on(run(cfg, model, catalog, hub, stop, rx, status_tx));
+            let _ = done_tx.send(());
+        })?;
+    Ok((VehicleHandle { commands, status }, done))
+}
+
+/// The built-in mock and how to start it again elsewhere.
+struct BuiltinMock {
+    handle: Option<MockHandle>,
+    config: MockConfig,
+    vehicle: Vehicle,
+    addr: SocketAddr,
+}
+
+impl BuiltinMock {
+    async fn spawn(
+        config: MockConfig,
+        vehicle: Option<Box<Vehicle>>,
+    ) -> Result<BuiltinMock, String> {
+        let vehicle = match vehicle {
+            Some(v) => *v,
+            None => crate::physics::builtin::vehicle().map_err(|e| e.to_string())?,
+        };
+        let handle =
+            MockAutopilot::spawn_with_vehicle("udpin:127.0.0.1:0", config, vehicle.clone())
+                .await
+                .map_err(|e| e.to_string())?;
+        Ok(BuiltinMock {
+            addr: handle.local_addr(),
+            handle: Some(handle),
+            config,
+            vehicle,
+        })
+    }
+
+    fn home(&self) -> Option<Geodetic> {
+        self.config.flight.map(|f| f.home)
+    }
+
+    /// Stops the mock and starts it again at `home`, on the same port.
+    async fn move_home(&mut self, home: Geodetic) -> Result<(), String> {
+        let Some(mut flight) = self.config.flight else {
+            return Ok(());
+        };
+        if let Some(old) = self.handle.take() {
+            let _ = old.shutdown().await;
+        }
+        flight.home = home;
+        self.config.flight = Some(flight);
+        let handle = MockAutopilot::spawn_with_vehicle(
+            &format!("udpin:{}", self.addr),
+            self.config,
+            self.vehicle.clone(),
+        )
+        .await
+        .map_err(|e| e.to_string())?;
+        self.handle = Some(handle);
+        Ok(())
+    }
+
+    async fn shutdown(mut self) {
+        if let Some(handle) = self.handle.take() {
+            let _ = handle.shutdown().await;
+        }
+    }
+}
+
+/// Whether two homes are the same place (within 0.5 m, 0.1 m in altitude).
+fn same_home(a: Geodetic, b: Geodetic) -> bool {
+    let origin = Origin {
+        home: a,
+        height_above_home_m: 0.0,
+    };
+    let d = origin.to_enu(b);
+    d.x_east_m.hypot(d.y_north_m) < 0.5 && d.z_up_m.abs() < 0.1
+}
+
+/// Whether two flight plans fly the same points (same items, positions within 0.5 m, holds
+/// within 1 s: ArduPilot keeps whole seconds), whatever their names and predictions.
+pub fn same_flight(a: &FlightPlan, b: &FlightPlan) -> bool {
+    a.takeoff_seq == b.takeoff_seq
+        && a.land_seq == b.land_seq
+        && (a.origin_height_m - b.origin_height_m).abs() < 0.5
+        && a.points.len() == b.points.len()
+        && a.points.iter().zip(&b.points).all(|(p, q)| {
+            p.seq == q.seq
+                && (p.hold_s - q.hold_s).abs() < 1.0
+                && (p.enu.x_east_m - q.enu.x_east_m)
+                    .hypot(p.enu.y_north_m - q.enu.y_north_m)
+                    .hypot(p.enu.z_up_m - q.enu.z_up_m)
+                    < 0.5
+        })
+}
+
+/// Answers a command that cannot be served now.
+fn refuse(command: Command, refusal: Refusal) {
+    match command {
+        Command::Upload(_, reply) => {
+            let _ = reply.send(Err(refusal));
+        }
+        Command::Start(reply) => {
+            let _ = reply.send(Err(refusal));
+        }
+    }
+}
+
+async fn run(
+    cfg: VehicleConfig,
+    model: Arc<VehicleModel>,
+    catalog: CatalogRx,
+    hub: Arc<Hub>,
+    mut stop: watch::Receiver<bool>,
+    mut commands: mpsc::Receiver<Command>,
+    status: watch::Sender<LinkStatus>,
+) {
+    let (url, signing, mock) = match cfg.link.clone() {
+        VehicleLink::Connect { url, signing_key } => {
+            (url, signing_key.map(crate::link::signing_config), None)
+        }
+        VehicleLink::Mock { config, vehicle } => match BuiltinMock::spawn(*config, vehicle).await {
+            Ok(mock) => (format!("udpout:{}", mock.addr), None, Some(mock)),
+            Err(e) => {
+                tracing::error!("the built-in mock autopilot did not start: {e}");
+                status.send_modify(|s| s.error = Some(e.clone()));
+                loop {
+                    tokio::select! {
+                        _ = stop.changed() => return,
+                        command = commands.recv() => match command {
+                            Some(c) => refuse(c, Refusal::new(503, "connect", &e)),
+                            None => return,
+                        },
+                    }
+                }
+            }
+        },
+    };
+    // Connect until it works (a serial device plugged in later, a TCP port opened later).
+    let link = loop {
+        tokio::select! {
+            _ = stop.changed() => {
+                if let Some(mock) = mock { mock.shutdown().await; }
+                return;
+            }
+            command = commands.recv() => match command {
+                Some(c) => refuse(c, Refusal::new(503, "connect", &format!("not connected to {url} yet"))),
+                None => return,
+            },
+            opened = Link::connect_within(&url, Identity::default(), signing.clone(), Duration::from_secs(2)) => match opened {
+                Ok(link) => break link,
+                Err(e) => {
+                    tracing::warn!("{e}; trying again");
+                    status.send_modify(|s| s.error = Some(e.to_string()));
+                    tokio::time::sleep(Duration::from_secs(1)).await;
+                }
+            },
+        }
+    };
+    tracing::info!("link open on {url}");
+    let recorder = spawn_recorder(&link, cfg.recorder.clone());
+    let (heard, monitor) = heartbeats(&link);
+    let forward = tokio::spawn(events::forward(
+        hub.clone(),
+        recorder.subscribe(),
+        recorder.live(),
+        status.subscribe(),
+        stop.clone(),
+    ));
+    status.send_modify(|s| {
+        s.state = LinkState::WaitingForHeartbeat;
+        s.error = None;
+    });
+    let mut actor = Actor {
+        url,
+        link,
+        recorder,
+        mock,
+        model,
+        catalog,
+        hub,
+        status,
+        heard,
+        target: None,
+        transfer_budget: cfg.transfer_budget,
+        expected: None,
+        started: None,
+    };
+    actor.serve(&mut stop, &mut commands).await;
+    // Stopping: nothing more is asked of the vehicle; the flight log is finished and closed.
+    commands.close();
+    while let Ok(command) = commands.try_recv() {
+        refuse(command, gone());
+    }
+    let Actor {
+        recorder,
+        mock,
+        link,
+        ..
+    } = actor;
+    recorder.close().await;
+    monitor.abort();
+    let _ = forward.await;
+    drop(link);
+    if let Some(mock) = mock {
+        mock.shutdown().await;
+    }
+}
+
+struct Actor {
+    url: String,
+    link: Link,
+    recorder: RecorderHandle,
+    mock: Option<BuiltinMock>,
+    model: Arc<VehicleModel>,
+    catalog: CatalogRx,
+    hub: Arc<Hub>,
+    status: watch::Sender<LinkStatus>,
+    heard: watch::Receiver<Option<Heard>>,
+    /// The autopilot, once heard.
+    target: Option<Autopilot>,
+    transfer_budget: Option<Duration>,
+    /// The plan the service set for the next flight (its upload).
+    expected: Option<FlightPlan>,
+    /// When the service last armed the vehicle.
+    started: Option<Instant>,
+}
+
+impl Actor {
+    async fn serve(
+        &mut self,
+        stop: &mut watch::Receiver<bool>,
+        commands: &mut mpsc::Receiver<Command>,
+    ) {
+        let mut flights = self.recorder.subscribe();
+        let mut reconnects = self.link.reconnects();
+        let mut tick = tokio::time::interval(Duration::from_millis(500));
+        loop {
+            tokio::select! {
+                _ = stop.changed() => return,
+                command = commands.recv() => match command {
+                    Some(Command::Upload(job, reply)) => {
+                        let span = job.span.clone();
+                        let outcome = self.upload(*job).instrument(span).await;
+                        let _ = reply.send(outcome);
+                    }
+                    Some(Command::Start(reply)) => {
+                        let outcome = self.start().await;
+                        let _ = reply.send(outcome);
+                    }
+                    None => return,
+                },
+                event = flights.recv() => match event {
+                    Ok(FlightEvent::Started { flight, dir, resumed }) => {
+                        let span = tracing::info_span!("flight", flight = %flight);
+                        self.measure(&dir, resumed).instrument(span).await;
+                    }
+                    Ok(FlightEvent::Ended { .. }) => self.expected = None,
+                    Ok(_) | Err(broadcast::error::RecvError::Lagged(_)) => {}
+                    Err(broadcast::error::RecvError::Closed) => return,
+                },
+                changed = reconnects.changed() => {
+                    if changed.is_ok() {
+                        let n = *reconnects.borrow_and_update();
+                        self.status.send_modify(|s| s.reconnects = n);
+                        self.ask_streams().await;
+                    }
+                }
+                changed = self.heard.changed() => {
+                    if changed.is_ok() {
+                        self.check_link().await;
+                    }
+                }
+                _ = tick.tick() => self.check_link().await,
+            }
+        }
+    }
+
+    fn transfer_config(&self, target: &Autopilot) -> TransferConfig {
+        TransferConfig {
+            target_system: target.system_id,
+            target_component: target.component_id,
+            flavour: target.flavour,
+            timing: Default::default(),
+            budget: self.transfer_budget,
+        }
+    }
+
+    /// Follows the heartbeat: the autopilot is found, lost, back.
+    async fn check_link(&mut self) {
+        let heard = *self.heard.borrow_and_update();
+        let state = match heard {
+            None => LinkState::WaitingForHeartbeat,
+            Some(beat) if beat.at.elapsed() < HEARTBEAT_LOST => LinkState::Connected,
+            Some(_) => LinkState::Lost,
+        };
+        if self.target.is_none() {
+            if let Some(Heard { autopilot, .. }) = heard {
+                tracing::info!(
+                    "autopilot {} ({:?}) found on {}",
+                    autopilot.system_id,
+                    autopilot.flavour,
+                    self.url
+                );
+                self.target = Some(autopilot);
+                self.status.send_modify(|s| s.autopilot = Some(autopilot));
+            }
+        }
+        let before = self.status.borrow().state;
+        if state != before {
+            self.status.send_modify(|s| s.state = state);
+            match state {
+                LinkState::Connected => {
+                    tracing::info!("link to the autopilot up");
+                    self.ask_streams().await;
+                }
+                LinkState::Lost => tracing::warn!(
+                    "no heartbeat from the autopilot for {} s",
+                    HEARTBEAT_LOST.as_secs()
+                ),
+                _ => {}
+            }
+        }
+    }
+
+    /// Asks for the telemetry the flight log needs (again after a reconnect or a reboot).
+    async fn ask_streams(&mut self) {
+        if let Some(target) = self.target {
+            if let Err(e) = request_streams(&self.link, &target).await {
+                tracing::warn!("telemetry rates not requested: {e}");
+            }
+        }
+    }
+
+    fn connected(&self) -> Result<Autopilot, Refusal> {
+        let status = self.status.borrow();
+        match (self.target, status.state) {
+            (Some(target), LinkState::Connected) => Ok(target),
+            (_, state) => Err(Refusal::new(
+                503,
+                "connect",
+                &format!("the vehicle is not connected ({}: {state:?})", self.url),
+            )),
+        }
+    }
+
+    /// Whether the vehicle is armed: its last heartbeat says so, or none has come since the
+    /// service armed it.
+    fn armed(&self) -> bool {
+        match *self.heard.borrow() {
+            Some(beat) => beat.armed || self.started.is_some_and(|t| beat.at <= t),
+            None => false,
+        }
+    }
+
+    async fn upload(&mut self, job: UploadJob) -> Result<serde_json::Value, Refusal> {
+        let mut target = self.connected()?;
+        if self.armed() {
+            tracing::warn!("upload refused: the vehicle is armed");
+            return Err(Refusal::new(
+                409,
+                "vehicle",
+                "the vehicle is armed: missions are not uploaded in flight (land and disarm first)",
+            ));
+        }
+        let flight = job
+            .choice
+            .flight(&job.plan)
+            .map_err(|e| Refusal::new(422, "plan", &e.to_string()))?;
+        if let Some(mock) = self.mock.as_mut() {
+            let home = job.mission.origin.home;
+            if mock.home().is_some_and(|h| !same_home(h, home)) {
+                tracing::info!(
+                    "moving the built-in mock to the mission's home ({:.6}, {:.6})",
+                    home.lat_deg,
+                    home.lon_deg
+                );
+                let since = Instant::now();
+                mock.move_home(home).await.map_err(|e| {
+                    Refusal::new(
+                        503,
+                        "connect",
+                        &format!("the built-in mock did not start again: {e}"),
+                    )
+                })?;
+                target = self.wait_for_heartbeat(since).await?;
+                self.ask_streams().await;
+            }
+        }
+        let items_opts = ItemOptions {
+            flavour: target.flavour,
+            acceptance_radius_m: job.acceptance_radius_m,
+            ..ItemOptions::default()
+        };
+        let items =
+            mission_items(&job.mission, &flight.waypoints(), &items_opts).ok_or_else(|| {
+                Refusal::new(
+                    422,
+                    "plan",
+                    "the order names a waypoint the mission does not have",
+                )
+            })?;
+        let measured_against = flight_plan(&job.mission, &job.plan, &flight, target.flavour)
+            .map_err(|e| Refusal::new(422, "plan", &e.to_string()))?;
+        let planned = upload_document(&job.plan, &flight);
+        tracing::info!(items = items.len(), "uploading");
+        let report = upload_verified(
+            &self.link,
+            &target,
+            &items,
+            self.transfer_config(&target),
+            |_, _| {},
+        )
+        .await
+        .map_err(|e| {
+            tracing::warn!("upload failed: {e}");
+            Refusal {
+                status: 502,
+                doc: failure_json(
+                    &e.stage.to_string(),
+                    Some(&e),
+                    &format!("uploading {} to {}: {e}", job.name, self.url),
+                ),
+            }
+        })?;
+        tracing::info!(
+            upload_s = report.upload_s,
+            verify_s = report.verify_s,
+            "verified"
+        );
+        let (rtt_ms, restarts, refusals) = (report.rtt_ms, report.restarts, report.refusals);
+        self.recorder.set_plan(measured_against.clone());
+        self.expected = Some(measured_against);
+        let uploaded = UploadJson {
+            plan: planned,
+            autopilot: target,
+            report,
+            items: items.iter().map(item_json).collect(),
+        };
+        let mut doc = serde_json::to_value(uploaded)
+            .map_err(|e| Refusal::new(500, "service", &e.to_string()))?;
+        if let Some(map) = doc.as_object_mut() {
+            // What the CLI's text line says of the link (not in `upload --json`'s document).
+            map.insert(
+                "link".into(),
+                serde_json::json!({"rtt_ms": rtt_ms, "restarts": restarts, "refusals": refusals}),
+            );
+        }
+        Ok(doc)
+    }
+
+    /// Waits (up to 10 s) for the autopilot's heartbeat after `since`.
+    async fn wait_for_heartbeat(&mut self, since: Instant) -> Result<Autopilot, Refusal> {
+        let mut heard = self.heard.clone();
+        let waited = tokio::time::timeout(Duration::from_secs(10), async {
+            loop {
+                if let Some(beat) = *heard.borrow_and_update() {
+                    if beat.at > since {
+                        return Some(beat.autopilot);
+                    }
+                }
+                if heard.changed().await.is_err() {
+                    return None;
+                }
+            }
+        })
+        .await;
+        match waited {
+            Ok(Some(autopilot)) => {
+                self.check_link().await;
+                Ok(autopilot)
+            }
+            _ => Err(Refusal::new(
+                503,
+                "connect",
+                "no heartbeat from the built-in mock after it moved",
+            )),
+        }
+    }
+
+    async fn start(&mut self) -> Result<(), Refusal> {
+        let target = self.connected()?;
+        if self.armed() {
+            return Err(Refusal::new(409, "vehicle", "the vehicle is already armed"));
+        }
+        let span = tracing::info_span!("start");
+        let mut start = Start::new(target, StartConfig::default());
+        let driven = drive(&self.link, &target, &mut start)
+            .instrument(span.clone())
+            .await;
+        let outcome = match (driven, start.finished()) {
+            (Err(e), _) => Err(Refusal::new(502, "start", &e.to_string())),
+            (Ok(()), Some(Err(e))) => Err(Refusal::new(502, "start", &e.to_string())),
+            (Ok(()), _) => {
+                self.started = Some(Instant::now());
+                Ok(())
+            }
+        };
+        span.in_scope(|| match &outcome {
+            Ok(()) => tracing::info!("armed and started"),
+            Err(r) => tracing::warn!("start failed: {}", r.message()),
+        });
+        self.hub.publish(&events::Event::Start {
+            ok: outcome.is_ok(),
+            error: outcome.as_ref().err().map(|r| r.message()),
+        });
+        outcome
+    }
+
+    /// A flight started: what does the vehicle fly? Its mission read back is compared with the
+    /// plan the recorder has (the service's upload, or the resumed flight's plan.json); when
+    /// they differ, or there is none, the flight is measured against what the vehicle holds.
+    async fn measure(&mut self, dir: &std::path::Path, resumed: bool) {
+        let Some(target) = self.target else {
+            return;
+        };
+        let current = if resumed {
+            FlightPlan::read_json(&dir.join(PLAN_FILE)).ok()
+        } else {
+            self.expected.clone()
+        };
+        let catalog = self.catalog.borrow().clone();
+        let missions: Vec<&Mission> = catalog.missions().collect();
+        match held_flight_plan(
+            &self.link,
+            &target,
+            self.transfer_config(&target),
+            &missions,
+            &self.model,
+        )
+        .await
+        {
+            Ok(held) => {
+                if current.as_ref().is_some_and(|c| same_flight(c, &held)) {
+                    tracing::info!("flying the mission {} planned", held.mission);
+                } else {
+                    tracing::info!(
+                        points = held.points.len(),
+                        "measuring against the mission the vehicle holds ({})",
+                        held.mission
+                    );
+                    self.recorder.set_plan(held);
+                }
+            }
+            Err(e) => tracing::warn!("{e}; recording the telemetry only"),
+        }
+    }
+}
+
+/// What a vehicle flies when someone else uploaded it (a pilot with QGroundControl): its
+/// mission read back now, as a FlightPlan named after whichever of `missions` has its home at
+/// the take-off point (within 2 m), whose waypoints name the points ("flight" and "item N" when
+/// none does); legs priced with `model`.
+async fn held_flight_plan(
+    link: &Link,
+    target: &Autopilot,
+    cfg: TransferConfig,
+    missions: &[&Mission],
+    model: &VehicleModel,
+) -> Result<FlightPlan, String> {
+    let items = download(link, target, cfg)
+        .await
+        .map_err(|e| format!("reading the vehicle's mission failed: {e}"))?;
+    let unmeasurable = |e: String| format!("the vehicle's mission cannot be measured: {e}");
+    let read = read_flight(&items, target.flavour, 0.0).map_err(|e| unmeasurable(e.to_string()))?;
+    let mission = missions.iter().copied().find(|m| {
+        let origin = Origin {
+            home: m.origin.home,
+            height_above_home_m: 0.0,
+        };
+        let at = origin.to_enu(Geodetic {
+            alt_m: m.origin.home.alt_m,
+            ..read.home
+        });
+        at.x_east_m.hypot(at.y_north_m) < 2.0
+    });
+    // The home altitude is the mission's when the autopilot keeps no home item.
+    let read = match mission {
+        Some(m) => read_flight(&items, target.flavour, m.origin.home.alt_m)
+            .map_err(|e| unmeasurable(e.to_string()))?,
+        None => read,
+    };
+    let name = mission.map_or("flight", |m| m.name.as_str());
+    plan_from_items(name, &read, mission, Some(model)).map_err(|e| unmeasurable(e.to_string()))
+}

@@ -1,0 +1,59 @@
+//! The trajectory parameters a PX4 really flies with: read from the autopilot by name when
+//! connected, compared with the vehicle file's `[px4]` section (a real octorotor's PX4 is rarely
+//! at defaults), and the vehicle as the autopilot will fly it, for pricing the flight with the
+//! autopilot's values.
+
+use crate::link::commands::read_params;
+use crate::link::connection::{Autopilot, Link};
+use crate::link::LinkError;
+use crate::physics::vehicle::ParamDifference;
+use crate::physics::Vehicle;
+
+/// What the autopilot holds against what the vehicle file says.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParamCheck {
+    /// Every parameter asked for, with its value (None: not answered).
+    pub read: Vec<(String, Option<f64>)>,
+    /// The ones that differ from the vehicle file.
+    pub differences: Vec<ParamDifference>,
+    /// The vehicle with the autopilot's values in its `[px4]` section.
+    pub vehicle: Vehicle,
+}
+
+impl ParamCheck {
+    /// The names asked for that the autopilot never answered.
+    pub fn unanswered(&self) -> Vec<&str> {
+        self.read
+            .iter()
+            .filter(|(_, v)| v.is_none())
+            .map(|(n, _)| n.as_str())
+            .collect()
+    }
+}
+
+/// Reads the `[px4]` trajectory parameters from `target` and compares them with `vehicle`'s.
+pub async fn check_px4_params(
+    link: &Link,
+    target: &Autopilot,
+    vehicle: &Vehicle,
+) -> Result<ParamCheck, LinkError> {
+    let names: Vec<&str> = vehicle
+        .px4
+        .autopilot_values()
+        .into_iter()
+        .map(|(n, _)| n)
+        .collect();
+    let read = read_params(link, target, &names).await?;
+    let differences = vehicle.px4.differences(&read);
+    let answered: Vec<(String, f64)> = read
+        .iter()
+        .filter_map(|(n, v)| v.map(|v| (n.clone(), v)))
+        .collect();
+    let mut flown = vehicle.clone();
+    flown.px4 = vehicle.px4.with_autopilot_values(&answered);
+    Ok(ParamCheck {
+        read,
+        differences,
+        vehicle: flown,
+    })
+}
