@@ -12,6 +12,7 @@ pub mod mission;
 pub mod physics;
 pub mod plan;
 pub mod planner;
+pub mod plot;
 pub mod rng;
 pub mod service;
 pub mod session;

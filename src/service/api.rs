@@ -1,6 +1,7 @@
 //! The HTTP API under `/api/` (axum), thin over the service's tasks: reads come from the mission
 //! catalog (a watch channel), the event hub and the flight directories; what changes the
-//! vehicle goes to the vehicle actor and needs the bearer token. `/` is left for a dashboard.
+//! vehicle goes to the vehicle actor and needs the bearer token. `/` is the dashboard (see
+//! `dashboard`: one page and its script and style, embedded in the binary).
 //!
 //! - `GET /api/missions`: `{"dir", "missions": [SUMMARY]}`; `GET /api/missions/{name}`: the
 //!   summary with `origin`, `points` and `plan` (what `emplan plan --json` prints).
@@ -13,6 +14,8 @@
 //!   battery state, the flight in progress with its parts so far, the battery's last minutes.
 //! - `GET /api/flights`, `GET /api/flights/{name}`, `GET /api/flights/{name}/report`,
 //!   `GET /api/flights/{name}/files/{file}`: recorded flights, their reports and files.
+//! - `GET /api/missions/{name}/plot.svg`, `GET /api/flights/{name}/plot.svg`: the figures of
+//!   `emplan plan --plot` and `emplan report --plot` (`crate::plot`) as `image/svg+xml`.
 //! - `GET /api/events`: server-sent events (see `events`).
 
 use std::convert::Infallible;
@@ -58,8 +61,12 @@ type AppState = Arc<Shared>;
 /// The routes.
 pub fn router(shared: Shared) -> Router {
     Router::new()
+        .route("/", get(super::dashboard::page))
+        .route("/dashboard.js", get(super::dashboard::script))
+        .route("/dashboard.css", get(super::dashboard::style))
         .route("/api/missions", get(missions))
         .route("/api/missions/{name}", get(mission))
+        .route("/api/missions/{name}/plot.svg", get(mission_plot))
         .route("/api/missions/{name}/upload", post(upload))
         .route("/api/vehicle", get(vehicle))
         .route("/api/vehicle/start", post(start))
@@ -68,6 +75,7 @@ pub fn router(shared: Shared) -> Router {
         .route("/api/flights", get(flights))
         .route("/api/flights/{name}", get(flight))
         .route("/api/flights/{name}/report", get(report))
+        .route("/api/flights/{name}/plot.svg", get(flight_plot))
         .route("/api/flights/{name}/files/{file}", get(file))
         .route("/api/events", get(events))
         .route("/api/{*rest}", get(not_found).post(not_found))
@@ -166,6 +174,68 @@ async fn mission(
         .get(&name)
         .ok_or_else(|| unknown_mission(&catalog.dir, &name))?;
     Ok(Json(entry.detail()))
+}
+
+/// An SVG document as an answer.
+fn svg(document: String) -> Response {
+    (
+        [
+            (header::CONTENT_TYPE, "image/svg+xml; charset=utf-8"),
+            (header::CACHE_CONTROL, "no-cache"),
+        ],
+        document,
+    )
+        .into_response()
+}
+
+/// The orders of a planned mission, drawn as `emplan plan --plot` draws them.
+async fn mission_plot(
+    State(s): State<AppState>,
+    Path(name): Path<String>,
+) -> Result<Response, Refusal> {
+    let catalog = s.catalog.borrow().clone();
+    let entry = catalog
+        .get(&name)
+        .ok_or_else(|| unknown_mission(&catalog.dir, &name))?
+        .clone();
+    let (Some(mission), super::missions::Outcome::Planned { plan, .. }) =
+        (entry.mission.clone(), &entry.outcome)
+    else {
+        let message = match &entry.outcome {
+            super::missions::Outcome::Failed(p) => format!("{name}: {}", p.message),
+            _ => format!("{name} is not planned yet"),
+        };
+        return Err(Refusal::new(409, "plan", &message));
+    };
+    let plan = plan.clone();
+    let drawn = tokio::task::spawn_blocking(move || crate::plot::plan_svg(&mission, &plan))
+        .await
+        .map_err(|e| Refusal::new(500, "plot", &format!("drawing stopped: {e}")))?
+        .map_err(|e| Refusal::new(500, "plot", &e.to_string()))?;
+    Ok(svg(drawn))
+}
+
+/// A recorded flight replayed from its .tlog and drawn as `emplan report --plot` draws it.
+async fn flight_plot(
+    State(s): State<AppState>,
+    Path(name): Path<String>,
+) -> Result<Response, Refusal> {
+    let dir = flight_dir(&s.log_dir, &name).ok_or_else(|| unknown_flight(&s.log_dir, &name))?;
+    let model = s.model.clone();
+    let drawn = tokio::task::spawn_blocking(move || {
+        let analysis = crate::session::replay(
+            &dir.join(TLOG_FILE),
+            None,
+            Some(&model),
+            crate::flightlog::segment::SegmentConfig::default(),
+        )
+        .map_err(|e| Refusal::new(422, "flight", &format!("replaying {name}: {e}")))?;
+        crate::plot::flight_svg(std::slice::from_ref(&analysis))
+            .map_err(|e| Refusal::new(500, "plot", &e.to_string()))
+    })
+    .await
+    .map_err(|e| Refusal::new(500, "plot", &format!("drawing stopped: {e}")))??;
+    Ok(svg(drawn))
 }
 
 /// The body of an upload request (every field optional).

@@ -18,6 +18,7 @@
 
 pub mod api;
 pub mod client;
+pub mod dashboard;
 pub mod events;
 pub mod missions;
 pub mod remote;

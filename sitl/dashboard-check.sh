@@ -1,0 +1,57 @@
+#!/usr/bin/env bash
+# The dashboard in a real browser: starts `emplan serve` on the built-in mock with a temporary
+# missions folder holding MISSION and a temporary log directory, then drives the page in
+# headless Chromium (Debian's, through playwright-core; sitl/dashboard/check.mjs): upload and
+# start through the page's own controls with the token typed into it, the live leg table filled
+# leg by leg, the flight's report with every leg. Screenshots go to OUT (default
+# target/dashboard). Installs what it needs (chromium, fonts, npm ci); stops what it started.
+#
+# usage: sitl/dashboard-check.sh [EMPLAN] [MISSION] [OUT]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+emplan=${1:-target/debug/emplan}
+mission=${2:-missions/paper-sample-8wp.toml}
+out=${3:-target/dashboard}
+
+apt_updated=
+apt_install() {
+    [ -n "$apt_updated" ] || { apt-get update -qq; apt_updated=1; }
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "$@" >/dev/null
+}
+[ -x /usr/bin/chromium ] || apt_install chromium
+# Chromium draws text with fontconfig's fonts: without any, every label is blank.
+fc-list 2>/dev/null | grep -qi dejavu || apt_install fonts-dejavu-core
+command -v node >/dev/null && command -v npm >/dev/null || apt_install nodejs npm
+(cd sitl/dashboard && npm ci --no-audit --no-fund --loglevel=error)
+
+work=$(mktemp -d -t emplan-dashboard.XXXXXX)
+serve_pid=
+cleanup() {
+    if [ -n "$serve_pid" ] && kill -0 "$serve_pid" 2>/dev/null; then
+        kill -TERM "$serve_pid"
+        wait "$serve_pid" 2>/dev/null || true
+    fi
+    rm -rf "$work"
+}
+trap cleanup EXIT
+mkdir -p "$work/missions" "$work/flights" "$out"
+cp "$mission" "$work/missions/"
+"$emplan" serve --missions "$work/missions" --log-dir "$work/flights" --http 127.0.0.1:0 \
+    >"$work/url" 2>"$work/serve.log" &
+serve_pid=$!
+for _ in $(seq 1 300); do
+    [ -s "$work/url" ] && break
+    kill -0 "$serve_pid" 2>/dev/null || { cat "$work/serve.log" >&2; echo "emplan serve exited" >&2; exit 1; }
+    sleep 0.1
+done
+url=$(head -n 1 "$work/url")
+[ -n "$url" ] || { cat "$work/serve.log" >&2; echo "emplan serve printed no URL" >&2; exit 1; }
+echo "dashboard-check: $url (missions $work/missions, flights $work/flights)"
+status=0
+node sitl/dashboard/check.mjs --url "$url" --token-file "$work/flights/token" \
+    --mission "$(basename "$mission")" --out "$out" || status=$?
+if [ "$status" -ne 0 ]; then
+    echo "== emplan serve's log" >&2
+    tail -n 40 "$work/serve.log" >&2
+fi
+exit "$status"

@@ -1,0 +1,190 @@
+// Drives emplan's dashboard in headless Chromium (Debian's /usr/bin/chromium through
+// playwright-core) the way a field team would: select the mission, upload it with the token
+// typed into the page's own dialog, start the flight with the page's button, watch the live leg
+// table fill leg by leg, then open the flight's report. Saves screenshots; exits non-zero on any
+// failure (a step timing out, a console error, a CSP violation, the token found in the page).
+//
+// node check.mjs --url URL --token-file FILE --mission NAME --out DIR [--chromium PATH]
+import { chromium } from 'playwright-core';
+import { readFileSync, mkdirSync } from 'node:fs';
+import { join } from 'node:path';
+
+function args() {
+  const out = { chromium: '/usr/bin/chromium', timeout: 180 };
+  const argv = process.argv.slice(2);
+  for (let k = 0; k < argv.length; k += 2) {
+    const key = argv[k].replace(/^--/, '').replace(/-/g, '_');
+    if (argv[k + 1] === undefined) throw new Error(`${argv[k]} needs a value`);
+    out[key] = argv[k + 1];
+  }
+  for (const need of ['url', 'token_file', 'mission', 'out']) {
+    if (!out[need]) throw new Error(`--${need.replace(/_/g, '-')} is required`);
+  }
+  return out;
+}
+
+const opts = args();
+const token = readFileSync(opts.token_file, 'utf8').trim();
+if (token.length < 16) throw new Error(`${opts.token_file}: no token in it`);
+mkdirSync(opts.out, { recursive: true });
+const timeout = Number(opts.timeout) * 1000;
+const problems = [];
+const log = (...a) => console.log('dashboard-check:', ...a);
+
+async function noTokenInPage(page, when) {
+  const html = await page.content();
+  const stored = await page.evaluate(() => ({
+    local: JSON.stringify(Object.assign({}, localStorage)),
+    session: JSON.stringify(Object.assign({}, sessionStorage)),
+    cookie: document.cookie,
+    url: location.href,
+  }));
+  for (const [where, text] of [['the page', html], ['localStorage', stored.local], ['sessionStorage', stored.session], ['cookies', stored.cookie], ['the URL', stored.url]]) {
+    if (text.includes(token)) throw new Error(`${when}: the token appears in ${where}`);
+  }
+}
+
+async function imageLoaded(page, selector) {
+  await page.waitForFunction(
+    (sel) => {
+      const img = document.querySelector(sel);
+      return img && img.complete && img.naturalWidth > 0 && !img.closest('[hidden]');
+    },
+    selector,
+    { timeout },
+  );
+}
+
+const browser = await chromium.launch({
+  executablePath: opts.chromium,
+  headless: true,
+  args: ['--no-sandbox', '--disable-gpu', '--disable-dev-shm-usage'],
+});
+let failed = false;
+let page = null;
+try {
+  const context = await browser.newContext({ viewport: { width: 1366, height: 768 } });
+  page = await context.newPage();
+  page.setDefaultTimeout(timeout);
+  page.on('console', (m) => {
+    if (m.type() === 'error') problems.push(`console error: ${m.text()}`);
+  });
+  page.on('pageerror', (e) => problems.push(`page error: ${e.message}`));
+  page.on('response', (r) => {
+    if (r.status() >= 400) problems.push(`HTTP ${r.status()} for ${r.url()}`);
+  });
+  page.on('requestfailed', (r) => {
+    // An event stream closed when the page goes away is not a failure.
+    if (!r.url().endsWith('/api/events')) problems.push(`request failed: ${r.url()} ${r.failure()?.errorText}`);
+  });
+
+  // The mission's plan: how many legs the energy order flies (the origin back included).
+  const detail = await (await page.request.get(`${opts.url}/api/missions/${encodeURIComponent(opts.mission)}`)).json();
+  const energy = (detail.plan?.orders || []).find((o) => o.objective === 'energy');
+  if (!energy) throw new Error(`${opts.mission}: not planned by the service (${JSON.stringify(detail).slice(0, 300)})`);
+  const legs = energy.legs.length;
+  log(`${opts.mission}: ${legs} legs in the energy order`);
+
+  // Missions: select the mission, its status, facts and figure.
+  await page.goto(opts.url + '/', { waitUntil: 'load' });
+  const row = page.locator(`#missions-body tr[data-name="${opts.mission}"]`);
+  await row.click();
+  await page.waitForFunction(() => document.querySelector('#md-status-text')?.textContent === 'planned', null, { timeout });
+  await page.locator('#md-facts dt', { hasText: 'Battery' }).waitFor();
+  await imageLoaded(page, '#md-plot');
+  await noTokenInPage(page, 'on arrival');
+  await page.screenshot({ path: join(opts.out, 'missions.png') });
+  log('missions view: planned, facts and figure shown');
+
+  // Upload through the page: the button asks for the token.
+  await page.click('#upload-btn');
+  await page.locator('#token-dialog').waitFor({ state: 'visible' });
+  await page.fill('#token-input', token);
+  await page.click('#token-ok');
+  await page.waitForFunction(() => document.querySelector('#upload-result')?.dataset.outcome, null, { timeout });
+  const upload = await page.evaluate(() => ({
+    outcome: document.querySelector('#upload-result').dataset.outcome,
+    text: document.querySelector('#upload-result').textContent,
+  }));
+  log(`upload: ${upload.outcome}: ${upload.text.replace(/\n/g, ' | ')}`);
+  if (upload.outcome !== 'verified') throw new Error(`upload through the page: ${upload.text}`);
+  if ((await page.inputValue('#token-input')) !== '') throw new Error('the token stayed in the dialog input');
+  await noTokenInPage(page, 'after the upload');
+  await page.screenshot({ path: join(opts.out, 'missions-uploaded.png') });
+
+  // Start through the page (the token is held in memory: no dialog this time).
+  await page.click('#tab-live');
+  await page.click('#start-btn');
+  await page.waitForFunction(() => document.querySelector('#start-result')?.dataset.outcome, null, { timeout });
+  const start = await page.evaluate(() => document.querySelector('#start-result').textContent);
+  if ((await page.evaluate(() => document.querySelector('#start-result').dataset.outcome)) !== 'started') {
+    throw new Error(`start through the page: ${start}`);
+  }
+  log(`start: ${start}`);
+
+  // The live table: legs appear one by one as the service's events arrive.
+  const began = Date.now();
+  let sawFlying = false;
+  let sawPartial = false;
+  let midShot = false;
+  let seen = { done: 0, flying: 0, ended: null };
+  while (Date.now() - began < timeout) {
+    seen = await page.evaluate(() => ({
+      done: document.querySelectorAll('#live-legs-body tr[data-state="done"]').length,
+      flying: document.querySelectorAll('#live-legs-body tr[data-state="flying"]').length,
+      ended: document.querySelector('#live-note')?.dataset.ended || null,
+    }));
+    if (!seen.ended) {
+      sawFlying ||= seen.flying > 0;
+      sawPartial ||= seen.done > 0 && seen.done < legs;
+      if (!midShot && seen.done >= Math.ceil(legs / 2)) {
+        await page.screenshot({ path: join(opts.out, 'live.png') });
+        midShot = true;
+      }
+    }
+    if (seen.ended && seen.done === legs) break;
+    await page.waitForTimeout(100);
+  }
+  log(`live table: ${seen.done} of ${legs} legs done, flight ${seen.ended}; saw a leg in progress: ${sawFlying}, saw the table partly filled: ${sawPartial}`);
+  if (!seen.ended) throw new Error(`the flight did not end within ${opts.timeout} s`);
+  if (seen.done !== legs) throw new Error(`the live leg table shows ${seen.done} legs done, expected ${legs}`);
+  if (!sawFlying || !sawPartial) throw new Error('the live leg table did not fill leg by leg during the flight');
+  const liveRows = await page.locator('#live-legs-body tr').count();
+  if (liveRows !== legs) throw new Error(`the live leg table has ${liveRows} rows, expected ${legs}`);
+  const chartPoints = await page.evaluate(() => document.querySelector('#ch-power polyline')?.getAttribute('points')?.split(' ').length || 0);
+  if (chartPoints < 10) throw new Error(`the power chart has ${chartPoints} points`);
+  await page.screenshot({ path: join(opts.out, 'live-end.png') });
+  if (!midShot) await page.screenshot({ path: join(opts.out, 'live.png') });
+
+  // The report of the flight just flown.
+  const flight = seen.ended;
+  await page.click('#tab-flights');
+  await page.waitForFunction((name) => document.querySelector('#rp-title')?.textContent === 'Flight ' + name, flight, { timeout });
+  await page.waitForFunction((n) => document.querySelectorAll('#report-legs-body tr').length === n && !document.querySelector('#report-legs').hidden, legs, { timeout });
+  await imageLoaded(page, '#rp-plot');
+  const measured = await page.evaluate(() => [...document.querySelectorAll('#report-legs-body tr td:nth-child(4)')].map((td) => td.textContent));
+  if (measured.some((m) => m === '-')) throw new Error(`a leg of the report is not measured: ${measured.join(', ')}`);
+  for (const [id, type] of [['#rp-tlog', 'application/octet-stream'], ['#rp-csv', 'text/csv']]) {
+    const href = await page.getAttribute(id, 'href');
+    const answer = await page.request.get(opts.url + href);
+    if (answer.status() !== 200 || !(answer.headers()['content-type'] || '').startsWith(type) || (await answer.body()).length === 0) {
+      throw new Error(`${id} ${href}: HTTP ${answer.status()} ${answer.headers()['content-type']}`);
+    }
+  }
+  const svg = await page.request.get(`${opts.url}/api/flights/${encodeURIComponent(flight)}/plot.svg`);
+  if (!(svg.headers()['content-type'] || '').startsWith('image/svg+xml')) throw new Error('the flight figure is not SVG');
+  await noTokenInPage(page, 'at the end');
+  await page.screenshot({ path: join(opts.out, 'report.png') });
+  await page.screenshot({ path: join(opts.out, 'report-full.png'), fullPage: true });
+  log(`report: ${legs} legs, measured kJ ${measured.join(' ')}; .tlog and CSV links answer`);
+  if (problems.length) throw new Error(`the page reported problems:\n  ${problems.join('\n  ')}`);
+  log(`ok: screenshots in ${opts.out}`);
+} catch (e) {
+  failed = true;
+  console.error('dashboard-check: FAILED:', e.message);
+  for (const p of problems) console.error('  ', p);
+  if (page) await page.screenshot({ path: join(opts.out, 'failure.png'), fullPage: true }).catch(() => {});
+} finally {
+  await browser.close();
+}
+process.exit(failed ? 1 : 0);

@@ -1,0 +1,500 @@
+//! SVG figures drawn with plotters: the orders of a planned mission as the paper draws them (a
+//! top view and two side views, the energy order solid and the min-distance order dashed, with
+//! arrows giving the direction of flight) and histograms of the random-mission study's
+//! baseline/minimum-energy energy ratios.
+//!
+//! Figures are rendered into a string: the command line writes it to a file once (so a write
+//! error is reported with the file name and never lost in a drop), the service answers it as
+//! `image/svg+xml` (`/api/missions/{name}/plot.svg`, `/api/flights/{name}/plot.svg`) for the
+//! dashboard.
+
+use crate::mission::{Enu, Mission};
+use crate::physics::Profile;
+use crate::plan::study::{Study, BASELINES};
+use crate::plan::Objective;
+use crate::planner::json::energy_kj;
+use crate::planner::{Order, Plan};
+use plotters::coord::types::RangedCoordf64;
+use plotters::element::DashedPathElement;
+use plotters::prelude::*;
+
+const FONT: &str = "sans-serif";
+const ENERGY_COLOUR: RGBColor = RGBColor(0x1f, 0x5f, 0xbf);
+const DISTANCE_COLOUR: RGBColor = RGBColor(0xd6, 0x4b, 0x1c);
+const WIDTH_PX: u32 = 1800;
+const HEIGHT_PX: u32 = 720;
+
+/// Why a figure could not be drawn.
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    #[error("plotting {mission}: no {order} order to draw")]
+    NoOrder {
+        mission: String,
+        order: &'static str,
+    },
+    #[error("drawing {figure}: {reason}")]
+    Drawing { figure: String, reason: String },
+}
+
+fn drawing<E: std::fmt::Display>(figure: &str) -> impl Fn(E) -> PlotError + '_ {
+    move |e| PlotError::Drawing {
+        figure: figure.to_string(),
+        reason: e.to_string(),
+    }
+}
+
+/// One projection of the mission: which coordinates go on which axis.
+struct View {
+    caption: &'static str,
+    x_desc: &'static str,
+    y_desc: &'static str,
+    project: fn(&Enu) -> (f64, f64),
+}
+
+const VIEWS: [View; 3] = [
+    View {
+        caption: "top view",
+        x_desc: "x east (m)",
+        y_desc: "y north (m)",
+        project: |p| (p.x_east_m, p.y_north_m),
+    },
+    View {
+        caption: "side view from the south",
+        x_desc: "x east (m)",
+        y_desc: "z up (m)",
+        project: |p| (p.x_east_m, p.z_up_m),
+    },
+    View {
+        caption: "side view from the east",
+        x_desc: "y north (m)",
+        y_desc: "z up (m)",
+        project: |p| (p.y_north_m, p.z_up_m),
+    },
+];
+
+/// A padded symmetric or spanning range that never collapses to a point.
+fn span(values: impl Iterator<Item = f64> + Clone, symmetric: bool) -> std::ops::Range<f64> {
+    let lo = values.clone().fold(0.0_f64, f64::min);
+    let hi = values.fold(0.0_f64, f64::max);
+    if symmetric {
+        let r = lo.abs().max(hi.abs()).max(1.0) * 1.12;
+        -r..r
+    } else {
+        let pad = ((hi - lo) * 0.12).max(1.0);
+        lo - pad..hi + pad
+    }
+}
+
+/// Draws the orders of `plan` of `mission` as an SVG document: top view (x-y) and side views (x-z,
+/// y-z) of the origin and the named waypoints, the energy order solid, the min-distance order in
+/// its better direction dashed.
+pub fn plan_svg(mission: &Mission, plan: &Plan) -> Result<String, PlotError> {
+    let profile = plan.profile;
+    let no_order = |order| PlotError::NoOrder {
+        mission: mission.name.clone(),
+        order,
+    };
+    let energy = plan
+        .order(Objective::Energy)
+        .ok_or_else(|| no_order("energy"))?;
+    let distance = plan
+        .cheapest(Objective::Distance)
+        .ok_or_else(|| no_order("distance"))?;
+    let e_kj = energy_kj(&energy.legs);
+    let d_kj = energy_kj(&distance.legs);
+    let direction = format!("{:?}", distance.direction).to_lowercase();
+
+    // Node 0 is the origin, node k the k-th waypoint of the file.
+    let points: Vec<Enu> = std::iter::once(Enu::default())
+        .chain(mission.waypoints.iter().map(|w| w.position))
+        .collect();
+    let names: Vec<&str> = std::iter::once("origin")
+        .chain(mission.waypoints.iter().map(|w| w.name.as_str()))
+        .collect();
+    let closed = |nodes: &[usize]| -> Vec<usize> {
+        std::iter::once(0)
+            .chain(nodes.iter().copied())
+            .chain(std::iter::once(0))
+            .collect()
+    };
+    let energy_path = closed(&energy.nodes);
+    let distance_path = closed(&distance.nodes);
+
+    let horizontal = span(points.iter().flat_map(|p| [p.x_east_m, p.y_north_m]), true);
+    let vertical = span(points.iter().map(|p| p.z_up_m), false);
+
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (WIDTH_PX, HEIGHT_PX)).into_drawing_area();
+        let err = drawing("the orders of the mission");
+        root.fill(&WHITE).map_err(&err)?;
+        let (header, body) = root.split_vertically(96);
+        let title = format!(
+            "{}: minimum-energy order {e_kj:.2} kJ, minimum-distance order ({direction}) {d_kj:.2} kJ \
+             (+{:.1}% over minimum energy), {profile} profile",
+            mission.name,
+            100.0 * (d_kj - e_kj) / e_kj
+        );
+        let sequence = |o: &Order| {
+            std::iter::once("origin")
+                .chain(o.nodes.iter().map(|&n| plan.name(n)))
+                .chain(std::iter::once("origin"))
+                .collect::<Vec<_>>()
+                .join(" > ")
+        };
+        header
+            .draw(&Text::new(title, (20, 14), (FONT, 24).into_font()))
+            .map_err(&err)?;
+        // The legend: a line sample in each order's style, then its energy and sequence.
+        header
+            .draw(&PathElement::new(
+                vec![(24, 55), (64, 55)],
+                ENERGY_COLOUR.stroke_width(2),
+            ))
+            .map_err(&err)?;
+        header
+            .draw(&Text::new(
+                format!("minimum energy, {e_kj:.2} kJ: {}", sequence(energy)),
+                (76, 46),
+                (FONT, 17).into_font().color(&ENERGY_COLOUR),
+            ))
+            .map_err(&err)?;
+        header
+            .draw(&DashedPathElement::new(
+                vec![(24, 79), (64, 79)],
+                8,
+                6,
+                DISTANCE_COLOUR.stroke_width(2),
+            ))
+            .map_err(&err)?;
+        header
+            .draw(&Text::new(
+                format!(
+                    "minimum distance, {direction}, {d_kj:.2} kJ: {}",
+                    sequence(distance)
+                ),
+                (76, 70),
+                (FONT, 17).into_font().color(&DISTANCE_COLOUR),
+            ))
+            .map_err(&err)?;
+        for (k, (panel, view)) in body.split_evenly((1, 3)).iter().zip(&VIEWS).enumerate() {
+            let y_range = if k == 0 {
+                horizontal.clone()
+            } else {
+                vertical.clone()
+            };
+            let mut chart = ChartBuilder::on(panel)
+                .caption(view.caption, (FONT, 20))
+                .margin(14)
+                .x_label_area_size(44)
+                .y_label_area_size(56)
+                .build_cartesian_2d(horizontal.clone(), y_range)
+                .map_err(&err)?;
+            chart
+                .configure_mesh()
+                .x_desc(view.x_desc)
+                .y_desc(view.y_desc)
+                .light_line_style(RGBColor(0xee, 0xee, 0xee))
+                .draw()
+                .map_err(&err)?;
+            let at = |node: usize| (view.project)(&points[node]);
+
+            chart
+                .draw_series(LineSeries::new(
+                    energy_path.iter().map(|&n| at(n)),
+                    ENERGY_COLOUR.stroke_width(2),
+                ))
+                .map_err(&err)?;
+            chart
+                .draw_series(DashedLineSeries::new(
+                    distance_path.iter().map(|&n| at(n)),
+                    8,
+                    6,
+                    DISTANCE_COLOUR.stroke_width(2),
+                ))
+                .map_err(&err)?;
+            for (path_nodes, colour, along) in [
+                (&energy_path, ENERGY_COLOUR, 0.55),
+                (&distance_path, DISTANCE_COLOUR, 0.45),
+            ] {
+                let arrows: Vec<_> = path_nodes
+                    .windows(2)
+                    .filter_map(|w| arrow(&chart, at(w[0]), at(w[1]), along))
+                    .collect();
+                chart
+                    .draw_series(arrows.into_iter().map(|a| {
+                        EmptyElement::at(a.anchor) + Polygon::new(a.corners_px, colour.filled())
+                    }))
+                    .map_err(&err)?;
+            }
+            chart
+                .draw_series(points.iter().enumerate().map(|(node, p)| {
+                    let marker: DynElement<_, _> = if node == 0 {
+                        TriangleMarker::new((0, 0), 7, BLACK.filled()).into_dyn()
+                    } else {
+                        Circle::new((0, 0), 4, BLACK.filled()).into_dyn()
+                    };
+                    EmptyElement::at((view.project)(p))
+                        + marker
+                        + Text::new(names[node].to_string(), (7, -18), (FONT, 15))
+                }))
+                .map_err(&err)?;
+        }
+        root.present().map_err(&err)?;
+    }
+    Ok(svg)
+}
+
+/// An arrowhead: its anchor in data coordinates and its corners in pixels around the anchor.
+struct Arrowhead {
+    anchor: (f64, f64),
+    corners_px: Vec<(i32, i32)>,
+}
+
+/// A small arrowhead at fraction `along` of the leg `from -> to`, pointing the way the leg is
+/// flown, drawn in screen space so unequal axis scales do not distort it; none for legs a few
+/// pixels long in this view.
+fn arrow<'a>(
+    chart: &ChartContext<'a, SVGBackend<'a>, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    from: (f64, f64),
+    to: (f64, f64),
+    along: f64,
+) -> Option<Arrowhead> {
+    let (a, b) = (chart.backend_coord(&from), chart.backend_coord(&to));
+    let (dx, dy) = (f64::from(b.0 - a.0), f64::from(b.1 - a.1));
+    let len = dx.hypot(dy);
+    if len < 24.0 {
+        return None;
+    }
+    let (ux, uy) = (dx / len, dy / len);
+    let px = |fwd: f64, side: f64| {
+        (
+            (ux * fwd - uy * side).round() as i32,
+            (uy * fwd + ux * side).round() as i32,
+        )
+    };
+    let anchor = (
+        from.0 + along * (to.0 - from.0),
+        from.1 + along * (to.1 - from.1),
+    );
+    Some(Arrowhead {
+        anchor,
+        corners_px: vec![px(7.0, 0.0), px(-5.0, 5.0), px(-5.0, -5.0)],
+    })
+}
+
+fn baseline_label(baseline: Objective) -> &'static str {
+    match baseline {
+        Objective::Distance => "min-D (3D distance)",
+        Objective::Horizontal => "min-X (horizontal distance)",
+        Objective::Vertical => "min-Z (vertical distance, ties by horizontal)",
+        Objective::Energy => "min energy",
+    }
+}
+
+/// Histograms of the energy ratio baseline / minimum energy over the study's missions, one
+/// panel per baseline (its better direction), sharing the ratio axis.
+pub fn study_histogram_svg(study: &Study, profile: Profile) -> Result<String, PlotError> {
+    const BINS: usize = 40;
+    let s = &study.settings;
+    let max_ratio = study
+        .outcomes
+        .iter()
+        .flat_map(|o| BASELINES.map(|b| o.ratio(b)))
+        .fold(1.0_f64, f64::max);
+    let width = ((max_ratio - 1.0) / BINS as f64).max(1e-4);
+    let x_range = 1.0..1.0 + width * BINS as f64;
+
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (1100, 1000)).into_drawing_area();
+        let err = drawing("the study histogram");
+        root.fill(&WHITE).map_err(&err)?;
+        let root = root
+            .titled(
+                &format!(
+                    "baseline energy (better direction) / minimum energy: {} missions, {} \
+                     waypoints in ±{} x ±{} x ±{} m, seed {}, {profile}",
+                    study.outcomes.len(),
+                    s.waypoints,
+                    s.xy_m,
+                    s.xy_m,
+                    s.z_m,
+                    s.seed
+                ),
+                (FONT, 20),
+            )
+            .map_err(&err)?;
+        let stats = [
+            study.summary.distance,
+            study.summary.horizontal,
+            study.summary.vertical,
+        ];
+        for ((panel, baseline), st) in root.split_evenly((3, 1)).iter().zip(BASELINES).zip(stats) {
+            let mut counts = [0u32; BINS];
+            for o in &study.outcomes {
+                let bin = ((o.ratio(baseline) - 1.0) / width).floor() as usize;
+                counts[bin.min(BINS - 1)] += 1;
+            }
+            let differs = if baseline == Objective::Distance {
+                format!(
+                    ", order differs from min-energy in {:.1}%",
+                    study.summary.distance_differs_pct
+                )
+            } else {
+                String::new()
+            };
+            let top = f64::from(counts.iter().copied().max().unwrap_or(1).max(1)) * 1.1;
+            let mut chart = ChartBuilder::on(panel)
+                .caption(
+                    format!(
+                        "{}: mean +{:.2}%, p90 +{:.2}%, max +{:.2}%{differs}",
+                        baseline_label(baseline),
+                        st.mean_pct,
+                        st.p90_pct,
+                        st.max_pct
+                    ),
+                    (FONT, 18),
+                )
+                .margin(12)
+                .x_label_area_size(44)
+                .y_label_area_size(64)
+                .build_cartesian_2d(x_range.clone(), 0.0..top)
+                .map_err(&err)?;
+            chart
+                .configure_mesh()
+                .x_desc("energy / minimum energy")
+                .y_desc("missions")
+                .y_label_formatter(&|v| format!("{v:.0}"))
+                .light_line_style(RGBColor(0xee, 0xee, 0xee))
+                .draw()
+                .map_err(&err)?;
+            chart
+                .draw_series(
+                    counts
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, &c)| c > 0)
+                        .map(|(k, &c)| {
+                            let x0 = 1.0 + width * k as f64;
+                            Rectangle::new(
+                                [(x0, 0.0), (x0 + width, f64::from(c))],
+                                ENERGY_COLOUR.mix(0.75).filled(),
+                            )
+                        }),
+                )
+                .map_err(&err)?;
+        }
+        root.present().map_err(&err)?;
+    }
+    Ok(svg)
+}
+
+/// A recorded flight (or several) drawn: battery power over vehicle time with every leg shaded
+/// and named, and each leg's predicted against measured energy as paired bars.
+pub fn flight_svg(analyses: &[crate::link::telemetry::Analysis]) -> Result<String, PlotError> {
+    use crate::flightlog::segment::SegmentKind;
+    let mut svg = String::new();
+    {
+        let rows = analyses.len().max(1);
+        let root =
+            SVGBackend::with_string(&mut svg, (WIDTH_PX, 560 * rows as u32)).into_drawing_area();
+        let err = drawing("the flight figure");
+        root.fill(&WHITE).map_err(&err)?;
+        for (area, analysis) in root.split_evenly((rows, 1)).iter().zip(analyses) {
+            let (left, right) = area.split_horizontally(WIDTH_PX * 3 / 5);
+            let power = analysis.segmenter.series().valid_power();
+            let t_max = power.last().map_or(1.0, |p| p.0).max(1.0);
+            let p_max = power.iter().map(|p| p.1).fold(100.0_f64, f64::max) * 1.1;
+            let mut chart = ChartBuilder::on(&left)
+                .caption(
+                    format!("{}: battery power", analysis.report.flight),
+                    (FONT, 20),
+                )
+                .margin(12)
+                .x_label_area_size(44)
+                .y_label_area_size(64)
+                .build_cartesian_2d(0.0..t_max, 0.0..p_max)
+                .map_err(&err)?;
+            chart
+                .configure_mesh()
+                .x_desc("vehicle time (s)")
+                .y_desc("power (W)")
+                .light_line_style(RGBColor(0xee, 0xee, 0xee))
+                .draw()
+                .map_err(&err)?;
+            for segment in analysis.segmenter.segments() {
+                if let SegmentKind::Leg(k) = segment.kind {
+                    let shade = if k % 2 == 0 { 0.10 } else { 0.18 };
+                    chart
+                        .draw_series(std::iter::once(Rectangle::new(
+                            [(segment.start_s, 0.0), (segment.end_s, p_max)],
+                            ENERGY_COLOUR.mix(shade).filled(),
+                        )))
+                        .map_err(&err)?;
+                    let (_, to) = analysis.segmenter.plan().leg_names(k);
+                    chart
+                        .draw_series(std::iter::once(Text::new(
+                            to,
+                            (segment.start_s, p_max * 0.97),
+                            (FONT, 14),
+                        )))
+                        .map_err(&err)?;
+                }
+            }
+            chart
+                .draw_series(LineSeries::new(
+                    power.iter().copied(),
+                    DISTANCE_COLOUR.stroke_width(2),
+                ))
+                .map_err(&err)?;
+            // Predicted vs measured per leg.
+            let legs = &analysis.report.legs;
+            let top = legs
+                .iter()
+                .flat_map(|l| [l.predicted_j, l.measured_j])
+                .flatten()
+                .fold(1.0_f64, f64::max)
+                / 1000.0
+                * 1.15;
+            let n = legs.len().max(1) as f64;
+            let mut bars = ChartBuilder::on(&right)
+                .caption(
+                    "energy per leg: predicted (light) vs measured (dark)",
+                    (FONT, 18),
+                )
+                .margin(12)
+                .x_label_area_size(44)
+                .y_label_area_size(64)
+                .build_cartesian_2d(0.0..n, 0.0..top)
+                .map_err(&err)?;
+            bars.configure_mesh()
+                .x_desc("leg")
+                .y_desc("kJ")
+                .x_labels(legs.len().max(1))
+                .x_label_formatter(&|x| format!("{}", x.floor() as usize + 1))
+                .light_line_style(RGBColor(0xee, 0xee, 0xee))
+                .draw()
+                .map_err(&err)?;
+            for (k, leg) in legs.iter().enumerate() {
+                let x = k as f64;
+                if let Some(p) = leg.predicted_j {
+                    bars.draw_series(std::iter::once(Rectangle::new(
+                        [(x + 0.1, 0.0), (x + 0.48, p / 1000.0)],
+                        ENERGY_COLOUR.mix(0.35).filled(),
+                    )))
+                    .map_err(&err)?;
+                }
+                if let Some(m) = leg.measured_j {
+                    bars.draw_series(std::iter::once(Rectangle::new(
+                        [(x + 0.52, 0.0), (x + 0.9, m / 1000.0)],
+                        ENERGY_COLOUR.filled(),
+                    )))
+                    .map_err(&err)?;
+                }
+            }
+        }
+        root.present().map_err(&err)?;
+    }
+    Ok(svg)
+}

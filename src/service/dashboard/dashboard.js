@@ -1,0 +1,654 @@
+// emplan dashboard script: reads the service's API, follows /api/events, draws the battery
+// charts and the leg tables. Everything from the service is put in the page as text (never as
+// markup). The token lives in the variable `token` only: never in storage, a cookie or the URL.
+'use strict';
+(() => {
+  const $ = (id) => document.getElementById(id);
+  let token = null;
+  const state = {
+    missions: [],
+    selected: null,
+    detail: null,
+    battery: [],
+    liveFlight: null,
+    legs: new Map(),
+    flights: [],
+    report: null,
+  };
+  const CHART_WINDOW_MS = 5 * 60 * 1000;
+
+  // ---- helpers -------------------------------------------------------------------------
+  function el(tag, attrs, ...children) {
+    const e = document.createElement(tag);
+    for (const [k, v] of Object.entries(attrs || {})) {
+      if (v === undefined || v === null) continue;
+      if (k === 'class') e.className = v;
+      else if (k === 'text') e.textContent = v;
+      else if (k.startsWith('on')) e.addEventListener(k.slice(2), v);
+      else if (k === 'width') e.style.width = v; // CSSOM: allowed by the page's style-src 'self'
+      else e.setAttribute(k, v);
+    }
+    for (const c of children) {
+      if (c === null || c === undefined) continue;
+      e.append(c instanceof Node ? c : String(c));
+    }
+    return e;
+  }
+  const fmt = (v, digits) => (v === null || v === undefined || Number.isNaN(v) ? '-' : Number(v).toFixed(digits));
+  const pct = (v) => (v === null || v === undefined ? '-' : (v >= 0 ? '+' : '') + Number(v).toFixed(1) + '%');
+  const yesNo = (v) => (v === null || v === undefined ? '-' : v ? 'yes' : 'no');
+  const enc = encodeURIComponent;
+
+  async function api(path, options) {
+    let response;
+    try {
+      response = await fetch(path, Object.assign({ cache: 'no-store' }, options || {}));
+    } catch (e) {
+      return { status: 0, ok: false, body: { ok: false, stage: 'network', error: String(e) } };
+    }
+    let body = null;
+    try {
+      body = await response.json();
+    } catch (e) {
+      body = null;
+    }
+    return { status: response.status, ok: response.ok, body };
+  }
+
+  // ---- the token: asked when needed, kept in memory only ---------------------------------
+  let tokenWaiter = null;
+  function askToken() {
+    if (token) return Promise.resolve(token);
+    const dialog = $('token-dialog');
+    const input = $('token-input');
+    input.value = '';
+    dialog.hidden = false;
+    input.focus();
+    return new Promise((resolve) => {
+      tokenWaiter = resolve;
+    });
+  }
+  function closeTokenDialog(value) {
+    const input = $('token-input');
+    input.value = '';
+    $('token-dialog').hidden = true;
+    if (value) setToken(value);
+    const waiter = tokenWaiter;
+    tokenWaiter = null;
+    if (waiter) waiter(value || null);
+  }
+  function setToken(value) {
+    token = value;
+    $('token-state').textContent = value ? 'Token: entered (in memory)' : 'Token: not entered';
+    $('token-forget').hidden = !value;
+  }
+  $('token-ok').addEventListener('click', () => closeTokenDialog($('token-input').value.trim()));
+  $('token-cancel').addEventListener('click', () => closeTokenDialog(null));
+  $('token-input').addEventListener('keydown', (e) => {
+    if (e.key === 'Enter') closeTokenDialog($('token-input').value.trim());
+    if (e.key === 'Escape') closeTokenDialog(null);
+  });
+  $('token-forget').addEventListener('click', () => setToken(null));
+
+  // A POST that changes the vehicle: asks for the token if none is held; a refused token is forgotten.
+  async function authorizedPost(path, body) {
+    const t = await askToken();
+    if (!t) return null;
+    const answer = await api(path, {
+      method: 'POST',
+      headers: { Authorization: 'Bearer ' + t, 'Content-Type': 'application/json' },
+      body: JSON.stringify(body || {}),
+    });
+    if (answer.status === 401) setToken(null);
+    return answer;
+  }
+
+  function showResult(box, kind, text) {
+    box.className = 'result ' + kind;
+    box.textContent = text;
+  }
+  function failureText(answer) {
+    const b = answer.body || {};
+    const parts = ['Failed at stage ' + (b.stage || 'request') + ' (HTTP ' + answer.status + '): ' + (b.error || 'no answer')];
+    if (b.item !== null && b.item !== undefined) parts.push('item ' + b.item);
+    if (b.result) parts.push('autopilot result ' + b.result);
+    if (b.accepted) parts.push('the autopilot had accepted the transfer');
+    return parts.join('; ');
+  }
+
+  // ---- views ---------------------------------------------------------------------------
+  function show(view) {
+    for (const name of ['missions', 'live', 'flights']) {
+      $('view-' + name).hidden = name !== view;
+      $('tab-' + name).setAttribute('aria-pressed', String(name === view));
+    }
+    if (view === 'live') drawCharts();
+  }
+  for (const tab of document.querySelectorAll('.tab')) {
+    tab.addEventListener('click', () => show(tab.dataset.view));
+  }
+
+  // ---- missions ------------------------------------------------------------------------
+  function missionStatus(m) {
+    if (m.status === 'planned' && m.feasible === false) {
+      return m.sorties ? 'infeasible: ' + m.sorties + ' sorties' : 'infeasible';
+    }
+    if (m.status === 'error' && m.error) {
+      const where = m.error.line ? ' (line ' + m.error.line + ')' : m.error.item !== undefined ? ' (item ' + m.error.item + ')' : '';
+      return 'error' + where;
+    }
+    return m.status;
+  }
+  function statusClass(m) {
+    if (m.status === 'planned' && m.feasible === false) return 'status status-infeasible';
+    return 'status status-' + m.status;
+  }
+
+  async function loadMissions() {
+    const answer = await api('/api/missions');
+    const body = $('missions-body');
+    if (!answer.ok) {
+      body.replaceChildren(el('tr', {}, el('td', { colspan: 5, class: 'bad', text: failureText(answer) })));
+      return;
+    }
+    state.missions = answer.body.missions || [];
+    $('missions-dir').textContent = 'Folder: ' + answer.body.dir;
+    if (state.missions.length === 0) {
+      body.replaceChildren(el('tr', {}, el('td', { colspan: 5, text: 'No mission files in the folder.' })));
+    } else {
+      body.replaceChildren(
+        ...state.missions.map((m) =>
+          el(
+            'tr',
+            {
+              class: 'clickable' + (m.name === state.selected ? ' selected' : ''),
+              tabindex: 0,
+              'data-name': m.name,
+              onclick: () => selectMission(m.name),
+              onkeydown: (e) => {
+                if (e.key === 'Enter') selectMission(m.name);
+              },
+            },
+            el('td', { text: m.name }),
+            el('td', { class: statusClass(m), text: missionStatus(m) }),
+            el('td', { class: 'num', text: m.waypoints ?? '-' }),
+            el('td', { class: 'num', text: fmt(m.energy_kj, 2) }),
+            el('td', { class: 'num', text: m.saving_pct === undefined ? '-' : fmt(m.saving_pct, 1) + '%' }),
+          ),
+        ),
+      );
+    }
+    if (!state.selected && state.missions.length > 0) selectMission(state.missions[0].name);
+    else if (state.selected) selectMission(state.selected, true);
+  }
+
+  let lastPlotKey = null;
+  async function selectMission(name, refresh) {
+    state.selected = name;
+    for (const row of $('missions-body').children) {
+      row.classList.toggle('selected', row.dataset.name === name);
+    }
+    const answer = await api('/api/missions/' + enc(name));
+    if (state.selected !== name) return;
+    $('md-title').textContent = name;
+    if (!answer.ok) {
+      $('md-status').replaceChildren(el('p', { class: 'bad', text: failureText(answer) }));
+      $('md-facts').replaceChildren();
+      $('md-sorties').replaceChildren();
+      $('md-upload').hidden = true;
+      $('md-figure').hidden = true;
+      return;
+    }
+    const m = answer.body;
+    state.detail = m;
+    $('md-status').replaceChildren(
+      el('p', {}, 'Status: ', el('span', { class: statusClass(m), id: 'md-status-text', text: missionStatus(m) }), m.mission ? '  Mission ' + m.mission : ''),
+    );
+    const facts = [];
+    const fact = (k, ...v) => facts.push(el('dt', { text: k }), el('dd', {}, ...v));
+    if (m.status === 'error' && m.error) {
+      const e = m.error;
+      fact('Stage', e.stage);
+      if (e.line) fact('Line', String(e.line));
+      if (e.item !== undefined) fact('Item', String(e.item));
+      fact('Error', el('span', { class: 'bad', text: e.message }));
+    }
+    const plan = m.plan;
+    if (m.status === 'planned' && plan) {
+      const order = (o) => (plan.orders || []).find((x) => x.objective === o);
+      const energy = order('energy');
+      const distance = (plan.orders || []).filter((x) => x.objective === 'distance').sort((a, b) => a.energy_kj - b.energy_kj)[0];
+      if (energy) fact('Energy order', el('b', { text: fmt(energy.energy_kj, 2) + ' kJ' }), ' ', el('div', { class: 'seq', text: ['origin', ...energy.sequence, 'origin'].join(' > ') }));
+      if (distance) fact('Distance order', fmt(distance.energy_kj, 2) + ' kJ (' + distance.direction + ')', el('div', { class: 'seq', text: ['origin', ...distance.sequence, 'origin'].join(' > ') }));
+      if (m.saving_pct !== undefined && m.saving_pct !== null) fact('Saving', el('b', { text: fmt(m.saving_pct, 1) + '% of the distance order' }));
+      const b = plan.battery;
+      if (b) {
+        fact(
+          'Battery',
+          el('span', { class: b.feasible ? 'good' : 'bad', text: b.feasible ? 'fits one battery' : 'INFEASIBLE on one battery' }),
+          ': ' + fmt(b.total_kj, 2) + ' kJ of ' + fmt(b.budget_kj, 2) + ' kJ usable (' + fmt(b.reserve_pct, 0) + '% reserve)' + (b.feasible ? '' : ', over by ' + fmt(b.excess_kj, 2) + ' kJ'),
+        );
+      }
+      fact('Profile', String(plan.profile));
+    }
+    $('md-facts').replaceChildren(...facts);
+    renderSorties(m);
+    $('md-upload').hidden = !(m.status === 'planned' || m.status === 'error');
+    $('upload-btn').disabled = m.status !== 'planned';
+    const sortieSelect = $('upload-sortie');
+    const sorties = (plan && plan.sorties && plan.sorties.sorties) || [];
+    if (!refresh || sortieSelect.options.length !== sorties.length + 1) {
+      sortieSelect.replaceChildren(el('option', { value: '', text: 'whole mission' }), ...sorties.map((s, k) => el('option', { value: String(k + 1), text: 'sortie ' + (k + 1) })));
+    }
+    $('upload-sortie-label').hidden = sorties.length === 0;
+    if (!refresh) $('upload-result').textContent = '';
+    const plotKey = m.status === 'planned' ? name + '@' + m.digest : null;
+    $('md-figure').hidden = plotKey === null;
+    if (plotKey && plotKey !== lastPlotKey) {
+      $('md-plot').src = '/api/missions/' + enc(name) + '/plot.svg?digest=' + enc(m.digest);
+    }
+    lastPlotKey = plotKey;
+  }
+
+  function renderSorties(m) {
+    const box = $('md-sorties');
+    const s = m.plan && m.plan.sorties;
+    if (!s) {
+      box.replaceChildren(...(m.sorties_error ? [el('p', { class: 'bad', text: 'Sorties: ' + m.sorties_error })] : []));
+      return;
+    }
+    box.replaceChildren(
+      el('h3', { text: 'Sorties: ' + s.sorties.length + ' batteries, ' + fmt(s.total_kj, 2) + ' kJ in all (' + (s.optimal ? 'optimal' : String(s.method)) + ')' }),
+      el(
+        'table',
+        {},
+        el('thead', {}, el('tr', {}, el('th', { text: 'Sortie' }), el('th', { text: 'Order' }), el('th', { class: 'num', text: 'kJ' }), el('th', { class: 'num', text: 'Battery' }))),
+        el(
+          'tbody',
+          {},
+          ...s.sorties.map((x, k) =>
+            el('tr', {}, el('td', { class: 'num', text: String(k + 1) }), el('td', { class: 'seq', text: ['origin', ...x.sequence, 'origin'].join(' > ') }), el('td', { class: 'num', text: fmt(x.total_kj, 2) }), el('td', { class: 'num', text: fmt(x.budget_pct, 0) + '%' })),
+          ),
+        ),
+      ),
+    );
+  }
+
+  $('upload-btn').addEventListener('click', async () => {
+    const name = state.selected;
+    if (!name) return;
+    const box = $('upload-result');
+    const request = { order: $('upload-order').value, allow_infeasible: $('upload-infeasible').checked };
+    const sortie = $('upload-sortie').value;
+    if (sortie) request.sortie = Number(sortie);
+    const button = $('upload-btn');
+    button.disabled = true;
+    showResult(box, 'busy', 'Uploading ' + name + '…');
+    try {
+      const answer = await authorizedPost('/api/missions/' + enc(name) + '/upload', request);
+      if (answer === null) {
+        showResult(box, 'fail', 'Not uploaded: no token entered.');
+      } else if (answer.ok && answer.body && answer.body.ok !== false) {
+        const d = answer.body;
+        const lines = ['Uploaded and verified: ' + d.mission + ', ' + (d.order || request.order) + ' order' + (d.sortie ? ', sortie ' + d.sortie : '')];
+        if (d.sequence) lines.push('Order: ' + ['origin', ...d.sequence, 'origin'].join(' > '));
+        const r = d.report || {};
+        lines.push((r.items ?? '-') + ' items sent, ' + (r.verified ? 'read back identical' : 'NOT verified') + (d.autopilot ? ' (' + d.autopilot.flavour + ' autopilot)' : ''));
+        if (d.predicted_mission_kj !== undefined) lines.push('Predicted ' + fmt(d.predicted_mission_kj, 2) + ' kJ of ' + fmt(d.budget_kj, 2) + ' kJ');
+        showResult(box, r.verified ? 'ok' : 'fail', lines.join('\n'));
+        box.dataset.outcome = r.verified ? 'verified' : 'failed';
+      } else {
+        showResult(box, 'fail', failureText(answer));
+        box.dataset.outcome = 'failed';
+      }
+    } finally {
+      button.disabled = state.detail && state.detail.status !== 'planned';
+    }
+  });
+
+  // ---- live flight ---------------------------------------------------------------------
+  function setText(id, text) {
+    $(id).textContent = text;
+  }
+  function applyLink(link) {
+    if (!link) return;
+    const text = link.state.replace(/_/g, ' ') + (link.builtin_mock ? ' (built-in mock)' : '');
+    setText('lv-link', text);
+    setText('hdr-link', link.state.replace(/_/g, ' '));
+  }
+  function applyTelemetry(t) {
+    if (!t) return;
+    setText('lv-link', t.link.replace(/_/g, ' '));
+    setText('hdr-link', t.link.replace(/_/g, ' '));
+    setText('lv-armed', yesNo(t.armed));
+    setText('hdr-armed', yesNo(t.armed));
+    setText('lv-mode', t.mode || '-');
+    setText('hdr-mode', t.mode || '-');
+    setText('lv-item', t.mission_seq ?? '-');
+    setText('lv-landed', t.landed ? t.landed.replace(/_/g, ' ') : '-');
+    setText('lv-alt', t.position ? fmt(t.position.relative_alt_m, 1) + ' m' : '-');
+    setText('lv-speed', t.position ? fmt(t.position.speed_m_s, 1) + ' m/s' : '-');
+    const b = t.battery;
+    if (b) {
+      setText('hdr-battery', fmt(b.voltage_v, 2) + ' V ' + fmt(b.power_w, 0) + ' W');
+      state.battery.push({ wall_ms: t.wall_ms, voltage_v: b.voltage_v, current_a: b.current_a, power_w: b.power_w });
+      scheduleCharts();
+    }
+    if (t.flight) {
+      setText('lv-flight', t.flight.flight + ' ' + fmt(t.flight.t_s, 0) + ' s');
+      if (state.liveFlight !== t.flight.flight) startFlight(t.flight.flight);
+      const p = t.flight.in_progress;
+      if (p && p.kind === 'leg') {
+        const existing = state.legs.get(p.index);
+        if (!existing || existing.state !== 'done') {
+          state.legs.set(p.index, { part: p, state: 'flying' });
+          renderLegs();
+        }
+      }
+    }
+  }
+  function startFlight(name) {
+    state.liveFlight = name;
+    state.legs = new Map();
+    setText('live-flight-name', name);
+    setText('live-note', '');
+    renderLegs();
+  }
+  function applyPart(p) {
+    if (p.kind !== 'leg') return;
+    if (state.liveFlight !== p.flight) startFlight(p.flight);
+    state.legs.set(p.index, { part: p, state: 'done' });
+    renderLegs();
+  }
+  function renderLegs() {
+    const rows = [...state.legs.values()].sort((a, b) => a.part.start_s - b.part.start_s);
+    $('live-legs-body').replaceChildren(
+      ...rows.map((r, k) => {
+        const p = r.part;
+        return el(
+          'tr',
+          { 'data-state': r.state },
+          el('td', { class: 'num', text: String(k + 1) }),
+          el('td', { text: p.from + ' > ' + p.to }),
+          el('td', { class: 'num', text: fmt(p.predicted_kj, 3) }),
+          el('td', { class: 'num', text: fmt(p.measured_kj, 3) }),
+          el('td', { class: 'num', text: r.state === 'done' ? pct(p.error_pct) : '-' }),
+          el('td', { class: 'num', text: fmt(p.duration_s, 1) }),
+          el('td', { text: r.state === 'done' ? 'done' + (p.flags && p.flags.length ? ' (' + p.flags.join(', ') + ')' : '') : 'flying' }),
+        );
+      }),
+    );
+  }
+
+  let chartTimer = null;
+  function scheduleCharts() {
+    if (chartTimer) return;
+    chartTimer = setTimeout(() => {
+      chartTimer = null;
+      drawCharts();
+    }, 500);
+  }
+  function drawCharts() {
+    const now = state.battery.length ? state.battery[state.battery.length - 1].wall_ms : Date.now();
+    state.battery = state.battery.filter((p) => p.wall_ms >= now - CHART_WINDOW_MS);
+    if ($('view-live').hidden) return;
+    drawChart('ch-voltage', 'voltage_v', 'V', 2, now);
+    drawChart('ch-current', 'current_a', 'A', 1, now);
+    drawChart('ch-power', 'power_w', 'W', 0, now);
+  }
+  function drawChart(id, key, unit, digits, now) {
+    const svg = $(id);
+    const NS = 'http://www.w3.org/2000/svg';
+    const W = 520;
+    const H = 120;
+    const points = state.battery.filter((p) => p[key] !== null && p[key] !== undefined);
+    const nodes = [];
+    const line = (x1, y1, x2, y2) => {
+      const l = document.createElementNS(NS, 'line');
+      for (const [k, v] of Object.entries({ x1, y1, x2, y2, class: 'axis' })) l.setAttribute(k, v);
+      return l;
+    };
+    nodes.push(line(0, H - 1, W, H - 1), line(0, 0, 0, H));
+    $(id + '-now').textContent = points.length ? fmt(points[points.length - 1][key], digits) + ' ' + unit : '-';
+    if (points.length > 1) {
+      let lo = Math.min(...points.map((p) => p[key]));
+      let hi = Math.max(...points.map((p) => p[key]));
+      if (hi - lo < 1e-6) {
+        hi += 1;
+        lo -= 1;
+      }
+      const pad = (hi - lo) * 0.1;
+      lo -= pad;
+      hi += pad;
+      const x = (t) => ((t - (now - CHART_WINDOW_MS)) / CHART_WINDOW_MS) * W;
+      const y = (v) => H - ((v - lo) / (hi - lo)) * H;
+      const poly = document.createElementNS(NS, 'polyline');
+      poly.setAttribute('class', 'line');
+      poly.setAttribute('points', points.map((p) => x(p.wall_ms).toFixed(1) + ',' + y(p[key]).toFixed(1)).join(' '));
+      nodes.push(poly);
+      for (const [v, yy] of [
+        [hi, 14],
+        [lo, H - 4],
+      ]) {
+        const t = document.createElementNS(NS, 'text');
+        t.setAttribute('x', '4');
+        t.setAttribute('y', String(yy));
+        t.textContent = fmt(v, digits) + ' ' + unit;
+        nodes.push(t);
+      }
+    }
+    svg.replaceChildren(...nodes);
+  }
+
+  $('start-btn').addEventListener('click', async () => {
+    const box = $('start-result');
+    const button = $('start-btn');
+    button.disabled = true;
+    showResult(box, 'busy', 'Starting…');
+    try {
+      const answer = await authorizedPost('/api/vehicle/start', {});
+      if (answer === null) showResult(box, 'fail', 'Not started: no token entered.');
+      else if (answer.ok) {
+        showResult(box, 'ok', 'Started: armed, mission running');
+        box.dataset.outcome = 'started';
+      } else {
+        showResult(box, 'fail', failureText(answer));
+        box.dataset.outcome = 'failed';
+      }
+    } finally {
+      button.disabled = false;
+    }
+  });
+
+  async function loadVehicle() {
+    const [vehicle, battery] = await Promise.all([api('/api/vehicle'), api('/api/battery')]);
+    if (vehicle.ok) {
+      applyLink(vehicle.body.link);
+      const f = vehicle.body.flight;
+      if (f) {
+        startFlight(f.flight);
+        for (const p of f.parts || []) if (p.kind === 'leg') state.legs.set(p.index, { part: p, state: 'done' });
+        renderLegs();
+        if (!f.recording) setText('live-note', 'Last flight ' + f.flight + ' ended.');
+      }
+      applyTelemetry(vehicle.body.telemetry);
+    }
+    if (battery.ok) {
+      state.battery = (battery.body.history || []).concat(state.battery);
+      drawCharts();
+    }
+  }
+
+  // ---- flights -------------------------------------------------------------------------
+  async function loadFlights(select) {
+    const answer = await api('/api/flights');
+    const body = $('flights-body');
+    if (!answer.ok) {
+      body.replaceChildren(el('tr', {}, el('td', { colspan: 3, class: 'bad', text: failureText(answer) })));
+      return;
+    }
+    state.flights = answer.body.flights || [];
+    $('flights-dir').textContent = 'Log directory: ' + answer.body.dir;
+    if (state.flights.length === 0) {
+      body.replaceChildren(el('tr', {}, el('td', { colspan: 3, text: 'No flight recorded yet.' })));
+      return;
+    }
+    body.replaceChildren(
+      ...state.flights.map((f) =>
+        el(
+          'tr',
+          {
+            class: 'clickable' + (f.name === state.report ? ' selected' : ''),
+            tabindex: 0,
+            'data-name': f.name,
+            onclick: () => loadReport(f.name),
+            onkeydown: (e) => {
+              if (e.key === 'Enter') loadReport(f.name);
+            },
+          },
+          el('td', { text: f.name + (f.recording ? ' (recording)' : f.complete === false ? ' (incomplete)' : '') }),
+          el('td', { class: 'num', text: f.legs ?? '-' }),
+          el('td', { class: 'num', text: f.total ? fmt(f.total.measured_kj, 2) : '-' }),
+        ),
+      ),
+    );
+    const wanted = select || state.report || state.flights[0].name;
+    loadReport(wanted);
+  }
+
+  async function loadReport(name) {
+    state.report = name;
+    for (const row of $('flights-body').children) row.classList.toggle('selected', row.dataset.name === name);
+    const answer = await api('/api/flights/' + enc(name));
+    if (state.report !== name) return;
+    $('rp-title').textContent = 'Flight ' + name;
+    if (!answer.ok) {
+      $('rp-summary').replaceChildren(el('p', { class: 'bad', text: failureText(answer) }));
+      $('report-legs').hidden = true;
+      $('rp-figure').hidden = true;
+      return;
+    }
+    const f = answer.body;
+    const files = f.files || {};
+    const links = [];
+    if (files.tlog) links.push(el('a', { href: files.tlog, download: name + '-flight.tlog', id: 'rp-tlog', text: 'Telemetry log (.tlog)' }));
+    if (files.samples) links.push(el('a', { href: files.samples, download: name + '-samples.csv', id: 'rp-csv', text: 'Samples (CSV)' }));
+    if (files.report) links.push(el('a', { href: files.report, download: name + '-report.json', text: 'Report (JSON)' }));
+    $('rp-files').replaceChildren(...links);
+    const r = f.report;
+    if (!r) {
+      $('rp-summary').replaceChildren(el('p', { text: f.recording ? 'Recording: the report is written when it lands.' : 'No report for this flight.' }));
+      $('report-legs').hidden = true;
+    } else {
+      const t = r.total || {};
+      $('rp-summary').replaceChildren(
+        el(
+          'p',
+          {},
+          'Mission ' + (f.mission || '-') + ': predicted ',
+          el('b', { text: fmt(t.predicted_kj, 2) + ' kJ' }),
+          ', measured ',
+          el('b', { text: fmt(t.measured_kj, 2) + ' kJ' }),
+          ' (',
+          el('b', { text: pct(t.error_pct) }),
+          '), ' + fmt(t.duration_s, 0) + ' s, ',
+          el('span', { class: r.complete ? 'good' : 'bad', text: r.complete ? 'complete' : 'incomplete' }),
+          r.flags && r.flags.length ? '; flags: ' + r.flags.join(', ') : '',
+        ),
+      );
+      const top = Math.max(1e-9, ...r.legs.flatMap((l) => [l.predicted_kj || 0, l.measured_kj || 0]));
+      $('report-legs-body').replaceChildren(
+        ...r.legs.map((l, k) =>
+          el(
+            'tr',
+            {},
+            el('td', { class: 'num', text: String(k + 1) }),
+            el('td', { text: l.from + ' > ' + l.to }),
+            el('td', { class: 'num', text: fmt(l.predicted_kj, 3) }),
+            el('td', { class: 'num', text: fmt(l.measured_kj, 3) }),
+            el('td', { class: 'num', text: pct(l.error_pct) }),
+            el(
+              'td',
+              { class: 'bars' },
+              el('div', { class: 'bar predicted', width: (100 * (l.predicted_kj || 0)) / top + '%' }),
+              el('div', { class: 'bar measured', width: (100 * (l.measured_kj || 0)) / top + '%' }),
+            ),
+          ),
+        ),
+      );
+      $('report-legs').hidden = false;
+    }
+    $('rp-figure').hidden = false;
+    $('rp-plot').src = '/api/flights/' + enc(name) + '/plot.svg?complete=' + String(r ? r.complete : 'no') + '&legs=' + (r ? r.legs.length : 0);
+  }
+
+  // ---- the event stream ----------------------------------------------------------------
+  let missionsTimer = null;
+  function reloadMissionsSoon() {
+    clearTimeout(missionsTimer);
+    missionsTimer = setTimeout(loadMissions, 200);
+  }
+  function follow() {
+    const source = new EventSource('/api/events');
+    source.onopen = () => {
+      $('events-state').hidden = true;
+    };
+    source.onerror = () => {
+      $('events-state').hidden = false;
+      $('events-state').textContent = 'Lost the service\u2019s event stream: reconnecting…';
+    };
+    source.onmessage = (message) => {
+      let e;
+      try {
+        e = JSON.parse(message.data);
+      } catch (err) {
+        return;
+      }
+      switch (e.type) {
+        case 'telemetry':
+          applyTelemetry(e);
+          break;
+        case 'part':
+          applyPart(e);
+          break;
+        case 'flight_started':
+          startFlight(e.flight);
+          setText('live-note', (e.resumed ? 'Resumed recording ' : 'Recording ') + e.flight);
+          loadFlights();
+          break;
+        case 'flight_ended':
+          for (const r of state.legs.values()) if (r.state === 'flying') r.state = 'cut off';
+          if (e.report) {
+            state.legs = new Map();
+            for (const l of e.report.legs) state.legs.set(state.legs.size, { part: l, state: 'done' });
+          }
+          renderLegs();
+          setText('live-note', 'Flight ' + e.flight + ' ended: its report is under Flights.');
+          $('live-note').dataset.ended = e.flight;
+          loadFlights(e.flight);
+          break;
+        case 'recording_failed':
+          setText('live-note', 'Recording ' + e.flight + ' failed: ' + e.error);
+          break;
+        case 'mission_planned':
+        case 'mission_error':
+        case 'mission_removed':
+          reloadMissionsSoon();
+          break;
+        case 'link':
+          applyLink(e);
+          break;
+        case 'lagged':
+          loadVehicle();
+          break;
+        default:
+          break;
+      }
+    };
+  }
+
+  loadMissions();
+  loadVehicle();
+  loadFlights();
+  follow();
+})();
