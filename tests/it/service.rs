@@ -2,7 +2,8 @@
 //! (the built-in mock flying, or a mock of the test's own), driven through its HTTP API and
 //! event stream with the client `upload/fly --service` use; `emplan serve` as a child process
 //! for SIGKILL and restart; the command line's `fly --service` against `fly` alone; a load check
-//! of the flight log under many API clients at 50x real time.
+//! of the flight log under many API clients at 50x real time; the dashboard page and the
+//! figures it shows (the same SVG as `plan --plot` and `report --plot`).
 
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
@@ -1114,5 +1115,224 @@ async fn at_50x_real_time_under_50_polling_clients_and_5_event_followers_no_tele
             .all(|&p| p == parts[0] && p as usize > expected_parts),
         "{parts:?}"
     );
+    service.shutdown().await.expect("clean stop");
+}
+
+/// A plain HTTP/1.1 GET of `path` from the service at `url` (`http://HOST:PORT`): the status,
+/// the headers (names lower-cased) and the body, as the browser gets them.
+async fn raw_get(url: &str, path: &str) -> (u16, Vec<(String, String)>, Vec<u8>) {
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+    let authority = url.trim_start_matches("http://");
+    let mut stream = tokio::net::TcpStream::connect(authority)
+        .await
+        .expect("connected");
+    stream
+        .write_all(
+            format!("GET {path} HTTP/1.1\r\nHost: {authority}\r\nConnection: close\r\n\r\n")
+                .as_bytes(),
+        )
+        .await
+        .expect("request sent");
+    let mut raw = Vec::new();
+    tokio::time::timeout(Duration::from_secs(30), stream.read_to_end(&mut raw))
+        .await
+        .expect("answered within 30 s")
+        .expect("read");
+    let split = raw
+        .windows(4)
+        .position(|w| w == b"\r\n\r\n")
+        .expect("a header block");
+    let head = String::from_utf8_lossy(&raw[..split]).into_owned();
+    let mut lines = head.lines();
+    let status: u16 = lines
+        .next()
+        .and_then(|l| l.split_whitespace().nth(1))
+        .and_then(|s| s.parse().ok())
+        .expect("a status line");
+    let headers = lines
+        .filter_map(|l| l.split_once(':'))
+        .map(|(k, v)| (k.trim().to_ascii_lowercase(), v.trim().to_string()))
+        .collect::<Vec<_>>();
+    assert!(
+        !headers
+            .iter()
+            .any(|(k, v)| k == "transfer-encoding" && v.contains("chunked")),
+        "GET {path}: a chunked answer (this helper reads plain bodies only)"
+    );
+    (status, headers, raw[split + 4..].to_vec())
+}
+
+fn header<'a>(headers: &'a [(String, String)], name: &str) -> &'a str {
+    headers
+        .iter()
+        .find(|(k, _)| k == name)
+        .map_or("", |(_, v)| v.as_str())
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_dashboard_is_served_at_the_root_with_its_script_and_style_and_holds_no_token() {
+    let service = serve(builtin(20.0), &["paper-sample-8wp.toml"]).await;
+    let url = service.client.url().to_string();
+    let token = service.token.as_str().to_string();
+    let mut served = Vec::new();
+    for (path, content_type) in [
+        ("/", "text/html; charset=utf-8"),
+        ("/dashboard.js", "text/javascript; charset=utf-8"),
+        ("/dashboard.css", "text/css; charset=utf-8"),
+    ] {
+        let (status, headers, body) = raw_get(&url, path).await;
+        assert_eq!(status, 200, "GET {path}");
+        assert_eq!(header(&headers, "content-type"), content_type, "GET {path}");
+        // Nothing but the service's own origin may be loaded or reached from the page.
+        let policy = header(&headers, "content-security-policy");
+        assert!(
+            policy.contains("default-src 'self'"),
+            "GET {path}: {policy}"
+        );
+        assert!(
+            policy.contains("connect-src 'self'"),
+            "GET {path}: {policy}"
+        );
+        let text = String::from_utf8(body).expect("UTF-8");
+        assert!(!text.contains(&token), "GET {path}: the token is in it");
+        served.push(text);
+    }
+    let (page, script, style) = (&served[0], &served[1], &served[2]);
+    assert_eq!(page, emplan::service::dashboard::PAGE);
+    assert_eq!(script, emplan::service::dashboard::SCRIPT);
+    assert_eq!(style, emplan::service::dashboard::STYLE);
+    assert!(page.contains(r#"<script src="/dashboard.js"></script>"#));
+    assert!(page.contains(r#"<link rel="stylesheet" href="/dashboard.css">"#));
+    for id in [
+        "missions-body",
+        "md-plot",
+        "upload-btn",
+        "token-input",
+        "start-btn",
+        "live-legs-body",
+        "ch-power",
+        "flights-body",
+        "report-legs-body",
+        "rp-plot",
+    ] {
+        assert!(
+            page.contains(&format!("id=\"{id}\"")),
+            "the page has no #{id}"
+        );
+    }
+    // No asset from elsewhere (the field has no internet) and the token kept nowhere but in
+    // memory: no storage, no cookie.
+    for (name, text) in [("page", page), ("script", script), ("style", style)] {
+        let outside = text
+            .replace("http://www.w3.org/2000/svg", "")
+            .matches("://")
+            .count();
+        assert_eq!(outside, 0, "the {name} names another origin");
+        for store in [
+            "localStorage",
+            "sessionStorage",
+            "document.cookie",
+            "indexedDB",
+        ] {
+            assert!(!text.contains(store), "the {name} uses {store}");
+        }
+    }
+    // The API is still the API: an unknown path under it answers JSON, not the page.
+    let (status, headers, _) = raw_get(&url, "/api/nothing").await;
+    assert_eq!(status, 404);
+    assert!(header(&headers, "content-type").starts_with("application/json"));
+    service.shutdown().await.expect("clean stop");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_plot_endpoints_answer_the_svg_plan_plot_and_report_plot_write() {
+    let service = serve(builtin(50.0), &["paper-sample-3wp.toml"]).await;
+    let client = &service.client;
+    let url = client.url().to_string();
+    let work = tempfile::tempdir().expect("temp dir");
+    connected(client).await;
+    planned(client, "paper-sample-3wp.toml").await;
+
+    let (status, headers, body) =
+        raw_get(&url, "/api/missions/paper-sample-3wp.toml/plot.svg").await;
+    assert_eq!(status, 200);
+    assert_eq!(
+        header(&headers, "content-type"),
+        "image/svg+xml; charset=utf-8"
+    );
+    let cli_plan = work.path().join("plan.svg");
+    let (ok, _, stderr) = super::emplan(&[
+        "plan",
+        "missions/paper-sample-3wp.toml",
+        "--plot",
+        cli_plan.to_str().expect("path"),
+    ]);
+    assert!(ok, "{stderr}");
+    let drawn = String::from_utf8(body).expect("UTF-8");
+    assert!(
+        drawn.starts_with("<svg "),
+        "{}",
+        &drawn[..drawn.len().min(200)]
+    );
+    assert!(drawn.contains("paper-sample-3wp: minimum-energy order"));
+    assert_eq!(
+        drawn,
+        std::fs::read_to_string(&cli_plan).expect("plan --plot wrote"),
+        "the dashboard's figure is not the one `emplan plan --plot` draws"
+    );
+
+    let mut events = client.events().await.expect("events");
+    let uploaded = upload(client, "paper-sample-3wp.toml", json!({})).await;
+    assert!(uploaded.ok(), "{uploaded:?}");
+    let started = client
+        .post("/api/vehicle/start", &json!({}))
+        .await
+        .expect("POST start");
+    assert!(started.ok(), "{started:?}");
+    let ended = wait_for(&mut events, 90, is("flight_ended")).await;
+    let name = ended["flight"].as_str().expect("flight name").to_string();
+    let (status, headers, body) = raw_get(&url, &format!("/api/flights/{name}/plot.svg")).await;
+    assert_eq!(status, 200, "{}", String::from_utf8_lossy(&body));
+    assert_eq!(
+        header(&headers, "content-type"),
+        "image/svg+xml; charset=utf-8"
+    );
+    let cli_report = work.path().join("report.svg");
+    let dir = service.log_dir.join(&name);
+    let (ok, _, stderr) = super::emplan(&[
+        "report",
+        dir.to_str().expect("path"),
+        "--plot",
+        cli_report.to_str().expect("path"),
+    ]);
+    assert!(ok, "{stderr}");
+    let drawn = String::from_utf8(body).expect("UTF-8");
+    assert!(drawn.contains(&format!("{name}: battery power")));
+    assert_eq!(
+        drawn,
+        std::fs::read_to_string(&cli_report).expect("report --plot wrote"),
+        "the dashboard's flight figure is not the one `emplan report --plot` draws"
+    );
+
+    // What cannot be drawn is refused with the API's JSON failure document.
+    std::fs::write(
+        service.missions.join("broken.toml"),
+        "name = \"broken\"\n[origin\n",
+    )
+    .expect("written");
+    poll(client, "/api/missions/broken.toml", 30, |a| {
+        a.body["status"] == "error"
+    })
+    .await;
+    for (path, status) in [
+        ("/api/missions/broken.toml/plot.svg", 409),
+        ("/api/missions/nothing.toml/plot.svg", 404),
+        ("/api/flights/nothing/plot.svg", 404),
+        ("/api/flights/..%2Fflights/plot.svg", 404),
+    ] {
+        let answer = client.get(path).await.expect("GET");
+        assert_eq!(answer.status, status, "GET {path}: {answer:?}");
+        assert_eq!(answer.body["ok"], false, "GET {path}: {answer:?}");
+    }
     service.shutdown().await.expect("clean stop");
 }

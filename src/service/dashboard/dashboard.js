@@ -79,7 +79,7 @@
   }
   function setToken(value) {
     token = value;
-    $('token-state').textContent = value ? 'Token: entered (in memory)' : 'Token: not entered';
+    $('token-state').textContent = value ? 'Token: in memory' : 'Token: none';
     $('token-forget').hidden = !value;
   }
   $('token-ok').addEventListener('click', () => closeTokenDialog($('token-input').value.trim()));
@@ -392,11 +392,14 @@
     const now = state.battery.length ? state.battery[state.battery.length - 1].wall_ms : Date.now();
     state.battery = state.battery.filter((p) => p.wall_ms >= now - CHART_WINDOW_MS);
     if ($('view-live').hidden) return;
-    drawChart('ch-voltage', 'voltage_v', 'V', 2, now);
-    drawChart('ch-current', 'current_a', 'A', 1, now);
-    drawChart('ch-power', 'power_w', 'W', 0, now);
+    // The time axis spans what is held: from the oldest point (at most 5 minutes back) to now.
+    const from = state.battery.length ? Math.min(state.battery[0].wall_ms, now - 10000) : now - CHART_WINDOW_MS;
+    $('ch-span').textContent = '(last ' + Math.round((now - from) / 1000) + ' s, wall clock)';
+    drawChart('ch-voltage', 'voltage_v', 'V', 2, from, now);
+    drawChart('ch-current', 'current_a', 'A', 1, from, now);
+    drawChart('ch-power', 'power_w', 'W', 0, from, now);
   }
-  function drawChart(id, key, unit, digits, now) {
+  function drawChart(id, key, unit, digits, from, now) {
     const svg = $(id);
     const NS = 'http://www.w3.org/2000/svg';
     const W = 520;
@@ -420,7 +423,7 @@
       const pad = (hi - lo) * 0.1;
       lo -= pad;
       hi += pad;
-      const x = (t) => ((t - (now - CHART_WINDOW_MS)) / CHART_WINDOW_MS) * W;
+      const x = (t) => ((t - from) / Math.max(1, now - from)) * W;
       const y = (v) => H - ((v - lo) / (hi - lo)) * H;
       const poly = document.createElementNS(NS, 'polyline');
       poly.setAttribute('class', 'line');
