@@ -411,7 +411,7 @@
       for (const [k, v] of Object.entries({ x1, y1, x2, y2, class: 'axis' })) l.setAttribute(k, v);
       return l;
     };
-    nodes.push(line(0, H - 1, W, H - 1), line(0, 0, 0, H));
+    nodes.push(line(78, H - 1, W, H - 1), line(78, 0, 78, H));
     $(id + '-now').textContent = points.length ? fmt(points[points.length - 1][key], digits) + ' ' + unit : '-';
     if (points.length > 1) {
       let lo = Math.min(...points.map((p) => p[key]));
@@ -423,7 +423,8 @@
       const pad = (hi - lo) * 0.1;
       lo -= pad;
       hi += pad;
-      const x = (t) => ((t - from) / Math.max(1, now - from)) * W;
+      const left = 78; // the scale's labels stand left of the line
+      const x = (t) => left + ((t - from) / Math.max(1, now - from)) * (W - left);
       const y = (v) => H - ((v - lo) / (hi - lo)) * H;
       const poly = document.createElementNS(NS, 'polyline');
       poly.setAttribute('class', 'line');
