@@ -4,7 +4,7 @@
 // table fill leg by leg, then open the flight's report. Saves screenshots; exits non-zero on any
 // failure (a step timing out, a console error, a CSP violation, the token found in the page).
 //
-// node check.mjs --url URL --token-file FILE --mission NAME --out DIR [--chromium PATH]
+// node check.mjs --url URL --token-file FILE --mission NAME --out DIR [--broken NAME] [--chromium PATH]
 import { chromium } from 'playwright-core';
 import { readFileSync, mkdirSync } from 'node:fs';
 import { join } from 'node:path';
@@ -29,6 +29,8 @@ if (token.length < 16) throw new Error(`${opts.token_file}: no token in it`);
 mkdirSync(opts.out, { recursive: true });
 const timeout = Number(opts.timeout) * 1000;
 const problems = [];
+// Refusals this check provokes on purpose (a wrong token, an upload in flight): each expected once.
+const provoked = [];
 const log = (...a) => console.log('dashboard-check:', ...a);
 
 async function noTokenInPage(page, when) {
@@ -67,11 +69,18 @@ try {
   page = await context.newPage();
   page.setDefaultTimeout(timeout);
   page.on('console', (m) => {
-    if (m.type() === 'error') problems.push(`console error: ${m.text()}`);
+    // A refused request is also logged as "Failed to load resource": the response listener
+    // below judges those, with their URL, against the refusals this check provokes.
+    if (m.type() === 'error' && !m.text().startsWith('Failed to load resource: the server responded')) {
+      problems.push(`console error: ${m.text()}`);
+    }
   });
   page.on('pageerror', (e) => problems.push(`page error: ${e.message}`));
   page.on('response', (r) => {
-    if (r.status() >= 400) problems.push(`HTTP ${r.status()} for ${r.url()}`);
+    if (r.status() < 400) return;
+    const k = provoked.findIndex((p) => p.status === r.status() && r.url().endsWith(p.path));
+    if (k >= 0) provoked.splice(k, 1);
+    else problems.push(`HTTP ${r.status()} for ${r.url()}`);
   });
   page.on('requestfailed', (r) => {
     // An event stream closed when the page goes away is not a failure.
@@ -88,6 +97,14 @@ try {
   // Missions: select the mission, its status, facts and figure.
   await page.goto(opts.url + '/', { waitUntil: 'load' });
   const row = page.locator(`#missions-body tr[data-name="${opts.mission}"]`);
+  if (opts.broken) {
+    // A mission file that does not read is listed with its located error.
+    const cell = `#missions-body tr[data-name="${opts.broken}"] td.status`;
+    await page.waitForFunction((sel) => document.querySelector(sel) && document.querySelector(sel).textContent !== 'planning', cell, { timeout });
+    const status = await page.locator(cell).textContent();
+    if (!/^error \((line|item) \d+\)$/.test(status)) throw new Error(`${opts.broken} is listed as ${JSON.stringify(status)}, not as an error with its line`);
+    log(`${opts.broken}: listed as ${status}`);
+  }
   await row.click();
   await page.waitForFunction(() => document.querySelector('#md-status-text')?.textContent === 'planned', null, { timeout });
   await page.locator('#md-facts dt', { hasText: 'Battery' }).waitFor();
@@ -95,6 +112,20 @@ try {
   await noTokenInPage(page, 'on arrival');
   await page.screenshot({ path: join(opts.out, 'missions.png') });
   log('missions view: planned, facts and figure shown');
+
+  // A wrong token typed: refused at the auth stage, shown, and forgotten by the page.
+  provoked.push({ status: 401, path: `/api/missions/${encodeURIComponent(opts.mission)}/upload` });
+  await page.click('#upload-btn');
+  await page.locator('#token-dialog').waitFor({ state: 'visible' });
+  await page.fill('#token-input', 'f'.repeat(token.length));
+  await page.click('#token-ok');
+  await page.waitForFunction(() => document.querySelector('#upload-result')?.dataset.outcome, null, { timeout });
+  const refused = await page.evaluate(() => [document.querySelector('#upload-result').dataset.outcome, document.querySelector('#upload-result').textContent, document.querySelector('#token-state').textContent]);
+  if (refused[0] !== 'failed' || !refused[1].includes('stage auth') || refused[2] !== 'Token: none') {
+    throw new Error(`a wrong token: ${JSON.stringify(refused)}`);
+  }
+  log(`wrong token: ${refused[1]}`);
+  await page.evaluate(() => delete document.querySelector('#upload-result').dataset.outcome);
 
   // Upload through the page: the button asks for the token.
   await page.click('#upload-btn');
@@ -121,6 +152,18 @@ try {
     throw new Error(`start through the page: ${start}`);
   }
   log(`start: ${start}`);
+
+  // An upload while the vehicle flies: refused, the failing stage shown.
+  await page.waitForFunction(() => document.querySelector('#lv-armed')?.textContent === 'yes', null, { timeout });
+  await page.click('#tab-missions');
+  await page.evaluate(() => delete document.querySelector('#upload-result').dataset.outcome);
+  provoked.push({ status: 409, path: `/api/missions/${encodeURIComponent(opts.mission)}/upload` });
+  await page.click('#upload-btn');
+  await page.waitForFunction(() => document.querySelector('#upload-result')?.dataset.outcome, null, { timeout });
+  const inFlight = await page.evaluate(() => [document.querySelector('#upload-result').dataset.outcome, document.querySelector('#upload-result').textContent]);
+  if (inFlight[0] !== 'failed' || !inFlight[1].includes('stage vehicle')) throw new Error(`an upload in flight: ${JSON.stringify(inFlight)}`);
+  log(`upload in flight: ${inFlight[1]}`);
+  await page.click('#tab-live');
 
   // The live table: legs appear one by one as the service's events arrive.
   const began = Date.now();
@@ -177,6 +220,7 @@ try {
   await page.screenshot({ path: join(opts.out, 'report.png') });
   await page.screenshot({ path: join(opts.out, 'report-full.png'), fullPage: true });
   log(`report: ${legs} legs, measured kJ ${measured.join(' ')}; .tlog and CSV links answer`);
+  if (provoked.length) problems.push(`refusals expected and not seen: ${JSON.stringify(provoked)}`);
   if (problems.length) throw new Error(`the page reported problems:\n  ${problems.join('\n  ')}`);
   log(`ok: screenshots in ${opts.out}`);
 } catch (e) {
