@@ -36,6 +36,8 @@ cleanup() {
 trap cleanup EXIT
 mkdir -p "$work/missions" "$work/flights" "$out"
 cp "$mission" "$work/missions/"
+# A mission one battery cannot fly: listed infeasible, its sorties shown.
+cp missions/long-inspection.toml "$work/missions/"
 # A file that does not read as a mission (a NaN coordinate): the page lists it with its line.
 printf 'name = "broken"\n[origin]\nlat_deg = 38.5\nlon_deg = -121.7\nhome_alt_amsl_m = 16.0\nheight_above_home_m = 30.0\n\n[[waypoints]]\nname = "A"\nx_m = 1.0\ny_m = nan\nz_m = 5.0\n' \
     >"$work/missions/broken.toml"
@@ -52,7 +54,8 @@ url=$(head -n 1 "$work/url")
 echo "dashboard-check: $url (missions $work/missions, flights $work/flights)"
 status=0
 node sitl/dashboard/check.mjs --url "$url" --token-file "$work/flights/token" \
-    --mission "$(basename "$mission")" --broken broken.toml --out "$out" || status=$?
+    --mission "$(basename "$mission")" --broken broken.toml \
+    --infeasible long-inspection.toml --out "$out" || status=$?
 if [ "$status" -ne 0 ]; then
     echo "== emplan serve's log" >&2
     tail -n 40 "$work/serve.log" >&2

@@ -4,7 +4,7 @@
 // table fill leg by leg, then open the flight's report. Saves screenshots; exits non-zero on any
 // failure (a step timing out, a console error, a CSP violation, the token found in the page).
 //
-// node check.mjs --url URL --token-file FILE --mission NAME --out DIR [--broken NAME] [--chromium PATH]
+// node check.mjs --url URL --token-file FILE --mission NAME --out DIR [--broken NAME] [--infeasible NAME] [--chromium PATH]
 import { chromium } from 'playwright-core';
 import { readFileSync, mkdirSync } from 'node:fs';
 import { join } from 'node:path';
@@ -104,6 +104,18 @@ try {
     const status = await page.locator(cell).textContent();
     if (!/^error \((line|item) \d+\)$/.test(status)) throw new Error(`${opts.broken} is listed as ${JSON.stringify(status)}, not as an error with its line`);
     log(`${opts.broken}: listed as ${status}`);
+  }
+  if (opts.infeasible) {
+    // A mission one battery cannot fly: listed infeasible, its sorties shown and offered.
+    const cell = `#missions-body tr[data-name="${opts.infeasible}"] td.status`;
+    await page.waitForFunction((sel) => /^infeasible/.test(document.querySelector(sel)?.textContent || ''), cell, { timeout });
+    await page.click(`#missions-body tr[data-name="${opts.infeasible}"]`);
+    await page.waitForFunction(() => /^infeasible/.test(document.querySelector('#md-status-text')?.textContent || ''), null, { timeout });
+    await page.waitForFunction(() => document.querySelectorAll('#md-sorties tbody tr').length >= 2 && document.querySelectorAll('#upload-sortie option').length >= 3, null, { timeout });
+    const shown = await page.evaluate(() => [document.querySelector('#md-status-text').textContent, document.querySelectorAll('#md-sorties tbody tr').length]);
+    await imageLoaded(page, '#md-plot');
+    await page.screenshot({ path: join(opts.out, 'missions-infeasible.png') });
+    log(`${opts.infeasible}: ${shown[0]}, ${shown[1]} sorties shown`);
   }
   await row.click();
   await page.waitForFunction(() => document.querySelector('#md-status-text')?.textContent === 'planned', null, { timeout });

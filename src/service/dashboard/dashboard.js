@@ -594,10 +594,19 @@
   }
   function follow() {
     const source = new EventSource('/api/events');
+    let lost = false;
     source.onopen = () => {
       $('events-state').hidden = true;
+      if (lost) {
+        // Back after a gap (the service restarted, the network dropped): what was missed is read again.
+        lost = false;
+        loadMissions();
+        loadVehicle();
+        loadFlights();
+      }
     };
     source.onerror = () => {
+      lost = true;
       $('events-state').hidden = false;
       $('events-state').textContent = 'Lost the service\u2019s event stream: reconnecting…';
     };
