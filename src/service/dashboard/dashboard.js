@@ -246,6 +246,7 @@
     $('md-figure').hidden = plotKey === null;
     if (plotKey && plotKey !== lastPlotKey) {
       $('md-plot').src = '/api/missions/' + enc(name) + '/plot.svg?digest=' + enc(m.digest);
+      $('md-plot-open').href = $('md-plot').src;
     }
     lastPlotKey = plotKey;
   }
@@ -584,6 +585,7 @@
     }
     $('rp-figure').hidden = false;
     $('rp-plot').src = '/api/flights/' + enc(name) + '/plot.svg?complete=' + String(r ? r.complete : 'no') + '&legs=' + (r ? r.legs.length : 0);
+    $('rp-plot-open').href = $('rp-plot').src;
   }
 
   // ---- the event stream ----------------------------------------------------------------
