@@ -247,6 +247,7 @@ async fn the_mock_flies_to_the_end_with_twenty_percent_loss_each_way() {
             ..Faults::default()
         },
         seed: 11,
+        speedup: 50.0,
         ..MockConfig::default()
     };
     let (seen, _) = fly(lossy, Duration::from_secs(60)).await;
