@@ -23,7 +23,14 @@ pub struct Args {
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let vehicle = Vehicle::load(&args.vehicle)?;
-    let c = calibrate(&vehicle, args.fit)?;
+    // The fit runs about a minute: a spinner with the time taken on a terminal.
+    let c = if args.fit {
+        super::progress::solving("fitting the calibrated parameters", || {
+            calibrate(&vehicle, true)
+        })?
+    } else {
+        calibrate(&vehicle, false)?
+    };
     if args.json {
         println!("{}", serde_json::to_string_pretty(&c.to_json())?);
         return Ok(ExitCode::SUCCESS);
