@@ -192,12 +192,21 @@ impl FlightPlan {
         }
     }
 
-    /// A vehicle position in the mission frame (height from its relative altitude).
-    pub fn to_local(&self, p: &Position) -> Enu {
+    /// A vehicle position in the mission frame. Its height above home is `alt_amsl_m` less the
+    /// home altitude the autopilot reported (HOME_POSITION), else its `relative_alt_m`. The two
+    /// agree on a healthy autopilot (relative_alt = alt - home alt, MAVLink common.xml), but PX4
+    /// SITL's relative_alt jumps by 1-3 m in over half its GLOBAL_POSITION_INT in flight while
+    /// alt follows LOCAL_POSITION_NED to 1 mm (measured on a PX4 SITL flight tlog against LOCAL_POSITION_NED),
+    /// and a metre of false height moves the 4 m arrival and the departure from hover.
+    pub fn to_local(&self, p: &Position, home_alt_amsl_m: Option<f64>) -> Enu {
+        let height_m = match home_alt_amsl_m {
+            Some(home) => p.alt_amsl_m - home,
+            None => p.relative_alt_m,
+        };
         self.origin().to_enu(Geodetic {
             lat_deg: p.lat_deg,
             lon_deg: p.lon_deg,
-            alt_m: self.home.alt_m + p.relative_alt_m,
+            alt_m: self.home.alt_m + height_m,
         })
     }
 
@@ -333,10 +342,20 @@ mod tests {
             ve_m_s: 0.0,
             vd_m_s: 0.0,
         };
-        let back = plan.to_local(&p);
+        let back = plan.to_local(&p, None);
         assert!((back.x_east_m - b.x_east_m).abs() < 1e-6, "{back:?}");
         assert!((back.y_north_m - b.y_north_m).abs() < 1e-6, "{back:?}");
         assert!((back.z_up_m - b.z_up_m).abs() < 1e-6, "{back:?}");
+        // With the autopilot's home: the height is alt less home's altitude, whatever
+        // relative_alt says (PX4 SITL's jumps by metres).
+        let home = m.origin.home.alt_m + 3.0;
+        let jumpy = Position {
+            relative_alt_m: p.relative_alt_m + 2.5,
+            ..p
+        };
+        let back = plan.to_local(&jumpy, Some(home));
+        assert!((back.z_up_m - b.z_up_m).abs() < 1e-6, "{back:?}");
+        assert!((plan.to_local(&jumpy, None).z_up_m - b.z_up_m - 2.5).abs() < 1e-6);
     }
 
     #[test]

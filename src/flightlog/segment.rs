@@ -666,10 +666,10 @@ impl Segmenter {
                 _ => {}
             },
             Reading::Position(p) => {
-                let local = self.plan.to_local(p);
+                let local = self.plan.to_local(p, self.state.home_alt_amsl_m);
                 self.on_position(t_s, local, p.speed_m_s());
             }
-            Reading::StatusText { .. } => {}
+            Reading::StatusText { .. } | Reading::Home { .. } => {}
         }
     }
 }
@@ -867,6 +867,46 @@ mod tests {
             }
         }
         assert!(checked);
+    }
+
+    #[test]
+    fn with_the_autopilots_home_a_jumpy_relative_altitude_moves_no_boundary() {
+        let (flight, _) = fly();
+        let plan = square_plan();
+        let bounds = |stamped: &[Stamped]| -> Vec<(SegmentKind, f64, f64)> {
+            let s =
+                Segmenter::run(square_plan(), SegmentConfig::default(), stamped).expect("valid");
+            s.completed()
+                .iter()
+                .map(|x| (x.kind, x.start_s, x.end_s))
+                .collect()
+        };
+        let clean = bounds(&flight.stamped());
+        // PX4 SITL: relative_alt off by metres in most GLOBAL_POSITION_INT, alt exact.
+        let mut n = 0;
+        let jumpy: Vec<Stamped> = flight
+            .stamped()
+            .into_iter()
+            .map(|mut m| {
+                if let Reading::Position(p) = &mut m.reading {
+                    n += 1;
+                    p.relative_alt_m += [2.5, -1.5, 0.0][n % 3];
+                }
+                m
+            })
+            .collect();
+        assert_ne!(bounds(&jumpy), clean, "the jumps must matter without home");
+        let mut with_home = vec![Stamped {
+            t_s: 0.0,
+            wall_us: 0,
+            reading: Reading::Home {
+                lat_deg: plan.home.lat_deg,
+                lon_deg: plan.home.lon_deg,
+                alt_amsl_m: plan.home.alt_m,
+            },
+        }];
+        with_home.extend(jumpy);
+        assert_eq!(bounds(&with_home), clean);
     }
 
     #[test]

@@ -33,6 +33,13 @@ pub enum Reading {
         severity: u8,
         text: String,
     },
+    /// HOME_POSITION: the home the autopilot holds; `relative_alt` is measured from its altitude
+    /// (above mean sea level).
+    Home {
+        lat_deg: f64,
+        lon_deg: f64,
+        alt_amsl_m: f64,
+    },
 }
 
 /// Where a battery reading came from.
@@ -183,6 +190,8 @@ pub struct VehicleState {
     pub armed: Option<bool>,
     pub mode: Option<FlightMode>,
     pub landed: Option<LandedState>,
+    /// The home altitude (AMSL) the autopilot last reported.
+    pub home_alt_amsl_m: Option<f64>,
 }
 
 impl VehicleState {
@@ -198,6 +207,7 @@ impl VehicleState {
                 }
             }
             Reading::Landed(state) => self.landed = Some(*state),
+            Reading::Home { alt_amsl_m, .. } => self.home_alt_amsl_m = Some(*alt_amsl_m),
             Reading::Battery(_) | Reading::ItemReached { .. } | Reading::StatusText { .. } => {}
         }
     }

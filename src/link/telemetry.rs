@@ -15,6 +15,7 @@
 //!   consumed of zero or below. That is flagged `fake_current`, never integrated.
 //! - SYS_STATUS `voltage_battery` mV (UINT16_MAX unknown), `current_battery` cA (-1 unknown).
 //! - GLOBAL_POSITION_INT degE7, mm, cm/s (north, east, down); lat = lon = 0 is no fix.
+//! - HOME_POSITION `altitude` mm AMSL; lat = lon = 0 is no home yet.
 //! - HEARTBEAT of the autopilot only (not a GCS, camera or companion: `autopilot` INVALID or a
 //!   ground-station type); armed = `MAV_MODE_FLAG_SAFETY_ARMED`; the mode from `custom_mode`: PX4
 //!   main mode in byte 2, sub mode in byte 3; ArduCopter's mode numbers.
@@ -266,6 +267,14 @@ pub fn decode(header: &MavHeader, message: &MavMessage) -> Decoded {
         }
         MavMessage::EXTENDED_SYS_STATE(s) => {
             Decoded::reading(Reading::Landed(landed_state(s.landed_state)))
+        }
+        // Untimed: its time_usec is when home was set, not when the message was sent.
+        MavMessage::HOME_POSITION(h) if h.latitude != 0 || h.longitude != 0 => {
+            Decoded::reading(Reading::Home {
+                lat_deg: f64::from(h.latitude) * 1e-7,
+                lon_deg: f64::from(h.longitude) * 1e-7,
+                alt_amsl_m: f64::from(h.altitude) * 1e-3,
+            })
         }
         MavMessage::STATUSTEXT(s) => {
             let bytes: &[u8] = &s.text[..];
@@ -666,6 +675,17 @@ pub fn encode(reading: &Reading, flavour: Flavour) -> MavMessage {
                 LandedState::Takeoff => MavLandedState::MAV_LANDED_STATE_TAKEOFF,
                 LandedState::Landing => MavLandedState::MAV_LANDED_STATE_LANDING,
             },
+            ..Default::default()
+        }),
+        Reading::Home {
+            lat_deg,
+            lon_deg,
+            alt_amsl_m,
+        } => MavMessage::HOME_POSITION(mav::HOME_POSITION_DATA {
+            latitude: (lat_deg * 1e7).round() as i32,
+            longitude: (lon_deg * 1e7).round() as i32,
+            altitude: (alt_amsl_m * 1000.0).round() as i32,
+            q: [1.0, 0.0, 0.0, 0.0],
             ..Default::default()
         }),
         Reading::StatusText { severity, text } => {
@@ -1089,6 +1109,39 @@ mod tests {
         assert!((p.lat_deg - 38.5362).abs() < 1e-9 && (p.lon_deg + 121.7875).abs() < 1e-9);
         assert!((p.alt_amsl_m - 46.25).abs() < 1e-9 && (p.relative_alt_m - 30.25).abs() < 1e-9);
         assert_eq!((p.vn_m_s, p.ve_m_s, p.vd_m_s), (1.5, -2.0, 0.5));
+    }
+
+    #[test]
+    fn home_position_gives_home_altitude_in_metres_untimed_and_nothing_before_home_is_set() {
+        let message = MavMessage::HOME_POSITION(mav::HOME_POSITION_DATA {
+            latitude: 385_362_010,
+            longitude: -1_217_874_959,
+            altitude: 16_186,
+            // When home was set, not when the message was sent: never a clock anchor.
+            time_usec: 3_828_000,
+            ..Default::default()
+        });
+        let decoded = decode(&vehicle(), &message);
+        assert_eq!(decoded.time_boot_ms, None);
+        let Some(Reading::Home {
+            lat_deg,
+            lon_deg,
+            alt_amsl_m,
+        }) = decoded.reading
+        else {
+            panic!("home expected");
+        };
+        assert!((lat_deg - 38.536_201).abs() < 1e-9 && (lon_deg + 121.787_495_9).abs() < 1e-9);
+        assert!((alt_amsl_m - 16.186).abs() < 1e-9);
+        let unset = MavMessage::HOME_POSITION(mav::HOME_POSITION_DATA::default());
+        assert_eq!(decode(&vehicle(), &unset), Decoded::NOTHING);
+        let Some(reading) = decoded.reading.clone() else {
+            unreachable!()
+        };
+        assert_eq!(
+            decode(&vehicle(), &encode(&reading, Flavour::Px4)).reading,
+            Some(reading)
+        );
     }
 
     #[test]

@@ -43,9 +43,9 @@ use crate::link::mav::{
     MavAutopilot, MavBatteryChargeState, MavBatteryFunction, MavBatteryType, MavCmd,
     MavLandedState, MavMessage, MavModeFlag, MavResult, MavSeverity, MavState, MavSysStatusSensor,
     MavType, MavVtolState, MissionState, ATTITUDE_DATA, BATTERY_STATUS_DATA, COMMAND_ACK_DATA,
-    EXTENDED_SYS_STATE_DATA, GLOBAL_POSITION_INT_DATA, HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA,
-    MISSION_CURRENT_DATA, MISSION_ITEM_INT_DATA, MISSION_ITEM_REACHED_DATA, STATUSTEXT_DATA,
-    SYS_STATUS_DATA,
+    EXTENDED_SYS_STATE_DATA, GLOBAL_POSITION_INT_DATA, HEARTBEAT_DATA, HOME_POSITION_DATA,
+    LOCAL_POSITION_NED_DATA, MISSION_CURRENT_DATA, MISSION_ITEM_INT_DATA,
+    MISSION_ITEM_REACHED_DATA, STATUSTEXT_DATA, SYS_STATUS_DATA,
 };
 use crate::link::Flavour;
 use crate::mission::{Enu, Geodetic, Origin};
@@ -240,7 +240,7 @@ fn steps(duration_s: f64) -> u64 {
 
 /// Streams the vehicle can send, in the order they go out within a step (messages carrying
 /// `time_boot_ms` first, so a ground station stamping the others from them sees a fresh time).
-const STREAM_IDS: [u32; 8] = [
+const STREAM_IDS: [u32; 9] = [
     GLOBAL_POSITION_INT_DATA::ID,
     LOCAL_POSITION_NED_DATA::ID,
     ATTITUDE_DATA::ID,
@@ -249,6 +249,7 @@ const STREAM_IDS: [u32; 8] = [
     BATTERY_STATUS_DATA::ID,
     EXTENDED_SYS_STATE_DATA::ID,
     MISSION_CURRENT_DATA::ID,
+    HOME_POSITION_DATA::ID,
 ];
 
 /// Default interval of a stream per flavour. PX4: its SITL GCS link (px4-rc.mavlink: position
@@ -266,8 +267,11 @@ fn default_interval_s(flavour: Flavour, id: u32) -> Option<f64> {
         (Flavour::Px4 | Flavour::Generic, BATTERY_STATUS_DATA::ID) => 0.5,
         (Flavour::Px4 | Flavour::Generic, SYS_STATUS_DATA::ID | EXTENDED_SYS_STATE_DATA::ID) => 1.0,
         (Flavour::Px4 | Flavour::Generic, MISSION_CURRENT_DATA::ID) => 1.0,
+        // PX4's normal mode streams HOME_POSITION at 0.5 Hz (mavlink_main.cpp); ArduCopter sends
+        // it on request only.
+        (Flavour::Px4 | Flavour::Generic, HOME_POSITION_DATA::ID) => 0.5,
         (Flavour::ArduPilot, GLOBAL_POSITION_INT_DATA::ID | LOCAL_POSITION_NED_DATA::ID) => 3.0,
-        (Flavour::ArduPilot, _) if id != ATTITUDE_DATA::ID => 2.0,
+        (Flavour::ArduPilot, _) if id != ATTITUDE_DATA::ID && id != HOME_POSITION_DATA::ID => 2.0,
         _ => return None,
     };
     Some(1.0 / hz)
@@ -320,7 +324,7 @@ pub struct SimVehicle<'v> {
     mission_state: MissionState,
     /// The waypoint PX4 never reports reached (the last before an RTL item).
     silent_reached: Option<u16>,
-    streams: [Stream; 8],
+    streams: [Stream; STREAM_IDS.len()],
     /// Next 1 Hz tick of PX4's mission manager (repeats of MISSION_ITEM_REACHED).
     slow_next_step: u64,
     idle_since_s: Option<f64>,
@@ -1039,6 +1043,16 @@ impl<'v> SimVehicle<'v> {
                 })
             }
             MISSION_CURRENT_DATA::ID => self.mission_current_message(),
+            HOME_POSITION_DATA::ID => {
+                let home = self.config.home;
+                MavMessage::HOME_POSITION(HOME_POSITION_DATA {
+                    latitude: (home.lat_deg * 1e7).round() as i32,
+                    longitude: (home.lon_deg * 1e7).round() as i32,
+                    altitude: (home.alt_m * 1000.0).round() as i32,
+                    q: [1.0, 0.0, 0.0, 0.0],
+                    ..Default::default()
+                })
+            }
             _ => return,
         };
         self.out.push(message);
