@@ -913,7 +913,6 @@ fn distance(a: Local, b: Local) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::link::mav::MavMissionType;
     use crate::physics::vehicle::shipped;
 
     const HOME: Geodetic = Geodetic {
@@ -922,6 +921,7 @@ mod tests {
         alt_m: 16.0,
     };
 
+    /// `link::items::item` numbered `seq`, addressed to system 1 (what the ground sends).
     fn item(
         seq: u16,
         command: MavCmd,
@@ -930,21 +930,10 @@ mod tests {
         xyz: (i32, i32, f32),
     ) -> MISSION_ITEM_INT_DATA {
         MISSION_ITEM_INT_DATA {
-            param1: params[0],
-            param2: params[1],
-            param3: params[2],
-            param4: params[3],
-            x: xyz.0,
-            y: xyz.1,
-            z: xyz.2,
             seq,
-            command,
             target_system: 1,
             target_component: 1,
-            frame,
-            current: 0,
-            autocontinue: 1,
-            mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
+            ..crate::link::items::item(command, frame, params, xyz.0, xyz.1, xyz.2)
         }
     }
 
