@@ -550,3 +550,80 @@ impl LogCalibration {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn shipped() -> Vehicle {
+        Vehicle::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("models/s1000"))
+            .expect("the shipped vehicle")
+    }
+
+    /// Legs "measured" as `truth` prices them with the hvb profile, two per flight.
+    fn flights_of(truth: &Vehicle) -> Flights {
+        let geometry = [
+            (40.0, 25.0),
+            (40.0, -1.0),
+            (56.6, 0.0),
+            (0.0, -24.0),
+            (80.0, 10.0),
+            (20.0, 0.0),
+        ];
+        let model = Model::new(truth);
+        let legs = geometry
+            .iter()
+            .enumerate()
+            .map(|(k, &(xf_m, zf_m))| LoggedLeg {
+                flight: k / 2,
+                from: format!("P{k}"),
+                to: format!("P{}", k + 1),
+                xf_m,
+                zf_m,
+                measured_j: model.operation(Profile::Hvb, xf_m, zf_m).unwrap().energy_j,
+            })
+            .collect();
+        Flights {
+            flights: (0..3)
+                .map(|f| LoggedFlight {
+                    dir: PathBuf::from(format!("flight{f}")),
+                    name: format!("flight{f}"),
+                    legs: 2,
+                    skipped: 0,
+                })
+                .collect(),
+            legs,
+        }
+    }
+
+    #[test]
+    fn the_fit_recovers_the_mass_and_drag_of_the_vehicle_that_flew() {
+        let given = shipped();
+        let mut truth = given.clone();
+        truth.body.mass_kg *= 1.1;
+        truth.body.drag_coefficient_n_s2_m2 *= 1.3;
+        let flights = flights_of(&truth);
+        let c = calibrate(&given, Profile::Hvb, &flights).unwrap();
+        assert!(c.before().rms_pct > 8.0, "{:?}", c.before());
+        assert!(c.after().worst_pct < 0.5, "{:?}", c.after());
+        let held_out = c.held_out_errors().expect("three flights");
+        assert!(held_out.worst_pct < 1.0, "{held_out:?}");
+        assert_eq!(c.held_out.len(), 3);
+        let mass = c.vehicle.body.mass_kg / truth.body.mass_kg;
+        let drag = c.vehicle.body.drag_coefficient_n_s2_m2 / truth.body.drag_coefficient_n_s2_m2;
+        assert!((mass - 1.0).abs() < 0.005, "{mass}");
+        assert!((drag - 1.0).abs() < 0.05, "{drag}");
+    }
+
+    #[test]
+    fn one_flight_is_fitted_without_leave_one_out_and_no_legs_is_refused() {
+        let given = shipped();
+        let mut flights = flights_of(&given);
+        flights.legs.retain(|l| l.flight == 0);
+        let c = calibrate(&given, Profile::Hvb, &flights).unwrap();
+        assert!(c.held_out.is_empty() && c.held_out_errors().is_none());
+        flights.legs.clear();
+        let err = calibrate(&given, Profile::Hvb, &flights).unwrap_err();
+        assert!(err.to_string().contains("flight0"), "{err}");
+    }
+}
