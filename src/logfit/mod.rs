@@ -46,15 +46,13 @@ pub enum LogFitError {
     },
     #[error("{dir}: {reason}")]
     Flight { dir: String, reason: String },
-    #[error("flight {dir}, leg {from} -> {to} (Xf {xf_m:.1} m, Zf {zf_m:.1} m): {source}")]
+    #[error("flight {dir}, leg {leg}: {source}")]
     Pricing {
         dir: String,
-        from: String,
-        to: String,
-        xf_m: f64,
-        zf_m: f64,
+        /// `from -> to (Xf .. m, Zf .. m)`.
+        leg: String,
         #[source]
-        source: PhysicsError,
+        source: Box<PhysicsError>,
     },
     #[error("no flight logs given")]
     NoFlights,
@@ -63,7 +61,13 @@ pub enum LogFitError {
     #[error("{file}: {reason}")]
     Write { file: String, reason: String },
     #[error(transparent)]
-    Physics(#[from] PhysicsError),
+    Physics(Box<PhysicsError>),
+}
+
+impl From<PhysicsError> for LogFitError {
+    fn from(e: PhysicsError) -> Self {
+        LogFitError::Physics(Box::new(e))
+    }
 }
 
 /// One leg measured in a flight.
@@ -279,11 +283,11 @@ pub fn predict(
                         .flights
                         .get(leg.flight)
                         .map_or_else(String::new, |f| f.dir.display().to_string()),
-                    from: leg.from.clone(),
-                    to: leg.to.clone(),
-                    xf_m: leg.xf_m,
-                    zf_m: leg.zf_m,
-                    source,
+                    leg: format!(
+                        "{} -> {} (Xf {:.1} m, Zf {:.1} m)",
+                        leg.from, leg.to, leg.xf_m, leg.zf_m
+                    ),
+                    source: Box::new(source),
                 })
         })
         .collect::<Result<Vec<f64>, LogFitError>>()?;

@@ -123,7 +123,9 @@ pub fn write_vehicle(
             "body.drag_coefficient_n_s2_m2" => vehicle.body.drag_coefficient_n_s2_m2,
             _ => f64::NAN,
         };
-        if !((written - f.value).abs() <= 1e-4 * f.value.abs().max(1.0)) {
+        if (written - f.value).abs().is_nan()
+            || (written - f.value).abs() > 1e-4 * f.value.abs().max(1.0)
+        {
             return Err(LogFitError::VehicleFile {
                 file: out_file,
                 reason: format!("{} reads back as {written}, not {}", f.key, f.value),
