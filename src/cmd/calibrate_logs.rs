@@ -55,7 +55,7 @@ pub fn run(args: &LogArgs, vehicle_dir: &Path, json: bool) -> anyhow::Result<Opt
         let v = vehicle_dir::write_vehicle(
             vehicle_dir,
             out,
-            &c.fitted,
+            &c.values(),
             c.flights.len(),
             c.legs.len(),
             c.held_out_errors(),
@@ -161,11 +161,33 @@ fn print(c: &LogCalibration, vehicle_dir: &Path) {
             values.join(", ")
         );
     }
+    match &c.battery {
+        Some(b) => println!(
+            "pack, from the voltage and current of {} flights ({} samples): voltage residual rms {:.3} V (was {:.3} V); starting charge {}",
+            b.flights,
+            b.samples,
+            b.voltage_rms_v,
+            b.before_voltage_rms_v,
+            b.initial_soc
+                .iter()
+                .map(|s| format!("{:.0}%", 100.0 * s))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+        None => println!("pack: no flight has voltage and current samples; not fitted"),
+    }
     println!("fitted values:");
-    for f in &c.fitted {
-        println!(
-            "  {} = {:.4}   (was {}, searched {:.4} to {:.4})",
-            f.key, f.value, f.before, f.low, f.high
-        );
+    for f in &c.values() {
+        if f.key == "planning.usable_energy_wh" {
+            println!(
+                "  {} = {:.4}   (was {}, scaled with the capacity)",
+                f.key, f.value, f.before
+            );
+        } else {
+            println!(
+                "  {} = {:.4}   (was {}, searched {:.4} to {:.4})",
+                f.key, f.value, f.before, f.low, f.high
+            );
+        }
     }
 }

@@ -16,10 +16,14 @@
 //! state of charge, not in the joules per leg. The profile's trajectory parameters (PTF/HVB
 //! limits, PX4's parameters) are kinematic and stay as they are.
 //!
+//! The pack's resistance and capacity are fitted apart, from the voltage and current in
+//! samples.csv ([`battery`]); the planning budget's usable energy is scaled with the capacity.
+//!
 //! The fit is Nelder-Mead (`physics::calibration`'s) on the sum of squared relative errors of
 //! the legs, parameters clamped to ranges around the vehicle's values. Leave-one-flight-out: for
 //! each flight, fit on all the others and measure the error of the one left out.
 
+pub mod battery;
 pub mod vehicle_dir;
 
 use std::path::{Path, PathBuf};
@@ -100,6 +104,8 @@ pub struct LoggedFlight {
 pub struct Flights {
     pub flights: Vec<LoggedFlight>,
     pub legs: Vec<LoggedLeg>,
+    /// The pack samples of the flights that have them (for [`battery::fit_battery`]).
+    pub packs: Vec<battery::PackSeries>,
 }
 
 /// The flight directories under `paths`: a directory holding plan.json is a flight; any other
@@ -141,12 +147,14 @@ pub fn read_flights(paths: &[PathBuf]) -> Result<Flights, LogFitError> {
     let mut flights = Flights {
         flights: Vec::new(),
         legs: Vec::new(),
+        packs: Vec::new(),
     };
     for dir in flight_dirs(paths)? {
         let index = flights.flights.len();
         let (flight, legs) = read_flight(&dir, index)?;
         flights.flights.push(flight);
         flights.legs.extend(legs);
+        flights.packs.extend(battery::read_pack(&dir, index)?);
     }
     Ok(flights)
 }
@@ -403,6 +411,33 @@ pub struct LogCalibration {
     pub vehicle: Vehicle,
     /// One per flight (none with a single flight).
     pub held_out: Vec<HeldOut>,
+    /// The pack fitted to the flights' voltage and current (None without samples).
+    pub battery: Option<battery::BatteryFit>,
+    /// Every value changed ([`LogCalibration::values`]).
+    values: Vec<Fitted>,
+}
+
+/// The values a calibration changes in the vehicle file (see [`LogCalibration::values`]).
+fn changed_values(
+    vehicle: &Vehicle,
+    fitted: &[Fitted],
+    battery: Option<&battery::BatteryFit>,
+) -> Vec<Fitted> {
+    let mut values = fitted.to_vec();
+    if let Some(b) = battery {
+        values.extend(b.fitted.iter().cloned());
+        if let Some(c) = b.fitted.iter().find(|f| f.key == "battery.capacity_ah") {
+            let wh = vehicle.planning.usable_energy_wh;
+            values.push(Fitted {
+                key: "planning.usable_energy_wh",
+                before: wh,
+                value: wh * c.value / c.before,
+                low: wh * c.low / c.before,
+                high: wh * c.high / c.before,
+            });
+        }
+    }
+    values
 }
 
 /// Nelder-Mead iterations of each fit (two parameters: converged well before).
@@ -428,7 +463,7 @@ pub fn calibrate(
     }
     let all: Vec<&LoggedLeg> = flights.legs.iter().collect();
     let before = predict(vehicle, profile, flights, &all)?;
-    let (fitted_vehicle, fitted) = fit(vehicle, profile, flights, &all, ITERATIONS);
+    let (mut fitted_vehicle, fitted) = fit(vehicle, profile, flights, &all, ITERATIONS);
     let after = predict(&fitted_vehicle, profile, flights, &all)?;
     let mut held_out_j: Vec<Option<f64>> = vec![None; all.len()];
     let mut held_out = Vec::new();
@@ -467,6 +502,11 @@ pub fn calibrate(
             held_out_j: h,
         })
         .collect();
+    let battery = battery::fit_battery(vehicle, &flights.packs);
+    let values = changed_values(vehicle, &fitted, battery.as_ref());
+    for f in &values {
+        vehicle_dir::set_value(&mut fitted_vehicle, f.key, f.value);
+    }
     Ok(LogCalibration {
         profile,
         flights: flights.flights.clone(),
@@ -474,10 +514,18 @@ pub fn calibrate(
         fitted,
         vehicle: fitted_vehicle,
         held_out,
+        battery,
+        values,
     })
 }
 
 impl LogCalibration {
+    /// Every value the calibrated vehicle file changes: the leg fit's, the pack's, and the
+    /// planning budget's usable energy scaled with the fitted capacity.
+    pub fn values(&self) -> Vec<Fitted> {
+        self.values.clone()
+    }
+
     /// Errors of the given vehicle on every leg.
     pub fn before(&self) -> ErrorStats {
         let e: Vec<f64> = self
@@ -551,6 +599,8 @@ impl LogCalibration {
                 "errors": h.errors,
             })).collect::<Vec<_>>(),
             "fitted": self.fitted,
+            "battery": self.battery,
+            "changed": self.values,
         })
     }
 }
@@ -597,6 +647,7 @@ mod tests {
                 })
                 .collect(),
             legs,
+            packs: Vec::new(),
         }
     }
 

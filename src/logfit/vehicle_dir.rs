@@ -47,7 +47,9 @@ pub fn edit_vehicle_toml(
             })?;
         // The comment stays in its column.
         let column = lines[line].find('#').unwrap_or(0);
-        let assignment = format!("{key} = {value:.4}");
+        // Five significant digits, at least four decimals.
+        let decimals = (4 - value.abs().log10().floor() as i64).clamp(4, 9) as usize;
+        let assignment = format!("{key} = {value:.decimals$}");
         let pad = column.saturating_sub(assignment.len()).max(1);
         lines[line] = format!("{assignment}{:pad$}# {note}", "");
     }
@@ -56,9 +58,38 @@ pub fn edit_vehicle_toml(
     Ok(out)
 }
 
+/// The value of a key [`LogCalibration::values`](super::LogCalibration::values) may change
+/// (NaN for another key).
+pub fn value_of(v: &Vehicle, key: &str) -> f64 {
+    match key {
+        "body.mass_kg" => v.body.mass_kg,
+        "body.drag_coefficient_n_s2_m2" => v.body.drag_coefficient_n_s2_m2,
+        "battery.internal_resistance_ohm" => v.battery.internal_resistance_ohm,
+        "battery.capacity_ah" => v.battery.capacity_ah,
+        "planning.usable_energy_wh" => v.planning.usable_energy_wh,
+        _ => f64::NAN,
+    }
+}
+
+/// Sets a key [`value_of`] knows (others are ignored).
+pub fn set_value(v: &mut Vehicle, key: &str, value: f64) {
+    match key {
+        "body.mass_kg" => v.body.mass_kg = value,
+        "body.drag_coefficient_n_s2_m2" => v.body.drag_coefficient_n_s2_m2 = value,
+        "battery.internal_resistance_ohm" => v.battery.internal_resistance_ohm = value,
+        "battery.capacity_ah" => v.battery.capacity_ah = value,
+        "planning.usable_energy_wh" => v.planning.usable_energy_wh = value,
+        _ => {}
+    }
+}
+
 /// The header comment of a written vehicle file.
 fn header(fitted: &[Fitted], flights: usize, legs: usize, held_out: Option<ErrorStats>) -> String {
-    let keys: Vec<&str> = fitted.iter().map(|f| f.key).collect();
+    let keys: Vec<&str> = fitted
+        .iter()
+        .map(|f| f.key)
+        .filter(|k| k.starts_with("body."))
+        .collect();
     let validation = held_out.map_or(String::new(), |e| {
         format!(
             "; leave-one-flight-out per-leg error rms {:.1}%, worst {:.1}%",
@@ -67,7 +98,8 @@ fn header(fitted: &[Fitted], flights: usize, legs: usize, held_out: Option<Error
     });
     format!(
         "# Calibrated from flight logs: `emplan calibrate --from-logs` fitted {} to {legs} legs\n\
-         # of {flights} flights{validation}. Everything else is the source vehicle's.\n",
+         # of {flights} flights{validation}; the battery's values, where changed, to their pack\n\
+         # voltage and current. Everything else is the source vehicle's.\n",
         keys.join(" and ")
     )
 }
@@ -107,10 +139,20 @@ pub fn write_vehicle(
             (
                 f.key,
                 f.value,
-                format!(
-                    "calibrated against the leg energies of {flights} logged flights (`emplan calibrate --from-logs`); was {}",
-                    f.before
-                ),
+                match f.key {
+                    "planning.usable_energy_wh" => format!(
+                        "scaled with battery.capacity_ah as fitted (`emplan calibrate --from-logs`); was {}",
+                        f.before
+                    ),
+                    "battery.internal_resistance_ohm" | "battery.capacity_ah" => format!(
+                        "calibrated against the pack voltage and current of logged flights (`emplan calibrate --from-logs`); was {}",
+                        f.before
+                    ),
+                    _ => format!(
+                        "calibrated against the leg energies of {flights} logged flights (`emplan calibrate --from-logs`); was {}",
+                        f.before
+                    ),
+                },
             )
         })
         .collect();
@@ -118,11 +160,7 @@ pub fn write_vehicle(
     let edited = header(fitted, flights, legs, held_out) + &edited;
     let vehicle = Vehicle::from_toml(&edited, &out_file)?;
     for f in fitted {
-        let written = match f.key {
-            "body.mass_kg" => vehicle.body.mass_kg,
-            "body.drag_coefficient_n_s2_m2" => vehicle.body.drag_coefficient_n_s2_m2,
-            _ => f64::NAN,
-        };
+        let written = value_of(&vehicle, f.key);
         if (written - f.value).abs().is_nan()
             || (written - f.value).abs() > 1e-4 * f.value.abs().max(1.0)
         {

@@ -1,7 +1,8 @@
 //! `emplan calibrate --from-logs` through the binary: the built-in mock flies a perturbed vehicle
 //! (mass +10%, body drag x1.3, a weaker battery) that the vehicle file does not describe; the
 //! calibration from three logged flights brings the leave-one-flight-out per-leg error from
-//! above 8% to under 3%, and the vehicle directory it writes (vehicle.toml and its rebuilt table)
+//! above 8% to under 3%, finds the pack's resistance and capacity from its voltage, and the
+//! vehicle directory it writes (vehicle.toml and its rebuilt table)
 //! predicts a fourth flight, of a mission not fitted, within 3% per leg. Bad input is refused
 //! naming the directory or file.
 //!
@@ -147,6 +148,26 @@ fn calibration_from_logs_of_a_perturbed_vehicle_brings_held_out_leg_error_under_
     assert!(
         (drag / true_drag - 1.0).abs() < 0.15,
         "{drag} vs {true_drag}"
+    );
+    // The weaker pack, from the voltage and current in samples.csv.
+    let battery = |key: &str| {
+        c["battery"]["fitted"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|f| f["key"] == key)
+            .and_then(|f| f["value"].as_f64())
+            .unwrap()
+    };
+    let resistance = battery("battery.internal_resistance_ohm");
+    let capacity = battery("battery.capacity_ah");
+    assert!((resistance - 0.035).abs() < 0.003, "{}", c["battery"]);
+    assert!((capacity - 8.0).abs() < 0.4, "{}", c["battery"]);
+    let written = std::fs::read_to_string(out.join("vehicle.toml")).unwrap();
+    assert!(
+        written.contains(&format!("mass_kg = {mass:.4}"))
+            && written.contains(&format!("capacity_ah = {capacity:.4}")),
+        "{written}"
     );
     assert_eq!(
         c["written"],
