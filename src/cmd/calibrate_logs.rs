@@ -24,7 +24,7 @@ pub struct LogArgs {
     #[arg(long, value_name = "DIR", requires = "from_logs")]
     out: Option<PathBuf>,
     /// With --out: the tables to rebuild, comma-separated, `all` or `none` (default: the
-    /// profile flown; a table takes about 40 s)
+    /// profile flown; the px4 and ptf tables take tens of seconds each, hvb a few)
     #[arg(long, value_name = "PROFILES", requires = "out")]
     tables: Option<String>,
 }
