@@ -114,6 +114,9 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
         );
     }
     if let Some(client) = args.service.client()? {
+        if args.mock_vehicle.is_some() {
+            anyhow::bail!("--mock-vehicle is for the built-in mock (not --service)");
+        }
         return fly_through(&args, &client);
     }
     let mission = emplan::mission::load(&args.mission)?;
