@@ -8,6 +8,7 @@
 
 pub mod flightlog;
 pub mod link;
+pub mod logfit;
 pub mod mission;
 pub mod physics;
 pub mod plan;

@@ -1,5 +1,6 @@
 //! `emplan calibrate`: the model against the paper's published operation energies, and the fit
-//! of the calibrated parameters (`--fit`).
+//! of the calibrated parameters (`--fit`); `--from-logs` fits to logged flights instead
+//! (`calibrate_logs`).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -19,9 +20,14 @@ pub struct Args {
     /// Print one JSON document instead of text
     #[arg(long)]
     json: bool,
+    #[command(flatten)]
+    logs: super::calibrate_logs::LogArgs,
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    if let Some(code) = super::calibrate_logs::run(&args.logs, &args.vehicle, args.json)? {
+        return Ok(code);
+    }
     let vehicle = Vehicle::load(&args.vehicle)?;
     // The fit runs about a minute: a spinner with the time taken on a terminal.
     let c = if args.fit {

@@ -6,6 +6,8 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use anyhow::Context;
+
 use emplan::flightlog::segment::SegmentKind;
 use emplan::link::Flavour;
 use emplan::physics::Profile;
@@ -49,6 +51,11 @@ pub struct Args {
     /// instead of the vehicle file's value, NAME=VALUE (e.g. MPC_XY_CRUISE=8); repeatable
     #[arg(long, value_name = "NAME=VALUE")]
     mock_param: Vec<String>,
+    /// Built-in mock only: a vehicle directory whose physics and battery the mock flies (the
+    /// truth measured against), instead of the planning vehicle's: flights of a vehicle that
+    /// is not what the vehicle file says, for `calibrate --from-logs`
+    #[arg(long, value_name = "DIR")]
+    mock_vehicle: Option<PathBuf>,
     /// Print one JSON document (the report) instead of text
     #[arg(long)]
     json: bool,
@@ -107,6 +114,9 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
         );
     }
     if let Some(client) = args.service.client()? {
+        if args.mock_vehicle.is_some() {
+            anyhow::bail!("--mock-vehicle is for the built-in mock (not --service)");
+        }
         return fly_through(&args, &client);
     }
     let mission = emplan::mission::load(&args.mission)?;
@@ -133,7 +143,14 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
     if !mock_params.is_empty() && !builtin {
         anyhow::bail!("--mock-param is for the built-in mock (no --connect)");
     }
-    let mut mock_vehicle = model.vehicle.clone();
+    if args.mock_vehicle.is_some() && !builtin {
+        anyhow::bail!("--mock-vehicle is for the built-in mock (no --connect)");
+    }
+    let mut mock_vehicle = match &args.mock_vehicle {
+        Some(dir) => emplan::physics::Vehicle::load(dir)
+            .with_context(|| format!("--mock-vehicle {}", dir.display()))?,
+        None => model.vehicle.clone(),
+    };
     mock_vehicle.px4 = mock_vehicle.px4.with_autopilot_values(&mock_params);
     let live_lines = super::progress::shown();
     let quiet = args.json;

@@ -2,6 +2,7 @@
 
 pub mod battery_sim;
 pub mod calibrate;
+pub mod calibrate_logs;
 pub mod convert;
 pub mod download;
 pub mod energy;

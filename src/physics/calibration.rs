@@ -299,7 +299,7 @@ fn current(v: &Vehicle, key: &str) -> f64 {
 }
 
 /// Nelder-Mead simplex minimisation (Nelder & Mead 1965; standard coefficients 1, 2, 0.5, 0.5).
-fn nelder_mead(
+pub(crate) fn nelder_mead(
     start: &[f64],
     step: &[f64],
     iterations: usize,

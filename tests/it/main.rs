@@ -4,6 +4,7 @@ mod cli;
 mod flight;
 mod flightlog;
 mod fly;
+mod fromlogs;
 mod install;
 mod mission;
 mod physics;

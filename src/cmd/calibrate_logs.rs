@@ -1,0 +1,193 @@
+//! `emplan calibrate --from-logs LOG_DIR...`: the vehicle's calibrated parameters refitted to the
+//! leg energies of logged flights (`emplan::logfit`), per-leg error before and after with
+//! leave-one-flight-out validation, and with `--out DIR` a new vehicle directory with rebuilt
+//! tables.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::Context;
+use emplan::logfit::{self, error_pct, vehicle_dir, ErrorStats, LogCalibration};
+use emplan::physics::{Profile, Vehicle};
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct LogArgs {
+    /// Fit to the legs of logged flights instead of the paper: flight directories (as `fly`
+    /// and `record` write them: plan.json, report.json) or folders of them
+    #[arg(long, value_name = "LOG_DIR", num_args = 1.., conflicts_with = "fit")]
+    from_logs: Vec<PathBuf>,
+    /// With --from-logs: the profile the flights flew (default: the vehicle's)
+    #[arg(long, requires = "from_logs")]
+    profile: Option<Profile>,
+    /// With --from-logs: write the calibrated vehicle (vehicle.toml and tables) to this new
+    /// directory
+    #[arg(long, value_name = "DIR", requires = "from_logs")]
+    out: Option<PathBuf>,
+    /// With --out: the tables to rebuild, comma-separated, `all` or `none` (default: the
+    /// profile flown; the px4 and ptf tables take tens of seconds each, hvb a few)
+    #[arg(long, value_name = "PROFILES", requires = "out")]
+    tables: Option<String>,
+}
+
+/// Runs `--from-logs` when it was given (None otherwise).
+pub fn run(args: &LogArgs, vehicle_dir: &Path, json: bool) -> anyhow::Result<Option<ExitCode>> {
+    if args.from_logs.is_empty() {
+        return Ok(None);
+    }
+    let vehicle = Vehicle::load(vehicle_dir)?;
+    let profile = args.profile.unwrap_or(vehicle.default_profile());
+    let tables: Vec<Profile> = match args.tables.as_deref() {
+        None => vec![profile],
+        Some("all") => Profile::ALL.to_vec(),
+        Some("none") => Vec::new(),
+        Some(list) => list
+            .split(',')
+            .map(|p| p.trim().parse::<Profile>().map_err(anyhow::Error::msg))
+            .collect::<anyhow::Result<_>>()
+            .with_context(|| format!("--tables {list}"))?,
+    };
+    let flights = logfit::read_flights(&args.from_logs)?;
+    let c = super::progress::solving("fitting to the logged legs", || {
+        logfit::calibrate(&vehicle, profile, &flights)
+    })?;
+    let mut written = Vec::new();
+    if let Some(out) = &args.out {
+        let v = vehicle_dir::write_vehicle(
+            vehicle_dir,
+            out,
+            &c.values(),
+            c.flights.len(),
+            c.legs.len(),
+            c.held_out_errors(),
+        )?;
+        written.push(out.join("vehicle.toml"));
+        for p in tables {
+            let bar = super::progress::bar(0, "{prefix} [{bar:40}] {pos}/{len} cells, {eta} left");
+            bar.set_prefix(format!("{p} table"));
+            let path = vehicle_dir::write_table(out, &v, p, |done, total| {
+                bar.set_length(total as u64);
+                bar.set_position(done as u64);
+            })?;
+            bar.finish_and_clear();
+            written.push(path);
+        }
+    }
+    if json {
+        let mut doc = c.to_json();
+        if let Some(map) = doc.as_object_mut() {
+            map.insert("vehicle".into(), vehicle_dir.display().to_string().into());
+            map.insert(
+                "out".into(),
+                args.out.as_ref().map(|o| o.display().to_string()).into(),
+            );
+            map.insert(
+                "written".into(),
+                written
+                    .iter()
+                    .map(|p| p.display().to_string())
+                    .collect::<Vec<_>>()
+                    .into(),
+            );
+        }
+        println!("{}", serde_json::to_string_pretty(&doc)?);
+        return Ok(Some(ExitCode::SUCCESS));
+    }
+    print(&c, vehicle_dir);
+    for path in &written {
+        println!("wrote {}", path.display());
+    }
+    if args.out.is_none() {
+        println!("(pass --out DIR to write the calibrated vehicle with its tables)");
+    }
+    Ok(Some(ExitCode::SUCCESS))
+}
+
+fn stats_line(what: &str, e: &ErrorStats) -> String {
+    format!(
+        "{what:<34} rms {:>5.1}%, mean {:>+6.1}%, worst {:>5.1}% ({} legs)",
+        e.rms_pct, e.mean_pct, e.worst_pct, e.legs
+    )
+}
+
+fn print(c: &LogCalibration, vehicle_dir: &Path) {
+    let used: usize = c.flights.iter().map(|f| f.legs).sum();
+    let skipped: usize = c.flights.iter().map(|f| f.skipped).sum();
+    println!(
+        "leg energies of {} flights ({used} legs used, {skipped} flagged or unmeasured left out), {} profile, vehicle {}",
+        c.flights.len(),
+        c.profile,
+        vehicle_dir.display()
+    );
+    println!(
+        "{:<28} {:>6} {:>6} {:>9} {:>8} {:>8} {:>9}",
+        "leg", "Xf_m", "Zf_m", "meas_kJ", "before", "after", "left_out"
+    );
+    for l in &c.legs {
+        let name = format!("{}: {} -> {}", l.leg.flight + 1, l.leg.from, l.leg.to);
+        let m = l.leg.measured_j;
+        println!(
+            "{name:<28} {:>6.1} {:>6.1} {:>9.3} {:>+7.1}% {:>+7.1}% {:>9}",
+            l.leg.xf_m,
+            l.leg.zf_m,
+            m / 1000.0,
+            error_pct(l.before_j, m),
+            error_pct(l.after_j, m),
+            l.held_out_j
+                .map_or("-".to_string(), |p| format!("{:+.1}%", error_pct(p, m)))
+        );
+    }
+    println!("per-leg error (measured vs predicted):");
+    println!("  {}", stats_line("before (the vehicle file)", &c.before()));
+    println!(
+        "  {}",
+        stats_line("after (fitted to every flight)", &c.after())
+    );
+    match c.held_out_errors() {
+        Some(e) => println!("  {}", stats_line("leave-one-flight-out", &e)),
+        None => println!("  leave-one-flight-out: needs two flights or more"),
+    }
+    for h in &c.held_out {
+        let name = c.flights.get(h.flight).map_or("?", |f| f.name.as_str());
+        let values: Vec<String> = h
+            .fitted
+            .iter()
+            .map(|f| format!("{} {:.4}", f.key, f.value))
+            .collect();
+        println!(
+            "    {}: {name} left out: rms {:.1}%, worst {:.1}% (fitted on the others: {})",
+            h.flight + 1,
+            h.errors.rms_pct,
+            h.errors.worst_pct,
+            values.join(", ")
+        );
+    }
+    match &c.battery {
+        Some(b) => println!(
+            "pack, from the voltage and current of {} flights ({} samples): voltage residual rms {:.3} V (was {:.3} V); starting charge {}",
+            b.flights,
+            b.samples,
+            b.voltage_rms_v,
+            b.before_voltage_rms_v,
+            b.initial_soc
+                .iter()
+                .map(|s| format!("{:.0}%", 100.0 * s))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+        None => println!("pack: no flight has voltage and current samples; not fitted"),
+    }
+    println!("fitted values:");
+    for f in &c.values() {
+        if f.key == "planning.usable_energy_wh" {
+            println!(
+                "  {} = {:.4}   (was {}, scaled with the capacity)",
+                f.key, f.value, f.before
+            );
+        } else {
+            println!(
+                "  {} = {:.4}   (was {}, searched {:.4} to {:.4})",
+                f.key, f.value, f.before, f.low, f.high
+            );
+        }
+    }
+}

@@ -1,0 +1,684 @@
+//! Calibration from flight logs (`emplan calibrate --from-logs`): the vehicle's calibrated
+//! parameters refitted to the leg energies measured in real flights, with leave-one-flight-out
+//! validation, and a new vehicle directory written with rebuilt tables.
+//!
+//! Inputs are the flight directories `emplan fly` / `record` write (`flightlog::recorder`): the
+//! legs' geometry comes from plan.json (the points flown, in the mission frame), their measured
+//! energy from report.json (battery terminal energy from leaving hover to the 4 m crossing, the
+//! same operation energy the model prices). Legs with any measurement flag (a gap, an unknown
+//! current, a missed radius, an incomplete leg, ...) are left out and counted.
+//!
+//! What leg energies identify ([`KNOBS`]): the vehicle mass (the power level of every leg,
+//! hover-dominated and climbing ones most) and the horizontal body drag C_BD (the growth of
+//! energy with horizontal distance and speed). The battery's internal resistance and capacity do
+//! not change a leg's terminal energy in the model (the pack's own losses happen before the power
+//! module measures), so they are not fitted from legs; a weaker battery shows in the voltage and
+//! state of charge, not in the joules per leg. The profile's trajectory parameters (PTF/HVB
+//! limits, PX4's parameters) are kinematic and stay as they are.
+//!
+//! The pack's resistance and capacity are fitted apart, from the voltage and current in
+//! samples.csv ([`battery`]); the planning budget's usable energy is scaled with the capacity.
+//!
+//! The fit is Nelder-Mead (`physics::calibration`'s) on the sum of squared relative errors of
+//! the legs, parameters clamped to ranges around the vehicle's values. Leave-one-flight-out: for
+//! each flight, fit on all the others and measure the error of the one left out.
+
+pub mod battery;
+pub mod vehicle_dir;
+
+use std::path::{Path, PathBuf};
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::flightlog::plan::FlightPlan;
+use crate::flightlog::recorder::{read_report, PLAN_FILE, REPORT_FILE};
+use crate::flightlog::FlightLogError;
+use crate::mission::Enu;
+use crate::physics::calibration::nelder_mead;
+use crate::physics::operation::Model;
+use crate::physics::{PhysicsError, Profile, Vehicle};
+
+/// Everything calibration from logs can refuse; each names its flight directory or file.
+#[derive(Debug, thiserror::Error)]
+pub enum LogFitError {
+    #[error("flight {dir}: {source}")]
+    Log {
+        dir: String,
+        #[source]
+        source: FlightLogError,
+    },
+    #[error("{dir}: {reason}")]
+    Flight { dir: String, reason: String },
+    #[error("flight {dir}, leg {leg}: {source}")]
+    Pricing {
+        dir: String,
+        /// `from -> to (Xf .. m, Zf .. m)`.
+        leg: String,
+        #[source]
+        source: Box<PhysicsError>,
+    },
+    #[error("no flight logs given")]
+    NoFlights,
+    #[error("{file}: {reason}")]
+    VehicleFile { file: String, reason: String },
+    #[error("{file}: {reason}")]
+    Write { file: String, reason: String },
+    #[error(transparent)]
+    Physics(Box<PhysicsError>),
+}
+
+impl From<PhysicsError> for LogFitError {
+    fn from(e: PhysicsError) -> Self {
+        LogFitError::Physics(Box::new(e))
+    }
+}
+
+/// One leg measured in a flight.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LoggedLeg {
+    /// Index of its flight in [`Flights::flights`].
+    pub flight: usize,
+    pub from: String,
+    pub to: String,
+    pub xf_m: f64,
+    pub zf_m: f64,
+    /// Battery terminal energy from leaving hover to the 4 m crossing.
+    pub measured_j: f64,
+}
+
+/// One flight directory read.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LoggedFlight {
+    pub dir: PathBuf,
+    /// The flight's name (its report's).
+    pub name: String,
+    /// Legs measured cleanly (used).
+    pub legs: usize,
+    /// Legs left out: flagged, unmeasured or incomplete.
+    pub skipped: usize,
+}
+
+/// The flights read and their clean legs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Flights {
+    pub flights: Vec<LoggedFlight>,
+    pub legs: Vec<LoggedLeg>,
+    /// The pack samples of the flights that have them (for [`battery::fit_battery`]).
+    pub packs: Vec<battery::PackSeries>,
+}
+
+/// The flight directories under `paths`: a directory holding plan.json is a flight; any other
+/// directory is searched one level down for flights (the `--log-dir` that `fly` makes them in).
+pub fn flight_dirs(paths: &[PathBuf]) -> Result<Vec<PathBuf>, LogFitError> {
+    let mut dirs = Vec::new();
+    for path in paths {
+        if path.join(PLAN_FILE).is_file() {
+            dirs.push(path.clone());
+            continue;
+        }
+        let entries = std::fs::read_dir(path).map_err(|e| LogFitError::Flight {
+            dir: path.display().to_string(),
+            reason: format!(
+                "not a flight directory (no {PLAN_FILE}) nor a readable folder of them: {e}"
+            ),
+        })?;
+        let mut found: Vec<PathBuf> = entries
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.join(PLAN_FILE).is_file())
+            .collect();
+        if found.is_empty() {
+            return Err(LogFitError::Flight {
+                dir: path.display().to_string(),
+                reason: format!("no flight directory here (none holds {PLAN_FILE})"),
+            });
+        }
+        found.sort();
+        dirs.extend(found);
+    }
+    if dirs.is_empty() {
+        return Err(LogFitError::NoFlights);
+    }
+    Ok(dirs)
+}
+
+/// Reads the flights in `paths` (see [`flight_dirs`]).
+pub fn read_flights(paths: &[PathBuf]) -> Result<Flights, LogFitError> {
+    let mut flights = Flights {
+        flights: Vec::new(),
+        legs: Vec::new(),
+        packs: Vec::new(),
+    };
+    for dir in flight_dirs(paths)? {
+        let index = flights.flights.len();
+        let (flight, legs) = read_flight(&dir, index)?;
+        flights.flights.push(flight);
+        flights.legs.extend(legs);
+        flights.packs.extend(battery::read_pack(&dir, index)?);
+    }
+    Ok(flights)
+}
+
+/// One flight directory: its plan (geometry) and report (measured energies); `index` numbers
+/// its legs.
+pub fn read_flight(
+    dir: &Path,
+    index: usize,
+) -> Result<(LoggedFlight, Vec<LoggedLeg>), LogFitError> {
+    let log = |source| LogFitError::Log {
+        dir: dir.display().to_string(),
+        source,
+    };
+    let plan = FlightPlan::read_json(&dir.join(PLAN_FILE)).map_err(log)?;
+    let report = read_report(dir).map_err(log)?;
+    let mut legs = Vec::new();
+    let mut skipped = 0;
+    // Report legs come in flying order; each is matched to the next plan leg of its names.
+    let mut next = 0;
+    for part in &report.legs {
+        let k = (next..plan.points.len())
+            .find(|&k| plan.leg_names(k) == (part.from.clone(), part.to.clone()))
+            .ok_or_else(|| LogFitError::Flight {
+                dir: dir.join(REPORT_FILE).display().to_string(),
+                reason: format!(
+                    "leg {} -> {} is not a leg of {PLAN_FILE} after leg {next}",
+                    part.from, part.to
+                ),
+            })?;
+        next = k + 1;
+        let measured = part
+            .measured_j
+            .filter(|j| j.is_finite() && *j > 0.0 && part.flags.is_empty());
+        let Some(measured_j) = measured else {
+            skipped += 1;
+            continue;
+        };
+        let from = match k {
+            0 => Enu::default(),
+            _ => plan.points[k - 1].enu,
+        };
+        let to = plan.points[k].enu;
+        legs.push(LoggedLeg {
+            flight: index,
+            from: part.from.clone(),
+            to: part.to.clone(),
+            xf_m: (to.x_east_m - from.x_east_m).hypot(to.y_north_m - from.y_north_m),
+            zf_m: to.z_up_m - from.z_up_m,
+            measured_j,
+        });
+    }
+    let flight = LoggedFlight {
+        dir: dir.to_path_buf(),
+        name: report.flight.clone(),
+        legs: legs.len(),
+        skipped,
+    };
+    Ok((flight, legs))
+}
+
+/// A parameter the leg energies identify: its vehicle.toml key and its range as multiples of
+/// the vehicle's own value.
+pub struct Knob {
+    pub key: &'static str,
+    pub low_factor: f64,
+    pub high_factor: f64,
+    pub get: fn(&Vehicle) -> f64,
+    pub set: fn(&mut Vehicle, f64),
+}
+
+/// The parameters fitted to leg energies (module docs: why these).
+pub const KNOBS: [Knob; 2] = [
+    Knob {
+        key: "body.mass_kg",
+        low_factor: 0.6,
+        high_factor: 1.6,
+        get: |v| v.body.mass_kg,
+        set: |v, x| v.body.mass_kg = x,
+    },
+    Knob {
+        key: "body.drag_coefficient_n_s2_m2",
+        low_factor: 0.25,
+        high_factor: 4.0,
+        get: |v| v.body.drag_coefficient_n_s2_m2,
+        set: |v, x| v.body.drag_coefficient_n_s2_m2 = x,
+    },
+];
+
+/// A fitted parameter: its key, the value before and after, the range searched.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Fitted {
+    pub key: &'static str,
+    pub before: f64,
+    pub value: f64,
+    pub low: f64,
+    pub high: f64,
+}
+
+/// The model's energy for each leg of `legs` (from leaving hover to the 4 m crossing).
+pub fn predict(
+    vehicle: &Vehicle,
+    profile: Profile,
+    flights: &Flights,
+    legs: &[&LoggedLeg],
+) -> Result<Vec<f64>, LogFitError> {
+    let model = Model::new(vehicle);
+    // Repeated flights of a mission repeat its legs: each geometry is simulated once, the
+    // geometries in parallel.
+    let mut first: Vec<usize> = Vec::new();
+    let mut slot = Vec::with_capacity(legs.len());
+    for (k, leg) in legs.iter().enumerate() {
+        let same = |&j: &usize| {
+            let other: &LoggedLeg = legs[j];
+            (other.xf_m - leg.xf_m).abs() < 1e-3 && (other.zf_m - leg.zf_m).abs() < 1e-3
+        };
+        match first.iter().position(same) {
+            Some(u) => slot.push(u),
+            None => {
+                slot.push(first.len());
+                first.push(k);
+            }
+        }
+    }
+    let energies = first
+        .par_iter()
+        .map(|&k| {
+            let leg = legs[k];
+            model
+                .operation(profile, leg.xf_m, leg.zf_m)
+                .map(|op| op.energy_j)
+                .map_err(|source| LogFitError::Pricing {
+                    dir: flights
+                        .flights
+                        .get(leg.flight)
+                        .map_or_else(String::new, |f| f.dir.display().to_string()),
+                    leg: format!(
+                        "{} -> {} (Xf {:.1} m, Zf {:.1} m)",
+                        leg.from, leg.to, leg.xf_m, leg.zf_m
+                    ),
+                    source: Box::new(source),
+                })
+        })
+        .collect::<Result<Vec<f64>, LogFitError>>()?;
+    Ok(slot.iter().map(|&u| energies[u]).collect())
+}
+
+/// (measured - predicted) / predicted in percent, the convention of the flight reports.
+pub fn error_pct(predicted_j: f64, measured_j: f64) -> f64 {
+    100.0 * (measured_j - predicted_j) / predicted_j
+}
+
+/// Fits [`KNOBS`] to `legs` (Nelder-Mead, `iterations`), starting from `vehicle`'s values.
+pub fn fit(
+    vehicle: &Vehicle,
+    profile: Profile,
+    flights: &Flights,
+    legs: &[&LoggedLeg],
+    iterations: usize,
+) -> (Vehicle, Vec<Fitted>) {
+    let ranges: Vec<(f64, f64, f64)> = KNOBS
+        .iter()
+        .map(|k| {
+            let x = (k.get)(vehicle);
+            (x, x * k.low_factor, x * k.high_factor)
+        })
+        .collect();
+    // Searched in units of the starting values (both parameters near 1).
+    let apply = |x: &[f64]| {
+        let mut v = vehicle.clone();
+        for ((knob, &(start, lo, hi)), &u) in KNOBS.iter().zip(&ranges).zip(x) {
+            (knob.set)(&mut v, (start * u).clamp(lo, hi));
+        }
+        v
+    };
+    let objective = |x: &[f64]| -> f64 {
+        match predict(&apply(x), profile, flights, legs) {
+            Ok(predicted) => predicted
+                .iter()
+                .zip(legs)
+                .map(|(p, leg)| (leg.measured_j / p - 1.0).powi(2))
+                .sum(),
+            Err(_) => f64::INFINITY,
+        }
+    };
+    let start = vec![1.0; KNOBS.len()];
+    let step = vec![0.1; KNOBS.len()];
+    let best = nelder_mead(&start, &step, iterations, &objective);
+    let fitted_vehicle = apply(&best);
+    let fitted = KNOBS
+        .iter()
+        .zip(&ranges)
+        .map(|(knob, &(before, low, high))| Fitted {
+            key: knob.key,
+            before,
+            value: (knob.get)(&fitted_vehicle),
+            low,
+            high,
+        })
+        .collect();
+    (fitted_vehicle, fitted)
+}
+
+/// Per-leg error statistics, percent.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ErrorStats {
+    pub legs: usize,
+    pub rms_pct: f64,
+    pub mean_pct: f64,
+    /// The largest absolute error.
+    pub worst_pct: f64,
+}
+
+impl ErrorStats {
+    pub fn of(errors: &[f64]) -> ErrorStats {
+        let n = errors.len().max(1) as f64;
+        ErrorStats {
+            legs: errors.len(),
+            rms_pct: (errors.iter().map(|e| e * e).sum::<f64>() / n).sqrt(),
+            mean_pct: errors.iter().sum::<f64>() / n,
+            worst_pct: errors.iter().map(|e| e.abs()).fold(0.0, f64::max),
+        }
+    }
+}
+
+/// One leg before and after, and left out.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LegResult {
+    pub leg: LoggedLeg,
+    /// The given vehicle's prediction.
+    pub before_j: f64,
+    /// The prediction of the vehicle fitted to every flight.
+    pub after_j: f64,
+    /// The prediction of the vehicle fitted to every other flight (leave-one-flight-out).
+    pub held_out_j: Option<f64>,
+}
+
+/// One flight left out: what the others fitted and the error on it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HeldOut {
+    pub flight: usize,
+    pub fitted: Vec<Fitted>,
+    pub errors: ErrorStats,
+}
+
+/// The result of `calibrate --from-logs`.
+#[derive(Debug, Clone)]
+pub struct LogCalibration {
+    pub profile: Profile,
+    pub flights: Vec<LoggedFlight>,
+    pub legs: Vec<LegResult>,
+    /// Fitted to every flight.
+    pub fitted: Vec<Fitted>,
+    pub vehicle: Vehicle,
+    /// One per flight (none with a single flight).
+    pub held_out: Vec<HeldOut>,
+    /// The pack fitted to the flights' voltage and current (None without samples).
+    pub battery: Option<battery::BatteryFit>,
+    /// Every value changed ([`LogCalibration::values`]).
+    values: Vec<Fitted>,
+}
+
+/// The values a calibration changes in the vehicle file (see [`LogCalibration::values`]).
+fn changed_values(
+    vehicle: &Vehicle,
+    fitted: &[Fitted],
+    battery: Option<&battery::BatteryFit>,
+) -> Vec<Fitted> {
+    let mut values = fitted.to_vec();
+    if let Some(b) = battery {
+        values.extend(b.fitted.iter().cloned());
+        if let Some(c) = b.fitted.iter().find(|f| f.key == "battery.capacity_ah") {
+            let wh = vehicle.planning.usable_energy_wh;
+            values.push(Fitted {
+                key: "planning.usable_energy_wh",
+                before: wh,
+                value: wh * c.value / c.before,
+                low: wh * c.low / c.before,
+                high: wh * c.high / c.before,
+            });
+        }
+    }
+    values
+}
+
+/// Nelder-Mead iterations of each fit (two parameters: converged well before).
+pub const ITERATIONS: usize = 40;
+
+/// Fits `vehicle` flown with `profile` to `flights`: before, after, and leave-one-flight-out.
+pub fn calibrate(
+    vehicle: &Vehicle,
+    profile: Profile,
+    flights: &Flights,
+) -> Result<LogCalibration, LogFitError> {
+    if flights.legs.is_empty() {
+        return Err(LogFitError::Flight {
+            dir: flights
+                .flights
+                .iter()
+                .map(|f| f.dir.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", "),
+            reason: "no cleanly measured leg in these flights (every leg flagged or unmeasured)"
+                .into(),
+        });
+    }
+    let all: Vec<&LoggedLeg> = flights.legs.iter().collect();
+    let before = predict(vehicle, profile, flights, &all)?;
+    let (mut fitted_vehicle, fitted) = fit(vehicle, profile, flights, &all, ITERATIONS);
+    let after = predict(&fitted_vehicle, profile, flights, &all)?;
+    let mut held_out_j: Vec<Option<f64>> = vec![None; all.len()];
+    let mut held_out = Vec::new();
+    let flown: Vec<usize> = (0..flights.flights.len())
+        .filter(|&f| flights.legs.iter().any(|l| l.flight == f))
+        .collect();
+    if flown.len() >= 2 {
+        for &f in &flown {
+            let train: Vec<&LoggedLeg> = all.iter().copied().filter(|l| l.flight != f).collect();
+            let test: Vec<usize> = (0..all.len()).filter(|&k| all[k].flight == f).collect();
+            let (v, values) = fit(vehicle, profile, flights, &train, ITERATIONS);
+            let test_legs: Vec<&LoggedLeg> = test.iter().map(|&k| all[k]).collect();
+            let predicted = predict(&v, profile, flights, &test_legs)?;
+            let errors: Vec<f64> = predicted
+                .iter()
+                .zip(&test_legs)
+                .map(|(p, l)| error_pct(*p, l.measured_j))
+                .collect();
+            for (&k, &p) in test.iter().zip(&predicted) {
+                held_out_j[k] = Some(p);
+            }
+            held_out.push(HeldOut {
+                flight: f,
+                fitted: values,
+                errors: ErrorStats::of(&errors),
+            });
+        }
+    }
+    let legs = all
+        .iter()
+        .zip(before.iter().zip(&after).zip(&held_out_j))
+        .map(|(leg, ((&b, &a), &h))| LegResult {
+            leg: (*leg).clone(),
+            before_j: b,
+            after_j: a,
+            held_out_j: h,
+        })
+        .collect();
+    let battery = battery::fit_battery(vehicle, &flights.packs);
+    let values = changed_values(vehicle, &fitted, battery.as_ref());
+    for f in &values {
+        vehicle_dir::set_value(&mut fitted_vehicle, f.key, f.value);
+    }
+    Ok(LogCalibration {
+        profile,
+        flights: flights.flights.clone(),
+        legs,
+        fitted,
+        vehicle: fitted_vehicle,
+        held_out,
+        battery,
+        values,
+    })
+}
+
+impl LogCalibration {
+    /// Every value the calibrated vehicle file changes: the leg fit's, the pack's, and the
+    /// planning budget's usable energy scaled with the fitted capacity.
+    pub fn values(&self) -> Vec<Fitted> {
+        self.values.clone()
+    }
+
+    /// Errors of the given vehicle on every leg.
+    pub fn before(&self) -> ErrorStats {
+        let e: Vec<f64> = self
+            .legs
+            .iter()
+            .map(|l| error_pct(l.before_j, l.leg.measured_j))
+            .collect();
+        ErrorStats::of(&e)
+    }
+
+    /// Errors of the vehicle fitted to every flight, on every leg (in sample).
+    pub fn after(&self) -> ErrorStats {
+        let e: Vec<f64> = self
+            .legs
+            .iter()
+            .map(|l| error_pct(l.after_j, l.leg.measured_j))
+            .collect();
+        ErrorStats::of(&e)
+    }
+
+    /// Leave-one-flight-out errors over every leg (None with a single flight).
+    pub fn held_out_errors(&self) -> Option<ErrorStats> {
+        let e: Vec<f64> = self
+            .legs
+            .iter()
+            .filter_map(|l| l.held_out_j.map(|p| error_pct(p, l.leg.measured_j)))
+            .collect();
+        (!e.is_empty()).then(|| ErrorStats::of(&e))
+    }
+
+    /// `emplan calibrate --from-logs --json` (kJ at this edge; `fitted` as in `calibrate --fit`,
+    /// with each value's `before`).
+    pub fn to_json(&self) -> serde_json::Value {
+        let kj = |j: f64| j / 1000.0;
+        let legs: Vec<serde_json::Value> = self
+            .legs
+            .iter()
+            .map(|l| {
+                let m = l.leg.measured_j;
+                serde_json::json!({
+                    "flight": self.flights.get(l.leg.flight).map(|f| f.name.clone()),
+                    "from": l.leg.from,
+                    "to": l.leg.to,
+                    "xf_m": l.leg.xf_m,
+                    "zf_m": l.leg.zf_m,
+                    "measured_kj": kj(m),
+                    "before_kj": kj(l.before_j),
+                    "before_error_pct": error_pct(l.before_j, m),
+                    "after_kj": kj(l.after_j),
+                    "after_error_pct": error_pct(l.after_j, m),
+                    "held_out_kj": l.held_out_j.map(kj),
+                    "held_out_error_pct": l.held_out_j.map(|p| error_pct(p, m)),
+                })
+            })
+            .collect();
+        serde_json::json!({
+            "profile": self.profile,
+            "flights": self.flights.iter().map(|f| serde_json::json!({
+                "dir": f.dir.display().to_string(),
+                "flight": f.name,
+                "legs": f.legs,
+                "skipped": f.skipped,
+            })).collect::<Vec<_>>(),
+            "legs": legs,
+            "before": self.before(),
+            "after": self.after(),
+            "held_out": self.held_out_errors(),
+            "leave_one_out": self.held_out.iter().map(|h| serde_json::json!({
+                "flight": self.flights.get(h.flight).map(|f| f.name.clone()),
+                "fitted": h.fitted,
+                "errors": h.errors,
+            })).collect::<Vec<_>>(),
+            "fitted": self.fitted,
+            "battery": self.battery,
+            "changed": self.values,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn shipped() -> Vehicle {
+        Vehicle::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("models/s1000"))
+            .expect("the shipped vehicle")
+    }
+
+    /// Legs "measured" as `truth` prices them with the hvb profile, two per flight.
+    fn flights_of(truth: &Vehicle) -> Flights {
+        let geometry = [
+            (40.0, 25.0),
+            (40.0, -1.0),
+            (56.6, 0.0),
+            (0.0, -24.0),
+            (80.0, 10.0),
+            (20.0, 0.0),
+        ];
+        let model = Model::new(truth);
+        let legs = geometry
+            .iter()
+            .enumerate()
+            .map(|(k, &(xf_m, zf_m))| LoggedLeg {
+                flight: k / 2,
+                from: format!("P{k}"),
+                to: format!("P{}", k + 1),
+                xf_m,
+                zf_m,
+                measured_j: model.operation(Profile::Hvb, xf_m, zf_m).unwrap().energy_j,
+            })
+            .collect();
+        Flights {
+            flights: (0..3)
+                .map(|f| LoggedFlight {
+                    dir: PathBuf::from(format!("flight{f}")),
+                    name: format!("flight{f}"),
+                    legs: 2,
+                    skipped: 0,
+                })
+                .collect(),
+            legs,
+            packs: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn the_fit_recovers_the_mass_and_drag_of_the_vehicle_that_flew() {
+        let given = shipped();
+        let mut truth = given.clone();
+        truth.body.mass_kg *= 1.1;
+        truth.body.drag_coefficient_n_s2_m2 *= 1.3;
+        let flights = flights_of(&truth);
+        let c = calibrate(&given, Profile::Hvb, &flights).unwrap();
+        assert!(c.before().rms_pct > 8.0, "{:?}", c.before());
+        assert!(c.after().worst_pct < 0.5, "{:?}", c.after());
+        let held_out = c.held_out_errors().expect("three flights");
+        assert!(held_out.worst_pct < 1.0, "{held_out:?}");
+        assert_eq!(c.held_out.len(), 3);
+        let mass = c.vehicle.body.mass_kg / truth.body.mass_kg;
+        let drag = c.vehicle.body.drag_coefficient_n_s2_m2 / truth.body.drag_coefficient_n_s2_m2;
+        assert!((mass - 1.0).abs() < 0.005, "{mass}");
+        assert!((drag - 1.0).abs() < 0.05, "{drag}");
+    }
+
+    #[test]
+    fn one_flight_is_fitted_without_leave_one_out_and_no_legs_is_refused() {
+        let given = shipped();
+        let mut flights = flights_of(&given);
+        flights.legs.retain(|l| l.flight == 0);
+        let c = calibrate(&given, Profile::Hvb, &flights).unwrap();
+        assert!(c.held_out.is_empty() && c.held_out_errors().is_none());
+        flights.legs.clear();
+        let err = calibrate(&given, Profile::Hvb, &flights).unwrap_err();
+        assert!(err.to_string().contains("flight0"), "{err}");
+    }
+}

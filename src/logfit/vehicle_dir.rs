@@ -1,0 +1,253 @@
+//! The vehicle directory `calibrate --from-logs --out DIR` writes: the source vehicle.toml with
+//! the fitted values put in place (every other line and comment kept; each fitted line's comment
+//! says where its value came from and what it was), read back and checked, and the energy
+//! tables rebuilt for it with `physics::table`'s build.
+
+use std::path::Path;
+
+use super::{ErrorStats, Fitted, LogFitError};
+use crate::physics::table::{DEFAULT_XF, DEFAULT_ZF};
+use crate::physics::{EnergyTable, Profile, Vehicle};
+
+/// `text` (a vehicle.toml named `file` in errors) with each `section.key` of `values` set to its
+/// value and its comment replaced by the note given.
+pub fn edit_vehicle_toml(
+    text: &str,
+    file: &str,
+    values: &[(&str, f64, String)],
+) -> Result<String, LogFitError> {
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    for (path, value, note) in values {
+        let (section, key) = path
+            .split_once('.')
+            .ok_or_else(|| LogFitError::VehicleFile {
+                file: file.to_string(),
+                reason: format!("{path}: not a section.key"),
+            })?;
+        let header = format!("[{section}]");
+        let start = lines
+            .iter()
+            .position(|l| l.trim() == header)
+            .ok_or_else(|| LogFitError::VehicleFile {
+                file: file.to_string(),
+                reason: format!("no {header} section"),
+            })?;
+        let line = lines[start + 1..]
+            .iter()
+            .take_while(|l| !l.trim_start().starts_with('['))
+            .position(|l| {
+                l.trim_start()
+                    .strip_prefix(key)
+                    .is_some_and(|rest| rest.trim_start().starts_with('='))
+            })
+            .map(|k| start + 1 + k)
+            .ok_or_else(|| LogFitError::VehicleFile {
+                file: file.to_string(),
+                reason: format!("no {key} in {header}"),
+            })?;
+        // The comment stays in its column.
+        let column = lines[line].find('#').unwrap_or(0);
+        // Five significant digits, at least four decimals.
+        let decimals = (4 - value.abs().log10().floor() as i64).clamp(4, 9) as usize;
+        let assignment = format!("{key} = {value:.decimals$}");
+        let pad = column.saturating_sub(assignment.len()).max(1);
+        lines[line] = format!("{assignment}{:pad$}# {note}", "");
+    }
+    let mut out = lines.join("\n");
+    out.push('\n');
+    Ok(out)
+}
+
+/// The value of a key [`LogCalibration::values`](super::LogCalibration::values) may change
+/// (NaN for another key).
+pub fn value_of(v: &Vehicle, key: &str) -> f64 {
+    match key {
+        "body.mass_kg" => v.body.mass_kg,
+        "body.drag_coefficient_n_s2_m2" => v.body.drag_coefficient_n_s2_m2,
+        "battery.internal_resistance_ohm" => v.battery.internal_resistance_ohm,
+        "battery.capacity_ah" => v.battery.capacity_ah,
+        "planning.usable_energy_wh" => v.planning.usable_energy_wh,
+        _ => f64::NAN,
+    }
+}
+
+/// Sets a key [`value_of`] knows (others are ignored).
+pub fn set_value(v: &mut Vehicle, key: &str, value: f64) {
+    match key {
+        "body.mass_kg" => v.body.mass_kg = value,
+        "body.drag_coefficient_n_s2_m2" => v.body.drag_coefficient_n_s2_m2 = value,
+        "battery.internal_resistance_ohm" => v.battery.internal_resistance_ohm = value,
+        "battery.capacity_ah" => v.battery.capacity_ah = value,
+        "planning.usable_energy_wh" => v.planning.usable_energy_wh = value,
+        _ => {}
+    }
+}
+
+/// The header comment of a written vehicle file.
+fn header(fitted: &[Fitted], flights: usize, legs: usize, held_out: Option<ErrorStats>) -> String {
+    let keys: Vec<&str> = fitted
+        .iter()
+        .map(|f| f.key)
+        .filter(|k| k.starts_with("body."))
+        .collect();
+    let validation = held_out.map_or(String::new(), |e| {
+        format!(
+            "; leave-one-flight-out per-leg error rms {:.1}%, worst {:.1}%",
+            e.rms_pct, e.worst_pct
+        )
+    });
+    format!(
+        "# Calibrated from flight logs: `emplan calibrate --from-logs` fitted {} to {legs} legs\n\
+         # of {flights} flights{validation}; the battery's values, where changed, to their pack\n\
+         # voltage and current. Everything else is the source vehicle's.\n",
+        keys.join(" and ")
+    )
+}
+
+/// Writes the calibrated vehicle.toml into `out` (a new or empty directory, never the source
+/// `source_dir`), reads it back and checks the fitted values; returns the vehicle as read.
+pub fn write_vehicle(
+    source_dir: &Path,
+    out: &Path,
+    fitted: &[Fitted],
+    flights: usize,
+    legs: usize,
+    held_out: Option<ErrorStats>,
+) -> Result<Vehicle, LogFitError> {
+    let source = source_dir.join("vehicle.toml");
+    let source_file = source.display().to_string();
+    let text = std::fs::read_to_string(&source).map_err(|e| LogFitError::VehicleFile {
+        file: source_file.clone(),
+        reason: e.to_string(),
+    })?;
+    let out_file = out.join("vehicle.toml").display().to_string();
+    let same = match (source_dir.canonicalize(), out.canonicalize()) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    };
+    let occupied = std::fs::read_dir(out).is_ok_and(|mut d| d.next().is_some());
+    if same || occupied {
+        return Err(LogFitError::Write {
+            file: out.display().to_string(),
+            reason: "exists and is not empty: the calibrated vehicle goes to a new directory"
+                .into(),
+        });
+    }
+    let values: Vec<(&str, f64, String)> = fitted
+        .iter()
+        .map(|f| {
+            (
+                f.key,
+                f.value,
+                match f.key {
+                    "planning.usable_energy_wh" => format!(
+                        "scaled with battery.capacity_ah as fitted (`emplan calibrate --from-logs`); was {}",
+                        f.before
+                    ),
+                    "battery.internal_resistance_ohm" | "battery.capacity_ah" => format!(
+                        "calibrated against the pack voltage and current of logged flights (`emplan calibrate --from-logs`); was {}",
+                        f.before
+                    ),
+                    _ => format!(
+                        "calibrated against the leg energies of {flights} logged flights (`emplan calibrate --from-logs`); was {}",
+                        f.before
+                    ),
+                },
+            )
+        })
+        .collect();
+    let edited = edit_vehicle_toml(&text, &source_file, &values)?;
+    let edited = header(fitted, flights, legs, held_out) + &edited;
+    let vehicle = Vehicle::from_toml(&edited, &out_file)?;
+    for f in fitted {
+        let written = value_of(&vehicle, f.key);
+        if (written - f.value).abs().is_nan()
+            || (written - f.value).abs() > 1e-4 * f.value.abs().max(1.0)
+        {
+            return Err(LogFitError::VehicleFile {
+                file: out_file,
+                reason: format!("{} reads back as {written}, not {}", f.key, f.value),
+            });
+        }
+    }
+    std::fs::create_dir_all(out).map_err(|e| LogFitError::Write {
+        file: out.display().to_string(),
+        reason: e.to_string(),
+    })?;
+    std::fs::write(out.join("vehicle.toml"), edited).map_err(|e| LogFitError::Write {
+        file: out_file,
+        reason: e.to_string(),
+    })?;
+    Ok(vehicle)
+}
+
+/// Builds `profile`'s table of `vehicle` on the default grid (in parallel; `progress(done,
+/// total)`) and writes it into `dir`.
+pub fn write_table(
+    dir: &Path,
+    vehicle: &Vehicle,
+    profile: Profile,
+    progress: impl Fn(usize, usize) + Sync,
+) -> Result<std::path::PathBuf, LogFitError> {
+    let table = EnergyTable::build(vehicle, profile, DEFAULT_XF, DEFAULT_ZF, progress)?;
+    let path = EnergyTable::path(dir, profile);
+    std::fs::write(&path, table.to_text()).map_err(|e| LogFitError::Write {
+        file: path.display().to_string(),
+        reason: e.to_string(),
+    })?;
+    Ok(path)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn shipped_text() -> String {
+        std::fs::read_to_string(
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("models/s1000/vehicle.toml"),
+        )
+        .expect("the shipped vehicle file")
+    }
+
+    #[test]
+    fn fitted_values_replace_their_lines_and_everything_else_is_kept() {
+        let text = shipped_text();
+        let edited = edit_vehicle_toml(
+            &text,
+            "v.toml",
+            &[
+                ("body.mass_kg", 7.6543, "from logs".into()),
+                ("body.drag_coefficient_n_s2_m2", 0.41, "from logs".into()),
+            ],
+        )
+        .expect("edited");
+        let v = Vehicle::from_toml(&edited, "v.toml").expect("valid");
+        let before = Vehicle::from_toml(&text, "v.toml").expect("valid");
+        assert_eq!(v.body.mass_kg, 7.6543);
+        assert_eq!(v.body.drag_coefficient_n_s2_m2, 0.41);
+        // Only those two lines differ; the rotor's drag_coefficient is another key.
+        assert_eq!(v.rotor, before.rotor);
+        let changed = text
+            .lines()
+            .zip(edited.lines())
+            .filter(|(a, b)| a != b)
+            .count();
+        assert_eq!(changed, 2);
+        assert!(edited.contains("mass_kg = 7.6543"), "{edited}");
+    }
+
+    #[test]
+    fn a_key_the_file_lacks_is_refused_naming_the_file_and_key() {
+        let err = edit_vehicle_toml(
+            &shipped_text(),
+            "v.toml",
+            &[("body.wings", 2.0, "x".into())],
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            err.contains("v.toml") && err.contains("no wings in [body]"),
+            "{err}"
+        );
+    }
+}
