@@ -246,6 +246,66 @@ impl Trajectory {
         self.acceptance
     }
 
+    /// The first time within the paper's 4 m of the end point (where its operation energy
+    /// stops counting).
+    pub fn arrival_s(&self) -> f64 {
+        self.path.arrival_s(ARRIVAL_RADIUS_M)
+    }
+
+    /// The intervals (start, end) in s, before the 4 m arrival and before the autopilot's
+    /// acceptance, in which the motion is a steady cruise: sampled every `step_s`, every
+    /// acceleration component at most `max_accel_m_s2` and no velocity step above
+    /// `max_jump_m_s` between samples. Cutting such an interval out leaves the motion of the
+    /// same leg made shorter by the interval's displacement (`physics::longleg`).
+    pub fn steady_windows(
+        &self,
+        step_s: f64,
+        max_accel_m_s2: f64,
+        max_jump_m_s: f64,
+    ) -> Vec<(f64, f64)> {
+        let end = self
+            .accepted_s()
+            .map_or(self.arrival_s(), |a| a.min(self.arrival_s()));
+        let step_s = match &self.path {
+            Path::Sampled { samples, .. } => samples.step_s,
+            _ => step_s,
+        };
+        if step_s.is_nan() || step_s <= 0.0 || end.is_nan() || end <= 0.0 {
+            return Vec::new();
+        }
+        let count = (end / step_s).floor() as usize;
+        let mut windows = Vec::new();
+        let mut open: Option<f64> = None;
+        let mut previous: Option<(f64, f64)> = None;
+        for k in 0..=count {
+            let t = k as f64 * step_s;
+            let (vx, vz, ax, az) = self.path.kinematics(t);
+            let calm =
+                ax.abs() <= max_accel_m_s2 && az.abs() <= max_accel_m_s2 && vx.hypot(vz) > 1e-6;
+            let jump = previous.map_or(0.0, |(px, pz)| (vx - px).hypot(vz - pz));
+            previous = Some((vx, vz));
+            if let Some(start) = open {
+                if !calm || jump > max_jump_m_s {
+                    let last = t - step_s;
+                    if last > start {
+                        windows.push((start, last));
+                    }
+                    open = None;
+                }
+            }
+            if open.is_none() && calm {
+                open = Some(t);
+            }
+        }
+        if let Some(start) = open {
+            let last = count as f64 * step_s;
+            if last > start {
+                windows.push((start, last));
+            }
+        }
+        windows
+    }
+
     /// The first time the autopilot counts the end point reached by its acceptance (None:
     /// no acceptance rule, or never).
     pub fn accepted_s(&self) -> Option<f64> {
@@ -298,6 +358,21 @@ impl<'a> Model<'a> {
         let rotor = self.rotor.solve(d.thrust_n, d.v_x_m_s, d.v_z_m_s)?;
         let electrical = self.powertrain.electrical(&rotor)?;
         Ok((electrical.power_w, d.pitch_rad.abs()))
+    }
+
+    /// Battery energy of `trajectory` from `t0_s` to `t1_s` (midpoint rule, `n` steps).
+    pub fn trajectory_energy_j(
+        &self,
+        trajectory: &Trajectory,
+        (t0_s, t1_s): (f64, f64),
+        n: usize,
+    ) -> Result<f64, PhysicsError> {
+        self.energy_j(&trajectory.path, (t0_s, t1_s), n.max(1), false)
+    }
+
+    /// The vehicle these models were built for.
+    pub fn vehicle(&self) -> &Vehicle {
+        self.vehicle
     }
 
     /// Hover power.

@@ -143,3 +143,69 @@ fn the_committed_tables_are_fresh_and_reproducible_cell_by_cell() {
         }
     }
 }
+
+/// `emplan energy --json` of one leg, start to settled hover (kJ).
+fn total_energy_kj(xf: f64, zf: f64, profile: &str) -> f64 {
+    let doc = crate::json(&[
+        "energy",
+        "--xf",
+        &xf.to_string(),
+        "--zf",
+        &zf.to_string(),
+        "--profile",
+        profile,
+        "--json",
+    ]);
+    doc["energy_kj"].as_f64().expect("energy_kj")
+        + doc["settle_energy_kj"].as_f64().expect("settle")
+}
+
+#[test]
+fn a_mission_with_legs_beyond_the_table_plans_each_long_leg_priced_as_direct_simulation() {
+    // missions/long-survey.toml: 800 m survey lines and a 90 m climb, beyond the table.
+    for profile in ["px4", "hvb"] {
+        let doc = crate::json(&[
+            "plan",
+            "missions/long-survey.toml",
+            "--profile",
+            profile,
+            "--json",
+        ]);
+        let energy = &doc["orders"][0];
+        assert_eq!(energy["objective"], "energy");
+        let legs = energy["legs"].as_array().unwrap();
+        let mut beyond = 0;
+        for leg in legs {
+            let (x, z) = (
+                leg["horizontal_m"].as_f64().unwrap(),
+                leg["vertical_m"].as_f64().unwrap(),
+            );
+            if x <= 150.0 && z.abs() <= 60.0 {
+                continue;
+            }
+            beyond += 1;
+            let planned = leg["energy_kj"].as_f64().unwrap();
+            let direct = total_energy_kj(x, z, profile);
+            let err = (planned - direct) / direct;
+            eprintln!("{profile} ({x:.1}, {z:.1}): planned {planned:.3} kJ, direct {direct:.3} kJ, {:+.3}%", 100.0 * err);
+            assert!(
+                err.abs() < 0.005,
+                "{profile} ({x}, {z}): {planned} vs {direct} kJ"
+            );
+        }
+        assert!(beyond >= 3, "{profile}: {beyond} legs beyond the table");
+    }
+    // The ptf quintic never cruises: its long legs stay refused, naming the leg.
+    let (ok, _, stderr) = crate::emplan(&[
+        "plan",
+        "missions/long-survey.toml",
+        "--profile",
+        "ptf",
+        "--json",
+    ]);
+    assert!(!ok);
+    assert!(
+        stderr.contains("cannot be priced exactly") && stderr.contains(" -> "),
+        "{stderr}"
+    );
+}
