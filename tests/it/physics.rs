@@ -209,3 +209,53 @@ fn a_mission_with_legs_beyond_the_table_plans_each_long_leg_priced_as_direct_sim
         "{stderr}"
     );
 }
+
+#[test]
+fn long_legs_composed_from_the_committed_tables_match_direct_simulation() {
+    // Run with `-- --nocapture` to see each leg: composed price, direct simulation, error.
+    use emplan::physics::{VehicleModel, VehicleSource};
+    let legs = [
+        (300.0, 0.0),
+        (800.0, 0.0),
+        (300.0, 45.0),
+        (800.0, 100.0),
+        (300.0, -45.0),
+        (800.0, -100.0),
+        (0.0, 120.0),
+        (0.0, -120.0),
+    ];
+    for profile in [Profile::Hvb, Profile::Px4] {
+        let model = VehicleModel::open(&VehicleSource::BuiltIn, Some(profile)).unwrap();
+        let mut worst: f64 = 0.0;
+        for (x, z) in legs {
+            let started = std::time::Instant::now();
+            let composed = model.leg(x, z).unwrap();
+            let took = started.elapsed();
+            let started = std::time::Instant::now();
+            let direct = simulate_operation(&model.vehicle, profile, x, z).unwrap();
+            let took_direct = started.elapsed();
+            let err =
+                (composed.total_energy_j() - direct.total_energy_j()) / direct.total_energy_j();
+            let err_4m = (composed.energy_j - direct.energy_j) / direct.energy_j;
+            let dt = composed.total_duration_s() - direct.total_duration_s();
+            eprintln!(
+                "{profile} ({x}, {z}): composed {:.3} kJ, direct {:.3} kJ, {:+.3}% \
+                 (4 m rule {:+.3}%), duration {dt:+.2} s, composed in {:.1} ms, simulated in \
+                 {:.1} ms",
+                composed.total_energy_j() / 1000.0,
+                direct.total_energy_j() / 1000.0,
+                100.0 * err,
+                100.0 * err_4m,
+                took.as_secs_f64() * 1000.0,
+                took_direct.as_secs_f64() * 1000.0
+            );
+            worst = worst.max(err.abs()).max(err_4m.abs());
+            assert!(
+                dt.abs() < 0.5,
+                "{profile} ({x}, {z}): duration off by {dt} s"
+            );
+        }
+        eprintln!("{profile}: worst |error| {:.3}%", 100.0 * worst);
+        assert!(worst < 0.001, "{profile}: worst {worst}");
+    }
+}

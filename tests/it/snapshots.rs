@@ -23,6 +23,7 @@ const TIMING_KEYS: [&str; 5] = [
 
 const TSPLIB: &str = "../shared/tsplib-atsp";
 const LONG: &str = "missions/long-inspection.toml";
+const SURVEY: &str = "missions/long-survey.toml";
 const SAMPLE_3: &str = "missions/paper-sample-3wp.toml";
 const SAMPLE_8: &str = "missions/paper-sample-8wp.toml";
 const DAVIS: &str = "missions/davis-orchard-survey.toml";
@@ -197,6 +198,7 @@ fn plan_json_of_every_shipped_mission_matches_its_snapshot() {
         ("plan-json-sample-3", &format!("plan {SAMPLE_3} --json")),
         ("plan-json-sample-8", &format!("plan {SAMPLE_8} --json")),
         ("plan-json-long", &format!("plan {LONG} --json")),
+        ("plan-json-long-survey", &format!("plan {SURVEY} --json")),
     ]);
 }
 
@@ -233,6 +235,7 @@ fn plan_text_matches_its_snapshot() {
         ("plan-text-sample-8", &format!("plan {SAMPLE_8}")),
         ("plan-text-davis", &format!("plan {DAVIS}")),
         ("plan-text-long", &format!("plan {LONG}")),
+        ("plan-text-long-survey", &format!("plan {SURVEY}")),
         ("plan-text-sorties-long", &format!("plan {LONG} --sorties")),
         (
             "plan-text-branch-cut-sample-8",
