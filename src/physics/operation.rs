@@ -849,6 +849,35 @@ mod tests {
     }
 
     #[test]
+    fn steady_windows_are_the_cruises_before_the_four_metre_rule() {
+        let v = shipped();
+        let model = Model::new(&v);
+        // hvb (300, 40): both axes cruise, then the horizontal axis alone once the climb ends.
+        let t = model.trajectory(Profile::Hvb, 300.0, 40.0).unwrap();
+        let windows = t.steady_windows(0.01, 0.05, 0.05);
+        assert_eq!(windows.len(), 2, "{windows:?}");
+        let h = &v.hvb;
+        let (vx, vz, _, _) = t.kinematics(0.5 * (windows[0].0 + windows[0].1));
+        assert!((vx - h.speed_xy_m_s).abs() < 1e-9 && (vz - h.speed_up_m_s).abs() < 1e-9);
+        let (vx, vz, _, _) = t.kinematics(0.5 * (windows[1].0 + windows[1].1));
+        assert!((vx - h.speed_xy_m_s).abs() < 1e-9 && vz.abs() < 1e-12);
+        assert!(windows[1].1 <= t.arrival_s());
+        // px4 (300, 0): one cruise at MPC_XY_CRUISE, ended by the braking before the 4 m rule.
+        let t = model.trajectory(Profile::Px4, 300.0, 0.0).unwrap();
+        let windows = t.steady_windows(0.01, 0.05, 0.05);
+        assert_eq!(windows.len(), 1, "{windows:?}");
+        let (vx, _, _, _) = t.kinematics(windows[0].1);
+        assert!((vx - v.px4.mpc_xy_cruise_m_s).abs() < 1e-3, "{vx}");
+        assert!(t.remaining_m(windows[0].1) > 10.0);
+        // ptf's quintic never holds its speed.
+        let t = model.trajectory(Profile::Ptf, 140.0, 0.0).unwrap();
+        assert!(t
+            .steady_windows(0.01, 0.05, 0.05)
+            .iter()
+            .all(|(a, b)| b - a < 1.0));
+    }
+
+    #[test]
     fn infeasible_inputs_are_typed_errors() {
         let v = shipped();
         assert!(matches!(
