@@ -255,7 +255,8 @@ impl Trajectory {
     /// The intervals (start, end) in s, before the 4 m arrival and before the autopilot's
     /// acceptance, in which the motion is a steady cruise: sampled every `step_s`, every
     /// acceleration component at most `max_accel_m_s2` and no velocity step above
-    /// `max_jump_m_s` between samples. Cutting such an interval out leaves the motion of the
+    /// `max_jump_m_s` between samples, faster than 0.1 m/s (not the first instants of a
+    /// start from rest). Cutting such an interval out leaves the motion of the
     /// same leg made shorter by the interval's displacement (`physics::longleg`).
     pub fn steady_windows(
         &self,
@@ -281,7 +282,7 @@ impl Trajectory {
             let t = k as f64 * step_s;
             let (vx, vz, ax, az) = self.path.kinematics(t);
             let calm =
-                ax.abs() <= max_accel_m_s2 && az.abs() <= max_accel_m_s2 && vx.hypot(vz) > 1e-6;
+                ax.abs() <= max_accel_m_s2 && az.abs() <= max_accel_m_s2 && vx.hypot(vz) > 0.1;
             let jump = previous.map_or(0.0, |(px, pz)| (vx - px).hypot(vz - pz));
             previous = Some((vx, vz));
             if let Some(start) = open {
