@@ -259,3 +259,27 @@ fn long_legs_composed_from_the_committed_tables_match_direct_simulation() {
         assert!(worst < 0.001, "{profile}: worst {worst}");
     }
 }
+
+#[test]
+fn a_leg_longer_than_the_vehicles_max_leg_m_is_refused_as_an_operating_limit_not_for_lack_of_table()
+{
+    // Priced (composed beyond the table) but longer than planning.max_leg_m = 1000 m.
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("far.toml");
+    std::fs::write(
+        &file,
+        "name = \"far\"\n[origin]\nlat_deg = 38.5\nlon_deg = -121.8\nhome_alt_amsl_m = 10.0\n\
+         height_above_home_m = 20.0\n\
+         [[waypoints]]\nname = \"near\"\nx_m = 400.0\ny_m = 0.0\nz_m = 0.0\n\
+         [[waypoints]]\nname = \"far\"\nx_m = 1100.0\ny_m = 0.0\nz_m = 0.0\n",
+    )
+    .unwrap();
+    let file = file.to_str().unwrap();
+    let (ok, _, stderr) = crate::emplan(&["plan", file, "--json"]);
+    assert!(!ok);
+    assert!(
+        stderr.contains("planning.max_leg_m = 1000 m") && stderr.contains("1100 m long"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("energy table"), "{stderr}");
+}
