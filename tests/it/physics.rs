@@ -223,6 +223,10 @@ fn long_legs_composed_from_the_committed_tables_match_direct_simulation() {
         (800.0, -100.0),
         (0.0, 120.0),
         (0.0, -120.0),
+        (151.0, 0.0),
+        (800.0, 5.0),
+        (150.2, 60.3),
+        (1000.0, -119.0),
     ];
     for profile in [Profile::Hvb, Profile::Px4] {
         let model = VehicleModel::open(&VehicleSource::BuiltIn, Some(profile)).unwrap();
