@@ -13,6 +13,7 @@ pub mod body;
 pub mod budget;
 pub mod builtin;
 pub mod calibration;
+pub mod longleg;
 pub mod model;
 pub mod operation;
 pub mod powertrain;
@@ -91,6 +92,20 @@ pub enum PhysicsError {
         max_xf_m: f64,
         min_zf_m: f64,
         max_zf_m: f64,
+    },
+    #[error(
+        "leg Xf {xf_m:.2} m, Zf {zf_m:.2} m is outside the {profile} energy table \
+         (Xf 0..{max_xf_m} m, Zf {min_zf_m}..{max_zf_m} m) and cannot be priced exactly beyond \
+         it: {reason}; the table is never extrapolated"
+    )]
+    LongLeg {
+        xf_m: f64,
+        zf_m: f64,
+        profile: Profile,
+        max_xf_m: f64,
+        min_zf_m: f64,
+        max_zf_m: f64,
+        reason: String,
     },
     #[error("{file}: built from other vehicle parameters (table {table_hash}, vehicle {vehicle_hash}): run `emplan table build --profile {profile}`")]
     StaleTable {

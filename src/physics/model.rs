@@ -1,10 +1,13 @@
 //! A vehicle ready to price legs: its parameters, the flight profile chosen for it and that
 //! profile's energy table, loaded together so that a table is never used with another vehicle
-//! or profile than its own.
+//! or profile than its own. Legs beyond the table are composed from it where that is exact
+//! (`longleg`).
 
 use std::path::{Path, PathBuf};
 
 use super::budget::Budget;
+use super::longleg;
+use super::operation::Model;
 use super::{builtin, EnergyTable, LegEnergy, PhysicsError, Profile, Vehicle};
 
 /// Where a vehicle and its tables come from.
@@ -69,9 +72,17 @@ impl VehicleModel {
         })
     }
 
-    /// One leg of horizontal distance `xf_m` and signed climb `zf_m`, from the table.
+    /// One leg of horizontal distance `xf_m` and signed climb `zf_m`: from the table, or beyond
+    /// it composed exactly from a table leg and the profile's steady cruise
+    /// ([`super::longleg`]); a leg that is neither is an error naming it.
     pub fn leg(&self, xf_m: f64, zf_m: f64) -> Result<LegEnergy, PhysicsError> {
-        self.table.lookup(xf_m, zf_m)
+        match self.table.lookup(xf_m, zf_m) {
+            Err(PhysicsError::OutsideTable { .. }) if xf_m.is_finite() && zf_m.is_finite() => {
+                longleg::compose(&Model::new(&self.vehicle), &self.table, xf_m, zf_m)
+                    .map(|long| long.leg)
+            }
+            other => other,
+        }
     }
 
     /// Take-off, landing and hover for an origin `height_above_home_m` up, and the battery.

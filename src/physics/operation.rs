@@ -246,6 +246,67 @@ impl Trajectory {
         self.acceptance
     }
 
+    /// The first time within the paper's 4 m of the end point (where its operation energy
+    /// stops counting).
+    pub fn arrival_s(&self) -> f64 {
+        self.path.arrival_s(ARRIVAL_RADIUS_M)
+    }
+
+    /// The intervals (start, end) in s, before the 4 m arrival and before the autopilot's
+    /// acceptance, in which the motion is a steady cruise: sampled every `step_s`, every
+    /// acceleration component at most `max_accel_m_s2` and no velocity step above
+    /// `max_jump_m_s` between samples, faster than 0.1 m/s (not the first instants of a
+    /// start from rest). Cutting such an interval out leaves the motion of the
+    /// same leg made shorter by the interval's displacement (`physics::longleg`).
+    pub fn steady_windows(
+        &self,
+        step_s: f64,
+        max_accel_m_s2: f64,
+        max_jump_m_s: f64,
+    ) -> Vec<(f64, f64)> {
+        let end = self
+            .accepted_s()
+            .map_or(self.arrival_s(), |a| a.min(self.arrival_s()));
+        let step_s = match &self.path {
+            Path::Sampled { samples, .. } => samples.step_s,
+            _ => step_s,
+        };
+        if step_s.is_nan() || step_s <= 0.0 || end.is_nan() || end <= 0.0 {
+            return Vec::new();
+        }
+        let count = (end / step_s).floor() as usize;
+        let mut windows = Vec::new();
+        let mut open: Option<f64> = None;
+        let mut previous: Option<(f64, f64)> = None;
+        for k in 0..=count {
+            let t = k as f64 * step_s;
+            let (vx, vz, ax, az) = self.path.kinematics(t);
+            let calm =
+                ax.abs() <= max_accel_m_s2 && az.abs() <= max_accel_m_s2 && vx.hypot(vz) > 0.1;
+            let jump = previous.map_or(0.0, |(px, pz)| (vx - px).hypot(vz - pz));
+            previous = Some((vx, vz));
+            if let Some(start) = open {
+                if !calm || jump > max_jump_m_s {
+                    let last = t - step_s;
+                    if last > start {
+                        windows.push((start, last));
+                    }
+                    open = None;
+                }
+            }
+            if open.is_none() && calm {
+                open = Some(t);
+            }
+        }
+        if let Some(start) = open {
+            let last = count as f64 * step_s;
+            if last > start {
+                windows.push((start, last));
+            }
+        }
+        windows
+    }
+
     /// The first time the autopilot counts the end point reached by its acceptance (None:
     /// no acceptance rule, or never).
     pub fn accepted_s(&self) -> Option<f64> {
@@ -298,6 +359,21 @@ impl<'a> Model<'a> {
         let rotor = self.rotor.solve(d.thrust_n, d.v_x_m_s, d.v_z_m_s)?;
         let electrical = self.powertrain.electrical(&rotor)?;
         Ok((electrical.power_w, d.pitch_rad.abs()))
+    }
+
+    /// Battery energy of `trajectory` from `t0_s` to `t1_s` (midpoint rule, `n` steps).
+    pub fn trajectory_energy_j(
+        &self,
+        trajectory: &Trajectory,
+        (t0_s, t1_s): (f64, f64),
+        n: usize,
+    ) -> Result<f64, PhysicsError> {
+        self.energy_j(&trajectory.path, (t0_s, t1_s), n.max(1), false)
+    }
+
+    /// The vehicle these models were built for.
+    pub fn vehicle(&self) -> &Vehicle {
+        self.vehicle
     }
 
     /// Hover power.
@@ -771,6 +847,35 @@ mod tests {
                 .duration_s(),
             0.0
         );
+    }
+
+    #[test]
+    fn steady_windows_are_the_cruises_before_the_four_metre_rule() {
+        let v = shipped();
+        let model = Model::new(&v);
+        // hvb (300, 40): both axes cruise, then the horizontal axis alone once the climb ends.
+        let t = model.trajectory(Profile::Hvb, 300.0, 40.0).unwrap();
+        let windows = t.steady_windows(0.01, 0.05, 0.05);
+        assert_eq!(windows.len(), 2, "{windows:?}");
+        let h = &v.hvb;
+        let (vx, vz, _, _) = t.kinematics(0.5 * (windows[0].0 + windows[0].1));
+        assert!((vx - h.speed_xy_m_s).abs() < 1e-9 && (vz - h.speed_up_m_s).abs() < 1e-9);
+        let (vx, vz, _, _) = t.kinematics(0.5 * (windows[1].0 + windows[1].1));
+        assert!((vx - h.speed_xy_m_s).abs() < 1e-9 && vz.abs() < 1e-12);
+        assert!(windows[1].1 <= t.arrival_s());
+        // px4 (300, 0): one cruise at MPC_XY_CRUISE, ended by the braking before the 4 m rule.
+        let t = model.trajectory(Profile::Px4, 300.0, 0.0).unwrap();
+        let windows = t.steady_windows(0.01, 0.05, 0.05);
+        assert_eq!(windows.len(), 1, "{windows:?}");
+        let (vx, _, _, _) = t.kinematics(windows[0].1);
+        assert!((vx - v.px4.mpc_xy_cruise_m_s).abs() < 1e-3, "{vx}");
+        assert!(t.remaining_m(windows[0].1) > 10.0);
+        // ptf's quintic never holds its speed.
+        let t = model.trajectory(Profile::Ptf, 140.0, 0.0).unwrap();
+        assert!(t
+            .steady_windows(0.01, 0.05, 0.05)
+            .iter()
+            .all(|(a, b)| b - a < 1.0));
     }
 
     #[test]

@@ -1,6 +1,7 @@
 //! The precomputed energy table E(Xf, Zf) of one vehicle and flight profile: operation energy
 //! and duration over horizontal distance 0..150 m (1 m apart) and vertical displacement -60..+60 m
 //! (0.5 m apart), looked up by bilinear interpolation and never extrapolated.
+//! Longer legs are composed from it by `physics::longleg` where that is exact.
 //!
 //! File format (`models/<vehicle>/<profile>.table`, text, version 1):
 //! ```text

@@ -205,16 +205,27 @@ fn sorties_without_the_energy_order_are_refused() {
 }
 
 #[test]
-fn a_leg_beyond_the_table_is_an_error_naming_the_mission_and_the_leg() {
+fn a_leg_beyond_the_table_is_composed_with_px4_and_with_ptf_an_error_naming_the_mission_and_leg() {
     let mut far = mission("paper-sample-3wp.toml");
     far.waypoints[1].position.x_east_m = 400.0;
     let name = far.waypoints[1].name.clone();
-    let err = plan_mission(&far, &model(), &PlanOptions::default()).unwrap_err();
+    // px4 cruises: the leg is a table leg plus steady cruise.
+    let plan = plan_mission(&far, &model(), &PlanOptions::default()).unwrap();
+    assert!(plan
+        .orders
+        .iter()
+        .flat_map(|o| &o.legs)
+        .any(|l| l.horizontal_m > 150.0));
+    // ptf's quintic never cruises: refused, naming the leg.
+    let ptf =
+        VehicleModel::load(&repo("models/s1000"), Some(crate::physics::Profile::Ptf)).unwrap();
+    let err = plan_mission(&far, &ptf, &PlanOptions::default()).unwrap_err();
     let text = err.to_string();
     assert!(matches!(err, PlannerError::Pricing { .. }), "{text}");
     assert!(
         text.starts_with("pricing the legs of mission paper-sample-3wp: energy of leg")
-            && text.contains(&name),
+            && text.contains(&name)
+            && text.contains("cannot be priced exactly"),
         "{text}"
     );
 }

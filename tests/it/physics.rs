@@ -143,3 +143,147 @@ fn the_committed_tables_are_fresh_and_reproducible_cell_by_cell() {
         }
     }
 }
+
+/// `emplan energy --json` of one leg, start to settled hover (kJ).
+fn total_energy_kj(xf: f64, zf: f64, profile: &str) -> f64 {
+    let doc = crate::json(&[
+        "energy",
+        "--xf",
+        &xf.to_string(),
+        "--zf",
+        &zf.to_string(),
+        "--profile",
+        profile,
+        "--json",
+    ]);
+    doc["energy_kj"].as_f64().expect("energy_kj")
+        + doc["settle_energy_kj"].as_f64().expect("settle")
+}
+
+#[test]
+fn a_mission_with_legs_beyond_the_table_plans_each_long_leg_priced_as_direct_simulation() {
+    // missions/long-survey.toml: 800 m survey lines and a 90 m climb, beyond the table.
+    for profile in ["px4", "hvb"] {
+        let doc = crate::json(&[
+            "plan",
+            "missions/long-survey.toml",
+            "--profile",
+            profile,
+            "--json",
+        ]);
+        let energy = &doc["orders"][0];
+        assert_eq!(energy["objective"], "energy");
+        let legs = energy["legs"].as_array().unwrap();
+        let mut beyond = 0;
+        for leg in legs {
+            let (x, z) = (
+                leg["horizontal_m"].as_f64().unwrap(),
+                leg["vertical_m"].as_f64().unwrap(),
+            );
+            if x <= 150.0 && z.abs() <= 60.0 {
+                continue;
+            }
+            beyond += 1;
+            let planned = leg["energy_kj"].as_f64().unwrap();
+            let direct = total_energy_kj(x, z, profile);
+            let err = (planned - direct) / direct;
+            eprintln!("{profile} ({x:.1}, {z:.1}): planned {planned:.3} kJ, direct {direct:.3} kJ, {:+.3}%", 100.0 * err);
+            assert!(
+                err.abs() < 0.005,
+                "{profile} ({x}, {z}): {planned} vs {direct} kJ"
+            );
+        }
+        assert!(beyond >= 3, "{profile}: {beyond} legs beyond the table");
+    }
+    // The ptf quintic never cruises: its long legs stay refused, naming the leg.
+    let (ok, _, stderr) = crate::emplan(&[
+        "plan",
+        "missions/long-survey.toml",
+        "--profile",
+        "ptf",
+        "--json",
+    ]);
+    assert!(!ok);
+    assert!(
+        stderr.contains("cannot be priced exactly") && stderr.contains(" -> "),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn long_legs_composed_from_the_committed_tables_match_direct_simulation() {
+    // Run with `-- --nocapture` to see each leg: composed price, direct simulation, error.
+    use emplan::physics::{VehicleModel, VehicleSource};
+    let legs = [
+        (300.0, 0.0),
+        (800.0, 0.0),
+        (300.0, 45.0),
+        (800.0, 100.0),
+        (300.0, -45.0),
+        (800.0, -100.0),
+        (0.0, 120.0),
+        (0.0, -120.0),
+        (151.0, 0.0),
+        (800.0, 5.0),
+        (150.2, 60.3),
+        (1000.0, -119.0),
+    ];
+    for profile in [Profile::Hvb, Profile::Px4] {
+        let model = VehicleModel::open(&VehicleSource::BuiltIn, Some(profile)).unwrap();
+        let mut worst: f64 = 0.0;
+        for (x, z) in legs {
+            let started = std::time::Instant::now();
+            let composed = model.leg(x, z).unwrap();
+            let took = started.elapsed();
+            let started = std::time::Instant::now();
+            let direct = simulate_operation(&model.vehicle, profile, x, z).unwrap();
+            let took_direct = started.elapsed();
+            let err =
+                (composed.total_energy_j() - direct.total_energy_j()) / direct.total_energy_j();
+            let err_4m = (composed.energy_j - direct.energy_j) / direct.energy_j;
+            let dt = composed.total_duration_s() - direct.total_duration_s();
+            eprintln!(
+                "{profile} ({x}, {z}): composed {:.3} kJ, direct {:.3} kJ, {:+.3}% \
+                 (4 m rule {:+.3}%), duration {dt:+.2} s, composed in {:.1} ms, simulated in \
+                 {:.1} ms",
+                composed.total_energy_j() / 1000.0,
+                direct.total_energy_j() / 1000.0,
+                100.0 * err,
+                100.0 * err_4m,
+                took.as_secs_f64() * 1000.0,
+                took_direct.as_secs_f64() * 1000.0
+            );
+            worst = worst.max(err.abs()).max(err_4m.abs());
+            assert!(
+                dt.abs() < 0.5,
+                "{profile} ({x}, {z}): duration off by {dt} s"
+            );
+        }
+        eprintln!("{profile}: worst |error| {:.3}%", 100.0 * worst);
+        assert!(worst < 0.001, "{profile}: worst {worst}");
+    }
+}
+
+#[test]
+fn a_leg_longer_than_the_vehicles_max_leg_m_is_refused_as_an_operating_limit_not_for_lack_of_table()
+{
+    // Priced (composed beyond the table) but longer than planning.max_leg_m = 1000 m.
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("far.toml");
+    std::fs::write(
+        &file,
+        "name = \"far\"\n[origin]\nlat_deg = 38.5\nlon_deg = -121.8\nhome_alt_amsl_m = 10.0\n\
+         height_above_home_m = 20.0\n\
+         [[waypoints]]\nname = \"near\"\nx_m = 400.0\ny_m = 0.0\nz_m = 0.0\n\
+         [[waypoints]]\nname = \"far\"\nx_m = 1100.0\ny_m = 0.0\nz_m = 0.0\n",
+    )
+    .unwrap();
+    let file = file.to_str().unwrap();
+    let (ok, _, stderr) = crate::emplan(&["plan", file, "--json"]);
+    assert!(!ok);
+    assert!(
+        stderr.contains("planning.max_leg_m = 1000 m") && stderr.contains("1100 m long"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("energy table"), "{stderr}");
+}

@@ -23,6 +23,7 @@ const TIMING_KEYS: [&str; 5] = [
 
 const TSPLIB: &str = "../shared/tsplib-atsp";
 const LONG: &str = "missions/long-inspection.toml";
+const SURVEY: &str = "missions/long-survey.toml";
 const SAMPLE_3: &str = "missions/paper-sample-3wp.toml";
 const SAMPLE_8: &str = "missions/paper-sample-8wp.toml";
 const DAVIS: &str = "missions/davis-orchard-survey.toml";
@@ -197,6 +198,7 @@ fn plan_json_of_every_shipped_mission_matches_its_snapshot() {
         ("plan-json-sample-3", &format!("plan {SAMPLE_3} --json")),
         ("plan-json-sample-8", &format!("plan {SAMPLE_8} --json")),
         ("plan-json-long", &format!("plan {LONG} --json")),
+        ("plan-json-long-survey", &format!("plan {SURVEY} --json")),
     ]);
 }
 
@@ -233,6 +235,7 @@ fn plan_text_matches_its_snapshot() {
         ("plan-text-sample-8", &format!("plan {SAMPLE_8}")),
         ("plan-text-davis", &format!("plan {DAVIS}")),
         ("plan-text-long", &format!("plan {LONG}")),
+        ("plan-text-long-survey", &format!("plan {SURVEY}")),
         ("plan-text-sorties-long", &format!("plan {LONG} --sorties")),
         (
             "plan-text-branch-cut-sample-8",
@@ -421,7 +424,8 @@ fn planning_errors_match_their_snapshots() {
             stderr.replace(small, "[vehicle]")
         ),
     );
-    // A leg beyond the energy table: the error names the mission and the leg.
+    // A leg beyond the energy table that cannot be composed: the error names the mission and
+    // the leg.
     let wide = dir.path().join("wide.toml");
     let wide = wide.to_str().unwrap();
     let (ok, _, stderr) = emplan(&[
@@ -437,7 +441,8 @@ fn planning_errors_match_their_snapshots() {
         "4",
     ]);
     assert!(ok, "{stderr}");
-    let (ok, stdout, stderr) = emplan(&["plan", wide, "--json"]);
+    // px4 and hvb compose legs beyond the table from their steady cruise; ptf never cruises.
+    let (ok, stdout, stderr) = emplan(&["plan", wide, "--profile", "ptf", "--json"]);
     assert_snapshot(
         "plan-error-leg-outside-the-table",
         &format!(
