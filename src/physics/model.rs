@@ -74,12 +74,25 @@ impl VehicleModel {
 
     /// One leg of horizontal distance `xf_m` and signed climb `zf_m`: from the table, or beyond
     /// it composed exactly from a table leg and the profile's steady cruise
-    /// ([`super::longleg`]); a leg that is neither is an error naming it.
+    /// ([`super::longleg`]). The `ptf` quintic never cruises, so its long legs are simulated
+    /// directly, the very operation a table cell holds (about 20 ms a leg instead of a lookup);
+    /// a leg that is none of these is an error naming it.
     pub fn leg(&self, xf_m: f64, zf_m: f64) -> Result<LegEnergy, PhysicsError> {
         match self.table.lookup(xf_m, zf_m) {
-            Err(PhysicsError::OutsideTable { .. }) if xf_m.is_finite() && zf_m.is_finite() => {
-                longleg::compose(&Model::new(&self.vehicle), &self.table, xf_m, zf_m)
-                    .map(|long| long.leg)
+            Err(PhysicsError::OutsideTable { .. })
+                if xf_m.is_finite() && zf_m.is_finite() && xf_m >= 0.0 =>
+            {
+                let model = Model::new(&self.vehicle);
+                if self.profile == Profile::Ptf {
+                    let op = model.operation(self.profile, xf_m, zf_m)?;
+                    return Ok(LegEnergy {
+                        energy_j: op.energy_j,
+                        duration_s: op.duration_s,
+                        settle_energy_j: op.settle_energy_j,
+                        settle_duration_s: op.settle_duration_s,
+                    });
+                }
+                longleg::compose(&model, &self.table, xf_m, zf_m).map(|long| long.leg)
             }
             other => other,
         }

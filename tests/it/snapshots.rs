@@ -424,8 +424,8 @@ fn planning_errors_match_their_snapshots() {
             stderr.replace(small, "[vehicle]")
         ),
     );
-    // A leg beyond the energy table that cannot be composed: the error names the mission and
-    // the leg.
+    // A leg beyond the vehicle's reach (max_leg_m 1000 m; every leg inside it is priced, beyond
+    // the table too): the error names the mission and the leg.
     let wide = dir.path().join("wide.toml");
     let wide = wide.to_str().unwrap();
     let (ok, _, stderr) = emplan(&[
@@ -434,17 +434,16 @@ fn planning_errors_match_their_snapshots() {
         "--waypoints",
         "5",
         "--xy",
-        "100",
+        "800",
         "--z",
         "10",
         "--seed",
         "4",
     ]);
     assert!(ok, "{stderr}");
-    // px4 and hvb compose legs beyond the table from their steady cruise; ptf never cruises.
-    let (ok, stdout, stderr) = emplan(&["plan", wide, "--profile", "ptf", "--json"]);
+    let (ok, stdout, stderr) = emplan(&["plan", wide, "--json"]);
     assert_snapshot(
-        "plan-error-leg-outside-the-table",
+        "plan-error-leg-beyond-reach",
         &format!(
             "success: {ok}\n--- stdout\n{stdout}--- stderr\n{}",
             stderr.replace(wide, "[mission]")
