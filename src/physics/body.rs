@@ -31,7 +31,8 @@ pub fn demand(
 ) -> RotorDemand {
     let b = &vehicle.body;
     let fx = b.mass_kg * ax_m_s2 + b.drag_coefficient_n_s2_m2 * vx_m_s * vx_m_s.abs();
-    let fz = b.mass_kg * (az_m_s2 + b.gravity_m_s2);
+    let fz = b.mass_kg * (az_m_s2 + b.gravity_m_s2)
+        + b.vertical_drag_coefficient_n_s2_m2 * vz_m_s * vz_m_s.abs();
     let pitch = fx.atan2(fz);
     let (s, c) = pitch.sin_cos();
     RotorDemand {

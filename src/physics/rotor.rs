@@ -29,6 +29,8 @@ pub struct Rotor {
     half_n_rho: f64,
     lift_slope_per_rad: f64,
     drag_coefficient: f64,
+    /// kappa: the inflow through the blades is kappa times momentum theory's induced velocity.
+    induced_power_factor: f64,
     disk_area_m2: f64,
     air_density_kg_m3: f64,
     /// Over R0..B R: I(c theta r^2), I(c theta), I(c r).
@@ -76,6 +78,7 @@ impl Rotor {
             half_n_rho: 0.5 * f64::from(rp.blades) * vehicle.body.air_density_kg_m3,
             lift_slope_per_rad: rp.lift_slope_per_rad,
             drag_coefficient: rp.drag_coefficient,
+            induced_power_factor: rp.induced_power_factor,
             disk_area_m2: std::f64::consts::PI * r_tip * r_tip,
             air_density_kg_m3: vehicle.body.air_density_kg_m3,
             thrust_c_theta_r2: integrate(r0, r_thrust, n, |r| c * th(r) * r * r),
@@ -187,7 +190,8 @@ impl Rotor {
         if thrust_n < 0.0 {
             return Err(no_solution);
         }
-        let v_i = self.induced_velocity_m_s(thrust_n, v_x_m_s, v_z_m_s);
+        // Momentum theory's uniform induced velocity, made non-uniform-equivalent by kappa.
+        let v_i = self.induced_power_factor * self.induced_velocity_m_s(thrust_n, v_x_m_s, v_z_m_s);
         let u_pr = v_i + v_z_m_s;
         // Thrust equation A Omega^2 - B Omega + C = 0; the larger root is the physical one.
         let k = self.half_n_rho * self.lift_slope_per_rad;
