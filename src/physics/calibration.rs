@@ -268,7 +268,9 @@ fn compare_missions_of(
     profile: Option<Profile>,
 ) -> Result<Vec<MissionRow>, PhysicsError> {
     let model = Model::new(vehicle);
-    let mut cache: Vec<((Profile, u64, u64), (f64, f64))> = Vec::new();
+    // (profile, Xf bits, Zf bits) -> (to the 4 m rule, to settled hover), J.
+    type Key = (Profile, u64, u64);
+    let mut cache: Vec<(Key, (f64, f64))> = Vec::new();
     let mut leg = |profile: Profile, xf: f64, zf: f64| -> Result<(f64, f64), PhysicsError> {
         let key = (profile, xf.to_bits(), zf.to_bits());
         if let Some((_, e)) = cache.iter().find(|(k, _)| *k == key) {

@@ -15,7 +15,9 @@
 //! with the radial integrals I(.) computed once per rotor. The induced velocity comes from
 //! Glauert's momentum theory, T = 2 rho A v_i sqrt(v_x^2 + (v_z + v_i)^2) (Leishman,
 //! "Principles of Helicopter Aerodynamics", 2nd ed., eq. 2.128), which with the thrust known
-//! gives v_i alone; the thrust equation is then a quadratic in Omega. A rotor solve is O(1).
+//! gives v_i alone; the blade elements see kappa v_i (the induced power factor: non-uniform
+//! inflow, Leishman section 3.3), and the thrust equation is then a quadratic in Omega. A rotor
+//! solve is O(1).
 //! The double integral itself is kept (`integrate_numerically`) and the tests check the closed
 //! form against it.
 
@@ -294,7 +296,8 @@ mod tests {
         ] {
             let s = rotor.solve(thrust, v_x, v_z).unwrap();
             let bet = rotor.thrust_n(s.omega_rad_s, v_x, s.induced_velocity_m_s + v_z);
-            let vi = s.induced_velocity_m_s;
+            // The blades see kappa times momentum theory's induced velocity.
+            let vi = s.induced_velocity_m_s / v.rotor.induced_power_factor;
             let momentum = 2.0 * 1.2 * rotor.disk_area_m2() * vi * v_x.hypot(v_z + vi);
             assert!(
                 (bet - thrust).abs() < 1e-9 * thrust,
@@ -320,7 +323,8 @@ mod tests {
         let thrust = 7.4;
         let vh = (thrust / (2.0 * 1.2 * rotor.disk_area_m2())).sqrt();
         let s = rotor.solve(thrust, 0.0, 0.0).unwrap();
-        assert!((s.induced_velocity_m_s - vh).abs() < 1e-9);
+        let kappa = v.rotor.induced_power_factor;
+        assert!((s.induced_velocity_m_s - kappa * vh).abs() < 1e-9);
     }
 
     #[test]
