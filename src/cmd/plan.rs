@@ -29,6 +29,11 @@ pub struct Args {
     /// the origin), for other solvers
     #[arg(long, value_name = "FILE.atsp")]
     export_atsp: Option<PathBuf>,
+    /// What a leg's energy counts: settled (leaving hover to settled hover at the next point,
+    /// what the battery pays) or paper (to the paper's 4 m rule, its own convention); the
+    /// battery check always counts everything
+    #[arg(long, default_value = "settled")]
+    pricing: emplan::physics::Pricing,
     #[command(flatten)]
     solver: super::SolverArgs,
 }
@@ -44,6 +49,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         orders: Orders::All,
         solver: args.solver.options()?,
         sorties: args.sorties,
+        pricing: args.pricing,
     };
     let plan = super::progress::solving(&format!("planning {}", mission.name), || {
         plan_mission(&mission, &model, &options)
@@ -91,8 +97,12 @@ fn warn_if_over_budget(mission_path: &std::path::Path, battery: &BatteryJson) {
 }
 
 fn print_table(plan: &Plan, doc: &PlanJson, waypoints: usize) {
+    let convention = match doc.pricing {
+        emplan::physics::Pricing::Settled => "start to settled hover",
+        emplan::physics::Pricing::Paper => "paper pricing: start to the 4 m rule",
+    };
     println!(
-        "mission {}: {waypoints} waypoints, legs priced with the {} profile (start to settled hover)",
+        "mission {}: {waypoints} waypoints, legs priced with the {} profile ({convention})",
         doc.mission, doc.profile
     );
     println!(

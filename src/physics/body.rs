@@ -2,9 +2,9 @@
 //! Theta), with quasi-static pitch: the attitude that points the total thrust where the planned
 //! acceleration needs it (NOTES.md section 2; energy-model.md section 9.3):
 //!
-//! F_x = m X'' + C_BD X'|X'|,  F_z = m (Z'' + g),  T = |F|,  Theta = atan2(F_x, F_z)
+//! F_x = m X'' + C_BD X'|X'|,  F_z = m (Z'' + g) + C_BDz Z'|Z'|,  T = |F|,  Theta = atan2(F_x, F_z)
 //!
-//! (vertical body drag neglected, as the paper does), and the rotor-frame inflow
+//! (the paper neglects the vertical body drag C_BDz; energy-model.md section 9.3 keeps it), and the rotor-frame inflow
 //! v_x = X' cos Theta - Z' sin Theta, v_z = X' sin Theta + Z' cos Theta. The pitch-rate term
 //! Theta' x_j of the paper's per-rotor inflow is dropped: with quasi-static pitch all rotors
 //! share one operating point (energy effect below 1-2 %, research section 9.3).
@@ -31,7 +31,8 @@ pub fn demand(
 ) -> RotorDemand {
     let b = &vehicle.body;
     let fx = b.mass_kg * ax_m_s2 + b.drag_coefficient_n_s2_m2 * vx_m_s * vx_m_s.abs();
-    let fz = b.mass_kg * (az_m_s2 + b.gravity_m_s2);
+    let fz = b.mass_kg * (az_m_s2 + b.gravity_m_s2)
+        + b.vertical_drag_coefficient_n_s2_m2 * vz_m_s * vz_m_s.abs();
     let pitch = fx.atan2(fz);
     let (s, c) = pitch.sin_cos();
     RotorDemand {

@@ -27,7 +27,7 @@ pub use budget::{BatteryCheck, Budget};
 pub use model::{VehicleModel, VehicleSource};
 pub use operation::{hover_power_w, level_flight_power_w, simulate_operation, Operation};
 pub use profile::Profile;
-pub use table::{EnergyTable, LegEnergy};
+pub use table::{EnergyTable, LegEnergy, Pricing};
 pub use vehicle::Vehicle;
 
 /// Everything the physics layer can refuse.

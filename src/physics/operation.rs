@@ -203,6 +203,8 @@ pub struct Trajectory {
     settle_s: f64,
     steps: usize,
     acceptance: Option<Acceptance>,
+    /// Hover before the path starts: the tracking controller's lag behind its reference (PTF).
+    delay_s: f64,
 }
 
 /// Where an autopilot counts an end point reached and starts its hold, not waiting for the
@@ -216,24 +218,32 @@ pub struct Acceptance {
 }
 
 impl Trajectory {
-    /// Time from leaving hover to coming to rest at the end point.
+    /// Time from the operation's start to coming to rest at the end point.
     pub fn duration_s(&self) -> f64 {
-        self.path.duration_s()
+        self.delay_s + self.path.duration_s()
+    }
+
+    /// Hover at the start before the vehicle moves (the PTF's tracking lag; 0 otherwise).
+    pub fn delay_s(&self) -> f64 {
+        self.delay_s
     }
 
     /// Velocity and acceleration (vx, vz, ax, az) at `t_s` (at rest outside the trajectory).
     pub fn kinematics(&self, t_s: f64) -> (f64, f64, f64, f64) {
-        self.path.kinematics(t_s)
+        if t_s < self.delay_s {
+            return (0.0, 0.0, 0.0, 0.0);
+        }
+        self.path.kinematics(t_s - self.delay_s)
     }
 
     /// Position (x, z) relative to the start at `t_s` (clamped to the trajectory).
     pub fn position_m(&self, t_s: f64) -> (f64, f64) {
-        self.path.position_m(t_s)
+        self.path.position_m((t_s - self.delay_s).max(0.0))
     }
 
     /// Straight-line distance to the end point at `t_s`.
     pub fn remaining_m(&self, t_s: f64) -> f64 {
-        self.path.remaining_m(t_s)
+        self.path.remaining_m((t_s - self.delay_s).max(0.0))
     }
 
     /// Hover time after the trajectory that the profile counts as settling at the end point.
@@ -448,11 +458,24 @@ impl<'a> Model<'a> {
         }
         let rest = self.energy_j(path, (t_arrive, duration), n2, false)?;
         let peak = path_peak_speed(path, steps);
+        // The tracking lag: hover at the start before the path begins.
+        let lead_s = trajectory.delay_s;
+        let lead_j = if lead_s > 0.0 {
+            self.hover_power_w()? * lead_s
+        } else {
+            0.0
+        };
+        // Within 4 m from the start (t_arrive 0): the lag counts with the settle.
+        let (lead_j, lead_s, late_j, late_s) = if t_arrive > 0.0 {
+            (lead_j, lead_s, 0.0, 0.0)
+        } else {
+            (0.0, 0.0, lead_j, lead_s)
+        };
         Ok(Operation {
-            energy_j: energy,
-            duration_s: t_arrive,
-            settle_energy_j: rest + self.hover_power_w()? * settle_s,
-            settle_duration_s: duration - t_arrive + settle_s,
+            energy_j: lead_j + energy,
+            duration_s: lead_s + t_arrive,
+            settle_energy_j: late_j + rest + self.hover_power_w()? * settle_s,
+            settle_duration_s: late_s + duration - t_arrive + settle_s,
             peak_speed_m_s: peak,
         })
     }
@@ -504,6 +527,7 @@ impl<'a> Model<'a> {
                 settle_s: 0.0,
                 steps: 8,
                 acceptance: None,
+                delay_s: 0.0,
             });
         }
         let dir = (xf_m / length, zf_m / length);
@@ -570,6 +594,7 @@ impl<'a> Model<'a> {
                     settle_s: 0.0,
                     steps,
                     acceptance: None,
+                    delay_s: p.tracking_lag_s,
                 })
             }
             Profile::Hvb => {
@@ -592,6 +617,7 @@ impl<'a> Model<'a> {
                     settle_s: h.settle_s,
                     steps: h.steps as usize,
                     acceptance: None,
+                    delay_s: 0.0,
                 })
             }
             Profile::Px4 => {
@@ -695,6 +721,7 @@ fn px4_trajectory(x: &Px4Params, samples: px4::Samples, xf_m: f64, zf_m: f64) ->
             horizontal_m: x.nav_acc_rad_m,
             vertical_m: x.nav_mc_alt_rad_m,
         }),
+        delay_s: 0.0,
     }
 }
 
@@ -735,8 +762,8 @@ mod tests {
     #[test]
     fn level_flight_power_has_its_minimum_between_five_and_twelve_metres_per_second() {
         let v = shipped();
-        // Up to 12 m/s: beyond about 13 m/s the calibrated body drag saturates the motors.
-        let speeds: Vec<f64> = (0..=24).map(|k| 0.5 * k as f64).collect();
+        // Up to the vehicle's top speed, 16 m/s (NASA prog_models' S1000).
+        let speeds: Vec<f64> = (0..=32).map(|k| 0.5 * k as f64).collect();
         let powers: Vec<f64> = speeds
             .iter()
             .map(|&s| level_flight_power_w(&v, s).unwrap())
@@ -754,7 +781,7 @@ mod tests {
         );
         // A bucket: cheaper than hover at the minimum, dearer again at high speed.
         assert!(
-            p_min < 0.95 * powers[0] && powers[24] > p_min * 1.2,
+            p_min < 0.95 * powers[0] && powers[32] > p_min * 1.2,
             "{powers:?}"
         );
     }

@@ -15,7 +15,9 @@
 //! with the radial integrals I(.) computed once per rotor. The induced velocity comes from
 //! Glauert's momentum theory, T = 2 rho A v_i sqrt(v_x^2 + (v_z + v_i)^2) (Leishman,
 //! "Principles of Helicopter Aerodynamics", 2nd ed., eq. 2.128), which with the thrust known
-//! gives v_i alone; the thrust equation is then a quadratic in Omega. A rotor solve is O(1).
+//! gives v_i alone; the blade elements see kappa v_i (the induced power factor: non-uniform
+//! inflow, Leishman section 3.3), and the thrust equation is then a quadratic in Omega. A rotor
+//! solve is O(1).
 //! The double integral itself is kept (`integrate_numerically`) and the tests check the closed
 //! form against it.
 
@@ -29,6 +31,8 @@ pub struct Rotor {
     half_n_rho: f64,
     lift_slope_per_rad: f64,
     drag_coefficient: f64,
+    /// kappa: the inflow through the blades is kappa times momentum theory's induced velocity.
+    induced_power_factor: f64,
     disk_area_m2: f64,
     air_density_kg_m3: f64,
     /// Over R0..B R: I(c theta r^2), I(c theta), I(c r).
@@ -76,6 +80,7 @@ impl Rotor {
             half_n_rho: 0.5 * f64::from(rp.blades) * vehicle.body.air_density_kg_m3,
             lift_slope_per_rad: rp.lift_slope_per_rad,
             drag_coefficient: rp.drag_coefficient,
+            induced_power_factor: rp.induced_power_factor,
             disk_area_m2: std::f64::consts::PI * r_tip * r_tip,
             air_density_kg_m3: vehicle.body.air_density_kg_m3,
             thrust_c_theta_r2: integrate(r0, r_thrust, n, |r| c * th(r) * r * r),
@@ -187,7 +192,8 @@ impl Rotor {
         if thrust_n < 0.0 {
             return Err(no_solution);
         }
-        let v_i = self.induced_velocity_m_s(thrust_n, v_x_m_s, v_z_m_s);
+        // Momentum theory's uniform induced velocity, made non-uniform-equivalent by kappa.
+        let v_i = self.induced_power_factor * self.induced_velocity_m_s(thrust_n, v_x_m_s, v_z_m_s);
         let u_pr = v_i + v_z_m_s;
         // Thrust equation A Omega^2 - B Omega + C = 0; the larger root is the physical one.
         let k = self.half_n_rho * self.lift_slope_per_rad;
@@ -290,7 +296,8 @@ mod tests {
         ] {
             let s = rotor.solve(thrust, v_x, v_z).unwrap();
             let bet = rotor.thrust_n(s.omega_rad_s, v_x, s.induced_velocity_m_s + v_z);
-            let vi = s.induced_velocity_m_s;
+            // The blades see kappa times momentum theory's induced velocity.
+            let vi = s.induced_velocity_m_s / v.rotor.induced_power_factor;
             let momentum = 2.0 * 1.2 * rotor.disk_area_m2() * vi * v_x.hypot(v_z + vi);
             assert!(
                 (bet - thrust).abs() < 1e-9 * thrust,
@@ -316,7 +323,8 @@ mod tests {
         let thrust = 7.4;
         let vh = (thrust / (2.0 * 1.2 * rotor.disk_area_m2())).sqrt();
         let s = rotor.solve(thrust, 0.0, 0.0).unwrap();
-        assert!((s.induced_velocity_m_s - vh).abs() < 1e-9);
+        let kappa = v.rotor.induced_power_factor;
+        assert!((s.induced_velocity_m_s - kappa * vh).abs() < 1e-9);
     }
 
     #[test]

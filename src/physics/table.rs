@@ -97,6 +97,57 @@ impl LegEnergy {
     }
 }
 
+/// What a leg's energy counts (`--pricing`): to settled hover at the end point (what the
+/// battery pays; emplan's default), or to the paper's 4 m rule only (the paper's own convention:
+/// its published tables and mission energies; NOTES.md section 3).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Pricing {
+    /// From leaving hover to settled hover at the end point.
+    #[default]
+    Settled,
+    /// From leaving hover until first within 4 m of the end point.
+    Paper,
+}
+
+impl std::fmt::Display for Pricing {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Pricing::Settled => "settled",
+            Pricing::Paper => "paper",
+        })
+    }
+}
+
+impl std::str::FromStr for Pricing {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.to_ascii_lowercase().as_str() {
+            "settled" => Ok(Pricing::Settled),
+            "paper" => Ok(Pricing::Paper),
+            _ => Err(format!("unknown pricing {s:?} (allowed: settled, paper)")),
+        }
+    }
+}
+
+impl LegEnergy {
+    /// The leg's energy under `pricing`.
+    pub fn priced_energy_j(&self, pricing: Pricing) -> f64 {
+        match pricing {
+            Pricing::Settled => self.total_energy_j(),
+            Pricing::Paper => self.energy_j,
+        }
+    }
+
+    /// The leg's duration under `pricing`.
+    pub fn priced_duration_s(&self, pricing: Pricing) -> f64 {
+        match pricing {
+            Pricing::Settled => self.total_duration_s(),
+            Pricing::Paper => self.duration_s,
+        }
+    }
+}
+
 /// A loaded (or freshly built) energy table.
 #[derive(Debug, Clone, PartialEq)]
 pub struct EnergyTable {

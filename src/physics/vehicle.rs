@@ -45,6 +45,10 @@ pub struct Body {
     pub gravity_m_s2: f64,
     pub air_density_kg_m3: f64,
     pub drag_coefficient_n_s2_m2: f64,
+    /// Vertical body drag C_BDz: F_z gains C_BDz Z'|Z'| (energy-model.md section 9.3; the paper
+    /// neglects it). 0 for files written before it.
+    #[serde(default)]
+    pub vertical_drag_coefficient_n_s2_m2: f64,
     pub avionics_power_w: f64,
     pub max_tilt_deg: f64,
 }
@@ -63,6 +67,15 @@ pub struct RotorParams {
     pub collective_offset_deg: f64,
     pub lift_slope_per_rad: f64,
     pub drag_coefficient: f64,
+    /// Induced power factor kappa: the blade-element inflow is kappa times momentum theory's
+    /// uniform induced velocity (non-uniform inflow; Leishman, "Principles of Helicopter
+    /// Aerodynamics", 2nd ed., section 3.3: about 1.15). 1 (ideal) for files written before it.
+    #[serde(default = "default_induced_power_factor")]
+    pub induced_power_factor: f64,
+}
+
+fn default_induced_power_factor() -> f64 {
+    1.0
 }
 
 /// Brushless motor and ESC.
@@ -96,6 +109,11 @@ pub struct PtfParams {
     pub max_speed_xy_m_s: f64,
     pub max_speed_up_m_s: f64,
     pub max_speed_down_m_s: f64,
+    /// How long the PTF's tracking controller lags its reference: the vehicle leaves hover this
+    /// long after the operation starts (the paper's PTF is a PID loop following the polynomial,
+    /// energy-model.md section 4). 0 for files written before it.
+    #[serde(default)]
+    pub tracking_lag_s: f64,
     pub steps: u32,
 }
 
@@ -346,6 +364,12 @@ impl Vehicle {
             0.0,
             10.0,
         )?;
+        check(
+            "body.vertical_drag_coefficient_n_s2_m2",
+            b.vertical_drag_coefficient_n_s2_m2,
+            0.0,
+            10.0,
+        )?;
         check("body.avionics_power_w", b.avionics_power_w, 0.0, 1000.0)?;
         check("body.max_tilt_deg", b.max_tilt_deg, 5.0, 70.0)?;
         let r = &self.rotor;
@@ -374,6 +398,12 @@ impl Vehicle {
         )?;
         check("rotor.lift_slope_per_rad", r.lift_slope_per_rad, 1.0, 7.0)?;
         check("rotor.drag_coefficient", r.drag_coefficient, 0.0, 0.2)?;
+        check(
+            "rotor.induced_power_factor",
+            r.induced_power_factor,
+            1.0,
+            1.5,
+        )?;
         let m = &self.motor;
         check("motor.kv_rpm_per_v", m.kv_rpm_per_v, 10.0, 10_000.0)?;
         check("motor.resistance_ohm", m.resistance_ohm, 0.0, 10.0)?;
@@ -414,6 +444,7 @@ impl Vehicle {
         check("ptf.max_speed_xy_m_s", t.max_speed_xy_m_s, 0.5, 40.0)?;
         check("ptf.max_speed_up_m_s", t.max_speed_up_m_s, 0.2, 20.0)?;
         check("ptf.max_speed_down_m_s", t.max_speed_down_m_s, 0.2, 20.0)?;
+        check("ptf.tracking_lag_s", t.tracking_lag_s, 0.0, 10.0)?;
         check("ptf.steps", f64::from(t.steps), 20.0, 100_000.0)?;
         let h = &self.hvb;
         check("hvb.speed_xy_m_s", h.speed_xy_m_s, 0.5, 40.0)?;

@@ -139,6 +139,7 @@ mod tests {
                         settle_energy_j: 0.0,
                         settle_duration_s: 0.0,
                     },
+                    pricing: crate::physics::Pricing::Settled,
                 }
             })
             .collect();

@@ -9,7 +9,7 @@
 use serde::Serialize;
 
 use super::{Flight, Leg, Order, Orders, Plan, Sorties};
-use crate::physics::Profile;
+use crate::physics::{Pricing, Profile};
 use crate::plan::solver::Solver;
 use crate::plan::sorties::Method;
 use crate::plan::{Direction, Objective};
@@ -29,6 +29,9 @@ pub fn energy_kj(legs: &[Leg]) -> f64 {
 pub struct PlanJson {
     pub mission: String,
     pub profile: Profile,
+    /// What the orders' and legs' `energy_kj` count: "settled" (to settled hover) or "paper"
+    /// (to the 4 m rule). The battery always counts everything.
+    pub pricing: Pricing,
     pub orders: Vec<OrderJson>,
     pub battery: BatteryJson,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -191,9 +194,14 @@ pub fn order_json(plan: &Plan, order: &Order) -> OrderJson {
 /// The flown order against the battery, as printed.
 pub fn battery_json(plan: &Plan) -> BatteryJson {
     let b = &plan.battery;
+    // Everything the battery pays for each leg, whatever the plan's pricing.
     let (takeoff_kj, legs_kj, hover_kj, landing_kj) = (
         kj(b.takeoff_j),
-        energy_kj(&plan.flown().legs),
+        plan.flown()
+            .legs
+            .iter()
+            .map(|l| kj(l.settled_energy_j()))
+            .sum::<f64>(),
         kj(b.hover_j),
         kj(b.landing_j),
     );
@@ -244,6 +252,7 @@ pub fn plan_document(plan: &Plan) -> PlanJson {
     PlanJson {
         mission: plan.mission.clone(),
         profile: plan.profile,
+        pricing: plan.pricing,
         orders: plan.orders.iter().map(|o| order_json(plan, o)).collect(),
         battery: battery_json(plan),
         sorties: plan.sorties.as_ref().map(|s| sorties_json(plan, s)),

@@ -22,7 +22,7 @@ pub mod study;
 use serde::Serialize;
 
 use crate::mission::Mission;
-use crate::physics::{BatteryCheck, Budget, LegEnergy, PhysicsError, Profile};
+use crate::physics::{BatteryCheck, Budget, LegEnergy, PhysicsError, Pricing, Profile};
 use crate::plan::energy::energy_matrix;
 use crate::plan::orders::{baseline, energy_order, plan_orders};
 use crate::plan::sorties::{self, Method, SortieError, SortieOptions, SortieProblem};
@@ -52,8 +52,12 @@ pub struct PlanOptions {
     pub orders: Orders,
     pub solver: solver::Options,
     /// Also split the mission into sorties of least total energy, one battery each (needs the
-    /// energy order: `All` or `Energy`).
+    /// energy order: `All` or `Energy`, and settled pricing).
     pub sorties: bool,
+    /// What a leg's energy counts, for the orders and their energies: to settled hover (the
+    /// default) or to the paper's 4 m rule. The battery check always counts everything the
+    /// battery pays (settled).
+    pub pricing: Pricing,
 }
 
 impl Default for PlanOptions {
@@ -62,6 +66,7 @@ impl Default for PlanOptions {
             orders: Orders::All,
             solver: solver::Options::default(),
             sorties: false,
+            pricing: Pricing::Settled,
         }
     }
 }
@@ -80,17 +85,25 @@ pub struct Leg {
     /// Energy and time to the paper's 4 m rule (`energy_j`, `duration_s`) and from there to
     /// settled hover at the next point (`settle_energy_j`, `settle_duration_s`).
     pub predicted: LegEnergy,
+    /// What [`Leg::energy_j`] counts.
+    pub pricing: Pricing,
 }
 
 impl Leg {
-    /// Everything the battery pays for the leg, start to settled hover.
+    /// The leg's energy as its plan prices it (settled: everything the battery pays, start to
+    /// settled hover; paper: to the 4 m rule).
     pub fn energy_j(&self) -> f64 {
-        self.predicted.total_energy_j()
+        self.predicted.priced_energy_j(self.pricing)
     }
 
-    /// Start to settled hover.
+    /// The leg's duration as its plan prices it.
     pub fn duration_s(&self) -> f64 {
-        self.predicted.total_duration_s()
+        self.predicted.priced_duration_s(self.pricing)
+    }
+
+    /// Everything the battery pays for the leg, start to settled hover (whatever the pricing).
+    pub fn settled_energy_j(&self) -> f64 {
+        self.predicted.total_energy_j()
     }
 }
 
@@ -108,7 +121,7 @@ pub struct Order {
     pub horizontal_m: f64,
     /// Total absolute vertical distance.
     pub vertical_m: f64,
-    /// Sum of the legs' energies.
+    /// Sum of the legs' energies (as the plan prices them).
     pub energy_j: f64,
     /// Sum of the legs' durations.
     pub duration_s: f64,
@@ -152,6 +165,8 @@ pub struct Plan {
     /// The mission's name.
     pub mission: String,
     pub profile: Profile,
+    /// What the legs' energies count (the battery check always counts everything).
+    pub pricing: Pricing,
     /// What was asked for.
     pub asked: Orders,
     /// `names[node]`: "origin", then the waypoints' names.
@@ -172,7 +187,7 @@ pub struct Plan {
     pub sorties: Option<Sorties>,
     /// Where the energy order saves against the distance order (with `All`).
     pub explanation: Option<Explanation>,
-    /// Energy of every leg, start to settled hover (J), node 0 = origin.
+    /// Energy of every leg as the plan prices it (J), node 0 = origin.
     pub energy: CostMatrix,
 }
 
@@ -297,6 +312,7 @@ impl FlightChoice {
             orders,
             solver,
             sorties: self.sortie.is_some(),
+            pricing: Pricing::Settled,
         }
     }
 
@@ -351,6 +367,11 @@ pub enum PlannerError {
     Sorties { mission: String, cause: SortieError },
     #[error("splitting mission {mission} into sorties needs its energy order")]
     SortiesNeedTheEnergyOrder { mission: String },
+    #[error(
+        "splitting mission {mission} into sorties needs settled pricing (a battery pays each \
+         leg's settle; the paper's pricing leaves it out)"
+    )]
+    SortiesNeedSettledPricing { mission: String },
     #[error("sortie {sortie}: the mission splits into {count} sorties (1 to {count})")]
     NoSuchSortie { sortie: usize, count: usize },
     #[error(
@@ -452,6 +473,11 @@ pub fn plan_mission(
     options: &PlanOptions,
 ) -> Result<Plan, PlannerError> {
     within_height_limit(mission, &model.vehicle.planning)?;
+    if options.sorties && options.pricing != Pricing::Settled {
+        return Err(PlannerError::SortiesNeedSettledPricing {
+            mission: mission.name.clone(),
+        });
+    }
     let geometry = Geometry::from_mission(mission);
     let names: Vec<String> = std::iter::once("origin".to_string())
         .chain(mission.waypoints.iter().map(|w| w.name.clone()))
@@ -465,7 +491,9 @@ pub fn plan_mission(
         cause,
     };
     let energy = energy_matrix(&geometry, &names, |x, z| {
-        model.leg(x, z).map(|leg| leg.total_energy_j())
+        model
+            .leg(x, z)
+            .map(|leg| leg.priced_energy_j(options.pricing))
     })
     .map_err(pricing)?;
     let solver = &options.solver;
@@ -498,6 +526,7 @@ pub fn plan_mission(
             vertical_m,
             distance_m: geometry.distance_m(from, to),
             predicted,
+            pricing: options.pricing,
         })
     };
     let legs = |nodes: &[usize]| -> Result<Vec<Leg>, PlannerError> {
@@ -550,7 +579,10 @@ pub fn plan_mission(
         .budget(mission.origin.height_above_home_m)
         .map_err(PlannerError::Budget)?;
     let hover_s: Vec<f64> = mission.waypoints.iter().map(|w| w.hover_s).collect();
-    let legs_j = orders.get(flown).map_or(0.0, |o| o.energy_j);
+    // The battery pays everything, whatever the pricing of the orders.
+    let legs_j = orders
+        .get(flown)
+        .map_or(0.0, |o| o.legs.iter().map(Leg::settled_energy_j).sum());
     let battery = budget.check(legs_j, budget.hover_j(hover_s.iter().sum()));
 
     let sorties = if options.sorties {
@@ -621,6 +653,7 @@ pub fn plan_mission(
     Ok(Plan {
         mission: mission.name.clone(),
         profile: model.profile,
+        pricing: options.pricing,
         asked: options.orders,
         names,
         orders,

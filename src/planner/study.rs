@@ -1,12 +1,13 @@
 //! The paper's random-mission study (`plan::study`) run with a vehicle: each setting checked
 //! against the vehicle's energy table before any mission is drawn, the legs priced from the
-//! table (start to settled hover, as `emplan plan` prices them), and the study's JSON view.
+//! table (start to settled hover as `emplan plan` prices them, or to the paper's 4 m rule with
+//! [`Pricing::Paper`]), and the study's JSON view.
 
 use std::time::Instant;
 
 use serde::Serialize;
 
-use crate::physics::{EnergyTable, Profile, VehicleModel};
+use crate::physics::{EnergyTable, Pricing, Profile, VehicleModel};
 use crate::plan::study::{run_study, Study, StudyError, StudySettings, Summary};
 use crate::plan::Objective;
 
@@ -15,6 +16,8 @@ use crate::plan::Objective;
 pub struct StudyRun {
     pub study: Study,
     pub profile: Profile,
+    /// What each leg's energy counted.
+    pub pricing: Pricing,
     /// Wall time of the run.
     pub seconds: f64,
 }
@@ -90,16 +93,18 @@ pub fn check_envelope(s: &StudySettings, table: &EnergyTable) -> Result<(), Stud
     Ok(())
 }
 
-/// Runs the study of `settings` with `model`'s energy table; `progress` is called once per
-/// finished mission, from any thread.
+/// Runs the study of `settings` with `model`'s energy table, each leg priced as `pricing` says;
+/// `progress` is called once per finished mission, from any thread.
 pub fn run(
     settings: &StudySettings,
     model: &VehicleModel,
+    pricing: Pricing,
     progress: &(dyn Fn() + Sync),
 ) -> Result<StudyRun, StudyRunError> {
     check_envelope(settings, &model.table)?;
     let started = Instant::now();
-    let leg_energy_j = |xf_m: f64, zf_m: f64| model.leg(xf_m, zf_m).map(|l| l.total_energy_j());
+    let leg_energy_j =
+        |xf_m: f64, zf_m: f64| model.leg(xf_m, zf_m).map(|l| l.priced_energy_j(pricing));
     let study =
         run_study(settings, leg_energy_j, progress).map_err(|cause| StudyRunError::Run {
             settings: *settings,
@@ -109,6 +114,7 @@ pub fn run(
     Ok(StudyRun {
         study,
         profile: model.profile,
+        pricing,
         seconds: started.elapsed().as_secs_f64(),
     })
 }
@@ -130,6 +136,8 @@ pub struct StudyJson {
     pub z_m: f64,
     pub seed: u64,
     pub profile: Profile,
+    /// What each leg's energy counted: "settled" or "paper" (to the 4 m rule).
+    pub pricing: Pricing,
     #[serde(flatten)]
     pub summary: Summary,
     pub worst_mission: Worst,
@@ -145,6 +153,7 @@ pub fn study_document(run: &StudyRun) -> StudyJson {
         z_m: s.z_m,
         seed: s.seed,
         profile: run.profile,
+        pricing: run.pricing,
         summary: run.study.summary,
         worst_mission: Worst {
             distance: run.study.worst_mission(Objective::Distance),
@@ -180,12 +189,18 @@ mod tests {
     #[test]
     fn settings_whose_legs_leave_the_table_are_refused_before_any_mission_is_drawn() {
         let m = model();
-        let wide = run(&settings(60.0, 10.0), &m, &|| panic!("no mission runs")).unwrap_err();
+        let wide = run(&settings(60.0, 10.0), &m, Pricing::Settled, &|| {
+            panic!("no mission runs")
+        })
+        .unwrap_err();
         assert!(
             matches!(wide, StudyRunError::TooWide { reach_m, .. } if reach_m > 150.0),
             "{wide}"
         );
-        let high = run(&settings(20.0, 31.0), &m, &|| panic!("no mission runs")).unwrap_err();
+        let high = run(&settings(20.0, 31.0), &m, Pricing::Settled, &|| {
+            panic!("no mission runs")
+        })
+        .unwrap_err();
         assert!(
             matches!(high, StudyRunError::TooHigh { allowed_z_m, .. } if allowed_z_m == 30.0),
             "{high}"
@@ -196,7 +211,7 @@ mod tests {
     fn the_study_of_a_vehicle_prices_legs_from_its_table_and_its_view_names_the_worst_missions() {
         let m = model();
         let s = settings(30.0, 20.0);
-        let done = run(&s, &m, &|| {}).unwrap();
+        let done = run(&s, &m, Pricing::Settled, &|| {}).unwrap();
         let direct = run_study(
             &s,
             |x: f64, z: f64| m.table.lookup(x, z).map(|l| l.total_energy_j()),
@@ -204,6 +219,17 @@ mod tests {
         )
         .unwrap();
         assert_eq!(done.study, direct);
+        // The paper's pricing counts each leg to the 4 m rule only, and says so.
+        let paper = run(&s, &m, Pricing::Paper, &|| {}).unwrap();
+        let direct_paper = run_study(
+            &s,
+            |x: f64, z: f64| m.table.lookup(x, z).map(|l| l.energy_j),
+            &|| {},
+        )
+        .unwrap();
+        assert_eq!(paper.study, direct_paper);
+        assert_ne!(paper.study, done.study);
+        assert_eq!(study_document(&paper).pricing, Pricing::Paper);
         let doc = study_document(&done);
         assert_eq!(doc.summary.missions, 20);
         assert_eq!(doc.profile, m.profile);

@@ -304,6 +304,7 @@ fn plan_file(path: &Path, bytes: &[u8], settings: &PlanSettings) -> (Option<Miss
         orders: Orders::All,
         solver: settings.solver,
         sorties: false,
+        pricing: crate::physics::Pricing::Settled,
     };
     let failed = |e: crate::planner::PlannerError| {
         Outcome::Failed(MissionProblem {
