@@ -6,13 +6,14 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use emplan::physics::calibration::{calibrate, rms, rms_pct, Row, PAPER_MARGINAL_J_M};
-use emplan::physics::{Pricing, Vehicle};
+use emplan::physics::{Pricing, VehicleSource};
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Vehicle directory holding vehicle.toml
-    #[arg(long, default_value = "models/s1000")]
-    vehicle: PathBuf,
+    /// Vehicle directory holding vehicle.toml (default: $EMPLAN_VEHICLE, else the S1000 built
+    /// into emplan)
+    #[arg(long, value_name = "DIR")]
+    vehicle: Option<PathBuf>,
     /// Refit the calibrated parameters (PTF: mass, drags, induced power factor, speed limits,
     /// tracking lag; HVB: its limits) to the operations and sample missions together, and print
     /// the values to put in vehicle.toml
@@ -31,10 +32,22 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    if let Some(code) = super::calibrate_logs::run(&args.logs, &args.vehicle, args.json)? {
+    // --vehicle, else $EMPLAN_VEHICLE, else the built-in S1000 (as every command chooses).
+    let (source, chosen) = super::VehicleArgs {
+        vehicle: args.vehicle.clone(),
+        profile: None,
+    }
+    .source();
+    let dir = match &source {
+        VehicleSource::Dir(dir) => Some(dir.as_path()),
+        VehicleSource::BuiltIn => None,
+    };
+    let vehicle = source
+        .vehicle()
+        .map_err(|e| super::vehicle_error(e.into(), &chosen))?;
+    if let Some(code) = super::calibrate_logs::run(&args.logs, &vehicle, dir, args.json)? {
         return Ok(code);
     }
-    let vehicle = Vehicle::load(&args.vehicle)?;
     // The fit runs about a minute: a spinner with the time taken on a terminal.
     let c = if args.fit {
         super::progress::solving("fitting the calibrated parameters", || {

@@ -30,11 +30,19 @@ pub struct LogArgs {
 }
 
 /// Runs `--from-logs` when it was given (None otherwise).
-pub fn run(args: &LogArgs, vehicle_dir: &Path, json: bool) -> anyhow::Result<Option<ExitCode>> {
+/// `vehicle` is the one chosen, read from `vehicle_dir` (None: the built-in S1000).
+pub fn run(
+    args: &LogArgs,
+    vehicle: &Vehicle,
+    vehicle_dir: Option<&Path>,
+    json: bool,
+) -> anyhow::Result<Option<ExitCode>> {
     if args.from_logs.is_empty() {
         return Ok(None);
     }
-    let vehicle = Vehicle::load(vehicle_dir)?;
+    let name = vehicle_dir.map_or(emplan::physics::builtin::NAME.to_string(), |d| {
+        d.display().to_string()
+    });
     let profile = args.profile.unwrap_or(vehicle.default_profile());
     let tables: Vec<Profile> = match args.tables.as_deref() {
         None => vec![profile],
@@ -48,7 +56,7 @@ pub fn run(args: &LogArgs, vehicle_dir: &Path, json: bool) -> anyhow::Result<Opt
     };
     let flights = logfit::read_flights(&args.from_logs)?;
     let c = super::progress::solving("fitting to the logged legs", || {
-        logfit::calibrate(&vehicle, profile, &flights)
+        logfit::calibrate(vehicle, profile, &flights)
     })?;
     let mut written = Vec::new();
     if let Some(out) = &args.out {
@@ -75,7 +83,7 @@ pub fn run(args: &LogArgs, vehicle_dir: &Path, json: bool) -> anyhow::Result<Opt
     if json {
         let mut doc = c.to_json();
         if let Some(map) = doc.as_object_mut() {
-            map.insert("vehicle".into(), vehicle_dir.display().to_string().into());
+            map.insert("vehicle".into(), name.clone().into());
             map.insert(
                 "out".into(),
                 args.out.as_ref().map(|o| o.display().to_string()).into(),
@@ -92,7 +100,7 @@ pub fn run(args: &LogArgs, vehicle_dir: &Path, json: bool) -> anyhow::Result<Opt
         println!("{}", serde_json::to_string_pretty(&doc)?);
         return Ok(Some(ExitCode::SUCCESS));
     }
-    print(&c, vehicle_dir);
+    print(&c, &name);
     for path in &written {
         println!("wrote {}", path.display());
     }
@@ -109,14 +117,14 @@ fn stats_line(what: &str, e: &ErrorStats) -> String {
     )
 }
 
-fn print(c: &LogCalibration, vehicle_dir: &Path) {
+fn print(c: &LogCalibration, vehicle: &str) {
     let used: usize = c.flights.iter().map(|f| f.legs).sum();
     let skipped: usize = c.flights.iter().map(|f| f.skipped).sum();
     println!(
         "leg energies of {} flights ({used} legs used, {skipped} flagged or unmeasured left out), {} profile, vehicle {}",
         c.flights.len(),
         c.profile,
-        vehicle_dir.display()
+        vehicle
     );
     println!(
         "{:<28} {:>6} {:>6} {:>9} {:>8} {:>8} {:>9}",

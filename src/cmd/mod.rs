@@ -111,7 +111,7 @@ impl VehicleArgs {
     }
 }
 
-fn vehicle_error(error: anyhow::Error, chosen: &str) -> anyhow::Error {
+pub fn vehicle_error(error: anyhow::Error, chosen: &str) -> anyhow::Error {
     error.context(format!("the vehicle chosen by {chosen}"))
 }
 

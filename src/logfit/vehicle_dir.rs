@@ -105,24 +105,35 @@ fn header(fitted: &[Fitted], flights: usize, legs: usize, held_out: Option<Error
 }
 
 /// Writes the calibrated vehicle.toml into `out` (a new or empty directory, never the source
-/// `source_dir`), reads it back and checks the fitted values; returns the vehicle as read.
+/// `source_dir`, or of the built-in vehicle when None), reads it back and checks the fitted values; returns the vehicle as read.
 pub fn write_vehicle(
-    source_dir: &Path,
+    source_dir: Option<&Path>,
     out: &Path,
     fitted: &[Fitted],
     flights: usize,
     legs: usize,
     held_out: Option<ErrorStats>,
 ) -> Result<Vehicle, LogFitError> {
-    let source = source_dir.join("vehicle.toml");
-    let source_file = source.display().to_string();
-    let text = std::fs::read_to_string(&source).map_err(|e| LogFitError::VehicleFile {
-        file: source_file.clone(),
-        reason: e.to_string(),
-    })?;
+    // The vehicle file edited: the directory's, or the built-in S1000's own text.
+    let (text, source_file) = match source_dir {
+        Some(dir) => {
+            let source = dir.join("vehicle.toml");
+            let source_file = source.display().to_string();
+            let text =
+                std::fs::read_to_string(&source).map_err(|e| LogFitError::VehicleFile {
+                    file: source_file.clone(),
+                    reason: e.to_string(),
+                })?;
+            (text, source_file)
+        }
+        None => (
+            crate::physics::builtin::VEHICLE_TOML.to_string(),
+            format!("{}/vehicle.toml", crate::physics::builtin::NAME),
+        ),
+    };
     let out_file = out.join("vehicle.toml").display().to_string();
-    let same = match (source_dir.canonicalize(), out.canonicalize()) {
-        (Ok(a), Ok(b)) => a == b,
+    let same = match (source_dir.map(Path::canonicalize), out.canonicalize()) {
+        (Some(Ok(a)), Ok(b)) => a == b,
         _ => false,
     };
     let occupied = std::fs::read_dir(out).is_ok_and(|mut d| d.next().is_some());

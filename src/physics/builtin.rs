@@ -8,7 +8,9 @@ use super::{EnergyTable, PhysicsError, Profile, Vehicle};
 /// How errors and reports name the built-in vehicle.
 pub const NAME: &str = "models/s1000 (built in)";
 
-const VEHICLE_TOML: &str = include_str!("../../models/s1000/vehicle.toml");
+/// The shipped vehicle.toml's text (what `calibrate --from-logs` edits when no directory is
+/// given).
+pub const VEHICLE_TOML: &str = include_str!("../../models/s1000/vehicle.toml");
 
 /// The shipped S1000's parameters.
 pub fn vehicle() -> Result<Vehicle, PhysicsError> {
