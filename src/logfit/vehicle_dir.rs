@@ -119,11 +119,10 @@ pub fn write_vehicle(
         Some(dir) => {
             let source = dir.join("vehicle.toml");
             let source_file = source.display().to_string();
-            let text =
-                std::fs::read_to_string(&source).map_err(|e| LogFitError::VehicleFile {
-                    file: source_file.clone(),
-                    reason: e.to_string(),
-                })?;
+            let text = std::fs::read_to_string(&source).map_err(|e| LogFitError::VehicleFile {
+                file: source_file.clone(),
+                reason: e.to_string(),
+            })?;
             (text, source_file)
         }
         None => (
