@@ -17,6 +17,17 @@ use crate::{emplan, json};
 
 const SPEEDUP: &str = "50";
 
+/// The value `calibrate --json` fitted for `key` in a `fitted` list.
+fn fitted_value(fitted: &Value, key: &str) -> f64 {
+    fitted
+        .as_array()
+        .expect("a fitted list")
+        .iter()
+        .find(|f| f["key"] == key)
+        .and_then(|f| f["value"].as_f64())
+        .unwrap_or_else(|| panic!("{key} not fitted: {fitted}"))
+}
+
 /// The shipped vehicle with mass +10%, body drag x1.3, a pack of 8 Ah instead of 10 and 35 mOhm
 /// instead of 20, written to `dir`.
 fn perturbed_vehicle(dir: &Path) -> (f64, f64) {
@@ -130,17 +141,8 @@ fn calibration_from_logs_of_a_perturbed_vehicle_brings_held_out_leg_error_under_
         );
     }
     // The parameters found are the truth's, near enough.
-    let fitted = |key: &str| {
-        c["fitted"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|f| f["key"] == key)
-            .and_then(|f| f["value"].as_f64())
-            .unwrap()
-    };
-    let mass = fitted("body.mass_kg");
-    let drag = fitted("body.drag_coefficient_n_s2_m2");
+    let mass = fitted_value(&c["fitted"], "body.mass_kg");
+    let drag = fitted_value(&c["fitted"], "body.drag_coefficient_n_s2_m2");
     assert!(
         (mass / true_mass - 1.0).abs() < 0.02,
         "{mass} vs {true_mass}"
@@ -152,17 +154,8 @@ fn calibration_from_logs_of_a_perturbed_vehicle_brings_held_out_leg_error_under_
         "{drag} vs {true_drag}"
     );
     // The weaker pack, from the voltage and current in samples.csv.
-    let battery = |key: &str| {
-        c["battery"]["fitted"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|f| f["key"] == key)
-            .and_then(|f| f["value"].as_f64())
-            .unwrap()
-    };
-    let resistance = battery("battery.internal_resistance_ohm");
-    let capacity = battery("battery.capacity_ah");
+    let resistance = fitted_value(&c["battery"]["fitted"], "battery.internal_resistance_ohm");
+    let capacity = fitted_value(&c["battery"]["fitted"], "battery.capacity_ah");
     assert!((resistance - 0.035).abs() < 0.003, "{}", c["battery"]);
     assert!((capacity - 8.0).abs() < 0.4, "{}", c["battery"]);
     let written = std::fs::read_to_string(out.join("vehicle.toml")).unwrap();

@@ -10,7 +10,8 @@ fn vehicle_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("models/s1000")
 }
 
-fn energy_kj(xf: f64, zf: f64, profile: &str) -> f64 {
+/// `emplan energy --json` of one leg (run in the repository), its profile and Xf checked.
+fn energy_doc(xf: f64, zf: f64, profile: &str) -> serde_json::Value {
     let out = Command::new(env!("CARGO_BIN_EXE_emplan"))
         .args([
             "energy",
@@ -33,7 +34,14 @@ fn energy_kj(xf: f64, zf: f64, profile: &str) -> f64 {
     let doc: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
     assert_eq!(doc["profile"], profile);
     assert_eq!(doc["xf_m"].as_f64(), Some(xf));
-    doc["energy_kj"].as_f64().expect("energy_kj")
+    doc
+}
+
+/// A leg's energy to the 4 m rule (kJ).
+fn energy_kj(xf: f64, zf: f64, profile: &str) -> f64 {
+    energy_doc(xf, zf, profile)["energy_kj"]
+        .as_f64()
+        .expect("energy_kj")
 }
 
 /// The paper's simulated operation energies (NOTES.md section 3), kJ.
@@ -306,16 +314,7 @@ fn the_committed_tables_are_fresh_and_reproducible_cell_by_cell() {
 
 /// `emplan energy --json` of one leg, start to settled hover (kJ).
 fn total_energy_kj(xf: f64, zf: f64, profile: &str) -> f64 {
-    let doc = crate::json(&[
-        "energy",
-        "--xf",
-        &xf.to_string(),
-        "--zf",
-        &zf.to_string(),
-        "--profile",
-        profile,
-        "--json",
-    ]);
+    let doc = energy_doc(xf, zf, profile);
     doc["energy_kj"].as_f64().expect("energy_kj")
         + doc["settle_energy_kj"].as_f64().expect("settle")
 }
