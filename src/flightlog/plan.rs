@@ -8,8 +8,9 @@
 //! x N (the planned order), NAV_WAYPOINT at the origin (the return leg), NAV_LAND`. Positions are
 //! in the mission's own frame (`Mission::waypoints`: metres east, north, up from the origin hover
 //! point at `origin_height_m` above home); the vehicle's GLOBAL_POSITION_INT is brought into it
-//! with `mission::geodesy`, its height taken from `relative_alt` (above the vehicle's home, as the
-//! uploaded items' altitudes are).
+//! with `mission::geodesy`, its height above the vehicle's home (as the uploaded items'
+//! altitudes are): `alt` less HOME_POSITION's altitude when the autopilot sends it, else
+//! `relative_alt` ([`FlightPlan::to_local`]).
 
 use std::path::Path;
 
