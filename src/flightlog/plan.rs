@@ -197,8 +197,8 @@ impl FlightPlan {
     /// home altitude the autopilot reported (HOME_POSITION), else its `relative_alt_m`. The two
     /// agree on a healthy autopilot (relative_alt = alt - home alt, MAVLink common.xml), but PX4
     /// SITL's relative_alt jumps by 1-3 m in over half its GLOBAL_POSITION_INT in flight while
-    /// alt follows LOCAL_POSITION_NED to 1 mm (measured on a PX4 SITL flight tlog against LOCAL_POSITION_NED),
-    /// and a metre of false height moves the 4 m arrival and the departure from hover.
+    /// alt follows LOCAL_POSITION_NED to 1 mm (one flight's tlog), and a metre of false height
+    /// moves the 4 m arrival and the departure from hover.
     pub fn to_local(&self, p: &Position, home_alt_amsl_m: Option<f64>) -> Enu {
         let height_m = match home_alt_amsl_m {
             Some(home) => p.alt_amsl_m - home,

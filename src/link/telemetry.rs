@@ -1123,11 +1123,13 @@ mod tests {
         });
         let decoded = decode(&vehicle(), &message);
         assert_eq!(decoded.time_boot_ms, None);
-        let Some(Reading::Home {
-            lat_deg,
-            lon_deg,
-            alt_amsl_m,
-        }) = decoded.reading
+        let Some(
+            reading @ Reading::Home {
+                lat_deg,
+                lon_deg,
+                alt_amsl_m,
+            },
+        ) = decoded.reading
         else {
             panic!("home expected");
         };
@@ -1135,9 +1137,6 @@ mod tests {
         assert!((alt_amsl_m - 16.186).abs() < 1e-9);
         let unset = MavMessage::HOME_POSITION(mav::HOME_POSITION_DATA::default());
         assert_eq!(decode(&vehicle(), &unset), Decoded::NOTHING);
-        let Some(reading) = decoded.reading.clone() else {
-            unreachable!()
-        };
         assert_eq!(
             decode(&vehicle(), &encode(&reading, Flavour::Px4)).reading,
             Some(reading)

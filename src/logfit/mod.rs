@@ -528,32 +528,26 @@ impl LogCalibration {
 
     /// Errors of the given vehicle on every leg.
     pub fn before(&self) -> ErrorStats {
-        let e: Vec<f64> = self
-            .legs
-            .iter()
-            .map(|l| error_pct(l.before_j, l.leg.measured_j))
-            .collect();
-        ErrorStats::of(&e)
+        ErrorStats::of(&self.errors(|l| Some(l.before_j)))
     }
 
     /// Errors of the vehicle fitted to every flight, on every leg (in sample).
     pub fn after(&self) -> ErrorStats {
-        let e: Vec<f64> = self
-            .legs
-            .iter()
-            .map(|l| error_pct(l.after_j, l.leg.measured_j))
-            .collect();
-        ErrorStats::of(&e)
+        ErrorStats::of(&self.errors(|l| Some(l.after_j)))
     }
 
     /// Leave-one-flight-out errors over every leg (None with a single flight).
     pub fn held_out_errors(&self) -> Option<ErrorStats> {
-        let e: Vec<f64> = self
-            .legs
-            .iter()
-            .filter_map(|l| l.held_out_j.map(|p| error_pct(p, l.leg.measured_j)))
-            .collect();
+        let e = self.errors(|l| l.held_out_j);
         (!e.is_empty()).then(|| ErrorStats::of(&e))
+    }
+
+    /// Percent errors of one prediction of each leg (where it has one) against its measurement.
+    fn errors(&self, predicted_j: impl Fn(&LegResult) -> Option<f64>) -> Vec<f64> {
+        self.legs
+            .iter()
+            .filter_map(|l| predicted_j(l).map(|p| error_pct(p, l.leg.measured_j)))
+            .collect()
     }
 
     /// `emplan calibrate --from-logs --json` (kJ at this edge; `fitted` as in `calibrate --fit`,

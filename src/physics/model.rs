@@ -84,13 +84,11 @@ impl VehicleModel {
             {
                 let model = Model::new(&self.vehicle);
                 if self.profile == Profile::Ptf {
-                    let op = model.operation(self.profile, xf_m, zf_m)?;
-                    return Ok(LegEnergy {
-                        energy_j: op.energy_j,
-                        duration_s: op.duration_s,
-                        settle_energy_j: op.settle_energy_j,
-                        settle_duration_s: op.settle_duration_s,
-                    });
+                    return Ok(LegEnergy::from(&model.operation(
+                        self.profile,
+                        xf_m,
+                        zf_m,
+                    )?));
                 }
                 longleg::compose(&model, &self.table, xf_m, zf_m).map(|long| long.leg)
             }

@@ -24,7 +24,7 @@ use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
 
-use super::operation::Model;
+use super::operation::{Model, Operation};
 use super::vehicle::Vehicle;
 use super::{PhysicsError, Profile};
 
@@ -95,6 +95,34 @@ impl LegEnergy {
     pub fn total_duration_s(&self) -> f64 {
         self.duration_s + self.settle_duration_s
     }
+
+    /// The leg's energy under `pricing`.
+    pub fn priced_energy_j(&self, pricing: Pricing) -> f64 {
+        match pricing {
+            Pricing::Settled => self.total_energy_j(),
+            Pricing::Paper => self.energy_j,
+        }
+    }
+
+    /// The leg's duration under `pricing`.
+    pub fn priced_duration_s(&self, pricing: Pricing) -> f64 {
+        match pricing {
+            Pricing::Settled => self.total_duration_s(),
+            Pricing::Paper => self.duration_s,
+        }
+    }
+}
+
+impl From<&Operation> for LegEnergy {
+    /// A simulated operation's energies and times, as a table cell holds them.
+    fn from(op: &Operation) -> LegEnergy {
+        LegEnergy {
+            energy_j: op.energy_j,
+            duration_s: op.duration_s,
+            settle_energy_j: op.settle_energy_j,
+            settle_duration_s: op.settle_duration_s,
+        }
+    }
 }
 
 /// What a leg's energy counts (`--pricing`): to settled hover at the end point (what the
@@ -126,24 +154,6 @@ impl std::str::FromStr for Pricing {
             "settled" => Ok(Pricing::Settled),
             "paper" => Ok(Pricing::Paper),
             _ => Err(format!("unknown pricing {s:?} (allowed: settled, paper)")),
-        }
-    }
-}
-
-impl LegEnergy {
-    /// The leg's energy under `pricing`.
-    pub fn priced_energy_j(&self, pricing: Pricing) -> f64 {
-        match pricing {
-            Pricing::Settled => self.total_energy_j(),
-            Pricing::Paper => self.energy_j,
-        }
-    }
-
-    /// The leg's duration under `pricing`.
-    pub fn priced_duration_s(&self, pricing: Pricing) -> f64 {
-        match pricing {
-            Pricing::Settled => self.total_duration_s(),
-            Pricing::Paper => self.duration_s,
         }
     }
 }
@@ -186,12 +196,7 @@ impl EnergyTable {
                 if n.is_multiple_of(256) || n == total {
                     progress(n, total);
                 }
-                Ok(LegEnergy {
-                    energy_j: op.energy_j,
-                    duration_s: op.duration_s,
-                    settle_energy_j: op.settle_energy_j,
-                    settle_duration_s: op.settle_duration_s,
-                })
+                Ok(LegEnergy::from(&op))
             })
             .collect::<Result<Vec<_>, PhysicsError>>()?;
         Ok(EnergyTable {

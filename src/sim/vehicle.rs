@@ -267,8 +267,8 @@ fn default_interval_s(flavour: Flavour, id: u32) -> Option<f64> {
         (Flavour::Px4 | Flavour::Generic, BATTERY_STATUS_DATA::ID) => 0.5,
         (Flavour::Px4 | Flavour::Generic, SYS_STATUS_DATA::ID | EXTENDED_SYS_STATE_DATA::ID) => 1.0,
         (Flavour::Px4 | Flavour::Generic, MISSION_CURRENT_DATA::ID) => 1.0,
-        // PX4's normal mode streams HOME_POSITION at 0.5 Hz (mavlink_main.cpp); ArduCopter sends
-        // it on request only.
+        // PX4's normal mode streams HOME_POSITION at 0.5 Hz (mavlink_main.cpp); ArduCopter
+        // sends it when home is set, not as a stream (twice in an ArduCopter SITL flight log).
         (Flavour::Px4 | Flavour::Generic, HOME_POSITION_DATA::ID) => 0.5,
         (Flavour::ArduPilot, GLOBAL_POSITION_INT_DATA::ID | LOCAL_POSITION_NED_DATA::ID) => 3.0,
         (Flavour::ArduPilot, _) if id != ATTITUDE_DATA::ID && id != HOME_POSITION_DATA::ID => 2.0,

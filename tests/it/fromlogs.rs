@@ -149,7 +149,7 @@ fn calibration_from_logs_of_a_perturbed_vehicle_brings_held_out_leg_error_under_
     );
     // The body drag is not held to the truth: the refitted S1000's horizontal drag is small
     // (0.05 N s^2/m^2) beside the rotors' own losses, so these legs pin it loosely and the fit
-    // trades it against mass (0.028 to 0.085 for a true 0.065 in four runs); it stays a fitted,
+    // trades it against mass (0.028 to 0.085 for a true 0.065 in three runs); it stays a fitted,
     // finite value inside its search range.
     assert!(drag.is_finite() && drag > 0.0, "{drag} vs {true_drag}");
     // The weaker pack, from the voltage and current in samples.csv.
