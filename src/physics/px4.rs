@@ -51,6 +51,13 @@ const PX4_ONE_G: f64 = 9.80665;
 const ARRIVED_M: f64 = 0.01;
 const ARRIVED_M_S: f64 = 0.01;
 
+/// A leg moving less than this horizontally is vertical, and PX4's trajectory is not slowed by
+/// the vehicle's horizontal error (`_generateTrajectory` stretches time only while the vehicle
+/// trails a trajectory that moves horizontally). Mission coordinates in 1e-7 degrees and a
+/// vehicle hovering centimetres off its waypoint make a vertical leg's horizontal distance a
+/// few centimetres, not zero; below the table's 1 m grid step, so the table is unchanged.
+pub const VERTICAL_LEG_M: f64 = 0.1;
+
 /// One axis of PX4's VelocitySmoothing.
 #[derive(Debug, Clone, Copy, Default)]
 struct Axis {
@@ -463,7 +470,7 @@ fn run(p: &Px4Params, xf: f64, zf: f64, kind: Kind) -> Result<Samples, PhysicsEr
         };
         climbing = vz_sp > 0.0;
         // _generateTrajectory: the clock slows while the vehicle trails horizontally.
-        let stretch = if p.mpc_xy_err_max_m > 0.0 && kind == Kind::Leg && xf > 0.0 {
+        let stretch = if p.mpc_xy_err_max_m > 0.0 && kind == Kind::Leg && xf > VERTICAL_LEG_M {
             let t = (points.len() - 1) as f64 * dt;
             let error_m = p.departure_error_m * (-t / p.departure_error_decay_s.max(1e-3)).exp();
             1.0 - (error_m / p.mpc_xy_err_max_m).clamp(0.0, 1.0)
@@ -593,6 +600,22 @@ mod tests {
                 "({xf}, {zf})"
             );
         }
+    }
+
+    #[test]
+    fn a_leg_centimetres_off_vertical_flies_as_the_vertical_leg() {
+        let p = params();
+        let vertical = leg(&p, 0.0, -24.0).unwrap();
+        let nearly = leg(&p, 0.08, -24.0).unwrap();
+        assert!(
+            (nearly.duration_s() - vertical.duration_s()).abs() <= 2.0 * STEP_S,
+            "{} s against {} s",
+            nearly.duration_s(),
+            vertical.duration_s()
+        );
+        // A metre across is a leg PX4 slows while the vehicle trails it.
+        let across = leg(&p, 1.0, -24.0).unwrap();
+        assert!(across.duration_s() > vertical.duration_s() + 0.5);
     }
 
     #[test]

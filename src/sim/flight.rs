@@ -351,6 +351,10 @@ pub struct Flight<'v> {
     in_mission: bool,
     /// Items started since time last advanced (bounds a DO_JUMP loop of instant items).
     chain: usize,
+    /// Where the last line flown ends: the autopilot's setpoint while it hovers there, and
+    /// where its next line starts (PX4's trajectory continues from its own position, not the
+    /// vehicle's); `None` once it holds or lands where it is.
+    setpoint: Option<Local>,
 }
 
 /// Most items started without time passing before the flight stops and hovers.
@@ -381,6 +385,7 @@ impl<'v> Flight<'v> {
             instant_rtl_item: false,
             in_mission: false,
             chain: 0,
+            setpoint: None,
         })
     }
 
@@ -535,6 +540,7 @@ impl<'v> Flight<'v> {
     /// Stops where it is and hovers (PX4 HOLD / ArduCopter LOITER); the mission pauses.
     pub fn hold(&mut self) {
         self.progress = None;
+        self.setpoint = None;
         if !self.on_ground() {
             self.motion = Motion::Hover;
             self.velocity = [0.0; 3];
@@ -557,6 +563,7 @@ impl<'v> Flight<'v> {
         self.jumps_left = vec![None];
         self.motion = Motion::Hover;
         self.velocity = [0.0; 3];
+        self.setpoint = None;
         self.begin(0, &mut events);
         events
     }
@@ -701,6 +708,10 @@ impl<'v> Flight<'v> {
                 line,
                 purpose: Purpose::Climb,
             } if purpose == Purpose::Leg => line.at(line.end_s()).0,
+            // From a hover, the line starts where the last one ended: a vehicle a few
+            // centimetres off its waypoint flies the next leg from the waypoint, so a vertical
+            // leg stays vertical (and is not slowed as a horizontal one).
+            Motion::Hover => self.setpoint.unwrap_or(self.position),
             _ => self.position,
         };
         self.fly_line(from, to, purpose, events);
@@ -721,6 +732,7 @@ impl<'v> Flight<'v> {
             [1.0, 0.0]
         };
         let zf_m = to[2] - from[2];
+        self.setpoint = Some(to);
         let trajectory = match purpose {
             Purpose::Leg => self.trajectory(xf_m, zf_m),
             Purpose::Climb if xf_m < ABOVE_POINT_M => {

@@ -84,6 +84,38 @@ fn fly_on_the_built_in_mock_measures_every_leg_within_three_percent_of_its_predi
 }
 
 #[test]
+fn a_vertical_return_leg_onto_the_origin_is_measured_as_the_vertical_leg_it_was_priced() {
+    // Sample 2 flown as listed ends C (above the origin) -> origin: a vertical descent, which
+    // the mock once flew as a leg 8 cm long (slowed as a horizontal leg, +16%).
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().to_str().expect("a UTF-8 temp path");
+    let report = json(&[
+        "fly",
+        "missions/paper-sample-3wp.toml",
+        "--order",
+        "listed",
+        "--log-dir",
+        log,
+        "--json",
+        "--speedup",
+        SPEEDUP,
+    ]);
+    let legs = report["legs"].as_array().expect("legs");
+    assert_eq!(legs.len(), 4);
+    assert_eq!(legs[3]["from"], "C");
+    assert_eq!(legs[3]["to"], "origin");
+    for leg in legs {
+        let error = leg["error_pct"].as_f64();
+        assert!(
+            error.is_some_and(|e| e.abs() <= 3.0),
+            "leg {} -> {}: error {error:?}%",
+            leg["from"],
+            leg["to"]
+        );
+    }
+}
+
+#[test]
 fn with_a_fifth_of_the_datagrams_lost_each_way_every_leg_is_still_within_three_percent() {
     let dir = tempfile::tempdir().unwrap();
     let report = fly(dir.path(), &["--mock-loss", "0.2", "--mock-seed", "7"]);
