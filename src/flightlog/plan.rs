@@ -10,7 +10,9 @@
 //! point at `origin_height_m` above home); the vehicle's GLOBAL_POSITION_INT is brought into it
 //! with `mission::geodesy`, its height above the vehicle's home (as the uploaded items'
 //! altitudes are): `alt` less HOME_POSITION's altitude when the autopilot sends it, else
-//! `relative_alt` ([`FlightPlan::to_local`]).
+//! `relative_alt` ([`FlightPlan::to_local`]). The segmenter measures positions from the first
+//! home reported and lifts each point by how far the home had moved when the autopilot set it
+//! as its target (PX4 SITL's home moves in flight).
 
 use std::path::Path;
 
@@ -194,7 +196,8 @@ impl FlightPlan {
     }
 
     /// A vehicle position in the mission frame. Its height above home is `alt_amsl_m` less the
-    /// home altitude the autopilot reported (HOME_POSITION), else its `relative_alt_m`. The two
+    /// home altitude `home_alt_amsl_m` the autopilot reported (HOME_POSITION), else its
+    /// `relative_alt_m`. The two
     /// agree on a healthy autopilot (relative_alt = alt - home alt, MAVLink common.xml), but PX4
     /// SITL's relative_alt jumps by 1-3 m in over half its GLOBAL_POSITION_INT in flight while
     /// alt follows LOCAL_POSITION_NED to 1 mm (one flight's tlog), and a metre of false height

@@ -131,7 +131,21 @@ pub struct Segmenter {
     seen_disarmed: bool,
     /// The open segment began before the log did.
     open_partial: bool,
+    /// Every home the autopilot reported: (when it was set, autopilot boot s, if said; its
+    /// altitude above mean sea level), in arrival order.
+    homes: Vec<(Option<f64>, f64)>,
+    /// The altitude positions' heights are measured from: the first home reported.
+    frame_home_m: Option<f64>,
+    /// Flight time less autopilot boot time, from the latest position.
+    boot_offset_s: Option<f64>,
+    /// Per hover point (the take-off's origin first, then the plan's points): when the
+    /// autopilot made it its target (boot s, if known) and the home it was set from.
+    point_homes: Vec<Option<(Option<f64>, f64)>>,
 }
+
+/// How much later than a target's start a home may say it was set and still count (the boot
+/// clock's milliseconds against a start interpolated between samples).
+const HOME_SET_SLACK_S: f64 = 0.05;
 
 fn sub(a: Enu, b: Enu) -> [f64; 3] {
     [
@@ -173,6 +187,7 @@ impl Segmenter {
     /// A segmenter for a flight of `plan`.
     pub fn new(plan: FlightPlan, cfg: SegmentConfig) -> Result<Segmenter, FlightLogError> {
         plan.validate()?;
+        let plan_points = plan.points.len();
         Ok(Segmenter {
             plan,
             feed: BatteryFeed::new(cfg.feed),
@@ -193,6 +208,80 @@ impl Segmenter {
             landed_s: None,
             seen_disarmed: false,
             open_partial: false,
+            homes: Vec::new(),
+            frame_home_m: None,
+            boot_offset_s: None,
+            point_homes: vec![None; plan_points + 1],
+        })
+    }
+
+    /// The home the autopilot held at `boot_s`: the last reported that says it was set by then
+    /// (or says nothing of when), else the latest.
+    fn home_at(&self, boot_s: Option<f64>) -> Option<f64> {
+        let held = |set: &Option<f64>| match (set, boot_s) {
+            (Some(set), Some(b)) => *set <= b + HOME_SET_SLACK_S,
+            _ => true,
+        };
+        self.homes
+            .iter()
+            .rev()
+            .find(|(set, _)| held(set))
+            .or(self.homes.last())
+            .map(|&(_, alt)| alt)
+    }
+
+    /// Hover point `i` (0 the take-off's origin, k + 1 the plan's point k) became the
+    /// autopilot's target at flight time `t_s`: it sent it there from the home it held then.
+    /// PX4 (navigator `get_absolute_altitude_for_item`) adds the home altitude to a relative
+    /// item's altitude when it sets the item, and PX4 SITL's home moves by up to 2.5 m in flight
+    /// (HOME_POSITION every 2 s or so), so a point sits where its own home put it.
+    fn target_set(&mut self, i: usize, t_s: f64) {
+        let boot_s = self.boot_offset_s.map(|o| t_s - o);
+        if let Some(slot) = self.point_homes.get_mut(i) {
+            *slot = None;
+        }
+        let home = self.home_at(boot_s);
+        if let (Some(slot), Some(home)) = (self.point_homes.get_mut(i), home) {
+            *slot = Some((boot_s, home));
+        }
+    }
+
+    /// A home arrived: the frame's first, and the current target's if it was set by then.
+    fn on_home(&mut self, alt_amsl_m: f64, set_boot_s: Option<f64>) {
+        self.homes.push((set_boot_s, alt_amsl_m));
+        self.frame_home_m.get_or_insert(alt_amsl_m);
+        let current = match self.phase {
+            Phase::Active(SegmentKind::Takeoff) => Some(0),
+            Phase::Active(SegmentKind::Leg(k) | SegmentKind::Settle(k) | SegmentKind::Hover(k)) => {
+                Some(k + 1)
+            }
+            _ => None,
+        };
+        if let Some(i) = current {
+            let boot_s = match self.point_homes.get(i) {
+                Some(Some((boot_s, _))) => *boot_s,
+                _ => self.boot_offset_s.map(|o| self.now_s - o),
+            };
+            let home = self.home_at(boot_s);
+            if let (Some(slot), Some(home)) = (self.point_homes.get_mut(i), home) {
+                *slot = Some((boot_s, home));
+            }
+        }
+    }
+
+    /// Hover point `i` in the frame positions are measured in.
+    fn hover_point_at(&self, i: usize) -> Option<Enu> {
+        let base = match i {
+            0 => Enu::default(),
+            _ => self.plan.points.get(i - 1)?.enu,
+        };
+        let lift = match (self.point_homes.get(i), self.frame_home_m) {
+            (Some(Some((_, home))), Some(frame)) => home - frame,
+            _ => 0.0,
+        };
+        Some(Enu {
+            z_up_m: base.z_up_m + lift,
+            ..base
         })
     }
 
@@ -291,6 +380,11 @@ impl Segmenter {
     }
 
     fn open(&mut self, kind: SegmentKind, start_s: f64) {
+        match kind {
+            SegmentKind::Takeoff => self.target_set(0, start_s),
+            SegmentKind::Leg(k) => self.target_set(k + 1, start_s),
+            _ => {}
+        }
         self.phase = Phase::Active(kind);
         self.open_start_s = start_s;
         self.stop_s = None;
@@ -327,9 +421,9 @@ impl Segmenter {
     /// The hover point the vehicle leaves from in the current phase.
     fn hover_point(&self) -> Option<Enu> {
         match self.phase {
-            Phase::Active(SegmentKind::Takeoff) => Some(Enu::default()),
+            Phase::Active(SegmentKind::Takeoff) => self.hover_point_at(0),
             Phase::Active(SegmentKind::Settle(k) | SegmentKind::Hover(k)) => {
-                self.plan.points.get(k).map(|p| p.enu)
+                self.hover_point_at(k + 1)
             }
             _ => None,
         }
@@ -492,7 +586,7 @@ impl Segmenter {
         let r = self.cfg.arrival_radius_m;
         match self.phase {
             Phase::Active(SegmentKind::Leg(k)) => {
-                let Some(q) = self.plan.points.get(k).map(|x| x.enu) else {
+                let Some(q) = self.hover_point_at(k + 1) else {
                     return;
                 };
                 if distance(p, q) > r {
@@ -528,10 +622,8 @@ impl Segmenter {
         previous: Option<(f64, Enu)>,
     ) {
         let inside = self
-            .plan
-            .points
-            .get(k)
-            .is_some_and(|x| distance(p, x.enu) <= self.cfg.arrival_radius_m);
+            .hover_point_at(k + 1)
+            .is_some_and(|x| distance(p, x) <= self.cfg.arrival_radius_m);
         if inside && speed_m_s < self.cfg.stop_speed_m_s {
             let start = *self.stop_s.get_or_insert(t_s);
             if t_s - start >= self.cfg.stop_hold_s {
@@ -666,10 +758,16 @@ impl Segmenter {
                 _ => {}
             },
             Reading::Position(p) => {
-                let local = self.plan.to_local(p, self.state.home_alt_amsl_m);
+                self.boot_offset_s = Some(t_s - f64::from(p.time_boot_ms) * 1e-3);
+                let local = self.plan.to_local(p, self.frame_home_m);
                 self.on_position(t_s, local, p.speed_m_s());
             }
-            Reading::StatusText { .. } | Reading::Home { .. } => {}
+            Reading::Home {
+                alt_amsl_m,
+                set_boot_s,
+                ..
+            } => self.on_home(*alt_amsl_m, *set_boot_s),
+            Reading::StatusText { .. } => {}
         }
     }
 }
@@ -903,10 +1001,79 @@ mod tests {
                 lat_deg: plan.home.lat_deg,
                 lon_deg: plan.home.lon_deg,
                 alt_amsl_m: plan.home.alt_m,
+                set_boot_s: None,
             },
         }];
         with_home.extend(jumpy);
         assert_eq!(bounds(&with_home), clean);
+    }
+
+    #[test]
+    fn a_target_is_measured_from_the_home_the_autopilot_held_when_it_set_it() {
+        // PX4 SITL's home moves in flight, and PX4 adds the home it holds when it sets an item
+        // to the item's relative altitude. Home rises 1.5 m during leg 1 (A -> B), said 2 s
+        // late: B stays where the old home put it, and the points after it are flown 1.5 m
+        // higher from leg 2 on.
+        let (flight, _) = fly();
+        let plan = square_plan();
+        let bounds = |stamped: &[Stamped]| -> Vec<(SegmentKind, f64, f64)> {
+            Segmenter::run(square_plan(), SegmentConfig::default(), stamped)
+                .expect("valid")
+                .completed()
+                .iter()
+                .map(|x| (x.kind, x.start_s, x.end_s))
+                .collect()
+        };
+        let home = |t_s: f64, alt_amsl_m: f64, set_boot_s: f64| Stamped {
+            t_s,
+            wall_us: 0,
+            reading: Reading::Home {
+                lat_deg: plan.home.lat_deg,
+                lon_deg: plan.home.lon_deg,
+                alt_amsl_m,
+                set_boot_s: Some(set_boot_s),
+            },
+        };
+        let leg1 = flight.part(SegmentKind::Leg(1)).copied().expect("leg 1");
+        let leg2 = flight.part(SegmentKind::Leg(2)).copied().expect("leg 2");
+        // Flight time less boot time, from the positions.
+        let offset_s = flight
+            .stamped()
+            .iter()
+            .find_map(|m| match &m.reading {
+                Reading::Position(p) => Some(m.t_s - f64::from(p.time_boot_ms) * 1e-3),
+                _ => None,
+            })
+            .expect("positions");
+        let risen_s = leg1.start_s + 1.0;
+        assert!(
+            risen_s + 2.0 < leg1.end_s,
+            "the news must come before B is reached"
+        );
+        let mut clean = vec![home(0.0, plan.home.alt_m, 0.0)];
+        clean.extend(flight.stamped());
+        let mut moved = clean.clone();
+        for m in &mut moved {
+            if let Reading::Position(p) = &mut m.reading {
+                if m.t_s >= leg2.start_s {
+                    p.alt_amsl_m += 1.5;
+                }
+            }
+        }
+        let at = moved.partition_point(|m| m.t_s <= risen_s + 2.0);
+        moved.insert(
+            at,
+            home(risen_s + 2.0, plan.home.alt_m + 1.5, risen_s - offset_s),
+        );
+        let (want, got) = (bounds(&clean), bounds(&moved));
+        assert_eq!(want.len(), got.len());
+        for (w, g) in want.iter().zip(&got) {
+            assert_eq!(w.0, g.0);
+            assert!(
+                (w.1 - g.1).abs() < 0.05 && (w.2 - g.2).abs() < 0.05,
+                "{w:?} against {g:?}"
+            );
+        }
     }
 
     #[test]

@@ -39,6 +39,9 @@ pub enum Reading {
         lat_deg: f64,
         lon_deg: f64,
         alt_amsl_m: f64,
+        /// The autopilot's time since boot when this home was set (`time_usec`; PX4 stamps it
+        /// with the moment it set home, ArduPilot with the moment it sent it), when given.
+        set_boot_s: Option<f64>,
     },
 }
 

@@ -274,6 +274,7 @@ pub fn decode(header: &MavHeader, message: &MavMessage) -> Decoded {
                 lat_deg: f64::from(h.latitude) * 1e-7,
                 lon_deg: f64::from(h.longitude) * 1e-7,
                 alt_amsl_m: f64::from(h.altitude) * 1e-3,
+                set_boot_s: (h.time_usec > 0).then(|| h.time_usec as f64 * 1e-6),
             })
         }
         MavMessage::STATUSTEXT(s) => {
@@ -681,11 +682,13 @@ pub fn encode(reading: &Reading, flavour: Flavour) -> MavMessage {
             lat_deg,
             lon_deg,
             alt_amsl_m,
+            set_boot_s,
         } => MavMessage::HOME_POSITION(mav::HOME_POSITION_DATA {
             latitude: (lat_deg * 1e7).round() as i32,
             longitude: (lon_deg * 1e7).round() as i32,
             altitude: (alt_amsl_m * 1000.0).round() as i32,
             q: [1.0, 0.0, 0.0, 0.0],
+            time_usec: set_boot_s.map_or(0, |s| (s * 1e6).round() as u64),
             ..Default::default()
         }),
         Reading::StatusText { severity, text } => {
@@ -1128,6 +1131,7 @@ mod tests {
                 lat_deg,
                 lon_deg,
                 alt_amsl_m,
+                set_boot_s,
             },
         ) = decoded.reading
         else {
@@ -1135,6 +1139,7 @@ mod tests {
         };
         assert!((lat_deg - 38.536_201).abs() < 1e-9 && (lon_deg + 121.787_495_9).abs() < 1e-9);
         assert!((alt_amsl_m - 16.186).abs() < 1e-9);
+        assert_eq!(set_boot_s, Some(3.828));
         let unset = MavMessage::HOME_POSITION(mav::HOME_POSITION_DATA::default());
         assert_eq!(decode(&vehicle(), &unset), Decoded::NOTHING);
         assert_eq!(
