@@ -274,7 +274,7 @@ pub fn decode(header: &MavHeader, message: &MavMessage) -> Decoded {
                 lat_deg: f64::from(h.latitude) * 1e-7,
                 lon_deg: f64::from(h.longitude) * 1e-7,
                 alt_amsl_m: f64::from(h.altitude) * 1e-3,
-                set_boot_s: (h.time_usec > 0).then(|| h.time_usec as f64 * 1e-6),
+                set_boot_s: (h.time_usec > 0).then_some(h.time_usec as f64 * 1e-6),
             })
         }
         MavMessage::STATUSTEXT(s) => {
