@@ -237,12 +237,14 @@ impl Segmenter {
     /// (HOME_POSITION every 2 s or so), so a point sits where its own home put it.
     fn target_set(&mut self, i: usize, t_s: f64) {
         let boot_s = self.boot_offset_s.map(|o| t_s - o);
-        if let Some(slot) = self.point_homes.get_mut(i) {
-            *slot = None;
-        }
+        self.set_point_home(i, boot_s);
+    }
+
+    /// Hover point `i` was set at `boot_s`: the home it was set from, as far as known now.
+    fn set_point_home(&mut self, i: usize, boot_s: Option<f64>) {
         let home = self.home_at(boot_s);
-        if let (Some(slot), Some(home)) = (self.point_homes.get_mut(i), home) {
-            *slot = Some((boot_s, home));
+        if let Some(slot) = self.point_homes.get_mut(i) {
+            *slot = home.map(|h| (boot_s, h));
         }
     }
 
@@ -258,13 +260,9 @@ impl Segmenter {
             _ => None,
         };
         if let Some(i) = current {
-            let boot_s = match self.point_homes.get(i) {
-                Some(Some((boot_s, _))) => *boot_s,
-                _ => self.boot_offset_s.map(|o| self.now_s - o),
-            };
-            let home = self.home_at(boot_s);
-            if let (Some(slot), Some(home)) = (self.point_homes.get_mut(i), home) {
-                *slot = Some((boot_s, home));
+            match self.point_homes.get(i) {
+                Some(Some((boot_s, _))) => self.set_point_home(i, *boot_s),
+                _ => self.target_set(i, self.now_s),
             }
         }
     }

@@ -193,8 +193,6 @@ pub struct VehicleState {
     pub armed: Option<bool>,
     pub mode: Option<FlightMode>,
     pub landed: Option<LandedState>,
-    /// The home altitude (AMSL) the autopilot last reported.
-    pub home_alt_amsl_m: Option<f64>,
 }
 
 impl VehicleState {
@@ -210,8 +208,10 @@ impl VehicleState {
                 }
             }
             Reading::Landed(state) => self.landed = Some(*state),
-            Reading::Home { alt_amsl_m, .. } => self.home_alt_amsl_m = Some(*alt_amsl_m),
-            Reading::Battery(_) | Reading::ItemReached { .. } | Reading::StatusText { .. } => {}
+            Reading::Battery(_)
+            | Reading::ItemReached { .. }
+            | Reading::StatusText { .. }
+            | Reading::Home { .. } => {}
         }
     }
 }

@@ -18,7 +18,7 @@ use serde::Serialize;
 use super::{Fitted, LogFitError};
 use crate::flightlog::csv::read_samples;
 use crate::flightlog::recorder::SAMPLES_FILE;
-use crate::physics::calibration::nelder_mead;
+use crate::physics::calibration::{golden_section, nelder_mead};
 use crate::physics::Vehicle;
 
 /// Fewest usable samples for a flight to count.
@@ -108,27 +108,8 @@ fn residual(vehicle: &Vehicle, s: &PackSeries, r_ohm: f64, capacity_as: f64, soc
 /// squared residual sum.
 fn best_soc0(vehicle: &Vehicle, s: &PackSeries, r_ohm: f64, capacity_as: f64) -> (f64, f64) {
     let f = |soc0: f64| residual(vehicle, s, r_ohm, capacity_as, soc0);
-    let golden = 0.5 * (5f64.sqrt() - 1.0);
-    let (mut a, mut b) = (0.02, 1.0);
-    let mut c = b - golden * (b - a);
-    let mut d = a + golden * (b - a);
-    let (mut fc, mut fd) = (f(c), f(d));
-    for _ in 0..60 {
-        if fc < fd {
-            b = d;
-            d = c;
-            fd = fc;
-            c = b - golden * (b - a);
-            fc = f(c);
-        } else {
-            a = c;
-            c = d;
-            fc = fd;
-            d = a + golden * (b - a);
-            fd = f(d);
-        }
-    }
-    let soc0 = 0.5 * (a + b);
+    let search = golden_section(&f, (0.02, 1.0), 0.0, 60);
+    let soc0 = 0.5 * (search.low + search.high);
     (soc0, f(soc0))
 }
 

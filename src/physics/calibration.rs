@@ -738,6 +738,56 @@ fn current(v: &Vehicle, key: &str) -> f64 {
     }
 }
 
+/// What a golden-section search ends with: its last bracket and the better of the two points
+/// inside it, with its value.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct GoldenSection {
+    pub low: f64,
+    pub high: f64,
+    pub best: f64,
+    pub best_value: f64,
+}
+
+/// Golden-section search for the minimum of `f`, unimodal on `bracket`: at most `iterations`
+/// steps, stopping early once the bracket is narrower than `tolerance` (0: never).
+pub(crate) fn golden_section(
+    f: &impl Fn(f64) -> f64,
+    bracket: (f64, f64),
+    tolerance: f64,
+    iterations: usize,
+) -> GoldenSection {
+    let ratio = (5f64.sqrt() - 1.0) / 2.0;
+    let (mut a, mut b) = bracket;
+    let mut c = b - ratio * (b - a);
+    let mut d = a + ratio * (b - a);
+    let (mut fc, mut fd) = (f(c), f(d));
+    for _ in 0..iterations {
+        if fc <= fd {
+            b = d;
+            d = c;
+            fd = fc;
+            c = b - ratio * (b - a);
+            fc = f(c);
+        } else {
+            a = c;
+            c = d;
+            fc = fd;
+            d = a + ratio * (b - a);
+            fd = f(d);
+        }
+        if b - a < tolerance {
+            break;
+        }
+    }
+    let (best, best_value) = if fc <= fd { (c, fc) } else { (d, fd) };
+    GoldenSection {
+        low: a,
+        high: b,
+        best,
+        best_value,
+    }
+}
+
 /// Nelder-Mead simplex minimisation (Nelder & Mead 1965; standard coefficients 1, 2, 0.5, 0.5).
 pub(crate) fn nelder_mead(
     start: &[f64],

@@ -237,16 +237,8 @@ mod tests {
 
     /// A coarse table (Xf 0..150 every 5 m, Zf -60..60 every 2 m) built for the test.
     fn table(vehicle: &Vehicle, profile: Profile) -> EnergyTable {
-        let xf = Axis {
-            start_m: 0.0,
-            end_m: 150.0,
-            count: 31,
-        };
-        let zf = Axis {
-            start_m: -60.0,
-            end_m: 60.0,
-            count: 61,
-        };
+        let xf = Axis::new(0.0, 150.0, 31);
+        let zf = Axis::new(-60.0, 60.0, 61);
         EnergyTable::build(vehicle, profile, xf, zf, |_, _| {}).unwrap()
     }
 
@@ -303,16 +295,8 @@ mod tests {
         // A table too small for the leg's braking: no stretch of cruise is long enough.
         let v = shipped();
         let model = Model::new(&v);
-        let xf = Axis {
-            start_m: 0.0,
-            end_m: 10.0,
-            count: 3,
-        };
-        let zf = Axis {
-            start_m: -5.0,
-            end_m: 5.0,
-            count: 3,
-        };
+        let xf = Axis::new(0.0, 10.0, 3);
+        let zf = Axis::new(-5.0, 5.0, 3);
         let tiny = EnergyTable::build(&v, Profile::Px4, xf, zf, |_, _| {}).unwrap();
         let err = price(&model, &tiny, 300.0, 0.0).unwrap_err();
         assert!(

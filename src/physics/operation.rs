@@ -5,6 +5,7 @@
 //! profile's settle time in hover is recorded separately so mission totals include everything.
 
 use super::body::demand;
+use super::calibration::golden_section;
 use super::powertrain::Powertrain;
 use super::profile::{line_limit, trapezoid, Schedule};
 use super::px4;
@@ -560,31 +561,9 @@ impl<'a> Model<'a> {
                 };
                 // Golden-section search of the duration (E(T) is unimodal: infeasible or
                 // expensive when short, hover-dominated when long).
-                let (mut a, mut b) = (t_min, t_min * 4.0 + 20.0);
-                let ratio = (5f64.sqrt() - 1.0) / 2.0;
-                let mut c = b - ratio * (b - a);
-                let mut d = a + ratio * (b - a);
-                let (mut fc, mut fd) = (cost(c), cost(d));
-                for _ in 0..60 {
-                    if fc <= fd {
-                        b = d;
-                        d = c;
-                        fd = fc;
-                        c = b - ratio * (b - a);
-                        fc = cost(c);
-                    } else {
-                        a = c;
-                        c = d;
-                        fc = fd;
-                        d = a + ratio * (b - a);
-                        fd = cost(d);
-                    }
-                    if b - a < 1e-5 {
-                        break;
-                    }
-                }
-                let t_best = if fc <= fd { c } else { d };
-                if !cost(t_best).is_finite() {
+                let search = golden_section(&cost, (t_min, t_min * 4.0 + 20.0), 1e-5, 60);
+                let t_best = search.best;
+                if !search.best_value.is_finite() {
                     return Err(no_trajectory(
                         "every duration breaks the tilt, motor or battery limits".into(),
                     ));

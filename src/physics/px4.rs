@@ -59,7 +59,7 @@ const ARRIVED_M_S: f64 = 0.01;
 /// centimetres off its waypoint make a vertical leg's horizontal distance a few centimetres, not
 /// zero, and must not switch the slowing on; the bound is below the table's 1 m grid step, so the
 /// table is unchanged.
-pub const VERTICAL_LEG_M: f64 = 0.1;
+const VERTICAL_LEG_M: f64 = 0.1;
 
 /// One axis of PX4's VelocitySmoothing.
 #[derive(Debug, Clone, Copy, Default)]

@@ -40,6 +40,15 @@ pub struct Axis {
 }
 
 impl Axis {
+    /// `count` values from `start_m` to `end_m`.
+    pub const fn new(start_m: f64, end_m: f64, count: usize) -> Axis {
+        Axis {
+            start_m,
+            end_m,
+            count,
+        }
+    }
+
     fn step_m(&self) -> f64 {
         (self.end_m - self.start_m) / (self.count - 1) as f64
     }
@@ -62,17 +71,9 @@ impl Axis {
 
 /// The default grid: Xf 0..150 m every 1 m, Zf -60..+60 m every 0.5 m (finer vertically: the
 /// px4 profile has kinks where its binding speed limit switches with the climb angle).
-pub const DEFAULT_XF: Axis = Axis {
-    start_m: 0.0,
-    end_m: 150.0,
-    count: 151,
-};
+pub const DEFAULT_XF: Axis = Axis::new(0.0, 150.0, 151);
 /// See [`DEFAULT_XF`].
-pub const DEFAULT_ZF: Axis = Axis {
-    start_m: -60.0,
-    end_m: 60.0,
-    count: 241,
-};
+pub const DEFAULT_ZF: Axis = Axis::new(-60.0, 60.0, 241);
 
 /// Energy and time of one leg, from the table.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -320,11 +321,7 @@ impl EnergyTable {
                 Some((start_m, end_m, count))
                     if (2..=100_000).contains(&count) && end_m > start_m =>
                 {
-                    Ok(Axis {
-                        start_m,
-                        end_m,
-                        count,
-                    })
+                    Ok(Axis::new(start_m, end_m, count))
                 }
                 _ => Err(bad(
                     n,
@@ -429,16 +426,8 @@ mod tests {
     use crate::physics::vehicle::shipped;
 
     fn small(vehicle: &Vehicle) -> EnergyTable {
-        let xf = Axis {
-            start_m: 0.0,
-            end_m: 20.0,
-            count: 3,
-        };
-        let zf = Axis {
-            start_m: -10.0,
-            end_m: 10.0,
-            count: 3,
-        };
+        let xf = Axis::new(0.0, 20.0, 3);
+        let zf = Axis::new(-10.0, 10.0, 3);
         EnergyTable::build(vehicle, Profile::Px4, xf, zf, |_, _| {}).unwrap()
     }
 
