@@ -18,7 +18,10 @@
 //! Departure from a hover point by position: the last exit from `departure_m` around it before
 //! the vehicle is `arrival_radius_m` away (so GPS wander inside that does not count); a
 //! MISSION_CURRENT arriving up to `mission_current_lag_s` after such an exit (PX4 resends it once
-//! a second, so a lost change arrives late) starts the leg at the exit.
+//! a second, so a lost change arrives late) starts the leg at the exit. MISSION_ITEM_REACHED of
+//! the point being left is the departure itself (both autopilots send it as they move on); a
+//! MISSION_CURRENT (up to a second late on PX4) finding the vehicle already under way towards
+//! the next point dates the departure back to where that motion began.
 //!
 //! Incremental: feed stamped readings one by one ([`Segmenter::push`]); the completed segments
 //! and the one in progress can be asked for at any time, so the same code serves the live view
@@ -120,6 +123,8 @@ pub struct Segmenter {
     last_position: Option<(f64, Enu)>,
     /// (time, speed) of the latest positions, for finding when a departure began.
     recent_speeds: std::collections::VecDeque<(f64, f64)>,
+    /// The latest position's velocity (east, north, up; m/s).
+    last_velocity: Option<[f64; 3]>,
     /// Departure tracking around the current hover point.
     inside_departure: bool,
     exit_s: Option<f64>,
@@ -141,6 +146,24 @@ pub struct Segmenter {
     /// Per hover point (the take-off's origin first, then the plan's points): when the
     /// autopilot made it its target (boot s, if known) and the home it was set from.
     point_homes: Vec<Option<(Option<f64>, f64)>>,
+}
+
+/// A leg moving less than this horizontally leaves its hover point vertically.
+const VERTICAL_DEPARTURE_M: f64 = 1.0;
+
+/// How a departure reached the recorder.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Announcement {
+    /// MISSION_ITEM_REACHED of the item being left: PX4 (`mavlink_mission.cpp`, on the mission
+    /// result's update) and ArduCopter (`verify_nav_wp`) send it the moment they move on, so
+    /// it is the departure itself. A vehicle already moving then is adjusting its hover (PX4
+    /// SITL rises or sinks up to 0.6 m/s as its in-flight home corrections move the point),
+    /// not leaving: on PX4 SITL, dating such a departure back by the motion started legs up to
+    /// 0.6 s before PX4 set the next target.
+    Prompt,
+    /// MISSION_CURRENT (PX4 streams it once a second: it arrives up to 1 s after the change),
+    /// a mode or a landed state: the motion may have begun before.
+    Streamed,
 }
 
 /// How much later than a target's start a home may say it was set and still count (the boot
@@ -202,6 +225,7 @@ impl Segmenter {
             now_s: 0.0,
             last_position: None,
             recent_speeds: std::collections::VecDeque::new(),
+            last_velocity: None,
             inside_departure: false,
             exit_s: None,
             stop_s: None,
@@ -427,6 +451,39 @@ impl Segmenter {
         }
     }
 
+    /// The latest velocity's component along the way out of the current hover point: towards
+    /// the next point horizontally (a leg that is mostly horizontal starts horizontally), else
+    /// vertically (straight up or down to it, or down to land after the last point). Infinite
+    /// when no velocity is known (nothing to tell a departure from a hover adjustment).
+    fn speed_towards_next_m_s(&self) -> f64 {
+        let Some(v) = self.last_velocity else {
+            return f64::INFINITY;
+        };
+        let (from, to) = match self.phase {
+            Phase::Active(SegmentKind::Takeoff) => (self.hover_point_at(0), self.hover_point_at(1)),
+            Phase::Active(SegmentKind::Settle(k) | SegmentKind::Hover(k)) => {
+                (self.hover_point_at(k + 1), self.hover_point_at(k + 2))
+            }
+            _ => (None, None),
+        };
+        let Some(from) = from else {
+            return f64::INFINITY;
+        };
+        let d = match to {
+            Some(to) => sub(to, from),
+            // After the last point: down to land.
+            None => [0.0, 0.0, -1.0],
+        };
+        let horizontal = d[0].hypot(d[1]);
+        if horizontal >= VERTICAL_DEPARTURE_M {
+            (v[0] * d[0] + v[1] * d[1]) / horizontal
+        } else if d[2] != 0.0 {
+            v[2] * d[2].signum()
+        } else {
+            f64::INFINITY
+        }
+    }
+
     fn next_after(&self, k: Option<usize>) -> SegmentKind {
         let next = k.map_or(0, |k| k + 1);
         if next < self.plan.points.len() {
@@ -473,15 +530,19 @@ impl Segmenter {
 
     /// When a departure the autopilot announced at `t_s` really began: at the exit from the
     /// hover point seen in the positions when that came first (the announcement was late: a
-    /// repeat after the change was lost); else, when the vehicle is already under way at `t_s`
-    /// (faster than `stop_speed_m_s`), where its motion began (a late announcement before the
-    /// exit); else `t_s`.
-    fn departure_time(&self, t_s: f64) -> f64 {
+    /// repeat after the change was lost); else, for an announcement that may be late
+    /// (`Announcement::Streamed`) when the vehicle is already under way at `t_s` (faster than
+    /// `stop_speed_m_s`), where its motion began (a late announcement before the exit); else
+    /// `t_s`.
+    fn departure_time(&self, t_s: f64, announcement: Announcement) -> f64 {
         let lag = self.cfg.mission_current_lag_s;
         if let Some(e) = self.exit_s {
             if !self.inside_departure && e <= t_s && t_s - e <= lag {
                 return e;
             }
+        }
+        if announcement == Announcement::Prompt {
+            return t_s;
         }
         let rest = self.rest_speed_m_s(t_s);
         // Moving before `t_s`: two moving samples by then, or one taken before it (a sample at
@@ -495,14 +556,17 @@ impl Segmenter {
             .map(|&(t, _)| t)
             .collect();
         let moving = run.len() >= 2 || run.first().is_some_and(|&t| t < t_s - 1e-3);
-        // Late only if the vehicle is clearly under way by then: one still creeping about its
-        // hover point (PX4 SITL's SIH holds at 0.1-0.2 m/s) left when it was told to.
+        // Late only if the vehicle is clearly under way by then, towards where it is going:
+        // one still creeping about its hover point (PX4 SITL's SIH holds at 0.1-0.2 m/s) or
+        // rising or sinking there (PX4 SITL's home corrections move the point by up to a metre)
+        // left when it was told to.
         let under_way = self
             .recent_speeds
             .iter()
             .rev()
             .find(|&&(t, _)| t <= t_s + 1e-9)
-            .is_some_and(|&(_, v)| v > self.cfg.stop_speed_m_s);
+            .is_some_and(|&(_, v)| v > self.cfg.stop_speed_m_s)
+            && self.speed_towards_next_m_s() > self.cfg.stop_speed_m_s;
         if moving && under_way {
             let start = self.motion_start(t_s, rest);
             if start < t_s && t_s - start <= lag {
@@ -527,7 +591,7 @@ impl Segmenter {
     fn on_target(&mut self, t_s: f64, target: Target) {
         match self.phase {
             Phase::Active(SegmentKind::Takeoff) if target == Target::Leg(0) => {
-                let t = self.departure_time(t_s);
+                let t = self.departure_time(t_s, Announcement::Streamed);
                 self.depart(t);
             }
             // The log began in flight (armed at the first heartbeat), past the first leg: what
@@ -549,7 +613,7 @@ impl Segmenter {
             Phase::Active(SegmentKind::Settle(k) | SegmentKind::Hover(k))
                 if target > Target::Leg(k) =>
             {
-                let t = self.departure_time(t_s);
+                let t = self.departure_time(t_s, Announcement::Streamed);
                 self.depart(t);
             }
             _ => {}
@@ -562,7 +626,7 @@ impl Segmenter {
             Phase::Active(SegmentKind::Settle(k) | SegmentKind::Hover(k))
                 if k == self.last_index() =>
             {
-                let t = self.departure_time(t_s);
+                let t = self.departure_time(t_s, Announcement::Streamed);
                 self.depart(t);
             }
             // Landing or RTL before the plan is done: the flight is cut short.
@@ -734,11 +798,11 @@ impl Segmenter {
                 Phase::Active(SegmentKind::Settle(k) | SegmentKind::Hover(k))
                     if self.plan.points.get(k).is_some_and(|p| p.seq == *seq) =>
                 {
-                    let t = self.departure_time(t_s);
+                    let t = self.departure_time(t_s, Announcement::Prompt);
                     self.depart(t);
                 }
                 Phase::Active(SegmentKind::Takeoff) if self.plan.takeoff_seq == Some(*seq) => {
-                    let t = self.departure_time(t_s);
+                    let t = self.departure_time(t_s, Announcement::Prompt);
                     self.depart(t);
                 }
                 Phase::Active(SegmentKind::Leg(k))
@@ -757,6 +821,7 @@ impl Segmenter {
             },
             Reading::Position(p) => {
                 self.boot_offset_s = Some(t_s - f64::from(p.time_boot_ms) * 1e-3);
+                self.last_velocity = Some([p.ve_m_s, p.vn_m_s, -p.vd_m_s]);
                 let local = self.plan.to_local(p, self.frame_home_m);
                 self.on_position(t_s, local, p.speed_m_s());
             }
@@ -1110,6 +1175,38 @@ mod tests {
         let start = leg_start(&no_message);
         assert!(
             (start - leg2.start_s).abs() < 0.1,
+            "start {start} vs true {}",
+            leg2.start_s
+        );
+    }
+
+    #[test]
+    fn a_hover_adjustment_before_the_reached_message_is_not_taken_for_the_departure() {
+        let (flight, _) = fly();
+        let leg2 = flight.part(SegmentKind::Leg(2)).copied().expect("leg 2");
+        // The vehicle rises at 0.6 m/s for the last 0.6 s of its hold at B (PX4 SITL does when
+        // a home correction lifts the point), then leaves when B is reported reached.
+        let adjusted: Vec<Stamped> = flight
+            .stamped()
+            .into_iter()
+            .map(|mut m| {
+                if let Reading::Position(p) = &mut m.reading {
+                    if m.t_s >= leg2.start_s - 0.6 && m.t_s < leg2.start_s {
+                        p.vd_m_s = -0.6;
+                    }
+                }
+                m
+            })
+            .collect();
+        let s = Segmenter::run(square_plan(), SegmentConfig::default(), &adjusted).expect("valid");
+        let start = s
+            .completed()
+            .iter()
+            .find(|x| x.kind == SegmentKind::Leg(2))
+            .expect("leg 2")
+            .start_s;
+        assert!(
+            (start - leg2.start_s).abs() < 0.01,
             "start {start} vs true {}",
             leg2.start_s
         );
