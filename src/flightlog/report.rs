@@ -31,6 +31,9 @@ pub struct PartReport {
     pub end_s: f64,
     pub coverage: f64,
     pub flags: Vec<Flag>,
+    /// A leg's vehicle when it began: 3D distance from the point left and 3D speed.
+    pub start_offset_m: Option<f64>,
+    pub start_speed_m_s: Option<f64>,
 }
 
 impl PartReport {
@@ -94,6 +97,8 @@ fn part(
         end_s: segment.end_s,
         coverage: m.coverage,
         flags,
+        start_offset_m: segment.start_state.map(|s| s.offset_m),
+        start_speed_m_s: segment.start_state.map(|s| s.speed_m_s),
     }
 }
 
@@ -271,6 +276,11 @@ pub struct PartJson {
     pub end_s: f64,
     pub coverage: f64,
     pub flags: Vec<Flag>,
+    /// A leg's vehicle when it began (absent from reports written before they were kept).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start_offset_m: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start_speed_m_s: Option<f64>,
 }
 
 impl From<&PartReport> for PartJson {
@@ -288,6 +298,8 @@ impl From<&PartReport> for PartJson {
             end_s: p.end_s,
             coverage: p.coverage,
             flags: p.flags.clone(),
+            start_offset_m: p.start_offset_m,
+            start_speed_m_s: p.start_speed_m_s,
         }
     }
 }
@@ -307,6 +319,8 @@ impl PartJson {
             end_s: self.end_s,
             coverage: self.coverage,
             flags: self.flags.clone(),
+            start_offset_m: self.start_offset_m,
+            start_speed_m_s: self.start_speed_m_s,
         }
     }
 }
@@ -553,6 +567,8 @@ mod tests {
             end_s: 10.0,
             coverage: 1.0,
             flags,
+            start_offset_m: None,
+            start_speed_m_s: None,
         }
     }
 

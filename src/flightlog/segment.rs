@@ -91,6 +91,19 @@ pub struct Segment {
     pub complete: bool,
     /// A leg the autopilot ended before the arrival radius (its acceptance radius is larger).
     pub missed_radius: bool,
+    /// A leg's vehicle when it began, if positions were known.
+    pub start_state: Option<StartState>,
+}
+
+/// Where and how fast the vehicle was when a leg began: a leg begun off its point or still
+/// moving (PX4's first leg starts out of the take-off's climb; its SIH vehicle leaves a hold
+/// up to a metre short of the point) is not the hover-to-hover operation the model prices.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct StartState {
+    /// 3D distance from the point left (as the autopilot set it).
+    pub offset_m: f64,
+    /// 3D speed.
+    pub speed_m_s: f64,
 }
 
 impl Segment {
@@ -125,6 +138,10 @@ pub struct Segmenter {
     recent_speeds: std::collections::VecDeque<(f64, f64)>,
     /// The latest position's velocity (east, north, up; m/s).
     last_velocity: Option<[f64; 3]>,
+    /// Recent positions (vehicle time, position), for where a leg began.
+    recent_positions: std::collections::VecDeque<(f64, Enu)>,
+    /// The open leg's vehicle at its start.
+    open_start_state: Option<StartState>,
     /// Departure tracking around the current hover point.
     inside_departure: bool,
     exit_s: Option<f64>,
@@ -226,6 +243,8 @@ impl Segmenter {
             last_position: None,
             recent_speeds: std::collections::VecDeque::new(),
             last_velocity: None,
+            recent_positions: std::collections::VecDeque::new(),
+            open_start_state: None,
             inside_departure: false,
             exit_s: None,
             stop_s: None,
@@ -358,6 +377,7 @@ impl Segmenter {
                 end_s: self.now_s.max(self.open_start_s),
                 complete: false,
                 missed_radius: false,
+                start_state: self.open_start_state,
             }),
             Phase::Idle | Phase::Done => None,
         }
@@ -395,6 +415,7 @@ impl Segmenter {
                 end_s,
                 complete: complete && !self.open_partial,
                 missed_radius,
+                start_state: self.open_start_state.take(),
             });
             self.open_start_s = end_s;
             self.open_partial = false;
@@ -407,6 +428,10 @@ impl Segmenter {
             SegmentKind::Leg(k) => self.target_set(k + 1, start_s),
             _ => {}
         }
+        self.open_start_state = match kind {
+            SegmentKind::Leg(k) => self.vehicle_at(start_s, k),
+            _ => None,
+        };
         self.phase = Phase::Active(kind);
         self.open_start_s = start_s;
         self.stop_s = None;
@@ -449,6 +474,18 @@ impl Segmenter {
             }
             _ => None,
         }
+    }
+
+    /// The vehicle at `t_s` (the last position and speed sampled by then) against hover point
+    /// `i`, the one a leg leaves.
+    fn vehicle_at(&self, t_s: f64, i: usize) -> Option<StartState> {
+        let by = t_s + 1e-9;
+        let (_, p) = self.recent_positions.iter().rev().find(|(t, _)| *t <= by)?;
+        let (_, speed_m_s) = self.recent_speeds.iter().rev().find(|(t, _)| *t <= by)?;
+        Some(StartState {
+            offset_m: distance(*p, self.hover_point_at(i)?),
+            speed_m_s: *speed_m_s,
+        })
     }
 
     /// The latest velocity's component along the way out of the current hover point: towards
@@ -644,6 +681,10 @@ impl Segmenter {
         self.recent_speeds.push_back((t_s, speed_m_s));
         while self.recent_speeds.len() > 64 {
             self.recent_speeds.pop_front();
+        }
+        self.recent_positions.push_back((t_s, p));
+        while self.recent_positions.len() > 64 {
+            self.recent_positions.pop_front();
         }
         let r = self.cfg.arrival_radius_m;
         match self.phase {
@@ -1199,17 +1240,30 @@ mod tests {
             })
             .collect();
         let s = Segmenter::run(square_plan(), SegmentConfig::default(), &adjusted).expect("valid");
-        let start = s
+        let found = *s
             .completed()
             .iter()
             .find(|x| x.kind == SegmentKind::Leg(2))
-            .expect("leg 2")
-            .start_s;
+            .expect("leg 2");
         assert!(
-            (start - leg2.start_s).abs() < 0.01,
-            "start {start} vs true {}",
+            (found.start_s - leg2.start_s).abs() < 0.01,
+            "start {} vs true {}",
+            found.start_s,
             leg2.start_s
         );
+        // The leg says how it began: still rising at 0.6 m/s, on its point.
+        let began = found.start_state.expect("positions were known");
+        assert!((began.speed_m_s - 0.6).abs() < 0.05, "{began:?}");
+        assert!(began.offset_m < 0.3, "{began:?}");
+        // The same leg of the unchanged flight began at rest on its point.
+        let (_, clean) = fly();
+        let began = clean
+            .completed()
+            .iter()
+            .find(|x| x.kind == SegmentKind::Leg(2))
+            .and_then(|x| x.start_state)
+            .expect("leg 2 with its start");
+        assert!(began.speed_m_s < 0.05 && began.offset_m < 0.3, "{began:?}");
     }
 
     fn with_battery(
