@@ -133,13 +133,8 @@ pub struct Segmenter {
     flight_start_s: Option<f64>,
     flight_end_s: Option<f64>,
     now_s: f64,
-    last_position: Option<(f64, Enu)>,
-    /// (time, speed) of the latest positions, for finding when a departure began.
-    recent_speeds: std::collections::VecDeque<(f64, f64)>,
-    /// The latest position's velocity (east, north, up; m/s).
-    last_velocity: Option<[f64; 3]>,
-    /// Recent positions (vehicle time, position), for where a leg began.
-    recent_positions: std::collections::VecDeque<(f64, Enu)>,
+    /// The latest positions (the last one last), for when and where a departure began.
+    recent: std::collections::VecDeque<Sample>,
     /// The open leg's vehicle at its start.
     open_start_state: Option<StartState>,
     /// Departure tracking around the current hover point.
@@ -165,6 +160,24 @@ pub struct Segmenter {
     point_homes: Vec<Option<(Option<f64>, f64)>>,
 }
 
+/// One position of the vehicle in the mission frame.
+#[derive(Debug, Clone, Copy)]
+struct Sample {
+    t_s: f64,
+    at: Enu,
+    /// East, north, up (m/s).
+    velocity: [f64; 3],
+}
+
+impl Sample {
+    fn speed_m_s(&self) -> f64 {
+        dot(self.velocity, self.velocity).sqrt()
+    }
+}
+
+/// How many recent positions are kept.
+const RECENT_SAMPLES: usize = 64;
+
 /// A leg moving less than this horizontally leaves its hover point vertically.
 const VERTICAL_DEPARTURE_M: f64 = 1.0;
 
@@ -173,10 +186,10 @@ const VERTICAL_DEPARTURE_M: f64 = 1.0;
 enum Announcement {
     /// MISSION_ITEM_REACHED of the item being left: PX4 (`mavlink_mission.cpp`, on the mission
     /// result's update) and ArduCopter (`verify_nav_wp`) send it the moment they move on, so
-    /// it is the departure itself. A vehicle already moving then is adjusting its hover (PX4
-    /// SITL rises or sinks up to 0.6 m/s as its in-flight home corrections move the point),
-    /// not leaving: on PX4 SITL, dating such a departure back by the motion started legs up to
-    /// 0.6 s before PX4 set the next target.
+    /// it is the departure itself. A vehicle already moving then is adjusting its hover, not
+    /// leaving (PX4 SITL's rose at 0.6 m/s at one point as its setpoint rose 0.35 m): on PX4
+    /// SITL, dating such a departure back by the motion started legs up to 0.6 s before PX4 set
+    /// the next target.
     Prompt,
     /// MISSION_CURRENT (PX4 streams it once a second: it arrives up to 1 s after the change),
     /// a mode or a landed state: the motion may have begun before.
@@ -240,10 +253,7 @@ impl Segmenter {
             flight_start_s: None,
             flight_end_s: None,
             now_s: 0.0,
-            last_position: None,
-            recent_speeds: std::collections::VecDeque::new(),
-            last_velocity: None,
-            recent_positions: std::collections::VecDeque::new(),
+            recent: std::collections::VecDeque::new(),
             open_start_state: None,
             inside_departure: false,
             exit_s: None,
@@ -295,14 +305,7 @@ impl Segmenter {
     fn on_home(&mut self, alt_amsl_m: f64, set_boot_s: Option<f64>) {
         self.homes.push((set_boot_s, alt_amsl_m));
         self.frame_home_m.get_or_insert(alt_amsl_m);
-        let current = match self.phase {
-            Phase::Active(SegmentKind::Takeoff) => Some(0),
-            Phase::Active(SegmentKind::Leg(k) | SegmentKind::Settle(k) | SegmentKind::Hover(k)) => {
-                Some(k + 1)
-            }
-            _ => None,
-        };
-        if let Some(i) = current {
+        if let Some(i) = self.point_index() {
             match self.point_homes.get(i) {
                 Some(Some((boot_s, _))) => self.set_point_home(i, *boot_s),
                 _ => self.target_set(i, self.now_s),
@@ -436,8 +439,8 @@ impl Segmenter {
         self.open_start_s = start_s;
         self.stop_s = None;
         self.exit_s = None;
-        self.inside_departure = match (self.hover_point(), self.last_position) {
-            (Some(center), Some((_, p))) => distance(p, center) <= self.cfg.departure_m,
+        self.inside_departure = match (self.hover_point(), self.recent.back()) {
+            (Some(center), Some(last)) => distance(last.at, center) <= self.cfg.departure_m,
             _ => false,
         };
     }
@@ -465,48 +468,62 @@ impl Segmenter {
         self.plan.points.len().saturating_sub(1)
     }
 
-    /// The hover point the vehicle leaves from in the current phase.
-    fn hover_point(&self) -> Option<Enu> {
+    /// The point the current phase is about (`hover_point_at`'s index): the take-off's origin,
+    /// a leg's end, the point settled or hovered at.
+    fn point_index(&self) -> Option<usize> {
         match self.phase {
-            Phase::Active(SegmentKind::Takeoff) => self.hover_point_at(0),
-            Phase::Active(SegmentKind::Settle(k) | SegmentKind::Hover(k)) => {
-                self.hover_point_at(k + 1)
+            Phase::Active(SegmentKind::Takeoff) => Some(0),
+            Phase::Active(SegmentKind::Leg(k) | SegmentKind::Settle(k) | SegmentKind::Hover(k)) => {
+                Some(k + 1)
             }
             _ => None,
         }
     }
 
-    /// The vehicle at `t_s` (the last position and speed sampled by then) against hover point
-    /// `i`, the one a leg leaves.
+    /// The index of the hover point the vehicle leaves from in the current phase.
+    fn hover_index(&self) -> Option<usize> {
+        match self.phase {
+            Phase::Active(SegmentKind::Leg(_)) => None,
+            _ => self.point_index(),
+        }
+    }
+
+    /// The hover point the vehicle leaves from in the current phase.
+    fn hover_point(&self) -> Option<Enu> {
+        self.hover_point_at(self.hover_index()?)
+    }
+
+    /// The last position sampled by `t_s`.
+    fn sample_by(&self, t_s: f64) -> Option<&Sample> {
+        self.recent.iter().rev().find(|s| s.t_s <= t_s + 1e-9)
+    }
+
+    /// The recent positions' (time, speed).
+    fn speeds(&self) -> impl DoubleEndedIterator<Item = (f64, f64)> + '_ {
+        self.recent.iter().map(|s| (s.t_s, s.speed_m_s()))
+    }
+
+    /// The vehicle at `t_s` (the last position sampled by then) against hover point `i`, the
+    /// one a leg leaves.
     fn vehicle_at(&self, t_s: f64, i: usize) -> Option<StartState> {
-        let by = t_s + 1e-9;
-        let (_, p) = self.recent_positions.iter().rev().find(|(t, _)| *t <= by)?;
-        let (_, speed_m_s) = self.recent_speeds.iter().rev().find(|(t, _)| *t <= by)?;
+        let sample = self.sample_by(t_s)?;
         Some(StartState {
-            offset_m: distance(*p, self.hover_point_at(i)?),
-            speed_m_s: *speed_m_s,
+            offset_m: distance(sample.at, self.hover_point_at(i)?),
+            speed_m_s: sample.speed_m_s(),
         })
     }
 
-    /// The latest velocity's component along the way out of the current hover point: towards
-    /// the next point horizontally (a leg that is mostly horizontal starts horizontally), else
-    /// vertically (straight up or down to it, or down to land after the last point). Infinite
-    /// when no velocity is known (nothing to tell a departure from a hover adjustment).
-    fn speed_towards_next_m_s(&self) -> f64 {
-        let Some(v) = self.last_velocity else {
+    /// Velocity `v`'s component along the way out of the current hover point: towards the next
+    /// point horizontally (a leg that is mostly horizontal starts horizontally), else vertically
+    /// (straight up or down to it, or down to land after the last point).
+    fn speed_towards_next_m_s(&self, v: [f64; 3]) -> f64 {
+        let Some(i) = self.hover_index() else {
             return f64::INFINITY;
         };
-        let (from, to) = match self.phase {
-            Phase::Active(SegmentKind::Takeoff) => (self.hover_point_at(0), self.hover_point_at(1)),
-            Phase::Active(SegmentKind::Settle(k) | SegmentKind::Hover(k)) => {
-                (self.hover_point_at(k + 1), self.hover_point_at(k + 2))
-            }
-            _ => (None, None),
-        };
-        let Some(from) = from else {
+        let Some(from) = self.hover_point_at(i) else {
             return f64::INFINITY;
         };
-        let d = match to {
+        let d = match self.hover_point_at(i + 1) {
             Some(to) => sub(to, from),
             // After the last point: down to land.
             None => [0.0, 0.0, -1.0],
@@ -585,25 +602,20 @@ impl Segmenter {
         // Moving before `t_s`: two moving samples by then, or one taken before it (a sample at
         // the announcement's own time says nothing about when the motion began).
         let run: Vec<f64> = self
-            .recent_speeds
-            .iter()
+            .speeds()
             .rev()
-            .filter(|&&(t, _)| t <= t_s + 1e-9)
-            .take_while(|&&(_, v)| v > rest)
-            .map(|&(t, _)| t)
+            .filter(|&(t, _)| t <= t_s + 1e-9)
+            .take_while(|&(_, v)| v > rest)
+            .map(|(t, _)| t)
             .collect();
         let moving = run.len() >= 2 || run.first().is_some_and(|&t| t < t_s - 1e-3);
         // Late only if the vehicle is clearly under way by then, towards where it is going:
         // one still creeping about its hover point (PX4 SITL's SIH holds at 0.1-0.2 m/s) or
-        // rising or sinking there (PX4 SITL's home corrections move the point by up to a metre)
-        // left when it was told to.
-        let under_way = self
-            .recent_speeds
-            .iter()
-            .rev()
-            .find(|&&(t, _)| t <= t_s + 1e-9)
-            .is_some_and(|&(_, v)| v > self.cfg.stop_speed_m_s)
-            && self.speed_towards_next_m_s() > self.cfg.stop_speed_m_s;
+        // rising or sinking there left when it was told to.
+        let under_way = self.sample_by(t_s).is_some_and(|s| {
+            s.speed_m_s() > self.cfg.stop_speed_m_s
+                && self.speed_towards_next_m_s(s.velocity) > self.cfg.stop_speed_m_s
+        });
         if moving && under_way {
             let start = self.motion_start(t_s, rest);
             if start < t_s && t_s - start <= lag {
@@ -617,10 +629,9 @@ impl Segmenter {
     /// here before (GPS velocity noise on a real vehicle), at least 0.05 m/s.
     fn rest_speed_m_s(&self, t_s: f64) -> f64 {
         let noise = self
-            .recent_speeds
-            .iter()
-            .filter(|&&(t, _)| t >= self.open_start_s && t < t_s - self.cfg.mission_current_lag_s)
-            .map(|&(_, v)| v)
+            .speeds()
+            .filter(|&(t, _)| t >= self.open_start_s && t < t_s - self.cfg.mission_current_lag_s)
+            .map(|(_, v)| v)
             .fold(0.0, f64::max);
         (1.5 * noise).max(0.05)
     }
@@ -675,16 +686,12 @@ impl Segmenter {
         }
     }
 
-    fn on_position(&mut self, t_s: f64, p: Enu, speed_m_s: f64) {
-        let previous = self.last_position;
-        self.last_position = Some((t_s, p));
-        self.recent_speeds.push_back((t_s, speed_m_s));
-        while self.recent_speeds.len() > 64 {
-            self.recent_speeds.pop_front();
-        }
-        self.recent_positions.push_back((t_s, p));
-        while self.recent_positions.len() > 64 {
-            self.recent_positions.pop_front();
+    fn on_position(&mut self, sample: Sample) {
+        let (t_s, p, speed_m_s) = (sample.t_s, sample.at, sample.speed_m_s());
+        let previous = self.recent.back().map(|s| (s.t_s, s.at));
+        self.recent.push_back(sample);
+        while self.recent.len() > RECENT_SAMPLES {
+            self.recent.pop_front();
         }
         let r = self.cfg.arrival_radius_m;
         match self.phase {
@@ -744,12 +751,7 @@ impl Segmenter {
     /// linear in time; extrapolated back from the first two moving samples, and bounded by the
     /// last sample at rest before them. Without such samples, the exit itself.
     fn motion_start(&self, exit_s: f64, rest_m_s: f64) -> f64 {
-        let before: Vec<(f64, f64)> = self
-            .recent_speeds
-            .iter()
-            .copied()
-            .filter(|&(t, _)| t <= exit_s + 1e-9)
-            .collect();
+        let before: Vec<(f64, f64)> = self.speeds().filter(|&(t, _)| t <= exit_s + 1e-9).collect();
         // The last sample at rest, and the moving samples after it.
         let rest = before.iter().rposition(|&(_, v)| v <= rest_m_s);
         let moving: Vec<(f64, f64)> = match rest {
@@ -862,9 +864,11 @@ impl Segmenter {
             },
             Reading::Position(p) => {
                 self.boot_offset_s = Some(t_s - f64::from(p.time_boot_ms) * 1e-3);
-                self.last_velocity = Some([p.ve_m_s, p.vn_m_s, -p.vd_m_s]);
-                let local = self.plan.to_local(p, self.frame_home_m);
-                self.on_position(t_s, local, p.speed_m_s());
+                self.on_position(Sample {
+                    t_s,
+                    at: self.plan.to_local(p, self.frame_home_m),
+                    velocity: [p.ve_m_s, p.vn_m_s, -p.vd_m_s],
+                });
             }
             Reading::Home {
                 alt_amsl_m,
@@ -1225,8 +1229,8 @@ mod tests {
     fn a_hover_adjustment_before_the_reached_message_is_not_taken_for_the_departure() {
         let (flight, _) = fly();
         let leg2 = flight.part(SegmentKind::Leg(2)).copied().expect("leg 2");
-        // The vehicle rises at 0.6 m/s for the last 0.6 s of its hold at B (PX4 SITL does when
-        // a home correction lifts the point), then leaves when B is reported reached.
+        // The vehicle rises at 0.6 m/s for the last 0.6 s of its hold at B (as PX4 SITL's did at
+        // one point of one flight), then leaves when B is reported reached.
         let adjusted: Vec<Stamped> = flight
             .stamped()
             .into_iter()
