@@ -7,7 +7,11 @@
 # Usage: sitl/px4-fly.sh [--no-battery] MISSION LOG_DIR [-- EXTRA FLY ARGS]
 #   --no-battery: no battery process; PX4 keeps its own simulated battery (SIM_BAT_ENABLE=1), whose
 #                 current is a fake -1 A: the flight is recorded but no energy is measurable.
-# Env: EMPLAN (default target/debug/emplan), PX4_SITL_DIR (see sitl/px4-run.sh), PX4_SPEED (10).
+# Env: EMPLAN (default target/debug/emplan), PX4_SITL_DIR (see sitl/px4-run.sh), PX4_SPEED (10),
+#      FLY_DELAY_S (0): seconds to wait, once PX4 and the battery are up, before `emplan fly`.
+#      PX4 SITL flies the same way each time it is armed at the same moment after its boot, and
+#      differently when armed at another (README, "PX4 SITL"): flights with different delays
+#      sample its flight-to-flight spread.
 # PX4's and the battery process's output go to LOG_DIR/px4.log and LOG_DIR/battery-sim.log.
 # One PX4 per machine: fails at once when something already listens on PX4's UDP port 18570.
 set -euo pipefail
@@ -53,6 +57,7 @@ if [ "$battery" = 1 ]; then
   sleep 2
   kill -0 "$bat" 2>/dev/null || { echo "px4-fly.sh: battery-sim exited:" >&2; cat "$log_dir/battery-sim.log" >&2; exit 1; }
 fi
+sleep "${FLY_DELAY_S:-0}"
 set +e
 timeout 900 "$emplan" fly "$mission" --arm --connect udpin:127.0.0.1:14550 --log-dir "$log_dir" --json "$@"
 status=$?
