@@ -96,8 +96,9 @@ pub struct Segment {
 }
 
 /// Where and how fast the vehicle was when a leg began: a leg begun off its point or still
-/// moving (PX4's first leg starts out of the take-off's climb; its SIH vehicle leaves a hold
-/// up to a metre short of the point) is not the hover-to-hover operation the model prices.
+/// moving (PX4's first leg starts out of the take-off's climb; its SIH vehicle leaves a 5 s hold
+/// up to 1.5 m past the point, along the way it came) is not the hover-to-hover operation the
+/// model prices.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct StartState {
     /// 3D distance from the point left (as the autopilot set it).
