@@ -126,10 +126,20 @@ impl Rotor {
             return 0.0;
         }
         let g = |vi: f64| vi * v_x_m_s.hypot(v_z_m_s + vi) - target;
-        // Beyond vi = -v_z the function increases monotonically; below it (deep descent,
-        // the windmill state) the root, if any, is bracketed by [0, -v_z].
+        // Beyond vi = -v_z (the knee) the function increases monotonically: one root at most,
+        // the normal working state. Below the knee (descent: the air flows up through the disk,
+        // the windmill-brake state) g rises from -target, peaks where
+        // 2 vi^2 - 3 k vi + k^2 + v_x^2 = 0 (k the knee) when k^2 > 8 v_x^2, and may dip again.
+        // The windmill-brake root is the smallest one: below that peak when the peak reaches
+        // zero (in axial descent: once faster than twice the hover induced velocity, Leishman
+        // chapter 2), else below the knee when g(knee) >= 0. Only without either is the flow
+        // down through the disk.
         let knee = (-v_z_m_s).max(0.0);
-        let (mut lo, mut hi) = if g(knee) >= 0.0 {
+        let disc = knee * knee - 8.0 * v_x_m_s * v_x_m_s;
+        let peak = (disc > 0.0).then(|| (3.0 * knee - disc.sqrt()) / 4.0);
+        let (mut lo, mut hi) = if let Some(peak) = peak.filter(|&p| g(p) >= 0.0) {
+            (0.0, peak)
+        } else if g(knee) >= 0.0 {
             (0.0, knee)
         } else {
             let mut hi = knee + target.sqrt() + 1.0;
@@ -312,6 +322,36 @@ mod tests {
             assert!(
                 s.omega_rad_s > 100.0 && (s.torque_n_m > 0.0 || v_z < -8.0),
                 "{s:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn fast_axial_descent_is_the_windmill_brake_state_of_momentum_theory() {
+        let rotor = Rotor::new(&shipped());
+        let thrust = 7.4;
+        let vh = (thrust / (2.0 * 1.2 * rotor.disk_area_m2())).sqrt();
+        // Axial flight: v_i (v_z + v_i) = +-v_h^2. Climb and hover: the normal working state.
+        let vi = rotor.induced_velocity_m_s(thrust, 0.0, 0.5 * vh);
+        assert!((vi - vh * ((1.0 / 16.0 + 1.0f64).sqrt() - 0.25)).abs() < 1e-9 * vh);
+        // Descending slower than 2 v_h there is no windmill root: the normal state's formula
+        // (the flow still down through the disk) is kept, as before.
+        let vi = rotor.induced_velocity_m_s(thrust, 0.0, -1.5 * vh);
+        assert!((vi - vh * ((0.5625f64 + 1.0).sqrt() + 0.75)).abs() < 1e-9 * vh);
+        // Faster than 2 v_h the air flows up through the disk: v_i/v_h = -x/2 - sqrt(x^2/4 - 1)
+        // with x = v_z/v_h; at x = -2.5 that is 0.5 (the normal-state root, 2.0 + ..., is not).
+        let vi = rotor.induced_velocity_m_s(thrust, 0.0, -2.5 * vh);
+        assert!((vi - 0.5 * vh).abs() < 1e-9 * vh, "{vi} vs {}", 0.5 * vh);
+        // With a little forward speed the root stays on that branch (no jump back up).
+        let vi_fwd = rotor.induced_velocity_m_s(thrust, 0.05 * vh, -2.5 * vh);
+        assert!((vi_fwd - vi).abs() < 0.01 * vh, "{vi_fwd} vs {vi}");
+        for (v_x, v_z) in [(0.0, -2.5 * vh), (0.05 * vh, -2.5 * vh), (1.0, -3.0 * vh)] {
+            let vi = rotor.induced_velocity_m_s(thrust, v_x, v_z);
+            let momentum = 2.0 * 1.2 * rotor.disk_area_m2() * vi * f64::hypot(v_x, v_z + vi);
+            assert!((momentum - thrust).abs() < 1e-8 * thrust, "{momentum}");
+            assert!(
+                v_z + vi < 0.0,
+                "windmill-brake: the flow is up through the disk"
             );
         }
     }
