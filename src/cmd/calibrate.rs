@@ -15,8 +15,8 @@ pub struct Args {
     #[arg(long, value_name = "DIR")]
     vehicle: Option<PathBuf>,
     /// Refit the calibrated parameters (PTF: mass, drags, induced power factor, speed limits,
-    /// tracking lag; HVB: its limits) to the operations and sample missions together, and print
-    /// the values to put in vehicle.toml
+    /// tracking lag; HVB: its limits) together to the operations, the sample missions and the
+    /// paper's min-energy tour of sample 1, and print the values to put in vehicle.toml
     #[arg(long)]
     fit: bool,
     /// Print one JSON document instead of text
@@ -134,7 +134,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         t.model_tour,
         t.model_tour_kj,
         if t.gap_pct <= 1e-9 {
-            "the same energy: the paper's tour or its mirror image".to_string()
+            format!(
+                "the same energy: the paper's tour or a mirror image, {:.3}% cheaper than any tour of another energy",
+                t.margin_pct
+            )
         } else {
             format!("the paper's tour is {:.2}% dearer", t.gap_pct)
         }

@@ -73,6 +73,15 @@ pub enum PhysicsError {
     #[error("tilt {tilt_deg:.1} deg exceeds the {max_deg:.1} deg limit")]
     TiltLimit { tilt_deg: f64, max_deg: f64 },
     #[error(
+        "windmill-brake state: the air flows up through the rotors ({inflow_m_s:.2} m/s) at \
+         {v_x_m_s:.1} m/s in plane and {v_z_m_s:.1} m/s along the axis"
+    )]
+    WindmillBrake {
+        inflow_m_s: f64,
+        v_x_m_s: f64,
+        v_z_m_s: f64,
+    },
+    #[error(
         "no feasible trajectory for Xf {xf_m} m, Zf {zf_m} m with the {profile} profile: {reason}"
     )]
     NoTrajectory {

@@ -75,22 +75,16 @@ impl VehicleModel {
     /// One leg of horizontal distance `xf_m` and signed climb `zf_m`: from the table, or beyond
     /// it composed exactly from a table leg and the profile's steady cruise
     /// ([`super::longleg`]). The `ptf` quintic never cruises, so its long legs are simulated
-    /// directly, the very operation a table cell holds (about 20 ms a leg instead of a lookup);
-    /// a leg that is none of these is an error naming it.
+    /// directly, the very operation a table cell holds (about 20 ms a leg instead of a lookup),
+    /// as is a leg whose cruise is too short to bring it inside the table; a leg that is none
+    /// of these is an error naming it.
     pub fn leg(&self, xf_m: f64, zf_m: f64) -> Result<LegEnergy, PhysicsError> {
         match self.table.lookup(xf_m, zf_m) {
             Err(PhysicsError::OutsideTable { .. })
                 if xf_m.is_finite() && zf_m.is_finite() && xf_m >= 0.0 =>
             {
                 let model = Model::new(&self.vehicle);
-                if self.profile == Profile::Ptf {
-                    return Ok(LegEnergy::from(&model.operation(
-                        self.profile,
-                        xf_m,
-                        zf_m,
-                    )?));
-                }
-                longleg::compose(&model, &self.table, xf_m, zf_m).map(|long| long.leg)
+                longleg::price(&model, &self.table, xf_m, zf_m)
             }
             other => other,
         }

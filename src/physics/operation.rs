@@ -344,6 +344,17 @@ fn path_peak_speed(path: &Path, steps: usize) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// What the vehicle does at one kinematic state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct PowerState {
+    power_w: f64,
+    tilt_rad: f64,
+    /// The blades' perpendicular inflow v_z + kappa v_i (negative: the windmill-brake state).
+    inflow_m_s: f64,
+    v_x_m_s: f64,
+    v_z_m_s: f64,
+}
+
 /// A vehicle's models, built once and reused for many operations (table builds).
 #[derive(Debug, Clone)]
 pub struct Model<'a> {
@@ -366,10 +377,21 @@ impl<'a> Model<'a> {
 
     /// Battery terminal power at a kinematic state in the leg's plane; also returns the tilt.
     pub fn power_w(&self, vx: f64, vz: f64, ax: f64, az: f64) -> Result<(f64, f64), PhysicsError> {
+        self.state(vx, vz, ax, az).map(|s| (s.power_w, s.tilt_rad))
+    }
+
+    /// Power, tilt and the rotors' inflow at a kinematic state in the leg's plane.
+    fn state(&self, vx: f64, vz: f64, ax: f64, az: f64) -> Result<PowerState, PhysicsError> {
         let d = demand(self.vehicle, vx, vz, ax, az);
         let rotor = self.rotor.solve(d.thrust_n, d.v_x_m_s, d.v_z_m_s)?;
         let electrical = self.powertrain.electrical(&rotor)?;
-        Ok((electrical.power_w, d.pitch_rad.abs()))
+        Ok(PowerState {
+            power_w: electrical.power_w,
+            tilt_rad: d.pitch_rad.abs(),
+            inflow_m_s: rotor.induced_velocity_m_s + d.v_z_m_s,
+            v_x_m_s: d.v_x_m_s,
+            v_z_m_s: d.v_z_m_s,
+        })
     }
 
     /// Battery energy of `trajectory` from `t0_s` to `t1_s` (midpoint rule, `n` steps).
@@ -392,14 +414,23 @@ impl<'a> Model<'a> {
         Ok(self.power_w(0.0, 0.0, 0.0, 0.0)?.0)
     }
 
-    /// Energy of a path from `t0` to `t1`, `n` midpoint steps; errors when the tilt limit is
-    /// exceeded (if `check_tilt`) or a state is infeasible.
+    /// Energy of a path from `t0` to `t1`, `n` midpoint steps; errors when a state is
+    /// infeasible, or (if `planned`: a trajectory the PTF chooses) beyond the tilt limit or in
+    /// the windmill-brake state.
+    ///
+    /// The windmill-brake state (the air flowing up through the rotors, which then extract
+    /// energy from it) is where Glauert's momentum theory lets a fast diagonal descent glide at
+    /// no-load power. A fixed-pitch multirotor must avoid it: its ESCs cannot brake the rotors
+    /// to hold thrust, and thrust control is lost (Talaeizadeh, Antunes, Nejat Pishkenari and
+    /// Alasty, "Optimal-time quadcopter descent trajectories avoiding the vortex ring and
+    /// autorotation states", arXiv 1909.09069). A planned trajectory keeps out of it; what
+    /// an autopilot flies (`hvb`, `px4`) is priced as flown.
     fn energy_j(
         &self,
         path: &Path,
         (t0, t1): (f64, f64),
         n: usize,
-        check_tilt: bool,
+        planned: bool,
     ) -> Result<f64, PhysicsError> {
         if t1 <= t0 {
             return Ok(0.0);
@@ -408,14 +439,21 @@ impl<'a> Model<'a> {
         let mut total = 0.0;
         for k in 0..n {
             let (vx, vz, ax, az) = path.kinematics(t0 + (k as f64 + 0.5) * dt);
-            let (p, tilt) = self.power_w(vx, vz, ax, az)?;
-            if check_tilt && tilt > self.max_tilt_rad {
+            let s = self.state(vx, vz, ax, az)?;
+            if planned && s.tilt_rad > self.max_tilt_rad {
                 return Err(PhysicsError::TiltLimit {
-                    tilt_deg: tilt.to_degrees(),
+                    tilt_deg: s.tilt_rad.to_degrees(),
                     max_deg: self.vehicle.body.max_tilt_deg,
                 });
             }
-            total += p * dt;
+            if planned && s.inflow_m_s < 0.0 {
+                return Err(PhysicsError::WindmillBrake {
+                    inflow_m_s: s.inflow_m_s,
+                    v_x_m_s: s.v_x_m_s,
+                    v_z_m_s: s.v_z_m_s,
+                });
+            }
+            total += s.power_w * dt;
         }
         Ok(total)
     }
@@ -560,8 +598,24 @@ impl<'a> Model<'a> {
                         .unwrap_or(f64::INFINITY)
                 };
                 // Golden-section search of the duration (E(T) is unimodal: infeasible or
-                // expensive when short, hover-dominated when long).
-                let search = golden_section(&cost, (t_min, t_min * 4.0 + 20.0), 1e-5, 60);
+                // expensive when short, hover-dominated when long). When the fastest duration
+                // breaks a limit (tilt, the windmill-brake state), the search starts from the
+                // shortest feasible one, found by bisection: a descent is cheapest there.
+                let t_max = t_min * 4.0 + 20.0;
+                let mut t_lo = t_min;
+                if !cost(t_min).is_finite() && cost(t_max).is_finite() {
+                    let mut hi = t_max;
+                    for _ in 0..40 {
+                        let mid = 0.5 * (t_lo + hi);
+                        if cost(mid).is_finite() {
+                            hi = mid;
+                        } else {
+                            t_lo = mid;
+                        }
+                    }
+                    t_lo = hi;
+                }
+                let search = golden_section(&cost, (t_lo, t_max), 1e-5, 60);
                 let t_best = search.best;
                 if !search.best_value.is_finite() {
                     return Err(no_trajectory(
@@ -730,6 +784,58 @@ mod tests {
     use crate::physics::vehicle::shipped;
 
     #[test]
+    fn a_ptf_descent_keeps_the_rotors_out_of_the_windmill_brake_state() {
+        let v = shipped();
+        let model = Model::new(&v);
+        for (xf, zf) in [(24.0, -22.0), (40.0, -38.0), (40.0, -25.0), (16.97, -11.0)] {
+            let t = model.trajectory(Profile::Ptf, xf, zf).unwrap();
+            let n = 400;
+            let mut least = f64::INFINITY;
+            for k in 0..=n {
+                let (vx, vz, ax, az) = t.kinematics(t.duration_s() * k as f64 / n as f64);
+                least = least.min(model.state(vx, vz, ax, az).unwrap().inflow_m_s);
+            }
+            // Checked at the 200 integration points; between them it may dip by a hair.
+            assert!(least >= -0.01, "({xf}, {zf}): inflow {least} m/s");
+            // And it flies as fast as that allows: 5% faster would enter the state.
+            let faster = Path::Line {
+                schedule: Schedule::Quintic {
+                    length_m: xf.hypot(zf),
+                    duration_s: 0.95 * (t.duration_s() - t.delay_s()),
+                },
+                length_m: xf.hypot(zf),
+                dir: (xf / xf.hypot(zf), zf / xf.hypot(zf)),
+            };
+            let e = model.energy_j(&faster, (0.0, faster.duration_s()), 200, true);
+            assert!(
+                matches!(
+                    e,
+                    Err(PhysicsError::WindmillBrake { .. } | PhysicsError::TiltLimit { .. })
+                ),
+                "({xf}, {zf}): {e:?}"
+            );
+        }
+        // Glauert's theory would let the same leg glide at no-load power: flown 10% faster,
+        // without the limit, part of it is below 100 W.
+        let line = |xf: f64, zf: f64, duration_s: f64| Path::Line {
+            schedule: Schedule::Quintic {
+                length_m: xf.hypot(zf),
+                duration_s,
+            },
+            length_m: xf.hypot(zf),
+            dir: (xf / xf.hypot(zf), zf / xf.hypot(zf)),
+        };
+        let fast = line(24.0, -22.0, 1.875 * 24.0f64.hypot(22.0) / 9.0);
+        let least_power = (0..200)
+            .map(|k| {
+                let (vx, vz, ax, az) = fast.kinematics(fast.duration_s() * k as f64 / 200.0);
+                model.power_w(vx, vz, ax, az).unwrap().0
+            })
+            .fold(f64::INFINITY, f64::min);
+        assert!(least_power < 100.0, "{least_power} W");
+    }
+
+    #[test]
     fn hover_power_is_plausible_for_a_five_and_a_half_kilogram_octorotor() {
         // Ideal (momentum) hover power (mg)^1.5 / sqrt(2 rho 8 A) is 263 W at 5.5 kg; a figure
         // of merit near 0.6 and motor/ESC efficiency near 0.8 put the electrical power near
@@ -857,7 +963,12 @@ mod tests {
 
     #[test]
     fn steady_windows_are_the_cruises_before_the_four_metre_rule() {
-        let v = shipped();
+        // hvb limits where (300, 40) cruises on both axes, then on one (the shipped fit's slow
+        // acceleration to 13 m/s leaves no cruise on the horizontal axis alone).
+        let mut v = shipped();
+        v.hvb.speed_xy_m_s = 8.879;
+        v.hvb.speed_up_m_s = 2.003;
+        v.hvb.acceleration_m_s2 = 1.002;
         let model = Model::new(&v);
         // hvb (300, 40): both axes cruise, then the horizontal axis alone once the climb ends.
         let t = model.trajectory(Profile::Hvb, 300.0, 40.0).unwrap();
