@@ -602,7 +602,7 @@ impl Calibration {
 type Setter = fn(&mut Vehicle, f64);
 
 /// How much cheaper the fit wants the paper's tour of sample mission 1 than any tour of another
-/// energy (0.1%: above the PTF table's worst interpolation error, 0.066%).
+/// energy (0.1%: above the PTF table's worst measured interpolation error, 0.054-0.066%).
 const TOUR_MARGIN: f64 = 0.001;
 /// The weight of that hinge: a shortfall of 0.1% counts as a 5% error on one published energy.
 const TOUR_WEIGHT: f64 = 3000.0;

@@ -420,11 +420,11 @@ impl<'a> Model<'a> {
     ///
     /// The windmill-brake state (the air flowing up through the rotors, which then extract
     /// energy from it) is where Glauert's momentum theory lets a fast diagonal descent glide at
-    /// no-load power. A fixed-pitch multirotor must avoid it: its ESCs cannot brake the rotors
-    /// to hold thrust, and thrust control is lost (Talaeizadeh, Antunes, Nejat Pishkenari and
-    /// Alasty, "Optimal-time quadcopter descent trajectories avoiding the vortex ring and
-    /// autorotation states", arXiv 1909.09069). A planned trajectory keeps out of it; what
-    /// an autopilot flies (`hvb`, `px4`) is priced as flown.
+    /// no-load power. Talaeizadeh, Antunes, Nejat Pishkenari and Alasty ("Optimal-time
+    /// quadcopter descent trajectories avoiding the vortex ring and autorotation states", arXiv
+    /// 1909.09069) propose that a fixed-pitch multirotor avoid it as well as the vortex ring
+    /// state, and plan descents that do. A planned trajectory here keeps out of it. What an
+    /// autopilot flies (`hvb`, `px4`) is priced as flown.
     fn energy_j(
         &self,
         path: &Path,
