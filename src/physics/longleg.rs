@@ -61,11 +61,7 @@ pub struct Cruise {
 }
 
 /// Prices the leg (`xf_m`, `zf_m`) of `model`'s vehicle flown with `table`'s profile: from the
-/// table when inside it, else composed from a table leg and steady cruise, else (`ptf`, which
-/// never cruises, or a leg whose cruise is too short to bring it inside the table: a slow
-/// acceleration to a high speed) simulated directly, the very operation a table cell holds.
-/// A leg that is none of these (not a leg at all, or one the model cannot fly) is an error
-/// naming it.
+/// table when inside it, else as [`price_outside`] does.
 pub fn price(
     model: &Model,
     table: &EnergyTable,
@@ -73,24 +69,31 @@ pub fn price(
     zf_m: f64,
 ) -> Result<LegEnergy, PhysicsError> {
     match table.lookup(xf_m, zf_m) {
-        Err(PhysicsError::OutsideTable { .. })
-            if xf_m.is_finite() && zf_m.is_finite() && xf_m >= 0.0 =>
-        {
-            let direct = || {
-                model
-                    .operation(table.profile, xf_m, zf_m)
-                    .map(|op| LegEnergy::from(&op))
-            };
-            if table.profile == Profile::Ptf {
-                return direct();
-            }
-            match compose(model, table, xf_m, zf_m) {
-                Ok(long) => Ok(long.leg),
-                Err(PhysicsError::LongLeg { .. }) => direct(),
-                Err(e) => Err(e),
-            }
-        }
+        Err(PhysicsError::OutsideTable { .. }) => price_outside(model, table, xf_m, zf_m),
         other => other,
+    }
+}
+
+/// Prices a leg outside `table`: composed from a table leg and steady cruise, else (`ptf`,
+/// which never cruises, or a leg whose cruise is too short to bring it inside the table: a
+/// slow acceleration to a high speed) simulated directly, the very operation a table cell
+/// holds. What is not a leg at all (not finite, negative across) is the table's own refusal,
+/// and a leg the model cannot fly is its error.
+pub fn price_outside(
+    model: &Model,
+    table: &EnergyTable,
+    xf_m: f64,
+    zf_m: f64,
+) -> Result<LegEnergy, PhysicsError> {
+    if !(xf_m.is_finite() && zf_m.is_finite() && xf_m >= 0.0) {
+        return table.lookup(xf_m, zf_m);
+    }
+    match compose(model, table, xf_m, zf_m) {
+        Ok(long) => Ok(long.leg),
+        Err(PhysicsError::LongLeg { .. }) => model
+            .operation(table.profile, xf_m, zf_m)
+            .map(|op| LegEnergy::from(&op)),
+        Err(e) => Err(e),
     }
 }
 

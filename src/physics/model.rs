@@ -80,11 +80,8 @@ impl VehicleModel {
     /// of these is an error naming it.
     pub fn leg(&self, xf_m: f64, zf_m: f64) -> Result<LegEnergy, PhysicsError> {
         match self.table.lookup(xf_m, zf_m) {
-            Err(PhysicsError::OutsideTable { .. })
-                if xf_m.is_finite() && zf_m.is_finite() && xf_m >= 0.0 =>
-            {
-                let model = Model::new(&self.vehicle);
-                longleg::price(&model, &self.table, xf_m, zf_m)
+            Err(PhysicsError::OutsideTable { .. }) => {
+                longleg::price_outside(&Model::new(&self.vehicle), &self.table, xf_m, zf_m)
             }
             other => other,
         }

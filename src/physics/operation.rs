@@ -787,6 +787,14 @@ mod tests {
     fn a_ptf_descent_keeps_the_rotors_out_of_the_windmill_brake_state() {
         let v = shipped();
         let model = Model::new(&v);
+        let line = |xf: f64, zf: f64, duration_s: f64| Path::Line {
+            schedule: Schedule::Quintic {
+                length_m: xf.hypot(zf),
+                duration_s,
+            },
+            length_m: xf.hypot(zf),
+            dir: (xf / xf.hypot(zf), zf / xf.hypot(zf)),
+        };
         for (xf, zf) in [(24.0, -22.0), (40.0, -38.0), (40.0, -25.0), (16.97, -11.0)] {
             let t = model.trajectory(Profile::Ptf, xf, zf).unwrap();
             let n = 400;
@@ -798,14 +806,7 @@ mod tests {
             // Checked at the 200 integration points; between them it may dip by a hair.
             assert!(least >= -0.01, "({xf}, {zf}): inflow {least} m/s");
             // And it flies as fast as that allows: 5% faster would enter the state.
-            let faster = Path::Line {
-                schedule: Schedule::Quintic {
-                    length_m: xf.hypot(zf),
-                    duration_s: 0.95 * (t.duration_s() - t.delay_s()),
-                },
-                length_m: xf.hypot(zf),
-                dir: (xf / xf.hypot(zf), zf / xf.hypot(zf)),
-            };
+            let faster = line(xf, zf, 0.95 * (t.duration_s() - t.delay_s()));
             let e = model.energy_j(&faster, (0.0, faster.duration_s()), 200, true);
             assert!(
                 matches!(
@@ -815,16 +816,8 @@ mod tests {
                 "({xf}, {zf}): {e:?}"
             );
         }
-        // Glauert's theory would let the same leg glide at no-load power: flown 10% faster,
-        // without the limit, part of it is below 100 W.
-        let line = |xf: f64, zf: f64, duration_s: f64| Path::Line {
-            schedule: Schedule::Quintic {
-                length_m: xf.hypot(zf),
-                duration_s,
-            },
-            length_m: xf.hypot(zf),
-            dir: (xf / xf.hypot(zf), zf / xf.hypot(zf)),
-        };
+        // Glauert's theory would let the same leg glide at no-load power: flown with a 9 m/s
+        // peak, without the limit, part of it is below 100 W.
         let fast = line(24.0, -22.0, 1.875 * 24.0f64.hypot(22.0) / 9.0);
         let least_power = (0..200)
             .map(|k| {

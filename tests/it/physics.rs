@@ -214,33 +214,20 @@ fn plan_with_the_papers_pricing_finds_the_papers_min_energy_tour_of_sample_missi
         (planned / best - 1.0).abs() < 1e-3,
         "planned {found} {planned} kJ vs the paper's tour {best} kJ"
     );
-    let mirror = |t: &str| -> String {
+    // A symmetry of the mission as the letter pairs it swaps.
+    let swap = |t: &str, pairs: &[(char, char)]| -> String {
         t.chars()
-            .map(|c| match c {
-                'C' => 'D',
-                'D' => 'C',
-                'G' => 'H',
-                'H' => 'G',
-                c => c,
+            .map(|c| {
+                pairs
+                    .iter()
+                    .find_map(|&(a, b)| (c == a).then_some(b).or((c == b).then_some(a)))
+                    .unwrap_or(c)
             })
             .collect()
     };
-    let reversed_roles = |t: &str| -> String {
-        // the central symmetry (x, y) -> (-x, -y): A <-> B, C <-> D, E <-> F, G <-> H
-        t.chars()
-            .map(|c| match c {
-                'A' => 'B',
-                'B' => 'A',
-                'C' => 'D',
-                'D' => 'C',
-                'E' => 'F',
-                'F' => 'E',
-                'G' => 'H',
-                'H' => 'G',
-                c => c,
-            })
-            .collect()
-    };
+    // The mirror about y = -x, and the central symmetry (x, y) -> (-x, -y).
+    let mirror = |t: &str| swap(t, &[('C', 'D'), ('G', 'H')]);
+    let reversed_roles = |t: &str| swap(t, &[('A', 'B'), ('C', 'D'), ('E', 'F'), ('G', 'H')]);
     // The paper's tour, and it mirrored after B (B, A and the origin are on the mirror line),
     // each under the four symmetries of the mission.
     let paper = "OFGEHBCADO";
