@@ -42,8 +42,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         let opened = args.link.open().await?;
         let (link, target) = (&opened.link, opened.target);
         let recorder = spawn_recorder(link, RecorderConfig::new(&args.log_dir));
-        request_streams(link, &target).await?;
+        // Subscribed before asking for the streams: connecting and asking took 1.3 s on
+        // ArduCopter SITL, and a vehicle armed meanwhile must not be missed.
         let mut events = recorder.subscribe();
+        request_streams(link, &target).await?;
         eprintln!(
             "recording flights of {:?} autopilot {} on {} into {}; Ctrl-C stops",
             target.flavour,
