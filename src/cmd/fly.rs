@@ -119,6 +119,8 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
         }
         return fly_through(&args, &client);
     }
+    // A flight log that cannot be written ends the command before anything is uploaded.
+    emplan::flightlog::recorder::check_log_dir(&args.log_dir).map_err(FlyError::LogDir)?;
     let mission = emplan::mission::load(&args.mission)?;
     let (model, plan) = args.flight.plan(&mission)?;
     let flight = args.flight.flight(&plan)?;
