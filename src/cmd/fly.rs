@@ -83,6 +83,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                     None if err.downcast_ref::<emplan::service::ClientError>().is_some() => {
                         ("service".to_string(), false)
                     }
+                    None if err.downcast_ref::<emplan::link::LinkError>().is_some() => {
+                        ("connect".to_string(), false)
+                    }
                     None => ("plan".to_string(), false),
                 },
             };

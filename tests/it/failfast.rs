@@ -1,5 +1,6 @@
 //! Failing at once, and saying where (issue 25): `fly` with a log directory it cannot write
-//! ends before anything is uploaded or armed.
+//! ends before anything is uploaded or armed; `--connect` URLs of no known form fail before any
+//! waiting, listing the forms.
 
 use std::path::Path;
 
@@ -59,4 +60,38 @@ fn fly_into_a_log_dir_it_cannot_write_ends_at_once_naming_it_before_any_upload()
         std::fs::read_to_string(&file).unwrap(),
         "a file, not a directory\n"
     );
+}
+
+#[test]
+fn connect_urls_of_no_known_form_fail_at_once_listing_the_forms() {
+    for (url, reason) in [
+        ("udp:127.0.0.1:1", "unknown scheme \"udp\""),
+        ("http://x", "unknown scheme \"http\""),
+        ("serial:/dev/ttyACM0", "no baud rate"),
+        (
+            "serial:/dev/does-not-exist:57600",
+            "no serial device /dev/does-not-exist",
+        ),
+    ] {
+        // --discover-s 2: a regression that waits for the link gives up in seconds.
+        let (ok, stdout, stderr) = emplan(&[
+            "upload",
+            "missions/paper-sample-8wp.toml",
+            "--connect",
+            url,
+            "--discover-s",
+            "2",
+            "--json",
+        ]);
+        assert!(!ok, "{url}: {stdout}");
+        let doc: Value = serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("{e}: {stdout}"));
+        assert_eq!(doc["stage"], "connect", "{url}: {doc}");
+        assert!(
+            stderr.contains(url)
+                && stderr.contains(reason)
+                && stderr.contains("udpin:HOST:PORT, udpout:HOST:PORT")
+                && stderr.contains("tcpout:HOST:PORT or serial:DEVICE:BAUD"),
+            "{url}: {stderr}"
+        );
+    }
 }
