@@ -55,6 +55,13 @@ pub fn run(
             .with_context(|| format!("--tables {list}"))?,
     };
     let flights = logfit::read_flights(&args.from_logs)?;
+    for skipped in &flights.skipped {
+        eprintln!(
+            "warning: flight {} left out: {}",
+            skipped.dir.display(),
+            skipped.reason
+        );
+    }
     let c = super::progress::solving("fitting to the logged legs", || {
         logfit::calibrate(vehicle, profile, &flights)
     })?;
@@ -126,6 +133,12 @@ fn print(c: &LogCalibration, vehicle: &str) {
         c.profile,
         vehicle
     );
+    if !c.skipped.is_empty() {
+        println!(
+            "{} flight directories left out (unreadable; named in the warnings)",
+            c.skipped.len()
+        );
+    }
     println!(
         "{:<28} {:>6} {:>6} {:>9} {:>8} {:>8} {:>9}",
         "leg", "Xf_m", "Zf_m", "meas_kJ", "before", "after", "left_out"

@@ -83,6 +83,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                     None if err.downcast_ref::<emplan::service::ClientError>().is_some() => {
                         ("service".to_string(), false)
                     }
+                    None if err.downcast_ref::<emplan::link::LinkError>().is_some() => {
+                        ("connect".to_string(), false)
+                    }
                     None => ("plan".to_string(), false),
                 },
             };
@@ -119,6 +122,8 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
         }
         return fly_through(&args, &client);
     }
+    // A flight log that cannot be written ends the command before anything is uploaded.
+    emplan::flightlog::recorder::check_log_dir(&args.log_dir).map_err(FlyError::LogDir)?;
     let mission = emplan::mission::load(&args.mission)?;
     let (model, plan) = args.flight.plan(&mission)?;
     let flight = args.flight.flight(&plan)?;

@@ -351,6 +351,11 @@ impl LinkArgs {
         mock: emplan::sim::MockConfig,
         vehicle: Option<emplan::physics::Vehicle>,
     ) -> anyhow::Result<Opened> {
+        if let Some(url) = &self.connect {
+            // Before any waiting: a URL of no known form, or a serial device that is not there.
+            emplan::link::connection::check_url(url)
+                .map_err(|e| anyhow::Error::new(e).context("--connect"))?;
+        }
         let patience = seconds("discover-s", self.discover_s)?;
         let budget = self.budget_s.map(|b| seconds("budget-s", b)).transpose()?;
         let signing_key = match &self.signing_key {

@@ -38,6 +38,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         .map(emplan::mission::load)
         .transpose()?;
     let model = args.model.model()?;
+    emplan::flightlog::recorder::check_log_dir(&args.log_dir)?;
     super::runtime()?.block_on(async {
         let opened = args.link.open().await?;
         let (link, target) = (&opened.link, opened.target);

@@ -91,6 +91,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         Some(path) => Some(emplan::link::read_signing_key(path)?),
         None => None,
     };
+    if let Some(url) = &args.connect {
+        // Its form only: the service waits for a serial device plugged in later.
+        emplan::link::connection::parse_url(url).context("--connect")?;
+    }
     let vehicle = match &args.connect {
         Some(url) => VehicleLink::Connect {
             url: url.clone(),

@@ -2,7 +2,8 @@
 //! for a missing BATTERY_STATUS) with the vehicle state at that moment, for people and plotting
 //! tools. Plain comma-separated values with a header line; empty fields are unknown. The reader
 //! skips a torn last line (no newline: the writer was cut off) and names the file, line and column
-//! of anything else it cannot read.
+//! of anything else it cannot read, a number that is not finite and a value no sample can hold
+//! (a voltage, current or position out of range) among them.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -259,6 +260,38 @@ impl Fields<'_> {
             .map_err(|_| self.err(column, format!("cannot read {text:?}")))
     }
 
+    /// A number, finite and inside `range` (`unit` for the message), or empty.
+    fn number(
+        &self,
+        column: usize,
+        range: std::ops::RangeInclusive<f64>,
+        unit: &str,
+    ) -> Result<Option<f64>, FlightLogError> {
+        let Some(value) = self.parse::<f64>(column)? else {
+            return Ok(None);
+        };
+        let text = self.text(column);
+        if !value.is_finite() {
+            return Err(self.err(column, format!("{text} is not a finite number")));
+        }
+        if !range.contains(&value) {
+            return Err(self.err(
+                column,
+                format!(
+                    "{text} {unit} is not physical (outside {} to {} {unit})",
+                    range.start(),
+                    range.end()
+                ),
+            ));
+        }
+        Ok(Some(value))
+    }
+
+    /// A finite number, or empty.
+    fn finite(&self, column: usize) -> Result<Option<f64>, FlightLogError> {
+        self.number(column, f64::MIN..=f64::MAX, "")
+    }
+
     fn required<T: std::str::FromStr>(&self, column: usize) -> Result<T, FlightLogError> {
         self.parse(column)?
             .ok_or_else(|| self.err(column, "empty, expected a value"))
@@ -286,12 +319,40 @@ fn landed_from(name: &str) -> Option<LandedState> {
     .find(|l| l.name() == name)
 }
 
+/// The widest pack voltage a sample can hold: BATTERY_STATUS carries at most 14 cells
+/// (`voltages` and `voltages_ext`) of at most 65.534 V each (uint16 mV), 917 V in all.
+pub const MAX_VOLTAGE_V: f64 = 1000.0;
+/// The largest current magnitude a sample can hold: BATTERY_STATUS and SYS_STATUS carry it as
+/// int16 cA, at most 327.67 A; the bound leaves room for other sources.
+pub const MAX_CURRENT_A: f64 = 1000.0;
+
 fn parse_row(f: &Fields) -> Result<SampleRow, FlightLogError> {
-    if f.fields.len() != COLUMNS.len() {
+    if f.fields.len() < COLUMNS.len() {
+        // Named by the first column missing.
         return Err(f.err(
-            0,
-            format!("{} fields, expected {}", f.fields.len(), COLUMNS.len()),
+            f.fields.len(),
+            format!(
+                "missing: the row has {} fields, {} expected",
+                f.fields.len(),
+                COLUMNS.len()
+            ),
         ));
+    }
+    if f.fields.len() > COLUMNS.len() {
+        return Err(FlightLogError::Csv {
+            file: f.file.to_string(),
+            line: f.line,
+            column: format!(
+                "{} (after {})",
+                COLUMNS.len() + 1,
+                COLUMNS[COLUMNS.len() - 1]
+            ),
+            reason: format!(
+                "the row has {} fields, {} expected",
+                f.fields.len(),
+                COLUMNS.len()
+            ),
+        });
     }
     let source = match f.text(2) {
         "battery_status" => BatterySource::BatteryStatus {
@@ -308,28 +369,30 @@ fn parse_row(f: &Fields) -> Result<SampleRow, FlightLogError> {
     let mode = Some(f.text(20).to_string()).filter(|m| !m.is_empty());
     Ok(SampleRow {
         sample: PowerSample {
-            t_s: f.required(0)?,
+            t_s: f
+                .finite(0)?
+                .ok_or_else(|| f.err(0, "empty, expected a value"))?,
             wall_us: f.required(1)?,
             battery: Battery {
                 source,
-                voltage_v: f.parse(6)?,
-                current_a: f.parse(7)?,
-                consumed_mah: f.parse(9)?,
-                energy_consumed_j: f.parse(10)?,
-                remaining_pct: f.parse(11)?,
+                voltage_v: f.number(6, 0.0..=MAX_VOLTAGE_V, "V")?,
+                current_a: f.number(7, -MAX_CURRENT_A..=MAX_CURRENT_A, "A")?,
+                consumed_mah: f.finite(9)?,
+                energy_consumed_j: f.finite(10)?,
+                remaining_pct: f.finite(11)?,
                 fake_current: f.flag(12)?.unwrap_or(false),
             },
             primary: f.flag(5)?.unwrap_or(false),
         },
-        lat_deg: f.parse(13)?,
-        lon_deg: f.parse(14)?,
-        alt_amsl_m: f.parse(15)?,
-        relative_alt_m: f.parse(16)?,
+        lat_deg: f.number(13, -90.0..=90.0, "deg")?,
+        lon_deg: f.number(14, -180.0..=180.0, "deg")?,
+        alt_amsl_m: f.finite(15)?,
+        relative_alt_m: f.finite(16)?,
         mission_seq: f.parse(17)?,
         armed: f.flag(18)?,
         landed,
         mode,
-        speed_m_s: f.parse(21)?,
+        speed_m_s: f.finite(21)?,
     })
 }
 
@@ -517,5 +580,27 @@ mod tests {
             msg.contains("s.csv") && msg.contains("line 3") && msg.contains("voltage_v"),
             "{msg}"
         );
+    }
+
+    #[test]
+    fn a_non_finite_or_non_physical_number_is_an_error_naming_file_line_and_column() {
+        let mut good = String::new();
+        format_row(&row(1), &mut good);
+        for (from, to, column) in [
+            ("22.250", "1e308", "voltage_v"),
+            ("22.250", "-3.0", "voltage_v"),
+            ("41.50", "NaN", "current_a"),
+            ("41.50", "inf", "current_a"),
+            ("41.50", "5000", "current_a"),
+            ("38.5362010", "138.5", "lat_deg"),
+        ] {
+            let mut text = COLUMNS.join(",") + "\n" + &good;
+            text.push_str(&good.replacen(from, to, 1));
+            let err = parse_samples(&text, "s.csv").expect_err(to).to_string();
+            assert!(
+                err.contains("s.csv line 3") && err.contains(column) && err.contains(to),
+                "{to}: {err}"
+            );
+        }
     }
 }

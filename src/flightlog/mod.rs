@@ -45,6 +45,9 @@ pub enum FlightLogError {
     Json { file: String, reason: String },
     #[error("flight directory {dir}: {reason}")]
     Directory { dir: String, reason: String },
+    /// The directory flight directories are made in cannot be written.
+    #[error("log directory {dir}: {reason}")]
+    LogDir { dir: String, reason: String },
     #[error("flight plan: {reason}")]
     Plan { reason: String },
 }

@@ -103,6 +103,30 @@ fn sync_dir(dir: &Path) {
     }
 }
 
+/// Proves that flight directories can be made in `log_dir` before anything is flown: creates it
+/// (and its parents) when missing, then creates, writes, syncs and removes a probe file in it.
+/// A directory that cannot be written (an existing file, a path under a file, a read-only
+/// filesystem, no permission, no space) is an error naming the path and the system's reason.
+pub fn check_log_dir(log_dir: &Path) -> Result<(), FlightLogError> {
+    let refused = |reason: String| FlightLogError::LogDir {
+        dir: log_dir.display().to_string(),
+        reason,
+    };
+    if log_dir.exists() && !log_dir.is_dir() {
+        return Err(refused("exists and is not a directory".into()));
+    }
+    std::fs::create_dir_all(log_dir).map_err(|e| refused(format!("cannot create it: {e}")))?;
+    let probe = log_dir.join(format!(".emplan-write-check-{}", std::process::id()));
+    let written = std::fs::File::create(&probe).and_then(|mut file| {
+        use std::io::Write;
+        file.write_all(b"emplan checks it can write here\n")?;
+        file.sync_all()
+    });
+    let removed = std::fs::remove_file(&probe);
+    written.map_err(|e| refused(format!("cannot write {}: {e}", probe.display())))?;
+    removed.map_err(|e| refused(format!("cannot remove {}: {e}", probe.display())))
+}
+
 /// Records one flight.
 #[derive(Debug)]
 pub struct Recorder {
@@ -332,6 +356,32 @@ mod tests {
         assert_eq!(flight_name(a.dir()), "20000229-123456-paper_sample_8wp");
         assert_eq!(flight_name(b.dir()), "20000229-123456-paper_sample_8wp-2");
         assert!(a.dir().join(TLOG_FILE).is_file() && a.dir().join(SAMPLES_FILE).is_file());
+    }
+
+    #[test]
+    fn a_log_dir_that_cannot_be_written_is_refused_naming_it_and_a_new_one_is_made() {
+        let tmp = tempfile::tempdir().expect("temp dir");
+        let file = tmp.path().join("file");
+        std::fs::write(&file, "x").expect("written");
+        let err = check_log_dir(&file).expect_err("a file").to_string();
+        assert!(
+            err.contains(&file.display().to_string()) && err.contains("not a directory"),
+            "{err}"
+        );
+        let under = file.join("sub");
+        let err = check_log_dir(&under).expect_err("under a file").to_string();
+        assert!(
+            err.contains(&under.display().to_string()) && err.contains("os error"),
+            "{err}"
+        );
+        let fresh = tmp.path().join("a/b/flights");
+        check_log_dir(&fresh).expect("made");
+        assert!(fresh.is_dir());
+        assert_eq!(
+            std::fs::read_dir(&fresh).expect("listed").count(),
+            0,
+            "no probe left"
+        );
     }
 
     fn battery(t_s: f64) -> Stamped {

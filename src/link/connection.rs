@@ -73,6 +73,90 @@ fn to_taps(taps: &Taps, frame: Frame) {
     }
 }
 
+/// The connection URLs the link opens (rust-mavlink's `ConnectionAddress::parse_address`; its
+/// `file:` reads a recording and sends nowhere, so it is no way to a vehicle), for errors.
+pub const URL_FORMS: &str = "udpin:HOST:PORT, udpout:HOST:PORT, udpbcast:HOST:PORT, \
+                             tcpin:HOST:PORT, tcpout:HOST:PORT or serial:DEVICE:BAUD";
+
+/// What a connection URL opens.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Transport {
+    /// `udpin:`, `udpout:`, `udpbcast:` (the scheme) to HOST:PORT.
+    Udp { scheme: String, address: String },
+    /// `tcpin:`, `tcpout:` (the scheme) to HOST:PORT.
+    Tcp { scheme: String, address: String },
+    Serial {
+        device: std::path::PathBuf,
+        baud: u32,
+    },
+}
+
+/// The transport of a connection URL, checked for its form before anything is opened: a known
+/// scheme, HOST:PORT with a port number, a serial device with its baud rate (split as
+/// rust-mavlink splits it, at the first colon after the scheme). Whether the serial device is
+/// there is not checked (see [`check_url`]): a service waits for one plugged in later.
+pub fn parse_url(url: &str) -> Result<Transport, LinkError> {
+    let refused = |reason: String| LinkError::Url {
+        url: url.to_string(),
+        reason,
+    };
+    let (scheme, rest) = url
+        .split_once(':')
+        .ok_or_else(|| refused("no scheme".into()))?;
+    let host_port = || -> Result<String, LinkError> {
+        let (host, port) = rest
+            .rsplit_once(':')
+            .ok_or_else(|| refused(format!("no port in {rest:?}")))?;
+        if host.is_empty() {
+            return Err(refused(format!("no host in {rest:?}")));
+        }
+        port.parse::<u16>()
+            .map_err(|_| refused(format!("port {port:?} is not a number from 0 to 65535")))?;
+        Ok(rest.to_string())
+    };
+    match scheme {
+        "udpin" | "udpout" | "udpbcast" => Ok(Transport::Udp {
+            scheme: scheme.to_string(),
+            address: host_port()?,
+        }),
+        "tcpin" | "tcpout" => Ok(Transport::Tcp {
+            scheme: scheme.to_string(),
+            address: host_port()?,
+        }),
+        "serial" => {
+            let (device, baud) = rest
+                .split_once(':')
+                .ok_or_else(|| refused("no baud rate".into()))?;
+            if device.is_empty() {
+                return Err(refused("no serial device".into()));
+            }
+            let baud =
+                baud.parse::<u32>().ok().filter(|b| *b > 0).ok_or_else(|| {
+                    refused(format!("baud rate {baud:?} is not a positive number"))
+                })?;
+            Ok(Transport::Serial {
+                device: device.into(),
+                baud,
+            })
+        }
+        other => Err(refused(format!("unknown scheme {other:?}"))),
+    }
+}
+
+/// [`parse_url`], and a serial device must exist: for a command that connects once, now.
+pub fn check_url(url: &str) -> Result<Transport, LinkError> {
+    let transport = parse_url(url)?;
+    if let Transport::Serial { device, .. } = &transport {
+        if !device.exists() {
+            return Err(LinkError::Url {
+                url: url.to_string(),
+                reason: format!("no serial device {}", device.display()),
+            });
+        }
+    }
+    Ok(transport)
+}
+
 type Connection = mavlink::AsyncConnection<MavMessage>;
 /// The current connection, replaced when the receive task reconnects.
 type Shared = Arc<std::sync::RwLock<Arc<Connection>>>;
@@ -158,12 +242,14 @@ impl Link {
 
     /// Connects as `connect` does, trying again every 200 ms for up to `patience` while the
     /// transport refuses (an autopilot started a moment ago has not opened its TCP port yet).
+    /// A URL of no known form ([`parse_url`]) is refused at once.
     pub async fn connect_within(
         url: &str,
         identity: Identity,
         signing: Option<mavlink::SigningConfig>,
         patience: Duration,
     ) -> Result<Link, LinkError> {
+        parse_url(url)?;
         let deadline = tokio::time::Instant::now() + patience;
         loop {
             match Link::connect(url, identity, signing.clone()).await {
@@ -364,5 +450,55 @@ async fn receive(rx: Receiver, mut shutdown: watch::Receiver<bool>) {
                 Err(e) => tracing::debug!("unparsable frame skipped: {e}"),
             },
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn urls_of_every_known_form_parse_and_others_are_refused_listing_the_forms() {
+        for url in [
+            "udpin:0.0.0.0:14550",
+            "udpout:127.0.0.1:14540",
+            "udpbcast:192.168.1.255:14550",
+            "tcpin:0.0.0.0:5760",
+            "tcpout:localhost:5760",
+            "tcpout:[::1]:5760",
+            "serial:/dev/ttyACM0:57600",
+        ] {
+            assert!(parse_url(url).is_ok(), "{url}");
+        }
+        assert_eq!(
+            parse_url("serial:/dev/ttyUSB0:921600").expect("serial"),
+            Transport::Serial {
+                device: "/dev/ttyUSB0".into(),
+                baud: 921_600
+            }
+        );
+        for (url, reason) in [
+            ("udp:127.0.0.1:1", "unknown scheme \"udp\""),
+            ("http://x", "unknown scheme \"http\""),
+            ("127.0.0.1", "no scheme"),
+            ("udpin:127.0.0.1", "no port"),
+            ("tcpout::5760", "no host"),
+            ("udpout:127.0.0.1:99999", "port \"99999\""),
+            ("serial:/dev/ttyACM0", "no baud rate"),
+            ("serial:/dev/ttyACM0:fast", "baud rate \"fast\""),
+            ("serial::57600", "no serial device"),
+        ] {
+            let err = parse_url(url).expect_err(url).to_string();
+            assert!(
+                err.contains(url) && err.contains(reason) && err.contains(URL_FORMS),
+                "{url}: {err}"
+            );
+        }
+        // A serial device is checked only by `check_url`: a service waits for one.
+        assert!(parse_url("serial:/dev/does-not-exist:57600").is_ok());
+        let err = check_url("serial:/dev/does-not-exist:57600").expect_err("absent");
+        assert!(err
+            .to_string()
+            .contains("no serial device /dev/does-not-exist"));
     }
 }

@@ -25,6 +25,10 @@ pub use mavlink::dialects::ardupilotmega as mav;
 pub enum LinkError {
     #[error("connection {url}: {reason}")]
     Connect { url: String, reason: String },
+    /// A connection URL of no form the link opens (or naming a serial device that is absent),
+    /// found before anything is opened or waited for.
+    #[error("connection {url}: {reason} (expected {})", connection::URL_FORMS)]
+    Url { url: String, reason: String },
     #[error("no autopilot heartbeat on {url} within {seconds} s")]
     NoAutopilot { url: String, seconds: f64 },
     #[error("link closed: {0}")]

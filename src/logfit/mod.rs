@@ -6,7 +6,9 @@
 //! legs' geometry comes from plan.json (the points flown, in the mission frame), their measured
 //! energy from report.json (battery terminal energy from leaving hover to the 4 m crossing, the
 //! same operation energy the model prices). Legs with any measurement flag (a gap, an unknown
-//! current, a missed radius, an incomplete leg, ...) are left out and counted.
+//! current, a missed radius, an incomplete leg, ...) are left out and counted. A flight directory
+//! that cannot be read (its recording cut off and never resumed, a torn file, a sample no battery
+//! gives) is left out whole, named with its reason ([`Flights::skipped`]), and the others fitted.
 //!
 //! What leg energies identify ([`KNOBS`]): the vehicle mass (the power level of every leg,
 //! hover-dominated and climbing ones most) and the horizontal body drag C_BD (the growth of
@@ -32,7 +34,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::flightlog::plan::FlightPlan;
-use crate::flightlog::recorder::{read_report, PLAN_FILE, REPORT_FILE};
+use crate::flightlog::recorder::{read_report, PLAN_FILE, REPORT_FILE, TLOG_FILE};
 use crate::flightlog::FlightLogError;
 use crate::mission::Enu;
 use crate::physics::calibration::nelder_mead;
@@ -60,6 +62,9 @@ pub enum LogFitError {
     },
     #[error("no flight logs given")]
     NoFlights,
+    /// Every flight directory found was left out ([`Flights::skipped`] says why).
+    #[error("no usable flight: every flight directory was left out ({})", .dirs.join(", "))]
+    NoUsableFlight { dirs: Vec<String> },
     #[error("{file}: {reason}")]
     VehicleFile { file: String, reason: String },
     #[error("{file}: {reason}")]
@@ -99,6 +104,14 @@ pub struct LoggedFlight {
     pub skipped: usize,
 }
 
+/// A flight directory left out of the fit, and why.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SkippedFlight {
+    pub dir: PathBuf,
+    /// The error that left it out, naming its file (and line and column, or field).
+    pub reason: String,
+}
+
 /// The flights read and their clean legs.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Flights {
@@ -106,14 +119,24 @@ pub struct Flights {
     pub legs: Vec<LoggedLeg>,
     /// The pack samples of the flights that have them (for [`battery::fit_battery`]).
     pub packs: Vec<battery::PackSeries>,
+    /// Flight directories that could not be read (a recording cut off and never resumed, a
+    /// torn or truncated file, a sample no battery can give): left out, the others fitted.
+    pub skipped: Vec<SkippedFlight>,
 }
 
-/// The flight directories under `paths`: a directory holding plan.json is a flight; any other
-/// directory is searched one level down for flights (the `--log-dir` that `fly` makes them in).
+/// Whether `dir` is a flight directory: it holds plan.json or flight.tlog (one without
+/// plan.json was recorded with nothing to measure it against, and is left out when read).
+fn is_flight_dir(dir: &Path) -> bool {
+    dir.join(PLAN_FILE).is_file() || dir.join(TLOG_FILE).is_file()
+}
+
+/// The flight directories under `paths`: a directory holding plan.json (or flight.tlog) is a
+/// flight; any other directory is searched one level down for flights (the `--log-dir` that
+/// `fly` makes them in).
 pub fn flight_dirs(paths: &[PathBuf]) -> Result<Vec<PathBuf>, LogFitError> {
     let mut dirs = Vec::new();
     for path in paths {
-        if path.join(PLAN_FILE).is_file() {
+        if is_flight_dir(path) {
             dirs.push(path.clone());
             continue;
         }
@@ -125,7 +148,7 @@ pub fn flight_dirs(paths: &[PathBuf]) -> Result<Vec<PathBuf>, LogFitError> {
         })?;
         let mut found: Vec<PathBuf> = entries
             .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| p.join(PLAN_FILE).is_file())
+            .filter(|p| is_flight_dir(p))
             .collect();
         if found.is_empty() {
             return Err(LogFitError::Flight {
@@ -142,21 +165,56 @@ pub fn flight_dirs(paths: &[PathBuf]) -> Result<Vec<PathBuf>, LogFitError> {
     Ok(dirs)
 }
 
-/// Reads the flights in `paths` (see [`flight_dirs`]).
+/// Reads the flights in `paths` (see [`flight_dirs`]). A flight directory that cannot be read
+/// is left out, named with its reason in [`Flights::skipped`] ([`calibrate`] refuses flights
+/// of which none was read).
 pub fn read_flights(paths: &[PathBuf]) -> Result<Flights, LogFitError> {
     let mut flights = Flights {
         flights: Vec::new(),
         legs: Vec::new(),
         packs: Vec::new(),
+        skipped: Vec::new(),
     };
     for dir in flight_dirs(paths)? {
         let index = flights.flights.len();
-        let (flight, legs) = read_flight(&dir, index)?;
-        flights.flights.push(flight);
-        flights.legs.extend(legs);
-        flights.packs.extend(battery::read_pack(&dir, index)?);
+        let read = read_flight(&dir, index)
+            .and_then(|(flight, legs)| Ok((flight, legs, battery::read_pack(&dir, index)?)));
+        match read {
+            Ok((flight, legs, pack)) => {
+                flights.flights.push(flight);
+                flights.legs.extend(legs);
+                flights.packs.extend(pack);
+            }
+            Err(e) => flights.skipped.push(SkippedFlight {
+                dir,
+                reason: skip_reason(e),
+            }),
+        }
     }
     Ok(flights)
+}
+
+/// Why a flight directory is left out: the error, said plainly where a file is missing.
+fn skip_reason(e: LogFitError) -> String {
+    let missing = |file: &str| match &e {
+        LogFitError::Log {
+            source: FlightLogError::Io { file: f, source },
+            ..
+        } => source.kind() == std::io::ErrorKind::NotFound && f.ends_with(file),
+        _ => false,
+    };
+    if missing(REPORT_FILE) {
+        format!("no {REPORT_FILE}: its recording never ended (stopped mid-flight, never resumed)")
+    } else if missing(PLAN_FILE) {
+        format!(
+            "no {PLAN_FILE}: recorded without a flight plan, nothing to measure its legs against"
+        )
+    } else {
+        match e {
+            LogFitError::Log { source, .. } => source.to_string(),
+            other => other.to_string(),
+        }
+    }
 }
 
 /// One flight directory: its plan (geometry) and report (measured energies); `index` numbers
@@ -413,6 +471,8 @@ pub struct LogCalibration {
     pub held_out: Vec<HeldOut>,
     /// The pack fitted to the flights' voltage and current (None without samples).
     pub battery: Option<battery::BatteryFit>,
+    /// Flight directories left out, and why ([`Flights::skipped`]).
+    pub skipped: Vec<SkippedFlight>,
     /// Every value changed ([`LogCalibration::values`]).
     values: Vec<Fitted>,
 }
@@ -449,6 +509,15 @@ pub fn calibrate(
     profile: Profile,
     flights: &Flights,
 ) -> Result<LogCalibration, LogFitError> {
+    if flights.flights.is_empty() {
+        return Err(LogFitError::NoUsableFlight {
+            dirs: flights
+                .skipped
+                .iter()
+                .map(|s| s.dir.display().to_string())
+                .collect(),
+        });
+    }
     if flights.legs.is_empty() {
         return Err(LogFitError::Flight {
             dir: flights
@@ -515,6 +584,7 @@ pub fn calibrate(
         vehicle: fitted_vehicle,
         held_out,
         battery,
+        skipped: flights.skipped.clone(),
         values,
     })
 }
@@ -595,6 +665,7 @@ impl LogCalibration {
             "fitted": self.fitted,
             "battery": self.battery,
             "changed": self.values,
+            "skipped_flights": self.skipped,
         })
     }
 }
@@ -642,6 +713,7 @@ mod tests {
                 .collect(),
             legs,
             packs: Vec::new(),
+            skipped: Vec::new(),
         }
     }
 
@@ -674,5 +746,42 @@ mod tests {
         flights.legs.clear();
         let err = calibrate(&given, Profile::Hvb, &flights).unwrap_err();
         assert!(err.to_string().contains("flight0"), "{err}");
+    }
+
+    #[test]
+    fn an_unreadable_flight_is_left_out_with_its_reason_and_none_readable_is_refused() {
+        let tmp = tempfile::tempdir().expect("temp dir");
+        let plan = r#"{"mission": "m", "home": {"lat_deg": 38.5, "lon_deg": -121.7, "alt_m": 16.0},
+            "origin_height_m": 20.0, "points": [{"seq": 1, "name": "origin",
+            "enu": {"x_east_m": 0.0, "y_north_m": 0.0, "z_up_m": 0.0}, "hold_s": 0.0}],
+            "takeoff_seq": 0, "land_seq": 2, "predicted": null}"#;
+        let killed = tmp.path().join("a-killed");
+        std::fs::create_dir_all(&killed).expect("made");
+        std::fs::write(killed.join(PLAN_FILE), plan).expect("written");
+        // Recorded without a plan: only its log.
+        let planless = tmp.path().join("b-planless");
+        std::fs::create_dir_all(&planless).expect("made");
+        std::fs::write(planless.join(TLOG_FILE), b"").expect("written");
+        let flights = read_flights(&[tmp.path().to_path_buf()]).expect("read");
+        assert!(flights.flights.is_empty());
+        let reasons: Vec<(&Path, &str)> = flights
+            .skipped
+            .iter()
+            .map(|s| (s.dir.as_path(), s.reason.as_str()))
+            .collect();
+        assert_eq!(reasons.len(), 2, "{reasons:?}");
+        assert_eq!(reasons[0].0, killed);
+        assert!(reasons[0].1.contains("no report.json"), "{reasons:?}");
+        assert_eq!(reasons[1].0, planless);
+        assert!(reasons[1].1.contains("no plan.json"), "{reasons:?}");
+        let err = calibrate(&shipped(), Profile::Hvb, &flights)
+            .expect_err("nothing to fit")
+            .to_string();
+        assert!(
+            err.contains("no usable flight")
+                && err.contains(&killed.display().to_string())
+                && err.contains(&planless.display().to_string()),
+            "{err}"
+        );
     }
 }

@@ -118,9 +118,14 @@ pub async fn run(
             reason: "not a directory".into(),
         });
     }
-    std::fs::create_dir_all(&cfg.log_dir).map_err(|e| ServiceError::LogDir {
-        dir: cfg.log_dir.display().to_string(),
-        reason: e.to_string(),
+    crate::flightlog::recorder::check_log_dir(&cfg.log_dir).map_err(|e| match e {
+        crate::flightlog::FlightLogError::LogDir { dir, reason } => {
+            ServiceError::LogDir { dir, reason }
+        }
+        other => ServiceError::LogDir {
+            dir: cfg.log_dir.display().to_string(),
+            reason: other.to_string(),
+        },
     })?;
     let (http_stop_tx, http_stop) = watch::channel(false);
     let (stop_tx, stop) = watch::channel(false);

@@ -70,6 +70,9 @@ pub enum FlyError {
     Timeout { seconds: f64, dir: Option<PathBuf> },
     #[error("recording: {0}")]
     Recorder(String),
+    /// The flight log cannot be written: found before anything was uploaded or armed.
+    #[error("recording: {0}")]
+    LogDir(crate::flightlog::FlightLogError),
     #[error("the vehicle disarmed after {duration_s:.1} s without flying a leg of the mission (log in {})", .dir.display())]
     NotFlown { duration_s: f64, dir: PathBuf },
 }
@@ -83,7 +86,7 @@ impl FlyError {
             FlyError::Start(_) => "start".into(),
             FlyError::Link(_) => "connect".into(),
             FlyError::Timeout { .. } => "flight".into(),
-            FlyError::Recorder(_) => "record".into(),
+            FlyError::Recorder(_) | FlyError::LogDir(_) => "record".into(),
             FlyError::NotFlown { .. } => "flight".into(),
         }
     }
@@ -160,6 +163,11 @@ pub async fn fly(
                                 });
                             }
                             return Ok((dir, report.map(|r| *r)));
+                        }
+                        // The flight's directory could not be made: nothing of it will be
+                        // recorded, and no end will ever come.
+                        FlightEvent::Failed { error, .. } if dir.is_none() => {
+                            return Err(FlyError::Recorder(error));
                         }
                         FlightEvent::Failed { error, .. } => {
                             tracing::error!("recording: {error}");

@@ -84,7 +84,8 @@ pub enum FlightEvent {
         dir: PathBuf,
         report: Option<Box<FlightReport>>,
     },
-    /// The recorder could not write; the flight's files hold what was written before.
+    /// The recorder could not write; the flight's files hold what was written before. Before
+    /// any `Started` of its flight: its directory could not be made, nothing of it is recorded.
     Failed { flight: String, error: String },
 }
 
@@ -402,6 +403,7 @@ impl State {
         let recorder = match Recorder::create(&self.cfg.log_dir, &mission, start_us) {
             Ok(r) => r,
             Err(e) => {
+                // Sent before any Started: `fly` ends on it (this flight is not recorded).
                 let _ = self.events.send(FlightEvent::Failed {
                     flight: mission,
                     error: e.to_string(),
@@ -410,9 +412,13 @@ impl State {
             }
         };
         let name = flight_name(recorder.dir());
-        let dir = recorder.dir().to_path_buf();
+        let _ = self.events.send(FlightEvent::Started {
+            flight: name.clone(),
+            dir: recorder.dir().to_path_buf(),
+            resumed: false,
+        });
         let mut open = Open {
-            name: name.clone(),
+            name,
             recorder,
             telemetry: Telemetry::new(),
             stamped: Vec::new(),
@@ -430,11 +436,6 @@ impl State {
                 Err(e) => fail(&mut open, &self.events, e.to_string()),
             }
         }
-        let _ = self.events.send(FlightEvent::Started {
-            flight: name,
-            dir,
-            resumed: false,
-        });
         for frame in std::mem::take(&mut self.preroll) {
             record(&mut open, &self.events, &frame);
         }
