@@ -12,6 +12,7 @@ use crate::mission::{Enu, Mission};
 use crate::physics::Profile;
 use crate::plan::study::{Study, BASELINES};
 use crate::plan::Objective;
+use crate::planner::explain::saving_words;
 use crate::planner::json::energy_kj;
 use crate::planner::{Order, Plan};
 use plotters::coord::types::RangedCoordf64;
@@ -130,10 +131,10 @@ pub fn plan_svg(mission: &Mission, plan: &Plan) -> Result<String, PlotError> {
         root.fill(&WHITE).map_err(&err)?;
         let (header, body) = root.split_vertically(96);
         let title = format!(
-            "{}: minimum-energy order {e_kj:.2} kJ, minimum-distance order ({direction}) {d_kj:.2} kJ \
-             (+{:.1}% over minimum energy), {profile} profile",
+            "{}: minimum-energy order {e_kj:.2} kJ, minimum-distance order ({direction}) {d_kj:.2} kJ; \
+             the energy order {}; {profile} profile",
             mission.name,
-            100.0 * (d_kj - e_kj) / e_kj
+            saving_words(energy.energy_j, distance.energy_j)
         );
         let sequence = |o: &Order| {
             std::iter::once("origin")

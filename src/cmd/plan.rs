@@ -6,6 +6,8 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::Context;
+use emplan::plan::Objective;
+use emplan::planner::explain::saving_words;
 use emplan::planner::json::{plan_document, BatteryJson, PlanJson};
 use emplan::planner::{plan_mission, Explanation, Orders, Plan, PlanOptions};
 
@@ -161,11 +163,12 @@ fn explain(plan: &Plan, explanation: &Explanation) {
         );
         return;
     };
+    // The orders the explanation compared: the energy order, the cheaper distance direction.
+    let energy_j = |objective| plan.cheapest(objective).map_or(0.0, |o| o.energy_j);
     println!(
-        "the energy order saves {:.2} kJ ({:.1}%) against the distance order flown {direction}: {} of its {} legs differ, \
-         flying {:.1} m further",
-        s.saving_j / 1000.0,
-        s.saving_pct,
+        "the energy order {} against the distance order flown {direction}: {} of its {} legs \
+         differ, flying {:.1} m further",
+        saving_words(energy_j(Objective::Energy), energy_j(Objective::Distance)),
         s.legs_differ,
         s.legs,
         s.further_m,

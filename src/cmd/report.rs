@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::Context;
-use emplan::flightlog::report::{combine, FlightReport, PartReport};
+use emplan::flightlog::report::{combine, joined, FlightReport, PartReport};
 use emplan::flightlog::segment::{SegmentConfig, SegmentKind};
 use emplan::link::telemetry::Analysis;
 
@@ -96,26 +96,12 @@ pub fn print(report: &FlightReport) {
     for (k, leg) in report.legs.iter().enumerate() {
         row(format!("leg {}: {} -> {}", k + 1, leg.from, leg.to), leg);
     }
-    let sum = |parts: &[PartReport]| -> (Option<f64>, Option<f64>) {
-        let m: Option<f64> = parts.iter().map(|p| p.measured_j).sum();
-        let p: Option<f64> = parts.iter().map(|p| p.predicted_j).sum();
-        (p, m)
-    };
-    let (sp, sm) = sum(&report.settles);
-    let (hp, hm) = sum(&report.hovers);
-    let kj = |j: Option<f64>| j.map_or("-".to_string(), |j| format!("{:.3}", j / 1000.0));
-    println!(
-        "{:<26} {:>12} {:>12}",
-        format!("settles ({})", report.settles.len()),
-        kj(sp),
-        kj(sm)
-    );
-    println!(
-        "{:<26} {:>12} {:>12}",
-        format!("hovers ({})", report.hovers.len()),
-        kj(hp),
-        kj(hm)
-    );
+    // A point's settle and hover as one part: the model and the measurement split its time
+    // at different moments (FlightReport::at_points), so apart they do not compare.
+    let at_points = report.at_points();
+    if let Some(all) = at_points.iter().cloned().reduce(|a, b| joined(&a, &b)) {
+        row(format!("settle + hover ({})", at_points.len()), &all);
+    }
     if let Some(l) = &report.landing {
         row("landing".into(), l);
     }
@@ -123,6 +109,7 @@ pub fn print(report: &FlightReport) {
         (Some(p), Some(m)) if p > 0.0 => format!("{:+.1}%", (m - p) / p * 100.0),
         _ => "-".into(),
     };
+    let kj = |j: Option<f64>| j.map_or("-".to_string(), |j| format!("{:.3}", j / 1000.0));
     println!(
         "{:<26} {:>12} {:>12} {:>8} {:>8.1}  {}",
         "total",

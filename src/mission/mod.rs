@@ -68,6 +68,17 @@ pub struct Mission {
 pub const DEFAULT_MIN_HEIGHT_ABOVE_HOME_M: f64 = 2.0;
 /// Origin height above home for imported files that carry no take-off item.
 pub const DEFAULT_TAKEOFF_HEIGHT_M: f64 = 10.0;
+/// The most waypoints a mission may have: the largest the planner plans in reasonable memory
+/// and time. Planning prices every ordered pair of points, so its cost matrices are (n + 1)^2
+/// f64 (32 MB each at 2000 waypoints; the 86 129 points of a 5 MB `.waypoints` file asked for
+/// 59 GB and aborted), and what runs besides the solver's time limit (pricing every leg,
+/// candidate lists, the baselines) grows as n^2 too. Measured with `emplan generate --xy 50
+/// --z 25` and `emplan plan --time-limit 20` (debug build, 2 cores shared with other builds,
+/// 2026-11-26): 1000 waypoints 42 s wall and 37 MB, 2000 waypoints 114 s and 88 MB, 5000
+/// waypoints still running after 10 min at 425 MB (stopped); the service gives a plan 60 s of
+/// solving. Checked once, where every format's waypoints are validated
+/// ([`RawMission::build`]), before anything of that size is allocated.
+pub const MAX_WAYPOINTS: usize = 2000;
 
 /// The mission file formats emplan reads and writes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -346,6 +357,19 @@ impl RawMission {
                 file,
                 Place::File,
                 "the mission has no waypoints (at least 1 is required)",
+            ));
+        }
+        if let Some(first_over) = self.waypoints.get(MAX_WAYPOINTS) {
+            return Err(MissionError::invalid(
+                file,
+                first_over.place.clone(),
+                format!(
+                    "waypoint {} of {}: a mission may have at most {MAX_WAYPOINTS} waypoints \
+                     (the planner prices every pair of them; split the mission into smaller \
+                     files)",
+                    MAX_WAYPOINTS + 1,
+                    self.waypoints.len()
+                ),
             ));
         }
         let origin = Origin {

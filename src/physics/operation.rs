@@ -486,11 +486,18 @@ impl<'a> Model<'a> {
             let to_accept = self.energy_j(path, (t_arrive, t_accept), n_a, false)?;
             let tail = self.energy_j(path, (t_accept, duration), n_b, false)?;
             let tail_over_hover = tail - self.hover_power_w()? * (duration - t_accept);
+            // A leg that starts inside the acceptance (shorter than NAV_ACC_RAD across and
+            // NAV_MC_ALT_RAD up or down) is accepted at once: its whole motion falls in the
+            // hold, and a short level move or descent draws less than hovering, so its excess
+            // over hover is negative (down to -26 J on the table's grid: a leg of -2 J between
+            // such cells). The hold is priced as hover whatever the vehicle does in it, so a
+            // motion inside it is credited nothing: the settle is never below zero.
+            let settle_energy_j = (to_accept + tail_over_hover).max(0.0);
             let peak = path_peak_speed(path, steps);
             return Ok(Operation {
                 energy_j: energy,
                 duration_s: t_arrive,
-                settle_energy_j: to_accept + tail_over_hover,
+                settle_energy_j,
                 settle_duration_s: t_accept - t_arrive,
                 peak_speed_m_s: peak,
             });

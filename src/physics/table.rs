@@ -485,6 +485,69 @@ mod tests {
         assert!(EnergyTable::from_text(&garbled, "t").is_err());
     }
 
+    /// The lowest mean power of a short leg (at most 5 m across and 5 m up or down), as a share
+    /// of the hover power: such a leg is mostly accelerating and braking near hover (the lowest
+    /// cell of the committed tables is 0.88, px4 (0, -1)). What draws less than hovering is
+    /// cruise and descent, which long legs have and short ones hardly do: "at least the hover
+    /// power's share" holds only for short legs (the tables' fast descents draw 0.60 of it).
+    const SHORT_LEG_MIN_POWER_SHARE: f64 = 0.85;
+
+    #[test]
+    fn no_short_leg_costs_less_than_nothing_or_much_less_than_hovering_for_its_duration() {
+        let v = shipped();
+        let hover_w = crate::physics::hover_power_w(&v).unwrap();
+        for profile in Profile::ALL {
+            let table = crate::physics::builtin::table(profile, &v).unwrap();
+            for i in 0..=100 {
+                for j in 0..=200 {
+                    let (xf_m, zf_m) = (0.05 * i as f64, -5.0 + 0.05 * j as f64);
+                    let leg = table.lookup(xf_m, zf_m).unwrap();
+                    let at = format!("{profile} ({xf_m:.2}, {zf_m:.2}): {leg:?}");
+                    assert!(leg.energy_j >= 0.0 && leg.settle_energy_j >= 0.0, "{at}");
+                    assert!(
+                        leg.duration_s >= 0.0 && leg.settle_duration_s >= 0.0,
+                        "{at}"
+                    );
+                    let (energy_j, duration_s) = (leg.total_energy_j(), leg.total_duration_s());
+                    assert!(
+                        energy_j >= SHORT_LEG_MIN_POWER_SHARE * hover_w * duration_s,
+                        "{at}: {:.2} of the hover power",
+                        energy_j / duration_s / hover_w
+                    );
+                    assert!(duration_s == 0.0 || energy_j > 0.0, "{at}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_committed_px4_cells_of_legs_inside_the_acceptance_are_what_the_model_builds() {
+        let v = shipped();
+        let built = EnergyTable::build(
+            &v,
+            Profile::Px4,
+            Axis::new(0.0, 2.0, 3),
+            Axis::new(-0.5, 0.5, 3),
+            |_, _| {},
+        )
+        .unwrap();
+        let committed = crate::physics::builtin::table(Profile::Px4, &v).unwrap();
+        for i in 0..3 {
+            for j in 0..3 {
+                let (a, b) = (
+                    built.cell(i, j).unwrap(),
+                    committed.cell(i, 119 + j).unwrap(),
+                );
+                assert!(
+                    (a.total_energy_j() - b.total_energy_j()).abs() < 2e-3
+                        && (a.total_duration_s() - b.total_duration_s()).abs() < 2e-4,
+                    "({i}, {j}): built {a:?}, committed {b:?}"
+                );
+                assert!(a.settle_energy_j >= 0.0, "({i}, {j}): {a:?}");
+            }
+        }
+    }
+
     #[test]
     fn a_table_built_from_other_parameters_is_reported_stale() {
         let v = shipped();

@@ -16,6 +16,26 @@ const STEEP_RATIO: f64 = 2.0;
 /// A leg climbing less than this does not count as a climb for the slope.
 const CLIMB_MIN_M: f64 = 0.5;
 
+/// The energy order's saving as a share of the distance order's energy, in percent: the one
+/// convention every output states it in (0 when the distance order costs nothing).
+pub fn saving_pct(energy_j: f64, distance_j: f64) -> f64 {
+    if distance_j > 0.0 {
+        100.0 * (distance_j - energy_j) / distance_j
+    } else {
+        0.0
+    }
+}
+
+/// The saving as `emplan plan`'s text and its figure's title say it: "saves 16.20 kJ (23.9% of
+/// the distance order's energy)".
+pub fn saving_words(energy_j: f64, distance_j: f64) -> String {
+    format!(
+        "saves {:.2} kJ ({:.1}% of the distance order's energy)",
+        (distance_j - energy_j) / 1000.0,
+        saving_pct(energy_j, distance_j)
+    )
+}
+
 /// The energy order against the distance order.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Explanation {
@@ -29,7 +49,7 @@ pub struct Explanation {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Saving {
     pub saving_j: f64,
-    /// Of the distance order's energy.
+    /// Of the distance order's energy ([`saving_pct`]).
     pub saving_pct: f64,
     /// Legs of the energy order.
     pub legs: usize,
@@ -68,7 +88,7 @@ impl Explanation {
             dropped.truncate(COSTLIEST);
             Saving {
                 saving_j: d - e,
-                saving_pct: 100.0 * (d - e) / d,
+                saving_pct: saving_pct(e, d),
                 legs: energy.legs.len(),
                 legs_differ: energy.legs.len() - shared,
                 further_m: energy.distance_m - distance.distance_m,

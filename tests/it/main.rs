@@ -1,6 +1,7 @@
 //! The integration test binary: one crate, one link step (modules below).
 
 mod cli;
+mod crashes;
 mod failfast;
 mod flight;
 mod flightlog;
