@@ -46,6 +46,10 @@ pub struct Args {
     /// most this long ago (s)
     #[arg(long, default_value_t = DEFAULT_RESUME_WITHIN.as_secs_f64())]
     resume_within_s: f64,
+    /// A mission file is planned once its size and modification time have stayed the same
+    /// this long (ms); until then it is listed as changing
+    #[arg(long, default_value_t = emplan::service::missions::DEFAULT_SETTLE.as_millis() as u64)]
+    settle_ms: u64,
     /// Built-in mock only: simulated seconds per wall second
     #[arg(long, default_value_t = emplan::sim::DEFAULT_SPEEDUP)]
     speedup: f64,
@@ -135,6 +139,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         solver: args.solver.options()?,
         transfer_budget,
         resume_within,
+        watch: emplan::service::missions::WatchSettings {
+            settle: std::time::Duration::from_millis(args.settle_ms),
+            ..Default::default()
+        },
     };
     // Several threads: HTTP clients and the link's tasks side by side (the recorder writes on
     // a thread of its own).

@@ -81,6 +81,8 @@ pub fn solve(m: &CostMatrix) -> Result<Assignment, PlanError> {
     let mut min_slack = vec![f64::INFINITY; n + 1];
     let mut used = vec![false; n + 1];
     for row in 1..=n {
+        // Each row is O(n^2): at 2000 nodes a few ms between looks at the cancel token.
+        super::cancel::check()?;
         row_of_col[0] = row;
         let mut col0 = 0usize;
         min_slack.fill(f64::INFINITY);

@@ -168,7 +168,7 @@ pub fn dfj_bound(m: &CostMatrix, tour: &[usize], time_limit: Duration) -> Result
         let lp_deadline = deadline
             .checked_sub(Duration::from_secs_f64(AP_RESERVE * ap_seconds))
             .unwrap_or(started);
-        if now >= lp_deadline {
+        if now >= lp_deadline || super::cancel::requested() {
             break Stop::TimeLimit;
         }
         let soft_deadline = now

@@ -173,7 +173,7 @@ pub fn solve(m: &CostMatrix, incumbent: &[usize], options: &Options) -> Result<O
         if search.prunes(open.bound, best_cost) {
             continue;
         }
-        if Instant::now() >= search.deadline {
+        if Instant::now() >= search.deadline || super::cancel::requested() {
             stack.push(open);
             timed_out = true;
             break;

@@ -1,6 +1,7 @@
 //! The energy cost matrix of a mission: the energy of every ordered leg from a leg-energy
 //! function (in practice the vehicle's energy table), asymmetric because climbing costs more
-//! than descending. A leg the function cannot price is an error naming the leg.
+//! than descending. A leg the function cannot price is an error naming the leg. Stops between
+//! rows when the thread's [`super::cancel`] token asks.
 
 use super::{CostMatrix, Geometry, PlanError};
 
@@ -14,6 +15,8 @@ pub fn energy_matrix<E: std::fmt::Display>(
     let n = geometry.len();
     let mut costs = vec![0.0; n * n];
     for i in 0..n {
+        // A row of a 2000-waypoint mission prices 2000 legs: a few ms, a prompt stop.
+        super::cancel::check()?;
         for j in 0..n {
             if i == j {
                 continue;

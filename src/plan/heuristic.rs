@@ -167,7 +167,9 @@ pub fn solve(m: &CostMatrix, initial: Option<&[usize]>, opts: &Options) -> Outco
     let mut s = Search::new(m, k, out, inn, start);
     let mut stop = Stop::Kicks;
     let deadline_s = opts.time_limit_s;
-    let out_of_time = |started: &Instant| started.elapsed().as_secs_f64() >= deadline_s;
+    let out_of_time = |started: &Instant| {
+        started.elapsed().as_secs_f64() >= deadline_s || super::cancel::requested()
+    };
 
     for v in 0..n {
         s.push(s.tour[v]);
@@ -609,7 +611,9 @@ impl<'a> Search<'a> {
         while let Some(v) = self.queue.pop_front() {
             self.queued[v] = false;
             pops = pops.wrapping_add(1);
-            if pops.is_multiple_of(1024) && started.elapsed().as_secs_f64() >= deadline_s {
+            if pops.is_multiple_of(1024)
+                && (started.elapsed().as_secs_f64() >= deadline_s || super::cancel::requested())
+            {
                 self.queue.clear();
                 self.queued.fill(false);
                 return false;

@@ -8,6 +8,7 @@ pub mod assignment;
 pub mod bound;
 pub mod branch_cut;
 pub mod brute;
+pub mod cancel;
 pub mod energy;
 pub mod geometry;
 pub mod held_karp;
@@ -154,6 +155,8 @@ pub enum PlanError {
         zf_m: f64,
         reason: String,
     },
+    #[error("planning was cancelled before it finished")]
+    Cancelled,
 }
 
 #[cfg(test)]

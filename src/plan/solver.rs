@@ -107,6 +107,11 @@ pub struct Solved {
 /// Solves the tour of `m` (node 0 = origin) as `options` ask.
 pub fn solve(m: &CostMatrix, options: &Options) -> Result<Solved, PlanError> {
     let started = Instant::now();
+    // Never past the thread's cancel token's deadline (see `cancel`).
+    let options = &Options {
+        time_limit: super::cancel::limit(options.time_limit),
+        ..*options
+    };
     let waypoints = m.len().saturating_sub(1);
     let solver = match options.solver {
         Solver::Auto if waypoints <= AUTO_HELD_KARP_MAX => Solver::HeldKarp,

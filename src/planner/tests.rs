@@ -232,3 +232,34 @@ fn a_leg_beyond_the_table_is_composed_with_px4_simulated_with_ptf_and_beyond_rea
     let text = err.to_string();
     assert!(text.contains(&name) && text.contains("max_leg_m"), "{text}");
 }
+
+#[test]
+fn a_plan_whose_cancel_token_is_raised_answers_cancelled_whatever_its_phase() {
+    let m = model();
+    let sample = mission("paper-sample-8wp.toml");
+    let options = options(Orders::All, true);
+    let before = crate::plan::cancel::Cancel::new();
+    before.cancel();
+    let out = crate::plan::cancel::within(&before, || plan_mission(&sample, &m, &options));
+    assert_eq!(
+        out,
+        Err(PlannerError::Cancelled {
+            mission: "paper-sample-8wp".into()
+        })
+    );
+    // Raised by the solver's first event: after pricing, while the orders are solved.
+    let during = crate::plan::cancel::Cancel::new();
+    let raise = during.clone();
+    let out = crate::plan::cancel::within(&during, || {
+        crate::plan::progress::listen(
+            move |_| raise.cancel(),
+            || plan_mission(&sample, &m, &options),
+        )
+    });
+    assert!(
+        matches!(out, Err(PlannerError::Cancelled { .. })),
+        "{out:?}"
+    );
+    // Without a token the same plan goes through.
+    assert!(plan_mission(&sample, &m, &options).is_ok());
+}

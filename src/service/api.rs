@@ -8,7 +8,8 @@
 //! - `POST /api/missions/{name}/upload` (token): body `{"order", "sortie", "allow_infeasible",
 //!   "acceptance_radius_m", "profile", "solver", "time_limit_s", "seed", "kicks"}` (all
 //!   optional); answers `emplan upload --json`'s document plus `"link"`, or the failure
-//!   document `{"ok": false, "stage", "accepted", "error", "item", "result"}`.
+//!   document `{"ok": false, "stage", "accepted", "error", "item", "result"}`. Refused (409)
+//!   when the file is changing or its bytes are not the ones planned (`missions::unchanged`).
 //! - `POST /api/vehicle/start` (token): arm and start the mission the vehicle holds.
 //! - `GET /api/vehicle`, `GET /api/link`, `GET /api/battery?since_ms=`: link, vehicle and
 //!   battery state, the flight in progress with its parts so far, the battery's last minutes.
@@ -336,6 +337,7 @@ async fn upload_mission(
     let entry = catalog
         .get(name)
         .ok_or_else(|| unknown_mission(&catalog.dir, name))?;
+    super::missions::unchanged(&catalog, entry).await?;
     let Some(mission) = entry.mission.clone() else {
         let message = match &entry.outcome {
             super::missions::Outcome::Failed(p) => p.message.clone(),

@@ -1,10 +1,19 @@
 //! The missions folder: a task that owns the catalog of mission files (`.toml`, `.plan`,
 //! `.waypoints`) and their plans. It watches the folder (`notify`; polling every 2 s when the
-//! platform's watcher cannot start), waits for a change to settle (250 ms without events), and
-//! plans every file that is new or whose bytes changed, one at a time on a blocking thread:
-//! every order and baseline (what `emplan plan --json` prints) and, when one battery cannot
-//! fly the mission, its sorties. An invalid file is listed with its located error (file, line
-//! or item); it never stops the others. Handlers read the catalog from a watch channel.
+//! platform's watcher cannot start) and plans a file only once its size and modification time
+//! have stayed the same for the settle time ([`WatchSettings::settle`]); until then it is
+//! listed as `changing`, so a file being written is never planned half-written. The bytes
+//! planned are the ones read then, and their digest is kept: before an upload the file is read
+//! again ([`unchanged`]) and a file that changed since is refused and planned again.
+//!
+//! Each file is planned on a blocking thread of its own, a few at a time
+//! ([`WatchSettings::plans_at_once`]), so a large file holds up neither the listing nor the
+//! planning of the others: every order and baseline (what `emplan plan --json` prints) and,
+//! when one battery cannot fly the mission, its sorties. A plan is stopped (its memory given
+//! back) when its file is deleted or changes, and when it runs past the time limit (then the
+//! file is listed as an error); see `plan::cancel`. An invalid file is listed with its located
+//! error (file, line or item); it never stops the others. Handlers read the catalog from a
+//! watch channel.
 //!
 //! Missions are known by their file name (`paper-sample-8wp.toml`): unique in a folder, and
 //! the `.toml`, `.plan` and `.waypoints` exports of one mission differ.
@@ -12,14 +21,16 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::time::{Duration, UNIX_EPOCH};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use serde::Serialize;
-use tokio::sync::{mpsc, watch};
+use tokio::sync::{mpsc, watch, Semaphore};
 
 use super::events::{Event, Hub};
+use super::Refusal;
 use crate::mission::{Format, Mission, MissionError, Place};
 use crate::physics::VehicleModel;
+use crate::plan::cancel::{self, Cancel};
 use crate::plan::solver;
 use crate::plan::Objective;
 use crate::planner::json::{energy_kj, plan_document};
@@ -28,9 +39,6 @@ use crate::planner::{plan_mission, Orders, Plan, PlanOptions};
 /// The extensions planned (`.txt` is a WPL extension too, but a folder's README is not a
 /// mission).
 const EXTENSIONS: [&str; 3] = ["toml", "plan", "waypoints"];
-
-/// How long the folder must be quiet before it is read again.
-const SETTLE: Duration = Duration::from_millis(250);
 
 /// A 64-bit FNV-1a digest of a file's bytes, as 16 hex digits: tells a client whether its copy
 /// of a mission is the service's.
@@ -81,7 +89,9 @@ impl MissionProblem {
 /// What became of a mission file.
 #[derive(Debug, Clone)]
 pub enum Outcome {
-    /// Being planned.
+    /// Its size or modification time changed less than the settle time ago: not read yet.
+    Changing,
+    /// Being planned (or waiting for a free planning thread).
     Planning,
     Planned {
         plan: Arc<Plan>,
@@ -99,6 +109,7 @@ pub struct MissionEntry {
     /// The file name: the mission's key in the API.
     pub name: String,
     pub path: PathBuf,
+    /// The digest of the bytes planned (empty while the file is changing).
     pub digest: String,
     /// The file's modification time (unix ms).
     pub modified_ms: u64,
@@ -110,6 +121,7 @@ pub struct MissionEntry {
 impl MissionEntry {
     fn status(&self) -> &'static str {
         match self.outcome {
+            Outcome::Changing => "changing",
             Outcome::Planning => "planning",
             Outcome::Planned { .. } => "planned",
             Outcome::Failed(_) => "error",
@@ -131,7 +143,7 @@ impl MissionEntry {
             return doc;
         };
         match &self.outcome {
-            Outcome::Planning => {}
+            Outcome::Changing | Outcome::Planning => {}
             Outcome::Failed(problem) => {
                 map.insert("error".into(), serde_json::json!(problem));
             }
@@ -210,6 +222,10 @@ impl MissionEntry {
 pub struct Catalog {
     pub dir: PathBuf,
     pub entries: BTreeMap<String, Arc<MissionEntry>>,
+    /// How long a file must stay unchanged before it is planned.
+    pub settle: Duration,
+    /// Asks the missions task to read a file again (an upload found it changed).
+    rechecks: Option<mpsc::UnboundedSender<String>>,
 }
 
 impl Catalog {
@@ -221,6 +237,13 @@ impl Catalog {
     pub fn get(&self, name: &str) -> Option<&Arc<MissionEntry>> {
         self.entries.get(name)
     }
+
+    /// Asks the missions task to read file `name` again, as if it had just changed.
+    pub fn recheck(&self, name: &str) {
+        if let Some(tx) = &self.rechecks {
+            let _ = tx.send(name.to_string());
+        }
+    }
 }
 
 /// The catalog as it changes.
@@ -230,7 +253,63 @@ pub type CatalogRx = watch::Receiver<Arc<Catalog>>;
 #[derive(Debug, Clone)]
 pub struct PlanSettings {
     pub model: Arc<VehicleModel>,
+    /// The solves' options. Its `time_limit` is also the wall-clock limit of planning one file,
+    /// everything included (at least [`MIN_PLAN_LIMIT`]): a plan still running then is stopped
+    /// and the file listed as an error.
     pub solver: solver::Options,
+    pub watch: WatchSettings,
+}
+
+/// How long a file must stay unchanged before it is read and planned by default: 2 s. A copy
+/// over SMB or scp, or a ground station exporting a mission, writes in bursts with pauses well
+/// under a second, and FAT and exFAT (SD cards, USB sticks) stamp modification times to 2 s;
+/// a file dropped in whole is still listed planned a couple of seconds later.
+pub const DEFAULT_SETTLE: Duration = Duration::from_secs(2);
+
+/// The least time planning one file is given, whatever the solver's time limit (a zero limit
+/// asks the solves to be quick, not the file to fail).
+pub const MIN_PLAN_LIMIT: Duration = Duration::from_secs(1);
+
+/// The share of the time left that a plan's solves get; pricing the legs, the sorties' split
+/// and the plan's JSON take the rest (at 2000 waypoints pricing alone takes seconds).
+const SOLVE_SHARE: f64 = 0.5;
+
+/// How long after its limit a plan whose thread has not stopped is listed as an error anyway
+/// (every long loop looks at the cancel token; this only keeps the listing honest if one
+/// does not).
+const WATCHDOG_GRACE: Duration = Duration::from_secs(2);
+
+/// The longest time limit honoured (keeps `Instant` arithmetic from overflowing).
+const YEAR: Duration = Duration::from_secs(365 * 24 * 3600);
+
+/// How the folder is watched.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct WatchSettings {
+    /// How long a file's size and modification time must stay the same before it is read and
+    /// planned (see [`DEFAULT_SETTLE`]).
+    pub settle: Duration,
+    /// Files planned at the same time, each on a blocking thread of its own.
+    pub plans_at_once: usize,
+}
+
+impl Default for WatchSettings {
+    fn default() -> Self {
+        WatchSettings {
+            settle: DEFAULT_SETTLE,
+            plans_at_once: default_plans_at_once(),
+        }
+    }
+}
+
+/// One plan per core, at least two (so one large file never holds the only slot while a small
+/// one waits) and at most four (each large plan holds its cost matrices).
+pub fn default_plans_at_once() -> usize {
+    std::thread::available_parallelism().map_or(2, |n| n.get().clamp(2, 4))
+}
+
+/// The wall-clock limit of planning one file.
+fn plan_limit(solver: &solver::Options) -> Duration {
+    solver.time_limit.clamp(MIN_PLAN_LIMIT, YEAR)
 }
 
 /// A file seen in the folder.
@@ -238,6 +317,18 @@ pub struct PlanSettings {
 struct Seen {
     len: u64,
     modified_ms: u64,
+}
+
+fn seen_of(meta: &std::fs::Metadata) -> Seen {
+    let modified_ms = meta
+        .modified()
+        .ok()
+        .and_then(|t| t.duration_since(UNIX_EPOCH).ok())
+        .map_or(0, |d| d.as_millis() as u64);
+    Seen {
+        len: meta.len(),
+        modified_ms,
+    }
 }
 
 fn scan(dir: &Path) -> std::io::Result<BTreeMap<String, (PathBuf, Seen)>> {
@@ -264,26 +355,12 @@ fn scan(dir: &Path) -> std::io::Result<BTreeMap<String, (PathBuf, Seen)>> {
         if !meta.is_file() {
             continue;
         }
-        let modified_ms = meta
-            .modified()
-            .ok()
-            .and_then(|t| t.duration_since(UNIX_EPOCH).ok())
-            .map_or(0, |d| d.as_millis() as u64);
-        found.insert(
-            name,
-            (
-                path,
-                Seen {
-                    len: meta.len(),
-                    modified_ms,
-                },
-            ),
-        );
+        found.insert(name, (path, seen_of(&meta)));
     }
     Ok(found)
 }
 
-/// Reads and plans one mission file (blocking).
+/// Reads and plans one mission file (blocking; stopped by the thread's cancel token).
 fn plan_file(path: &Path, bytes: &[u8], settings: &PlanSettings) -> (Option<Mission>, Outcome) {
     let mission = Format::from_path(path).and_then(|format| {
         let text = String::from_utf8(bytes.to_vec()).map_err(|e| MissionError::Invalid {
@@ -300,9 +377,14 @@ fn plan_file(path: &Path, bytes: &[u8], settings: &PlanSettings) -> (Option<Miss
         Ok(m) => m,
         Err(e) => return (None, Outcome::Failed(MissionProblem::of_mission(&e))),
     };
+    // The solves get a share of the time left, the rest is for everything else.
+    let solves = || solver::Options {
+        time_limit: cancel::limit(settings.solver.time_limit).mul_f64(SOLVE_SHARE),
+        ..settings.solver
+    };
     let options = PlanOptions {
         orders: Orders::All,
-        solver: settings.solver,
+        solver: solves(),
         sorties: false,
         pricing: crate::physics::Pricing::Settled,
     };
@@ -322,6 +404,7 @@ fn plan_file(path: &Path, bytes: &[u8], settings: &PlanSettings) -> (Option<Miss
     if !plan.battery.feasible {
         let split = PlanOptions {
             sorties: true,
+            solver: solves(),
             ..options
         };
         match plan_mission(&mission, &settings.model, &split) {
@@ -353,6 +436,53 @@ fn plan_file(path: &Path, bytes: &[u8], settings: &PlanSettings) -> (Option<Miss
     )
 }
 
+/// Checks, before an upload, that `entry`'s file still holds the bytes that were planned.
+/// Refused (409) while the file is changing, or when its bytes differ from the planned ones
+/// (then the missions task reads and plans it again).
+pub async fn unchanged(catalog: &Catalog, entry: &MissionEntry) -> Result<(), Refusal> {
+    if matches!(entry.outcome, Outcome::Changing) {
+        return Err(Refusal::new(
+            409,
+            "mission",
+            &format!(
+                "{} is changing (being written): it is planned once it has stayed unchanged \
+                 for {} ms; upload it then",
+                entry.path.display(),
+                catalog.settle.as_millis()
+            ),
+        ));
+    }
+    let now = match tokio::fs::read(&entry.path).await {
+        Ok(bytes) => digest(&bytes),
+        Err(e) => {
+            catalog.recheck(&entry.name);
+            return Err(Refusal::new(
+                409,
+                "mission",
+                &format!(
+                    "{} cannot be read again before uploading it ({e}): not uploaded",
+                    entry.path.display()
+                ),
+            ));
+        }
+    };
+    if now != entry.digest {
+        catalog.recheck(&entry.name);
+        return Err(Refusal::new(
+            409,
+            "mission",
+            &format!(
+                "{} changed since it was planned (digest {} planned, {now} now): not uploaded; \
+                 it is planned again once it has stayed unchanged for {} ms",
+                entry.path.display(),
+                entry.digest,
+                catalog.settle.as_millis()
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// Starts the missions task on `dir` (which must exist); it runs until `stop`.
 pub fn spawn(
     dir: PathBuf,
@@ -360,19 +490,88 @@ pub fn spawn(
     hub: Arc<Hub>,
     stop: watch::Receiver<bool>,
 ) -> (CatalogRx, tokio::task::JoinHandle<()>) {
+    let (recheck_tx, recheck) = mpsc::unbounded_channel();
     let (tx, rx) = watch::channel(Arc::new(Catalog {
         dir: dir.clone(),
         entries: BTreeMap::new(),
+        settle: settings.watch.settle,
+        rechecks: Some(recheck_tx),
     }));
-    let task = tokio::spawn(run(dir, settings, hub, tx, stop));
+    let (done_tx, done) = mpsc::unbounded_channel();
+    let folder = Folder {
+        permits: Arc::new(Semaphore::new(settings.watch.plans_at_once.max(1))),
+        dir,
+        settings,
+        hub,
+        catalog: tx,
+        files: BTreeMap::new(),
+        done_tx,
+        next_job: 0,
+    };
+    let task = tokio::spawn(run(folder, recheck, done, stop));
     (rx, task)
 }
 
-async fn run(
+/// One plan in progress.
+#[derive(Debug)]
+struct Job {
+    id: u64,
+    cancel: Cancel,
+}
+
+/// What the missions task knows of one file.
+#[derive(Debug)]
+struct Watched {
+    path: PathBuf,
+    seen: Seen,
+    /// When `seen` last changed (or the file appeared, or an upload found it changed).
+    changed_at: Instant,
+    /// First seen already older than the settle time: read at once.
+    old: bool,
+    /// The digest of the bytes read since the last change (planned, being planned or reused).
+    read: Option<String>,
+    job: Option<Job>,
+    /// The last finished entry (planned or failed): reused when the file settles with the same
+    /// bytes (touched, or written back as it was).
+    done: Option<Arc<MissionEntry>>,
+}
+
+/// How a plan job ended.
+#[derive(Debug)]
+enum Ended {
+    Finished {
+        mission: Option<Mission>,
+        outcome: Outcome,
+        seconds: f64,
+    },
+    /// The file's bytes changed while it was planned: the plan is not theirs.
+    Stale,
+}
+
+#[derive(Debug)]
+struct Done {
+    name: String,
+    id: u64,
+    ended: Ended,
+}
+
+/// The missions task's state: the folder, its files, the plans in progress.
+struct Folder {
     dir: PathBuf,
     settings: PlanSettings,
     hub: Arc<Hub>,
     catalog: watch::Sender<Arc<Catalog>>,
+    files: BTreeMap<String, Watched>,
+    /// Bounds the plans running at once.
+    permits: Arc<Semaphore>,
+    done_tx: mpsc::UnboundedSender<Done>,
+    next_job: u64,
+}
+
+async fn run(
+    mut folder: Folder,
+    mut rechecks: mpsc::UnboundedReceiver<String>,
+    mut done: mpsc::UnboundedReceiver<Done>,
     mut stop: watch::Receiver<bool>,
 ) {
     let (changes_tx, mut changes) = mpsc::unbounded_channel::<()>();
@@ -385,7 +584,7 @@ async fn run(
             }
         })
         .and_then(|mut w| {
-            w.watch(&dir, notify::RecursiveMode::NonRecursive)?;
+            w.watch(&folder.dir, notify::RecursiveMode::NonRecursive)?;
             Ok(w)
         })
     };
@@ -394,149 +593,390 @@ async fn run(
         Err(e) => {
             tracing::warn!(
                 "cannot watch {} ({e}); looking at it every 2 s instead",
-                dir.display()
+                folder.dir.display()
             );
             Some(Duration::from_secs(2))
         }
     };
-    let mut known: BTreeMap<String, Seen> = BTreeMap::new();
+    let mut rescan_at = Some(Instant::now());
     loop {
-        rescan(&dir, &settings, &hub, &catalog, &mut known, &mut stop).await;
+        if rescan_at.is_some_and(|at| Instant::now() >= at) {
+            rescan_at = None;
+            folder.rescan().await;
+        }
         if *stop.borrow() {
-            return;
+            break;
         }
-        // Wait for a change, then for the folder to settle.
+        // The next look: a change seen (250 ms after its first event, so a burst of events
+        // is one look and a file written for a long time is still seen changing), a file
+        // due to settle, or the poll.
+        let wake = [
+            rescan_at,
+            folder.next_settle(),
+            poll.map(|p| Instant::now() + p),
+        ]
+        .into_iter()
+        .flatten()
+        .min()
+        .unwrap_or_else(|| Instant::now() + YEAR);
         tokio::select! {
-            _ = stop.changed() => return,
-            got = changes.recv() => if got.is_none() { return },
-            _ = tokio::time::sleep(poll.unwrap_or(Duration::from_secs(3600))), if poll.is_some() => {}
-        }
-        loop {
-            tokio::select! {
-                _ = stop.changed() => return,
-                got = tokio::time::timeout(SETTLE, changes.recv()) => match got {
-                    Ok(Some(())) => continue,
-                    Ok(None) | Err(_) => break,
-                },
+            _ = stop.changed() => break,
+            got = changes.recv() => match got {
+                Some(()) => {
+                    rescan_at.get_or_insert_with(|| Instant::now() + THROTTLE);
+                }
+                None => break,
+            },
+            Some(name) = rechecks.recv() => {
+                folder.recheck(&name);
+                rescan_at = Some(Instant::now());
+            }
+            Some(finished) = done.recv() => folder.finished(finished),
+            _ = tokio::time::sleep_until(wake.into()) => {
+                rescan_at.get_or_insert_with(Instant::now);
             }
         }
     }
-}
-
-fn publish(catalog: &watch::Sender<Arc<Catalog>>, entry: MissionEntry) -> Arc<MissionEntry> {
-    let entry = Arc::new(entry);
-    catalog.send_modify(|c| {
-        let mut next = (**c).clone();
-        next.entries.insert(entry.name.clone(), entry.clone());
-        *c = Arc::new(next);
-    });
-    entry
-}
-
-/// Reads the folder and plans what changed.
-async fn rescan(
-    dir: &Path,
-    settings: &PlanSettings,
-    hub: &Hub,
-    catalog: &watch::Sender<Arc<Catalog>>,
-    known: &mut BTreeMap<String, Seen>,
-    stop: &mut watch::Receiver<bool>,
-) {
-    let found = match scan(dir) {
-        Ok(found) => found,
-        Err(e) => {
-            tracing::error!("missions folder {}: {e}", dir.display());
-            return;
+    // Stopping: the plans in progress stop too (their threads would hold the runtime's
+    // shutdown).
+    for w in folder.files.values_mut() {
+        if let Some(job) = w.job.take() {
+            job.cancel.cancel();
         }
-    };
-    let gone: Vec<String> = known
-        .keys()
-        .filter(|name| !found.contains_key(*name))
-        .cloned()
-        .collect();
-    for name in gone {
-        known.remove(&name);
-        catalog.send_modify(|c| {
+    }
+}
+
+/// How long after the first event of a burst the folder is read.
+const THROTTLE: Duration = Duration::from_millis(250);
+
+impl Folder {
+    fn publish(&self, entry: MissionEntry) -> Arc<MissionEntry> {
+        let entry = Arc::new(entry);
+        self.publish_arc(entry.clone());
+        entry
+    }
+
+    fn publish_arc(&self, entry: Arc<MissionEntry>) {
+        self.catalog.send_modify(|c| {
             let mut next = (**c).clone();
-            next.entries.remove(&name);
+            next.entries.insert(entry.name.clone(), entry);
             *c = Arc::new(next);
         });
-        tracing::info!(mission = %name, "mission file removed");
-        hub.publish(&Event::MissionRemoved { name });
     }
-    for (name, (path, seen)) in found {
-        if *stop.borrow() {
+
+    /// Lists `name` as changing: no plan until it settles.
+    fn changing(&self, name: &str) {
+        let Some(w) = self.files.get(name) else {
+            return;
+        };
+        let already = self
+            .catalog
+            .borrow()
+            .get(name)
+            .is_some_and(|e| matches!(e.outcome, Outcome::Changing));
+        if already {
             return;
         }
-        if known.get(&name) == Some(&seen) {
-            continue;
+        self.publish(MissionEntry {
+            name: name.to_string(),
+            path: w.path.clone(),
+            digest: String::new(),
+            modified_ms: w.seen.modified_ms,
+            mission: None,
+            outcome: Outcome::Changing,
+        });
+    }
+
+    /// The earliest time a changing file is due to settle.
+    fn next_settle(&self) -> Option<Instant> {
+        self.files
+            .values()
+            .filter(|w| w.read.is_none())
+            .map(|w| w.changed_at + self.settings.watch.settle)
+            .min()
+    }
+
+    /// Forgets what was read of `name` (an upload found its bytes changed): it settles and is
+    /// read again.
+    fn recheck(&mut self, name: &str) {
+        if let Some(w) = self.files.get_mut(name) {
+            w.changed_at = Instant::now();
+            w.old = false;
+            w.read = None;
+            if let Some(job) = w.job.take() {
+                job.cancel.cancel();
+            }
+            self.changing(name);
         }
-        known.insert(name.clone(), seen);
-        let bytes = match tokio::fs::read(&path).await {
-            Ok(b) => b,
+    }
+
+    /// Reads the folder: files gone are dropped (their plans stopped), files changed listed
+    /// as changing (their plans stopped), files settled read and planned.
+    async fn rescan(&mut self) {
+        let found = match scan(&self.dir) {
+            Ok(found) => found,
             Err(e) => {
-                tracing::warn!(mission = %name, "not read: {e}");
+                tracing::error!("missions folder {}: {e}", self.dir.display());
+                return;
+            }
+        };
+        let gone: Vec<String> = self
+            .files
+            .keys()
+            .filter(|name| !found.contains_key(*name))
+            .cloned()
+            .collect();
+        for name in gone {
+            if let Some(job) = self.files.remove(&name).and_then(|w| w.job) {
+                job.cancel.cancel();
+                tracing::info!(mission = %name, "mission file removed while planned: planning stopped");
+            } else {
+                tracing::info!(mission = %name, "mission file removed");
+            }
+            self.catalog.send_modify(|c| {
+                let mut next = (**c).clone();
+                next.entries.remove(&name);
+                *c = Arc::new(next);
+            });
+            self.hub.publish(&Event::MissionRemoved { name });
+        }
+        let now = Instant::now();
+        let settle = self.settings.watch.settle;
+        for (name, (path, seen)) in found {
+            match self.files.get_mut(&name) {
+                None => {
+                    // A file already older than the settle time (there when the service
+                    // started, or moved in whole) is read at once; FAT's 2 s stamps are
+                    // allowed for.
+                    let age_ms = SystemTime::now()
+                        .duration_since(UNIX_EPOCH)
+                        .map_or(0, |d| d.as_millis() as u64)
+                        .saturating_sub(seen.modified_ms);
+                    let old = u128::from(age_ms) >= settle.as_millis() + 2000;
+                    self.files.insert(
+                        name.clone(),
+                        Watched {
+                            path,
+                            seen,
+                            changed_at: now,
+                            old,
+                            read: None,
+                            job: None,
+                            done: None,
+                        },
+                    );
+                    if !old {
+                        self.changing(&name);
+                    }
+                }
+                Some(w) if w.seen != seen => {
+                    w.seen = seen;
+                    w.changed_at = now;
+                    w.old = false;
+                    w.read = None;
+                    if let Some(job) = w.job.take() {
+                        job.cancel.cancel();
+                        tracing::info!(mission = %name, "mission file changed while planned: planning stopped");
+                    }
+                    self.changing(&name);
+                }
+                Some(_) => {}
+            }
+            let Some(w) = self.files.get(&name) else {
                 continue;
+            };
+            if w.read.is_none() && (w.old || now >= w.changed_at + settle) {
+                self.settled(&name).await;
+            }
+        }
+    }
+
+    /// Reads a file that has settled: plans it, or lists its last plan again if its bytes are
+    /// the ones planned.
+    async fn settled(&mut self, name: &str) {
+        let Some(path) = self.files.get(name).map(|w| w.path.clone()) else {
+            return;
+        };
+        let read = tokio::fs::read(&path).await;
+        let after = std::fs::metadata(&path).ok().map(|m| seen_of(&m));
+        let Some(w) = self.files.get_mut(name) else {
+            return;
+        };
+        let bytes = match read {
+            Ok(bytes) if after == Some(w.seen) => bytes,
+            Ok(_) => {
+                // Written while read: it settles again.
+                if let Some(seen) = after {
+                    w.seen = seen;
+                }
+                w.changed_at = Instant::now();
+                w.old = false;
+                self.changing(name);
+                return;
+            }
+            Err(e) => {
+                // Listed with why, and read again when it changes.
+                tracing::warn!(mission = %name, "not read: {e}");
+                w.read = Some(String::new());
+                w.done = None;
+                let entry = MissionEntry {
+                    name: name.to_string(),
+                    path: path.clone(),
+                    digest: String::new(),
+                    modified_ms: w.seen.modified_ms,
+                    mission: None,
+                    outcome: Outcome::Failed(MissionProblem {
+                        stage: "mission",
+                        message: format!("{}: cannot be read ({e})", path.display()),
+                        line: None,
+                        item: None,
+                    }),
+                };
+                let entry = self.publish(entry);
+                self.hub.publish(&Event::MissionError(entry.summary()));
+                return;
             }
         };
         let digest = digest(&bytes);
-        let previous = catalog.borrow().get(&name).cloned();
-        if let Some(prev) = previous.filter(|p| p.digest == digest) {
-            // Touched, not changed.
-            publish(
-                catalog,
-                MissionEntry {
-                    modified_ms: seen.modified_ms,
-                    ..(*prev).clone()
-                },
-            );
-            continue;
-        }
-        let span = tracing::info_span!("plan", mission = %name);
-        publish(
-            catalog,
-            MissionEntry {
-                name: name.clone(),
-                path: path.clone(),
-                digest: digest.clone(),
+        w.read = Some(digest.clone());
+        let seen = w.seen;
+        if let Some(done) = w.done.clone().filter(|d| d.digest == digest) {
+            // Touched, or written back as it was: its plan still holds.
+            self.publish(MissionEntry {
                 modified_ms: seen.modified_ms,
-                mission: None,
-                outcome: Outcome::Planning,
-            },
-        );
-        let started = std::time::Instant::now();
-        let job_settings = settings.clone();
-        let job_path = path.clone();
-        let planned =
-            tokio::task::spawn_blocking(move || plan_file(&job_path, &bytes, &job_settings)).await;
-        let (mission, outcome) = match planned {
-            Ok(done) => done,
-            Err(e) => (
-                None,
+                ..(*done).clone()
+            });
+            return;
+        }
+        self.start(name, path, bytes, digest, seen);
+    }
+
+    /// Plans `bytes` of file `name` on a blocking thread, once a permit is free.
+    fn start(&mut self, name: &str, path: PathBuf, bytes: Vec<u8>, digest: String, seen: Seen) {
+        let id = self.next_job;
+        self.next_job += 1;
+        let cancel = Cancel::new();
+        if let Some(w) = self.files.get_mut(name) {
+            w.job = Some(Job {
+                id,
+                cancel: cancel.clone(),
+            });
+        }
+        self.publish(MissionEntry {
+            name: name.to_string(),
+            path: path.clone(),
+            digest: digest.clone(),
+            modified_ms: seen.modified_ms,
+            mission: None,
+            outcome: Outcome::Planning,
+        });
+        let permits = self.permits.clone();
+        let settings = self.settings.clone();
+        let done = self.done_tx.clone();
+        let name = name.to_string();
+        tokio::spawn(async move {
+            let Ok(permit) = permits.acquire_owned().await else {
+                return;
+            };
+            if cancel.cancelled() {
+                return;
+            }
+            let limit = plan_limit(&settings.solver);
+            let started = Instant::now();
+            let token = cancel.clone().with_deadline(started + limit);
+            let thread_token = token.clone();
+            let span = tracing::info_span!("plan", mission = %name);
+            let thread = tokio::task::spawn_blocking(move || {
+                // Held until the thread ends, whatever the watchdog below decides.
+                let _permit = permit;
+                let planned = span.in_scope(|| {
+                    cancel::within(&thread_token, || plan_file(&path, &bytes, &settings))
+                });
+                // The bytes planned must still be the file's.
+                let now = std::fs::read(&path).ok().map(|b| self::digest(&b));
+                (planned, now == Some(digest))
+            });
+            let exceeded = || {
                 Outcome::Failed(MissionProblem {
                     stage: "plan",
-                    message: format!("planning stopped: {e}"),
+                    message: format!(
+                        "planning exceeded the {} s limit (serve --time-limit) and was stopped",
+                        limit.as_secs_f64()
+                    ),
                     line: None,
                     item: None,
-                }),
-            ),
+                })
+            };
+            let ended = match tokio::time::timeout(limit + WATCHDOG_GRACE, thread).await {
+                Ok(Ok(_)) if cancel.cancelled() => return,
+                Ok(Ok((_, false))) => Ended::Stale,
+                Ok(Ok(((mission, outcome), true))) => Ended::Finished {
+                    outcome: if token.expired() { exceeded() } else { outcome },
+                    mission,
+                    seconds: started.elapsed().as_secs_f64(),
+                },
+                Ok(Err(e)) => Ended::Finished {
+                    mission: None,
+                    outcome: Outcome::Failed(MissionProblem {
+                        stage: "plan",
+                        message: format!("planning stopped: {e}"),
+                        line: None,
+                        item: None,
+                    }),
+                    seconds: started.elapsed().as_secs_f64(),
+                },
+                Err(_) => {
+                    token.cancel();
+                    Ended::Finished {
+                        mission: None,
+                        outcome: exceeded(),
+                        seconds: started.elapsed().as_secs_f64(),
+                    }
+                }
+            };
+            let _ = done.send(Done { name, id, ended });
+        });
+    }
+
+    /// A plan ended: listed, unless its file changed or went away meanwhile.
+    fn finished(&mut self, done: Done) {
+        let Some(w) = self.files.get_mut(&done.name) else {
+            return;
         };
-        let entry = publish(
-            catalog,
-            MissionEntry {
-                name: name.clone(),
-                path,
-                digest,
-                modified_ms: seen.modified_ms,
-                mission: mission.map(Arc::new),
+        if w.job.as_ref().map(|j| j.id) != Some(done.id) {
+            return;
+        }
+        w.job = None;
+        let (mission, outcome, seconds) = match done.ended {
+            Ended::Stale => {
+                w.changed_at = Instant::now();
+                w.old = false;
+                w.read = None;
+                self.changing(&done.name);
+                return;
+            }
+            Ended::Finished {
+                mission,
                 outcome,
-            },
-        );
+                seconds,
+            } => (mission, outcome, seconds),
+        };
+        let entry = Arc::new(MissionEntry {
+            name: done.name.clone(),
+            path: w.path.clone(),
+            digest: w.read.clone().unwrap_or_default(),
+            modified_ms: w.seen.modified_ms,
+            mission: mission.map(Arc::new),
+            outcome,
+        });
+        w.done = Some(entry.clone());
+        self.publish_arc(entry.clone());
+        let span = tracing::info_span!("plan", mission = %done.name);
         span.in_scope(|| match &entry.outcome {
             Outcome::Failed(p) => tracing::warn!("{}", p.message),
-            _ => tracing::info!(seconds = started.elapsed().as_secs_f64(), "planned"),
+            _ => tracing::info!(seconds, "planned"),
         });
-        hub.publish(&match entry.outcome {
+        self.hub.publish(&match entry.outcome {
             Outcome::Failed(_) => Event::MissionError(entry.summary()),
             _ => Event::MissionPlanned(entry.summary()),
         });

@@ -100,6 +100,8 @@ pub struct ServiceConfig {
     pub transfer_budget: Option<Duration>,
     /// Resume recording a flight cut off this recently (see `RecorderConfig::resume_within`).
     pub resume_within: Duration,
+    /// How the missions folder is watched: the settle time, the plans run at once.
+    pub watch: missions::WatchSettings,
 }
 
 /// How long after its recording was cut off a flight is resumed by default: about a battery.
@@ -135,6 +137,7 @@ pub async fn run(
         missions::PlanSettings {
             model: cfg.model.clone(),
             solver: cfg.solver,
+            watch: cfg.watch,
         },
         hub.clone(),
         stop.clone(),

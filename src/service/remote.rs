@@ -181,7 +181,7 @@ pub async fn find_mission(
             )));
         }
         match status {
-            "planning" if tokio::time::Instant::now() < deadline => {
+            "planning" | "changing" if tokio::time::Instant::now() < deadline => {
                 tokio::time::sleep(Duration::from_millis(200)).await;
             }
             "error" if entry.get("mission").is_none_or(|m| m.is_null()) => {

@@ -15,6 +15,7 @@ mod snapshots;
 mod solvers;
 mod sorties;
 mod study;
+mod svcwatch;
 mod tidy;
 mod upload;
 

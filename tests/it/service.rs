@@ -107,6 +107,12 @@ async fn serve(vehicle: VehicleLink, files: &[&str]) -> Running {
         solver: Default::default(),
         transfer_budget: None,
         resume_within: emplan::service::DEFAULT_RESUME_WITHIN,
+        // The files are copied in whole before the service starts: a short settle keeps the
+        // tests quick.
+        watch: emplan::service::missions::WatchSettings {
+            settle: Duration::from_millis(300),
+            ..Default::default()
+        },
     };
     let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
     let task = tokio::spawn(emplan::service::run(listener, cfg, async move {

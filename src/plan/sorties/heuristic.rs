@@ -4,7 +4,8 @@
 //! a Bellman shortest path over the giant tour's cut points), then improved by local search
 //! (relocate, exchange, tail swap and merge between sorties; each changed sortie re-ordered
 //! exactly by Held-Karp when small, by Or-opt otherwise), restarted from seeded perturbations
-//! of the best giant tour. Deterministic for a seed.
+//! of the best giant tour. Deterministic for a seed. Stops early, with the best split so far,
+//! when the thread's [`crate::plan::cancel`] token asks.
 
 use super::{check, Checked, Method, SortieError, SortieOptions, SortiePlan, SortieProblem};
 use crate::plan::{held_karp, is_tour_order};
@@ -33,6 +34,9 @@ pub fn heuristic(
     let mut best_j = solution_j(&p, &best);
     let mut rng = Rng::new(options.seed);
     for _ in 1..options.restarts {
+        if crate::plan::cancel::requested() {
+            break;
+        }
         let mut sorties = best.clone();
         for k in (1..sorties.len()).rev() {
             sorties.swap(k, rng.below(k + 1));
@@ -247,6 +251,9 @@ fn improve(p: &Checked, sorties: Vec<Vec<usize>>) -> Vec<Vec<usize>> {
     // Each move lowers the total by more than eps, so this bound is never the reason to stop
     // in practice; it only guarantees termination.
     for _ in 0..100_000 {
+        if crate::plan::cancel::requested() {
+            break;
+        }
         let moved = merge(p, &mut routes)
             || relocate(p, &mut routes)
             || exchange(p, &mut routes)

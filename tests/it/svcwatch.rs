@@ -1,0 +1,356 @@
+//! The service's missions folder under files that change: a file written in pieces is never
+//! listed planned half-written, an upload of a file changed since it was planned is refused
+//! and the file planned again, a large file past its time limit ends as an error while a small
+//! one added meanwhile is planned, and a large file deleted mid-plan leaves the list and stops
+//! its plan. The service runs in this process on 127.0.0.1:0 (as in `service`), with a short
+//! settle time and time limit; waits are hang guards only.
+
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, OnceLock};
+use std::time::Duration;
+
+use emplan::physics::VehicleModel;
+use emplan::service::client::Answer;
+use emplan::service::missions::{digest, WatchSettings};
+use emplan::service::{Client, ServiceConfig, ServiceError, Token, VehicleLink};
+use emplan::sim::{FlightConfig, MockConfig};
+use serde_json::{json, Value};
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn model() -> Arc<VehicleModel> {
+    static MODEL: OnceLock<Arc<VehicleModel>> = OnceLock::new();
+    MODEL
+        .get_or_init(|| {
+            Arc::new(VehicleModel::load(&root().join("models/s1000"), None).expect("the model"))
+        })
+        .clone()
+}
+
+/// A service running in this process, its missions folder empty at the start.
+struct Running {
+    client: Client,
+    missions: PathBuf,
+    stop: Option<tokio::sync::oneshot::Sender<()>>,
+    task: tokio::task::JoinHandle<Result<(), ServiceError>>,
+    _work: tempfile::TempDir,
+}
+
+impl Running {
+    async fn shutdown(mut self) {
+        if let Some(stop) = self.stop.take() {
+            let _ = stop.send(());
+        }
+        tokio::time::timeout(Duration::from_secs(30), self.task)
+            .await
+            .expect("the service stops within 30 s")
+            .expect("the service task")
+            .expect("the service ran");
+    }
+}
+
+/// The service's settings in these tests.
+struct Settings {
+    settle: Duration,
+    time_limit: Duration,
+    plans_at_once: usize,
+}
+
+async fn serve(settings: Settings) -> Running {
+    let work = tempfile::tempdir().expect("temp dir");
+    let missions = work.path().join("missions");
+    std::fs::create_dir_all(&missions).expect("missions dir");
+    let token = Token::random().expect("token");
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0")
+        .await
+        .expect("bound");
+    let url = format!("http://{}", listener.local_addr().expect("addr"));
+    let cfg = ServiceConfig {
+        vehicle: VehicleLink::Mock {
+            config: Box::new(MockConfig {
+                flight: Some(FlightConfig::default()),
+                speedup: 20.0,
+                ..MockConfig::default()
+            }),
+            vehicle: None,
+        },
+        missions_dir: missions.clone(),
+        log_dir: work.path().join("flights"),
+        token: token.clone(),
+        model: model(),
+        solver: emplan::plan::solver::Options {
+            time_limit: settings.time_limit,
+            ..Default::default()
+        },
+        transfer_budget: None,
+        resume_within: emplan::service::DEFAULT_RESUME_WITHIN,
+        watch: WatchSettings {
+            settle: settings.settle,
+            plans_at_once: settings.plans_at_once,
+        },
+    };
+    let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
+    let task = tokio::spawn(emplan::service::run(listener, cfg, async move {
+        let _ = stopped.await;
+    }));
+    Running {
+        client: Client::new(&url, Some(token)).expect("client"),
+        missions,
+        stop: Some(stop),
+        task,
+        _work: work,
+    }
+}
+
+/// The list entry of `name`, if listed.
+async fn listed(client: &Client, name: &str) -> Option<Value> {
+    let answer = client
+        .get("/api/missions")
+        .await
+        .expect("GET /api/missions");
+    assert_eq!(answer.status, 200, "{answer:?}");
+    answer.body["missions"]
+        .as_array()
+        .expect("missions")
+        .iter()
+        .find(|m| m["name"] == name)
+        .cloned()
+}
+
+/// Polls the list until `accept` takes the entry of `name` (absent: `None`); a hang guard of
+/// `seconds`, never a measure of speed.
+async fn until(
+    client: &Client,
+    name: &str,
+    seconds: u64,
+    accept: impl Fn(Option<&Value>) -> bool,
+) -> Option<Value> {
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(seconds);
+    loop {
+        let entry = listed(client, name).await;
+        if accept(entry.as_ref()) {
+            return entry;
+        }
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "{name}: not as expected within {seconds} s (hang guard): {entry:?}"
+        );
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+}
+
+fn status_is(status: &'static str) -> impl Fn(Option<&Value>) -> bool {
+    move |e| e.is_some_and(|e| e["status"] == status)
+}
+
+/// Writes `bytes` to `dir/name` whole: written beside, then renamed.
+fn drop_in(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
+    let beside = dir.join(format!(".{name}.part"));
+    std::fs::write(&beside, bytes).expect("written");
+    let path = dir.join(name);
+    std::fs::rename(&beside, &path).expect("renamed");
+    path
+}
+
+/// A random mission of `waypoints` waypoints, as TOML bytes.
+fn large_mission(waypoints: u32) -> Vec<u8> {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = crate::generated_mission(dir.path(), waypoints, 100, 20, 5);
+    std::fs::read(path).expect("generated")
+}
+
+fn sample_8wp() -> Vec<u8> {
+    std::fs::read(root().join("missions/paper-sample-8wp.toml")).expect("sample mission")
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn a_mission_written_in_pieces_is_never_listed_planned_with_part_of_its_waypoints() {
+    // Pauses of 350 ms between pieces: past the old 250 ms debounce, within the 1 s settle.
+    let service = serve(Settings {
+        settle: Duration::from_millis(1000),
+        time_limit: Duration::from_secs(60),
+        plans_at_once: 2,
+    })
+    .await;
+    let text = String::from_utf8(sample_8wp()).expect("UTF-8");
+    // Every piece ends at a whole waypoint: each stage reads as a mission of 1, 2, ... 8.
+    let at = text.find("[[waypoints]]").expect("a waypoint");
+    let mut pieces = vec![text[..at].to_string()];
+    for block in text[at..].split_inclusive("\n\n") {
+        if block.trim().is_empty() {
+            continue;
+        }
+        pieces.push(block.to_string());
+    }
+    assert_eq!(pieces.len(), 9, "{pieces:?}");
+    let path = service.missions.join("growing.toml");
+    // What the list says of the file, every 30 ms while it is written.
+    let (seen_tx, mut seen_rx) = tokio::sync::mpsc::unbounded_channel();
+    let client = service.client.clone();
+    let looking = tokio::spawn(async move {
+        loop {
+            if let Some(e) = listed(&client, "growing.toml").await {
+                let _ = seen_tx.send((
+                    e["status"].as_str().unwrap_or("").to_string(),
+                    e["waypoints"].as_u64(),
+                    e["digest"].as_str().unwrap_or("").to_string(),
+                ));
+            }
+            tokio::time::sleep(Duration::from_millis(30)).await;
+        }
+    });
+    let mut file = std::fs::File::create(&path).expect("created");
+    for piece in &pieces {
+        use std::io::Write;
+        file.write_all(piece.as_bytes()).expect("written");
+        file.flush().expect("flushed");
+        tokio::time::sleep(Duration::from_millis(350)).await;
+    }
+    drop(file);
+    let whole = digest(text.as_bytes());
+    until(&service.client, "growing.toml", 30, |e| {
+        e.is_some_and(|e| e["status"] == "planned" && e["digest"] == whole.as_str())
+    })
+    .await;
+    looking.abort();
+    let mut seen = Vec::new();
+    while let Ok(s) = seen_rx.try_recv() {
+        seen.push(s);
+    }
+    let planned: Vec<&(String, Option<u64>, String)> =
+        seen.iter().filter(|(s, _, _)| s == "planned").collect();
+    assert!(!planned.is_empty(), "{seen:?}");
+    for (_, waypoints, d) in &planned {
+        assert_eq!(
+            (*waypoints, d.as_str()),
+            (Some(8), whole.as_str()),
+            "listed planned half-written: {seen:?}"
+        );
+    }
+    assert!(
+        seen.iter().any(|(s, _, _)| s == "changing"),
+        "never listed as changing while written: {seen:?}"
+    );
+    service.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn an_upload_of_a_mission_changed_since_it_was_planned_is_refused_and_it_is_planned_again() {
+    let service = serve(Settings {
+        settle: Duration::from_millis(300),
+        time_limit: Duration::from_secs(60),
+        plans_at_once: 2,
+    })
+    .await;
+    let before = sample_8wp();
+    let path = drop_in(&service.missions, "sample.toml", &before);
+    until(&service.client, "sample.toml", 30, status_is("planned")).await;
+    // Same length, same modification time: only the bytes tell (a rewrite within one
+    // timestamp tick, or a tool that keeps the time).
+    let stamp = std::fs::metadata(&path)
+        .expect("metadata")
+        .modified()
+        .expect("mtime");
+    let text = String::from_utf8(before.clone()).expect("UTF-8");
+    let after = text.replacen("x_m = -20.0", "x_m = -21.0", 1);
+    assert_eq!(after.len(), text.len());
+    assert_ne!(after, text);
+    {
+        let file = std::fs::OpenOptions::new()
+            .write(true)
+            .open(&path)
+            .expect("opened");
+        use std::io::Write;
+        (&file).write_all(after.as_bytes()).expect("rewritten");
+        file.set_modified(stamp).expect("mtime kept");
+    }
+    // The vehicle is there: nothing but the check of the bytes stops the upload.
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(20);
+    loop {
+        let link = service
+            .client
+            .get("/api/link")
+            .await
+            .expect("GET /api/link");
+        if link.body["state"] == "connected" {
+            break;
+        }
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "not connected within 20 s (hang guard): {link:?}"
+        );
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    let answer: Answer = service
+        .client
+        .post("/api/missions/sample.toml/upload", &json!({}))
+        .await
+        .expect("POST upload");
+    assert_eq!(answer.status, 409, "{answer:?}");
+    let error = answer.body["error"].as_str().expect("error");
+    assert!(
+        error.contains("sample.toml changed since it was planned"),
+        "{error}"
+    );
+    assert_eq!(answer.body["stage"], "mission");
+    // Planned again, from the bytes now in the file.
+    let now = digest(after.as_bytes());
+    until(&service.client, "sample.toml", 30, |e| {
+        e.is_some_and(|e| e["status"] == "planned" && e["digest"] == now.as_str())
+    })
+    .await;
+    service.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn a_large_mission_past_its_time_limit_ends_as_an_error_while_a_small_one_added_meanwhile_is_planned(
+) {
+    let service = serve(Settings {
+        settle: Duration::from_millis(200),
+        time_limit: Duration::from_secs(3),
+        plans_at_once: 2,
+    })
+    .await;
+    // 1000 waypoints: its assignment bound alone is 10^9 steps; pricing, solving and the
+    // sorties' split take far longer than 3 s.
+    drop_in(&service.missions, "large.toml", &large_mission(1000));
+    until(&service.client, "large.toml", 30, status_is("planning")).await;
+    drop_in(&service.missions, "small.toml", &sample_8wp());
+    until(&service.client, "small.toml", 30, status_is("planned")).await;
+    let large = listed(&service.client, "large.toml").await.expect("listed");
+    assert_eq!(
+        large["status"], "planning",
+        "the small mission was planned only after the large one: {large}"
+    );
+    let large = until(&service.client, "large.toml", 30, status_is("error"))
+        .await
+        .expect("listed");
+    let message = large["error"]["message"].as_str().expect("message");
+    assert_eq!(large["error"]["stage"], "plan");
+    assert!(
+        message.contains("planning exceeded the 3 s limit"),
+        "{message}"
+    );
+    service.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn a_large_mission_deleted_while_planned_leaves_the_list_and_its_plan_stops() {
+    // One plan at a time: the small mission is planned only once the large one's plan has
+    // stopped and given its thread back.
+    let service = serve(Settings {
+        settle: Duration::from_millis(200),
+        time_limit: Duration::from_secs(600),
+        plans_at_once: 1,
+    })
+    .await;
+    let large = drop_in(&service.missions, "large.toml", &large_mission(1000));
+    until(&service.client, "large.toml", 30, status_is("planning")).await;
+    std::fs::remove_file(&large).expect("deleted");
+    until(&service.client, "large.toml", 20, |e| e.is_none()).await;
+    drop_in(&service.missions, "small.toml", &sample_8wp());
+    until(&service.client, "small.toml", 20, status_is("planned")).await;
+    service.shutdown().await;
+}
