@@ -10,6 +10,7 @@ pub mod flightlog;
 pub mod link;
 pub mod logfit;
 pub mod mission;
+pub mod output;
 pub mod physics;
 pub mod plan;
 pub mod planner;

@@ -20,8 +20,8 @@ fi
 if [ "$what" = mission ] || [ "$what" = all ]; then
   dir=target/peers
   mkdir -p "$dir"
-  $emplan generate "$dir/random-1000.toml" --waypoints 1000 --xy 50 --z 25 --seed 1 >/dev/null
-  $emplan plan "$dir/random-1000.toml" --export-atsp "$dir/random-1000.atsp" \
+  $emplan generate "$dir/random-1000.toml" --waypoints 1000 --xy 50 --z 25 --seed 1 --force >/dev/null
+  $emplan plan "$dir/random-1000.toml" --export-atsp "$dir/random-1000.atsp" --force \
     --solver heuristic --time-limit 1 --json >/dev/null 2>&1 || true
   $py "$dir/random-1000.atsp" --emplan-args "--solver heuristic --time-limit ${TIME_LIMIT:-30}"
 fi

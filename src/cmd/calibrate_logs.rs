@@ -8,6 +8,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use emplan::logfit::{self, error_pct, vehicle_dir, ErrorStats, LogCalibration};
+use emplan::output::Output;
 use emplan::physics::{Profile, Vehicle};
 
 #[derive(Debug, Clone, clap::Args)]
@@ -27,6 +28,10 @@ pub struct LogArgs {
     /// profile flown; the px4 and ptf tables take tens of seconds each, hvb a few)
     #[arg(long, value_name = "PROFILES", requires = "out")]
     tables: Option<String>,
+    /// With --out: write into a directory that holds files already, replacing them (never the
+    /// source vehicle's directory nor a flight directory)
+    #[arg(long, requires = "out")]
+    force: bool,
 }
 
 /// Runs `--from-logs` when it was given (None otherwise).
@@ -54,6 +59,19 @@ pub fn run(
             .collect::<anyhow::Result<_>>()
             .with_context(|| format!("--tables {list}"))?,
     };
+    // The output directory checked before the fit: never the source vehicle's, a flight's or
+    // (unforced) one holding anything.
+    let out = args.out.as_ref().map(|path| {
+        let mut inputs = args.from_logs.clone();
+        if let Some(dir) = vehicle_dir {
+            inputs.push(dir.to_path_buf());
+            inputs.extend(super::vehicle_files(dir));
+        }
+        Output::new(path, inputs, args.force)
+    });
+    if let Some(out) = &out {
+        out.check_dir()?;
+    }
     let flights = logfit::read_flights(&args.from_logs)?;
     for skipped in &flights.skipped {
         eprintln!(
@@ -66,7 +84,7 @@ pub fn run(
         logfit::calibrate(vehicle, profile, &flights)
     })?;
     let mut written = Vec::new();
-    if let Some(out) = &args.out {
+    if let Some(out) = &out {
         let v = vehicle_dir::write_vehicle(
             vehicle_dir,
             out,
@@ -75,7 +93,7 @@ pub fn run(
             c.legs.len(),
             c.held_out_errors(),
         )?;
-        written.push(out.join("vehicle.toml"));
+        written.push(out.path.join("vehicle.toml"));
         for p in tables {
             let bar = super::progress::bar(0, "{prefix} [{bar:40}] {pos}/{len} cells, {eta} left");
             bar.set_prefix(format!("{p} table"));

@@ -1,10 +1,12 @@
 //! `emplan convert IN OUT`: convert a mission between emplan TOML, QGroundControl `.plan` and
 //! `QGC WPL 110` `.waypoints`, each chosen by its file extension. Never writes over its input;
 //! an existing output only with `--force`; a conversion that drops or changes a setting only
-//! with `--lossy`, which lists what was lost.
+//! with `--lossy`, which lists what was lost (the rules of every output, `emplan::output`).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
+
+use emplan::output::Output;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -22,18 +24,8 @@ pub struct Args {
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let mission = emplan::mission::load(&args.input)?;
-    if same_file(&args.input, &args.output) {
-        anyhow::bail!(
-            "{}: refusing to write over the input (give another output file)",
-            args.output.display()
-        );
-    }
-    if args.output.exists() && !args.force {
-        anyhow::bail!(
-            "{}: exists; refusing to replace it without --force",
-            args.output.display()
-        );
-    }
+    let output = Output::new(&args.output, vec![args.input.clone()], args.force);
+    output.check()?;
     let (text, losses) = emplan::mission::convert::convert(&mission, &args.output)?;
     if !losses.is_empty() && !args.lossy {
         let list: Vec<String> = losses.iter().map(|l| format!("  {l}")).collect();
@@ -45,7 +37,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             list.join("\n")
         );
     }
-    emplan::mission::write_file(&args.output, &text)?;
+    output.write(text.as_bytes())?;
     println!(
         "wrote {} ({} waypoints, mission {:?}) from {}",
         args.output.display(),
@@ -57,16 +49,4 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         println!("  lost {loss}");
     }
     Ok(ExitCode::SUCCESS)
-}
-
-/// Whether two paths name one file (the output need not exist yet).
-fn same_file(input: &Path, output: &Path) -> bool {
-    let (Ok(input), Some(name)) = (input.canonicalize(), output.file_name()) else {
-        return false;
-    };
-    let parent = match output.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    parent.canonicalize().is_ok_and(|p| p.join(name) == input)
 }

@@ -2,6 +2,7 @@
 
 use anyhow::Context;
 use emplan::link::driver::download;
+use emplan::output::Output;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -12,6 +13,9 @@ pub struct Args {
     /// File to write: the mission items as JSON (MISSION_ITEM_INT fields; frame and command as
     /// MAVLink numbers, x/y in degE7, NaN params as null)
     out: PathBuf,
+    /// Replace an existing file (never a file inside a flight directory)
+    #[arg(long)]
+    force: bool,
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
@@ -23,6 +27,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
              works too)"
         );
     }
+    // Checked before any link work.
+    let out = Output::new(&args.out, Vec::new(), args.force);
+    out.check()?;
     let runtime = super::runtime()?;
     runtime.block_on(async {
         let opened = args.link.open().await?;
@@ -32,8 +39,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             .with_context(|| format!("downloading from {}", opened.describe))?;
         let json: Vec<serde_json::Value> =
             items.iter().map(emplan::link::items::item_json).collect();
-        std::fs::write(&args.out, serde_json::to_string_pretty(&json)?)
-            .with_context(|| format!("writing {}", args.out.display()))?;
+        out.write(serde_json::to_string_pretty(&json)?.as_bytes())?;
         println!(
             "wrote {} ({} items from {:?} autopilot {})",
             args.out.display(),

@@ -7,6 +7,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use emplan::mission::{Format, Geodetic};
+use emplan::output::Output;
 use emplan::plan::study::{random_mission, Site, StudySettings};
 
 /// Arguments of `emplan generate` (its help text is on the subcommand in main.rs).
@@ -45,9 +46,14 @@ pub struct Args {
     /// Mission name (default: random-N-XY-Z-sS-K)
     #[arg(long)]
     name: Option<String>,
+    /// Replace an existing file (never a file inside a flight directory)
+    #[arg(long)]
+    force: bool,
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    let out = Output::new(&args.out, Vec::new(), args.force);
+    out.check()?;
     let settings = StudySettings {
         waypoints: args.waypoints,
         xy_m: args.xy,
@@ -70,7 +76,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let text = emplan::mission::to_string(&mission, format)?;
     emplan::mission::load_str(&text, format, Some(&args.out))
         .context("the generated mission does not validate")?;
-    std::fs::write(&args.out, text).with_context(|| format!("writing {}", args.out.display()))?;
+    out.write(text.as_bytes())?;
     println!(
         "wrote {}: mission {:?}, {} waypoints in ±{} m x ±{} m x ±{} m around the origin, \
          which hovers {} m above home (seed {}, mission {})",

@@ -95,6 +95,15 @@ impl VehicleArgs {
         }
     }
 
+    /// The files of the chosen vehicle directory (vehicle.toml and every profile's table),
+    /// inputs an output file must never replace; none for the built-in vehicle.
+    pub fn files(&self) -> Vec<std::path::PathBuf> {
+        match self.source().0 {
+            emplan::physics::VehicleSource::Dir(dir) => vehicle_files(&dir),
+            emplan::physics::VehicleSource::BuiltIn => Vec::new(),
+        }
+    }
+
     /// The vehicle's parameters; an error names what chose the vehicle.
     pub fn vehicle(&self) -> anyhow::Result<emplan::physics::Vehicle> {
         let (source, chosen) = self.source();
@@ -109,6 +118,16 @@ impl VehicleArgs {
         emplan::physics::VehicleModel::open(&source, self.profile)
             .map_err(|e| vehicle_error(e.into(), &chosen))
     }
+}
+
+/// A vehicle directory's files: vehicle.toml and every profile's table.
+pub fn vehicle_files(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
+    let tables = emplan::physics::Profile::ALL
+        .iter()
+        .map(|&p| emplan::physics::EnergyTable::path(dir, p));
+    std::iter::once(dir.join("vehicle.toml"))
+        .chain(tables)
+        .collect()
 }
 
 pub fn vehicle_error(error: anyhow::Error, chosen: &str) -> anyhow::Error {

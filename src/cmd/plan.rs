@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::Context;
+use emplan::output::Output;
 use emplan::plan::Objective;
 use emplan::planner::explain::saving_words;
 use emplan::planner::json::{plan_document, BatteryJson, PlanJson};
@@ -31,6 +32,9 @@ pub struct Args {
     /// the origin), for other solvers
     #[arg(long, value_name = "FILE.atsp")]
     export_atsp: Option<PathBuf>,
+    /// Replace an existing --plot or --export-atsp file (never the mission nor a flight's file)
+    #[arg(long)]
+    force: bool,
     /// What a leg's energy counts: settled (leaving hover to settled hover at the next point,
     /// what the battery pays) or paper (to the paper's 4 m rule, its own convention); the
     /// battery check always counts everything
@@ -46,6 +50,25 @@ const ATSP_UNITS_PER_J: f64 = 10.0;
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let mission = emplan::mission::load(&args.mission)?;
+    // Each output is checked before planning: never the mission, the vehicle's files or the
+    // other output.
+    let output = |path: &PathBuf, other: &Option<PathBuf>| {
+        let mut inputs = vec![args.mission.clone()];
+        inputs.extend(args.model.files());
+        inputs.extend(other.iter().cloned());
+        let out = Output::new(path, inputs, args.force);
+        out.check().map(|()| out)
+    };
+    let atsp = args
+        .export_atsp
+        .as_ref()
+        .map(|p| output(p, &args.plot))
+        .transpose()?;
+    let plot = args
+        .plot
+        .as_ref()
+        .map(|p| output(p, &args.export_atsp))
+        .transpose()?;
     let model = args.model.model()?;
     let options = PlanOptions {
         orders: Orders::All,
@@ -56,19 +79,19 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let plan = super::progress::solving(&format!("planning {}", mission.name), || {
         plan_mission(&mission, &model, &options)
     })?;
-    if let Some(path) = &args.export_atsp {
+    if let Some(out) = &atsp {
         let text = emplan::plan::tsplib::to_text(&mission.name, &plan.energy, ATSP_UNITS_PER_J)
-            .with_context(|| format!("exporting {}", path.display()))?;
-        std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))?;
-        eprintln!("wrote {}", path.display());
+            .with_context(|| format!("exporting {}", out.path.display()))?;
+        out.write(text.as_bytes())?;
+        eprintln!("wrote {}", out.path.display());
     }
     let doc = plan_document(&plan);
     if !args.sorties {
         warn_if_over_budget(&args.mission, &doc.battery);
     }
-    if let Some(path) = &args.plot {
-        super::plot::plan_svg(path, &mission, &plan)?;
-        eprintln!("wrote {}", path.display());
+    if let Some(out) = &plot {
+        super::plot::plan_svg(out, &mission, &plan)?;
+        eprintln!("wrote {}", out.path.display());
     }
     if args.json {
         println!("{}", serde_json::to_string_pretty(&doc)?);

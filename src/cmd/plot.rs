@@ -1,34 +1,34 @@
-//! The command line's figures (`plan --plot`, `report --plot`, `study --plot`): drawn by
-//! `emplan::plot` (which the service's dashboard draws with too) and written once to the file
-//! named, so a write error is reported with the file name.
-
-use std::path::Path;
+//! The command line's figures (`plan --plot`, `report --plot`, `study --histogram`): drawn by
+//! `emplan::plot` (which the service's dashboard draws with too) into a string and written once
+//! through `emplan::output` (never an input, a flight's file or, unforced, an existing file), so
+//! a write error is reported with the file name.
 
 use anyhow::Context;
 use emplan::mission::Mission;
+use emplan::output::Output;
 use emplan::physics::Profile;
 use emplan::plan::study::Study;
 use emplan::planner::Plan;
 
-fn write_svg(path: &Path, svg: Result<String, emplan::plot::PlotError>) -> anyhow::Result<()> {
-    let svg = svg.with_context(|| format!("plotting {}", path.display()))?;
-    std::fs::write(path, svg).with_context(|| format!("writing {}", path.display()))
+fn write_svg(out: &Output, svg: Result<String, emplan::plot::PlotError>) -> anyhow::Result<()> {
+    let svg = svg.with_context(|| format!("plotting {}", out.path.display()))?;
+    Ok(out.write(svg.as_bytes())?)
 }
 
 /// `plan --plot`: the orders of a planned mission.
-pub fn plan_svg(path: &Path, mission: &Mission, plan: &Plan) -> anyhow::Result<()> {
-    write_svg(path, emplan::plot::plan_svg(mission, plan))
+pub fn plan_svg(out: &Output, mission: &Mission, plan: &Plan) -> anyhow::Result<()> {
+    write_svg(out, emplan::plot::plan_svg(mission, plan))
 }
 
-/// `study --plot`: histograms of the study's energy ratios.
-pub fn study_histogram_svg(path: &Path, study: &Study, profile: Profile) -> anyhow::Result<()> {
-    write_svg(path, emplan::plot::study_histogram_svg(study, profile))
+/// `study --histogram`: histograms of the study's energy ratios.
+pub fn study_histogram_svg(out: &Output, study: &Study, profile: Profile) -> anyhow::Result<()> {
+    write_svg(out, emplan::plot::study_histogram_svg(study, profile))
 }
 
 /// `report --plot`: recorded flights, power over time and energy per leg.
 pub fn flight_svg(
-    path: &Path,
+    out: &Output,
     analyses: &[emplan::link::telemetry::Analysis],
 ) -> anyhow::Result<()> {
-    write_svg(path, emplan::plot::flight_svg(analyses))
+    write_svg(out, emplan::plot::flight_svg(analyses))
 }

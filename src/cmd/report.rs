@@ -10,6 +10,7 @@ use anyhow::Context;
 use emplan::flightlog::report::{combine, joined, FlightReport, PartReport};
 use emplan::flightlog::segment::{SegmentConfig, SegmentKind};
 use emplan::link::telemetry::Analysis;
+use emplan::output::Output;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -28,6 +29,9 @@ pub struct Args {
     /// Draw power over time with the legs marked, and predicted vs measured energy per leg
     #[arg(long, value_name = "FILE.svg")]
     plot: Option<PathBuf>,
+    /// Replace an existing --plot file (never an input nor a file inside a flight directory)
+    #[arg(long)]
+    force: bool,
 }
 
 /// One line of a part: `leg A -> B: 5.62 kJ measured, 5.61 predicted (+0.2%), 11.3 s [flags]`.
@@ -130,7 +134,7 @@ pub fn print(report: &FlightReport) {
 fn flights(dirs: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
     let mut out = Vec::new();
     for dir in dirs {
-        if dir.join(emplan::flightlog::recorder::TLOG_FILE).is_file() {
+        if emplan::flightlog::recorder::is_flight_dir(dir) {
             out.push(dir.clone());
             continue;
         }
@@ -163,15 +167,28 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         .as_deref()
         .map(emplan::mission::load)
         .transpose()?;
+    let dirs = flights(&args.log_dirs)?;
+    // Checked before the replays: never a flight's file, the mission or the vehicle's files.
+    let plot = match &args.plot {
+        Some(path) => {
+            let mut inputs = args.log_dirs.clone();
+            inputs.extend(args.mission.iter().cloned());
+            inputs.extend(args.model.files());
+            let out = Output::new(path, inputs, args.force);
+            out.check()?;
+            Some(out)
+        }
+        None => None,
+    };
     let model = args.model.model().ok();
     let mut analyses = Vec::new();
-    for dir in flights(&args.log_dirs)? {
+    for dir in dirs {
         let tlog = dir.join(emplan::flightlog::recorder::TLOG_FILE);
         analyses.push(analyse(&tlog, mission.as_ref(), model.as_ref())?);
     }
-    if let Some(path) = &args.plot {
-        super::plot::flight_svg(path, &analyses)?;
-        eprintln!("wrote {}", path.display());
+    if let Some(out) = &plot {
+        super::plot::flight_svg(out, &analyses)?;
+        eprintln!("wrote {}", out.path.display());
     }
     let reports: Vec<FlightReport> = analyses.into_iter().map(|a| a.report).collect();
     if let [report] = reports.as_slice() {

@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{anyhow, bail};
+use emplan::output::Output;
 use emplan::physics::Profile;
 use emplan::plan::study::StudySettings;
 use emplan::planner::study::{self, check_envelope, study_document, StudyJson, StudyRunError};
@@ -54,6 +55,9 @@ pub struct Args {
     /// --all-paper-settings, one file per setting, suffixed -N-XY-Z)
     #[arg(long, value_name = "FILE.svg")]
     histogram: Option<PathBuf>,
+    /// Replace an existing --histogram file (never the vehicle's files nor a flight's file)
+    #[arg(long)]
+    force: bool,
     /// What a leg's energy counts: settled (leaving hover to settled hover, what the battery
     /// pays) or paper (to the paper's 4 m rule, the convention of its published study)
     #[arg(long, default_value = "settled")]
@@ -124,9 +128,24 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     for s in &settings {
         check_envelope(s, &model.table).map_err(refusal)?;
     }
+    // Every histogram checked before the first study runs.
+    let histograms: Vec<Option<Output>> = settings
+        .iter()
+        .map(|s| {
+            let Some(base) = &args.histogram else {
+                return Ok(None);
+            };
+            let out = Output::new(
+                histogram_path(base, s, settings.len() > 1),
+                args.model.files(),
+                args.force,
+            );
+            out.check().map(|()| Some(out))
+        })
+        .collect::<Result<_, _>>()?;
 
     let mut docs = Vec::with_capacity(settings.len());
-    for s in &settings {
+    for (s, histogram) in settings.iter().zip(&histograms) {
         let bar = super::progress::bar(
             s.missions as u64,
             "{prefix} [{bar:40}] {pos}/{len} missions, {eta} left",
@@ -134,10 +153,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         bar.set_prefix(format!("N={} XY={} Z={}", s.waypoints, s.xy_m, s.z_m));
         let done = study::run(s, &model, args.pricing, &|| bar.inc(1)).map_err(refusal)?;
         bar.finish_and_clear();
-        if let Some(base) = &args.histogram {
-            let path = histogram_path(base, s, settings.len() > 1);
-            super::plot::study_histogram_svg(&path, &done.study, done.profile)?;
-            eprintln!("wrote {}", path.display());
+        if let Some(out) = histogram {
+            super::plot::study_histogram_svg(out, &done.study, done.profile)?;
+            eprintln!("wrote {}", out.path.display());
         }
         docs.push(study_document(&done));
     }

@@ -5,6 +5,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::Context;
+use emplan::output::Output;
 use emplan::physics::table::{DEFAULT_XF, DEFAULT_ZF};
 use emplan::physics::{EnergyTable, Profile, Vehicle};
 
@@ -54,8 +55,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         .with_context(|| format!("building the {profile} table"))?;
         bar.finish_and_clear();
         let path = EnergyTable::path(&dir, profile);
-        std::fs::write(&path, table.to_text())
-            .with_context(|| format!("writing {}", path.display()))?;
+        // Rebuilding the vehicle's tables in place is what the command is for: forced, but
+        // never over vehicle.toml or into a flight directory, and atomic.
+        Output::new(&path, vec![dir.join("vehicle.toml")], true)
+            .write(table.to_text().as_bytes())?;
         eprintln!(
             "{profile}: {} cells in {:.1} s -> {}",
             DEFAULT_XF.count * DEFAULT_ZF.count,

@@ -29,6 +29,12 @@ pub const SAMPLES_FILE: &str = "samples.csv";
 pub const PLAN_FILE: &str = "plan.json";
 pub const REPORT_FILE: &str = "report.json";
 
+/// Whether `dir` is a flight directory: the recorder creates its `flight.tlog` first, and
+/// `report`, the service and `session::flight_dirs` know a flight by it.
+pub fn is_flight_dir(dir: &Path) -> bool {
+    dir.join(TLOG_FILE).is_file()
+}
+
 /// When the recorder hands data to the OS and to the disk.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RecorderConfig {

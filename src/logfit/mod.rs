@@ -67,8 +67,8 @@ pub enum LogFitError {
     NoUsableFlight { dirs: Vec<String> },
     #[error("{file}: {reason}")]
     VehicleFile { file: String, reason: String },
-    #[error("{file}: {reason}")]
-    Write { file: String, reason: String },
+    #[error(transparent)]
+    Output(#[from] crate::output::OutputError),
     #[error(transparent)]
     Physics(Box<PhysicsError>),
 }

@@ -1,11 +1,13 @@
 //! The vehicle directory `calibrate --from-logs --out DIR` writes: the source vehicle.toml with
 //! the fitted values put in place (every other line and comment kept; each fitted line's comment
 //! says where its value came from and what it was), read back and checked, and the energy
-//! tables rebuilt for it with `physics::table`'s build.
+//! tables rebuilt for it with `physics::table`'s build; every file written through
+//! `crate::output`.
 
 use std::path::Path;
 
 use super::{ErrorStats, Fitted, LogFitError};
+use crate::output::Output;
 use crate::physics::table::{DEFAULT_XF, DEFAULT_ZF};
 use crate::physics::{EnergyTable, Profile, Vehicle};
 
@@ -104,11 +106,13 @@ fn header(fitted: &[Fitted], flights: usize, legs: usize, held_out: Option<Error
     )
 }
 
-/// Writes the calibrated vehicle.toml into `out` (a new or empty directory, never the source
-/// `source_dir`, or of the built-in vehicle when None), reads it back and checks the fitted values; returns the vehicle as read.
+/// Writes the calibrated vehicle.toml into the directory `out` (new or empty unless forced,
+/// never an input such as the source `source_dir`, through `crate::output`; `source_dir` None:
+/// the built-in vehicle), reads it back and checks the fitted values; returns the vehicle as
+/// read.
 pub fn write_vehicle(
     source_dir: Option<&Path>,
-    out: &Path,
+    out: &Output,
     fitted: &[Fitted],
     flights: usize,
     legs: usize,
@@ -130,19 +134,11 @@ pub fn write_vehicle(
             format!("{}/vehicle.toml", crate::physics::builtin::NAME),
         ),
     };
-    let out_file = out.join("vehicle.toml").display().to_string();
-    let same = match (source_dir.map(Path::canonicalize), out.canonicalize()) {
-        (Some(Ok(a)), Ok(b)) => a == b,
-        _ => false,
-    };
-    let occupied = std::fs::read_dir(out).is_ok_and(|mut d| d.next().is_some());
-    if same || occupied {
-        return Err(LogFitError::Write {
-            file: out.display().to_string(),
-            reason: "exists and is not empty: the calibrated vehicle goes to a new directory"
-                .into(),
-        });
-    }
+    let out_file = out.path.join("vehicle.toml").display().to_string();
+    // Never over the source vehicle, whatever the caller counted as inputs.
+    let mut out = out.clone();
+    out.inputs.extend(source_dir.map(Path::to_path_buf));
+    out.check_dir()?;
     let values: Vec<(&str, f64, String)> = fitted
         .iter()
         .map(|f| {
@@ -180,31 +176,22 @@ pub fn write_vehicle(
             });
         }
     }
-    std::fs::create_dir_all(out).map_err(|e| LogFitError::Write {
-        file: out.display().to_string(),
-        reason: e.to_string(),
-    })?;
-    std::fs::write(out.join("vehicle.toml"), edited).map_err(|e| LogFitError::Write {
-        file: out_file,
-        reason: e.to_string(),
-    })?;
+    out.create_dir()?;
+    out.file("vehicle.toml").write(edited.as_bytes())?;
     Ok(vehicle)
 }
 
 /// Builds `profile`'s table of `vehicle` on the default grid (in parallel; `progress(done,
-/// total)`) and writes it into `dir`.
+/// total)`) and writes it into the directory `dir` (through `crate::output`).
 pub fn write_table(
-    dir: &Path,
+    dir: &Output,
     vehicle: &Vehicle,
     profile: Profile,
     progress: impl Fn(usize, usize) + Sync,
 ) -> Result<std::path::PathBuf, LogFitError> {
     let table = EnergyTable::build(vehicle, profile, DEFAULT_XF, DEFAULT_ZF, progress)?;
-    let path = EnergyTable::path(dir, profile);
-    std::fs::write(&path, table.to_text()).map_err(|e| LogFitError::Write {
-        file: path.display().to_string(),
-        reason: e.to_string(),
-    })?;
+    let path = EnergyTable::path(&dir.path, profile);
+    Output::new(&path, dir.inputs.clone(), dir.force).write(table.to_text().as_bytes())?;
     Ok(path)
 }
 

@@ -211,28 +211,6 @@ pub fn load_str(
     Ok(mission)
 }
 
-/// Writes a mission in the format its extension names.
-pub fn save(mission: &Mission, path: &Path) -> Result<(), MissionError> {
-    let text = to_string(mission, Format::from_path(path)?)?;
-    write_file(path, &text)
-}
-
-/// Writes mission text to `path` through a file beside it renamed over it, so a failed write
-/// leaves nothing half-written.
-pub fn write_file(path: &Path, text: &str) -> Result<(), MissionError> {
-    let io = |source| MissionError::Io {
-        file: path.display().to_string(),
-        source,
-    };
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let temp = path.with_file_name(format!(".{name}.emplan-tmp"));
-    std::fs::write(&temp, text).map_err(io)?;
-    std::fs::rename(&temp, path).map_err(io)
-}
-
 /// A mission rendered in one format.
 pub fn to_string(mission: &Mission, format: Format) -> Result<String, MissionError> {
     match format {

@@ -9,6 +9,7 @@ mod fly;
 mod fromlogs;
 mod install;
 mod mission;
+mod outputs;
 mod physics;
 mod service;
 mod snapshots;
