@@ -14,6 +14,7 @@ mod solvers;
 mod sorties;
 mod study;
 mod tidy;
+mod tlogcorrupt;
 mod upload;
 
 /// Runs the `emplan` binary from the crate root: (success, stdout, stderr).
