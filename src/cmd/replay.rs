@@ -27,12 +27,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         .transpose()?;
     let model = args.model.model()?;
     let analysis = super::report::analyse(&args.tlog, mission.as_ref(), Some(&model))?;
-    if let Some(torn) = analysis.replay.torn_tail {
-        eprintln!(
-            "{}: the log ends in a torn record at byte {torn} (a recording cut short): replayed up to it",
-            args.tlog.display()
-        );
-    }
+    super::report::warn_skipped(&args.tlog, &analysis.replay);
     if args.json {
         println!("{}", serde_json::to_string_pretty(&analysis.report.json())?);
     } else {

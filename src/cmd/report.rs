@@ -151,6 +151,27 @@ fn flights(dirs: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
     Ok(out)
 }
 
+/// Says on stderr what a replay of `tlog` skipped: a torn last record, each corrupt span.
+pub fn warn_skipped(tlog: &Path, replay: &emplan::link::telemetry::Replay) {
+    if let Some(torn) = replay.torn_tail {
+        eprintln!(
+            "{}: the log ends in a torn record at byte {torn} (a recording cut short): replayed up to it",
+            tlog.display()
+        );
+    }
+    for gap in &replay.gaps {
+        let time = |t: Option<f64>, none: &str| t.map_or(none.to_string(), |t| format!("{t:.1} s"));
+        eprintln!(
+            "warning: {}: {} bytes at byte {} are not MAVLink records: skipped, replayed on from the next frame (vehicle time {} to {} lost; parts overlapping it flagged log_gap)",
+            tlog.display(),
+            gap.bytes,
+            gap.offset,
+            time(gap.from_s, "the start"),
+            time(gap.to_s, "the end"),
+        );
+    }
+}
+
 /// Replays one flight directory or .tlog.
 pub fn analyse(
     tlog: &Path,
@@ -184,7 +205,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let mut analyses = Vec::new();
     for dir in dirs {
         let tlog = dir.join(emplan::flightlog::recorder::TLOG_FILE);
-        analyses.push(analyse(&tlog, mission.as_ref(), model.as_ref())?);
+        let analysis = analyse(&tlog, mission.as_ref(), model.as_ref())?;
+        warn_skipped(&tlog, &analysis.replay);
+        analyses.push(analysis);
     }
     if let Some(out) = &plot {
         super::plot::flight_svg(out, &analyses)?;

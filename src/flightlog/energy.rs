@@ -4,7 +4,9 @@
 //! unknown current (-1), PX4's fake current, unknown voltage, and voltage outliers (far from the
 //! median of their neighbours). A stretch longer than the gap limit without a valid sample is a
 //! `telemetry_gap`; a stretch less than half covered, or with no valid sample at all, is
-//! `unmeasurable` (no energy). The autopilot's own charge counter cross-checks the integral:
+//! `unmeasurable` (no energy). A stretch that overlaps vehicle time lost from the log (a corrupt
+//! span of a replayed .tlog, between the readings either side of it) is a `log_gap`, the time
+//! lost uncovered as in a telemetry gap. The autopilot's own charge counter cross-checks the integral:
 //! consumed mAh x mean voltage, `consumed_mismatch` when they differ by more than 10% over
 //! enough charge for the counter's 1 mAh resolution not to matter.
 
@@ -24,6 +26,9 @@ pub enum Flag {
     ConsumedMismatch,
     /// The flight ended inside it.
     Incomplete,
+    /// Overlaps a span of the .tlog that was not records (corrupt) and was skipped: readings of
+    /// it may be missing.
+    LogGap,
     /// A leg the autopilot finished before the vehicle came within the arrival radius (its
     /// acceptance radius is larger): the leg ends when the autopilot moved on.
     MissedRadius,
@@ -39,6 +44,7 @@ impl Flag {
             Flag::Unmeasurable => "unmeasurable",
             Flag::ConsumedMismatch => "consumed_mismatch",
             Flag::Incomplete => "incomplete",
+            Flag::LogGap => "log_gap",
             Flag::MissedRadius => "missed_radius",
         }
     }
@@ -97,6 +103,8 @@ pub struct PowerSeries {
     /// Indices of samples with a known voltage.
     with_voltage: Vec<usize>,
     outlier: Vec<bool>,
+    /// Stretches of vehicle time lost from the log, (from, to).
+    lost: Vec<(f64, f64)>,
 }
 
 fn median(values: &mut [f64]) -> Option<f64> {
@@ -166,6 +174,11 @@ impl PowerSeries {
                 self.outlier[self.with_voltage[p]] = verdict;
             }
         }
+    }
+
+    /// Marks vehicle time `from_s` to `to_s` as lost from the log (see [`Flag::LogGap`]).
+    pub fn lose(&mut self, from_s: f64, to_s: f64) {
+        self.lost.push((from_s.min(to_s), from_s.max(to_s)));
     }
 
     /// Whether the voltage at position `p` of `with_voltage` is an outlier.
@@ -255,6 +268,7 @@ impl PowerSeries {
             times.push(t1);
         }
         let mut uncovered_s = 0.0;
+        let mut uncovered = Vec::new();
         for pair in times.windows(2) {
             let (a, b) = (pair[0], pair[1]);
             if b - a > self.cfg.gap_s {
@@ -262,12 +276,27 @@ impl PowerSeries {
                 if overlap > 0.0 || (duration_s == 0.0 && a <= t0 && t0 <= b) {
                     flags.push(Flag::TelemetryGap);
                     uncovered_s += overlap.max(0.0);
+                    uncovered.push((a.max(t0), b.min(t1)));
                 }
             }
         }
+        let lost: Vec<(f64, f64)> = self
+            .lost
+            .iter()
+            .filter(|&&(a, b)| (a < t1 && b > t0) || (duration_s == 0.0 && a <= t0 && t0 <= b))
+            .map(|&(a, b)| (a.max(t0), b.min(t1)))
+            .collect();
+        if !lost.is_empty() {
+            flags.push(Flag::LogGap);
+            uncovered.extend(lost);
+            uncovered_s = union_length(&mut uncovered);
+        }
         let coverage = if duration_s > 0.0 {
             (1.0 - uncovered_s / duration_s).clamp(0.0, 1.0)
-        } else if flags.contains(&Flag::TelemetryGap) || points.is_empty() {
+        } else if flags.contains(&Flag::TelemetryGap)
+            || flags.contains(&Flag::LogGap)
+            || points.is_empty()
+        {
             0.0
         } else {
             1.0
@@ -329,6 +358,25 @@ impl PowerSeries {
         // 1 mAh = 3.6 C.
         Some((mah * 3.6 * mean_v, mah))
     }
+}
+
+/// Total length of the union of the intervals (a, b), a <= b.
+fn union_length(intervals: &mut [(f64, f64)]) -> f64 {
+    intervals.sort_by(|x, y| x.0.total_cmp(&y.0));
+    let mut total = 0.0;
+    let mut current: Option<(f64, f64)> = None;
+    for &(a, b) in intervals.iter() {
+        match current {
+            Some((ca, cb)) if a <= cb => current = Some((ca, cb.max(b))),
+            _ => {
+                if let Some((ca, cb)) = current {
+                    total += cb - ca;
+                }
+                current = Some((a, b));
+            }
+        }
+    }
+    total + current.map_or(0.0, |(a, b)| b - a)
 }
 
 /// Integral over [t0, t1] of the piecewise-linear function through `points` (held constant
@@ -439,6 +487,50 @@ mod tests {
         assert!(inside.flags.contains(&Flag::Unmeasurable));
         // Away from the gap: clean.
         assert!(s.measure(0.5, 3.5).flags.is_empty());
+    }
+
+    #[test]
+    fn a_stretch_overlapping_time_lost_from_the_log_is_flagged_and_counts_it_uncovered() {
+        let mut s = series(10.0, |_| Some(10.0));
+        s.lose(4.0, 4.3);
+        let m = s.measure(3.0, 8.0);
+        assert!(m.flags.contains(&Flag::LogGap), "{:?}", m.flags);
+        assert!(!m.flags.contains(&Flag::TelemetryGap));
+        assert!(
+            (m.coverage - (1.0 - 0.3 / 5.0)).abs() < 1e-9,
+            "{}",
+            m.coverage
+        );
+        // Interpolated across, as a telemetry gap is: 200 W throughout.
+        assert!((m.energy_j.expect("measured") - 1000.0).abs() < 1e-9);
+        // Away from it: clean.
+        assert!(s.measure(0.0, 3.9).flags.is_empty());
+        assert!(s.measure(4.4, 9.0).flags.is_empty());
+        // Mostly lost: unmeasurable.
+        s.lose(5.0, 7.9);
+        let lost = s.measure(4.5, 8.0);
+        assert_eq!(lost.energy_j, None);
+        assert!(lost.flags.contains(&Flag::Unmeasurable));
+    }
+
+    #[test]
+    fn lost_time_inside_a_telemetry_gap_is_not_counted_twice() {
+        let mut s = PowerSeries::new(EnergyConfig::default());
+        for k in 0..=100 {
+            let t = f64::from(k) * 0.1;
+            if !(4.0..6.0).contains(&t) {
+                s.push(sample(t, Some(20.0), Some(10.0)));
+            }
+        }
+        s.lose(4.5, 6.5);
+        let m = s.measure(3.0, 8.0);
+        assert!(m.flags.contains(&Flag::TelemetryGap) && m.flags.contains(&Flag::LogGap));
+        // 3.9 .. 6.0 without samples and 4.5 .. 6.5 lost: 3.9 .. 6.5 uncovered.
+        assert!(
+            (m.coverage - (1.0 - 2.6 / 5.0)).abs() < 1e-9,
+            "{}",
+            m.coverage
+        );
     }
 
     #[test]

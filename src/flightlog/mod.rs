@@ -34,6 +34,8 @@ pub enum FlightLogError {
         offset: u64,
         reason: String,
     },
+    #[error("{file}: no MAVLink frame found in {bytes} bytes")]
+    NoFrame { file: String, bytes: u64 },
     #[error("{file} line {line}, column {column}: {reason}")]
     Csv {
         file: String,

@@ -5,7 +5,7 @@
 //! ([`ReportJson`], [`CombinedJson`]) are in kJ, the shape of DESIGN.md:
 //! `{"flight", "legs": [{"from", "to", "predicted_kj", "measured_kj", "error_pct", "duration_s",
 //! "flags"}], "hovers": [..], "total": {"predicted_kj", "measured_kj"}}` plus take-off, landing,
-//! settles, times and coverage.
+//! settles, times, coverage and the spans of a replayed .tlog skipped as corrupt (`log_gaps`).
 
 use std::collections::BTreeMap;
 
@@ -14,6 +14,7 @@ use serde::{Deserialize, Serialize};
 use super::energy::{Flag, Measurement};
 use super::plan::ORIGIN_NAME;
 use super::segment::{Segment, SegmentKind, Segmenter};
+use super::tlog::TlogGap;
 
 /// One part of a flight, predicted and measured.
 #[derive(Debug, Clone, PartialEq)]
@@ -67,6 +68,8 @@ pub struct FlightReport {
     pub complete: bool,
     /// Every flag of every part.
     pub flags: Vec<Flag>,
+    /// Spans of the replayed .tlog that were not records, skipped (none live).
+    pub log_gaps: Vec<TlogGap>,
 }
 
 fn part(
@@ -125,6 +128,7 @@ impl FlightReport {
             duration_s: 0.0,
             complete: false,
             flags: Vec::new(),
+            log_gaps: Vec::new(),
         };
         for segment in segmenter.segments() {
             match segment.kind {
@@ -259,6 +263,7 @@ impl FlightReport {
             },
             complete: self.complete,
             flags: self.flags.clone(),
+            log_gaps: self.log_gaps.clone(),
         }
     }
 
@@ -277,6 +282,7 @@ impl FlightReport {
             duration_s: json.total.duration_s,
             complete: json.complete,
             flags: json.flags.clone(),
+            log_gaps: json.log_gaps.clone(),
         }
     }
 }
@@ -409,6 +415,10 @@ pub struct ReportJson {
     pub total: TotalJson,
     pub complete: bool,
     pub flags: Vec<Flag>,
+    /// Spans of the .tlog skipped as not records: `{"offset", "bytes", "from_s", "to_s",
+    /// "from_wall_us", "to_wall_us"}` (absent from reports written before they were kept).
+    #[serde(default)]
+    pub log_gaps: Vec<TlogGap>,
 }
 
 /// Statistics of one quantity over repeated flights.
@@ -648,6 +658,7 @@ mod tests {
             duration_s: 100.0,
             complete: true,
             flags: vec![],
+            log_gaps: vec![],
         }
     }
 

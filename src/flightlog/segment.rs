@@ -405,6 +405,12 @@ impl Segmenter {
         self.phase == Phase::Done
     }
 
+    /// Marks vehicle time `from_s` to `to_s` as lost from the log (a corrupt span of a replayed
+    /// .tlog): the parts it touches are flagged `log_gap` and count it uncovered.
+    pub fn log_gap(&mut self, from_s: f64, to_s: f64) {
+        self.series.lose(from_s, to_s);
+    }
+
     /// The energy of a segment (or any stretch) from the samples so far.
     pub fn measure(&self, segment: &Segment) -> Measurement {
         self.series.measure(segment.start_s, segment.end_s)

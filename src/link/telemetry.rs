@@ -38,7 +38,7 @@ use crate::flightlog::segment::{SegmentConfig, Segmenter};
 use crate::flightlog::telemetry::{
     Battery, BatterySource, FlightMode, LandedState, MissionState, Position, Reading, Stamped,
 };
-use crate::flightlog::tlog::TlogReader;
+use crate::flightlog::tlog::{FrameCheck, TlogGap, TlogReader};
 use crate::flightlog::FlightLogError;
 
 /// Errors at the telemetry edge.
@@ -407,30 +407,86 @@ pub struct Replay {
     pub undecodable: u64,
     /// Offset of a torn last record, skipped.
     pub torn_tail: Option<u64>,
-    /// The first record that is not a frame, if the log is corrupt: every record before it was
-    /// replayed.
-    pub corrupt: Option<String>,
+    /// Spans of the file that were not records (corrupt), skipped: the replay went on from the
+    /// next frame that checks. Their vehicle times are those of the readings either side.
+    pub gaps: Vec<TlogGap>,
+}
+
+/// Judges a whole raw frame for [`TlogReader::resynchronising`]: its checksum with the
+/// ardupilotmega dialect's CRC_EXTRA for its message id (mavlink.io, "Serialization: CRC_EXTRA").
+pub fn check_frame(frame: &[u8]) -> FrameCheck {
+    use mavlink::Message;
+    // Where the message id is and where the checksummed bytes (after the start byte) end.
+    let (id, crc_end) = match (frame.first(), frame.get(1), frame.get(2)) {
+        (Some(0xFE), Some(&len), _) if frame.len() > 5 => {
+            (u32::from(frame[5]), 6 + usize::from(len))
+        }
+        (Some(0xFD), Some(&len), Some(&flags)) => {
+            let id_at = if flags & 0x02 != 0 { 10 } else { 7 };
+            let Some(id) = frame.get(id_at..id_at + 3) else {
+                return FrameCheck::BadCrc;
+            };
+            (
+                u32::from_le_bytes([id[0], id[1], id[2], 0]),
+                id_at + 3 + usize::from(len),
+            )
+        }
+        _ => return FrameCheck::BadCrc,
+    };
+    let Some(crc) = frame.get(crc_end..crc_end + 2) else {
+        return FrameCheck::BadCrc;
+    };
+    let extra = MavMessage::extra_crc(id);
+    // The generated dialect answers 0 for an id it does not know.
+    if extra == 0 && MavMessage::default_message_from_id(id).is_none() {
+        return FrameCheck::UnknownMessage;
+    }
+    if mavlink::calculate_crc(&frame[1..crc_end], extra) == u16::from_le_bytes([crc[0], crc[1]]) {
+        FrameCheck::Valid
+    } else {
+        FrameCheck::BadCrc
+    }
+}
+
+/// Opens a .tlog to replay: corrupt spans skipped and kept as gaps (see [`check_frame`]).
+pub fn open_tlog(path: &Path) -> Result<TlogReader<std::fs::File>, TelemetryError> {
+    Ok(TlogReader::open(path)?.resynchronising(check_frame))
 }
 
 /// Replays a .tlog from the start: every stamped reading, in order, as the live run made them.
-/// A torn tail ends the replay quietly; a corrupt record ends it with `corrupt` set.
+/// A torn tail ends the replay quietly; a corrupt span is skipped, the replay going on from the
+/// next frame that checks, and kept in `gaps` with the vehicle times either side of it. A file
+/// without a single record is an error.
 pub fn replay_tlog(path: &Path) -> Result<Replay, TelemetryError> {
     let mut telemetry = Telemetry::new();
     let mut replay = Replay::default();
-    let mut reader = TlogReader::open(path)?;
-    for record in reader.by_ref() {
-        match record {
-            Ok(record) => {
-                replay.frames += 1;
-                if let Some(s) = telemetry.frame(record.wall_us, &record.frame) {
-                    replay.stamped.push(s);
-                }
-            }
-            Err(FlightLogError::Io { file, source }) => {
-                return Err(FlightLogError::Io { file, source }.into())
-            }
-            Err(e) => replay.corrupt = Some(e.to_string()),
+    let mut reader = open_tlog(path)?;
+    // Gaps whose vehicle time after them is not known yet.
+    let mut open_from = 0;
+    while let Some(record) = reader.next() {
+        let record = record?;
+        replay.frames += 1;
+        let before_s = replay.stamped.last().map(|s| s.t_s);
+        for gap in &reader.gaps()[replay.gaps.len()..] {
+            replay.gaps.push(TlogGap {
+                from_s: before_s,
+                ..gap.clone()
+            });
         }
+        if let Some(s) = telemetry.frame(record.wall_us, &record.frame) {
+            for gap in &mut replay.gaps[open_from..] {
+                gap.to_s = Some(s.t_s);
+            }
+            open_from = replay.gaps.len();
+            replay.stamped.push(s);
+        }
+    }
+    let before_s = replay.stamped.last().map(|s| s.t_s);
+    for gap in &reader.gaps()[replay.gaps.len()..] {
+        replay.gaps.push(TlogGap {
+            from_s: before_s,
+            ..gap.clone()
+        });
     }
     replay.torn_tail = reader.torn_tail();
     replay.undecodable = telemetry.undecodable();
@@ -454,8 +510,15 @@ pub fn analyse_tlog(
     cfg: SegmentConfig,
 ) -> Result<Analysis, TelemetryError> {
     let replay = replay_tlog(tlog)?;
-    let segmenter = Segmenter::run(plan, cfg, &replay.stamped)?;
-    let report = FlightReport::build(name, &segmenter);
+    let mut segmenter = Segmenter::run(plan, cfg, &replay.stamped)?;
+    for gap in &replay.gaps {
+        segmenter.log_gap(
+            gap.from_s.unwrap_or(f64::NEG_INFINITY),
+            gap.to_s.unwrap_or(f64::INFINITY),
+        );
+    }
+    let mut report = FlightReport::build(name, &segmenter);
+    report.log_gaps = replay.gaps.clone();
     Ok(Analysis {
         report,
         segmenter,
@@ -478,8 +541,8 @@ pub fn mission_in_tlog(
     let mut count: Option<u16> = None;
     let mut items: Vec<Option<mav::MISSION_ITEM_INT_DATA>> = Vec::new();
     let mut complete: Option<Vec<mav::MISSION_ITEM_INT_DATA>> = None;
-    for record in TlogReader::open(path)? {
-        let Ok(record) = record else { break };
+    for record in open_tlog(path)? {
+        let record = record?;
         let Ok((_, message)) = parse_frame(&record.frame) else {
             continue;
         };
@@ -975,6 +1038,29 @@ mod tests {
             component_id: 1,
             sequence: 0,
         }
+    }
+
+    #[test]
+    fn check_frame_passes_whole_frames_fails_a_flipped_byte_and_knows_no_foreign_id() {
+        let message = MavMessage::HEARTBEAT(mav::HEARTBEAT_DATA::default());
+        let v2 = frame_bytes(&vehicle(), &message);
+        assert_eq!(check_frame(&v2), FrameCheck::Valid);
+        let v1 = frame_bytes_versioned(&vehicle(), &message, MavlinkVersion::V1).expect("v1");
+        assert_eq!(check_frame(&v1), FrameCheck::Valid);
+        for frame in [&v2, &v1] {
+            for k in 1..frame.len() {
+                let mut flipped = frame.clone();
+                flipped[k] ^= 0x10;
+                assert_ne!(check_frame(&flipped), FrameCheck::Valid, "byte {k}");
+            }
+        }
+        // A message id no dialect here defines (0xABCDEF): its checksum cannot be judged.
+        let mut foreign = v2.clone();
+        foreign[7..10].copy_from_slice(&[0xEF, 0xCD, 0xAB]);
+        assert_eq!(check_frame(&foreign), FrameCheck::UnknownMessage);
+        // Too short to hold its own checksum: never a panic.
+        assert_eq!(check_frame(&v2[..5]), FrameCheck::BadCrc);
+        assert_eq!(check_frame(&[]), FrameCheck::BadCrc);
     }
 
     fn battery_status(

@@ -18,6 +18,7 @@ mod sorties;
 mod study;
 mod svcwatch;
 mod tidy;
+mod tlogcorrupt;
 mod upload;
 
 /// Runs the `emplan` binary from the crate root: (success, stdout, stderr).
