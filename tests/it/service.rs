@@ -107,6 +107,7 @@ async fn serve(vehicle: VehicleLink, files: &[&str]) -> Running {
         solver: Default::default(),
         transfer_budget: None,
         resume_within: emplan::service::DEFAULT_RESUME_WITHIN,
+        http: Default::default(),
     };
     let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
     let task = tokio::spawn(emplan::service::run(listener, cfg, async move {
