@@ -633,21 +633,18 @@ async fn stream_file(
     let file = tokio::fs::File::open(path).await?;
     let length = file.metadata().await?.len();
     let reader = file.take(length);
-    let chunks = futures_util::stream::unfold(
-        Some((reader, permit)),
-        |state| async move {
-            let (mut reader, permit) = state?;
-            let mut chunk = vec![0u8; CHUNK_BYTES];
-            match reader.read(&mut chunk).await {
-                Ok(0) => None,
-                Ok(n) => {
-                    chunk.truncate(n);
-                    Some((Ok(Bytes::from(chunk)), Some((reader, permit))))
-                }
-                Err(e) => Some((Err(e), None)),
+    let chunks = futures_util::stream::unfold(Some((reader, permit)), |state| async move {
+        let (mut reader, permit) = state?;
+        let mut chunk = vec![0u8; CHUNK_BYTES];
+        match reader.read(&mut chunk).await {
+            Ok(0) => None,
+            Ok(n) => {
+                chunk.truncate(n);
+                Some((Ok(Bytes::from(chunk)), Some((reader, permit))))
             }
-        },
-    );
+            Err(e) => Some((Err(e), None)),
+        }
+    });
     Ok((Body::from_stream(chunks), length))
 }
 

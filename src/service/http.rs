@@ -129,7 +129,7 @@ impl HostCheck {
             return true;
         }
         let name = normal_name(name);
-        name == "localhost" || self.names.iter().any(|n| *n == name)
+        name == "localhost" || self.names.contains(&name)
     }
 }
 
@@ -256,7 +256,7 @@ mod tests {
         assert_eq!(refused.status, 503);
         assert!(refused.message().contains("busy"), "{}", refused.message());
         drop(first);
-        gate.enter("plot").await.expect("a place again");
+        drop(gate.enter("plot").await.expect("a place again"));
     }
 
     #[tokio::test]
@@ -269,6 +269,9 @@ mod tests {
         });
         tokio::task::yield_now().await;
         drop(first);
-        waiting.await.expect("task").expect("served after the first");
+        waiting
+            .await
+            .expect("task")
+            .expect("served after the first");
     }
 }

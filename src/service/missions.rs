@@ -461,7 +461,7 @@ async fn rescan(
             next.entries.remove(&name);
             *c = Arc::new(next);
         });
-        tracing::info!(mission = %name, "mission file removed");
+        tracing::info!(mission = %super::escape_controls(&name), "mission file removed");
         hub.publish(&Event::MissionRemoved { name });
     }
     for (name, (path, seen)) in found {
@@ -475,7 +475,7 @@ async fn rescan(
         let bytes = match tokio::fs::read(&path).await {
             Ok(b) => b,
             Err(e) => {
-                tracing::warn!(mission = %name, "not read: {e}");
+                tracing::warn!(mission = %super::escape_controls(&name), "not read: {e}");
                 continue;
             }
         };
@@ -492,7 +492,7 @@ async fn rescan(
             );
             continue;
         }
-        let span = tracing::info_span!("plan", mission = %name);
+        let span = tracing::info_span!("plan", mission = %super::escape_controls(&name));
         publish(
             catalog,
             MissionEntry {
@@ -533,7 +533,7 @@ async fn rescan(
             },
         );
         span.in_scope(|| match &entry.outcome {
-            Outcome::Failed(p) => tracing::warn!("{}", p.message),
+            Outcome::Failed(p) => tracing::warn!("{}", super::escape_controls(&p.message)),
             _ => tracing::info!(seconds = started.elapsed().as_secs_f64(), "planned"),
         });
         hub.publish(&match entry.outcome {

@@ -103,13 +103,7 @@ impl Answer {
 
 /// Sends one request (closing the connection after it) with `host` and `extra` header lines,
 /// and reads the whole answer.
-async fn request(
-    addr: SocketAddr,
-    method: &str,
-    path: &str,
-    host: &str,
-    extra: &str,
-) -> Answer {
+async fn request(addr: SocketAddr, method: &str, path: &str, host: &str, extra: &str) -> Answer {
     let mut stream = TcpStream::connect(addr).await.expect("connected");
     let text = format!(
         "{method} {path} HTTP/1.1\r\nHost: {host}\r\n{extra}Content-Length: 0\r\nConnection: close\r\n\r\n"
@@ -208,7 +202,10 @@ async fn a_kept_alive_connection_left_idle_is_closed_after_the_header_timeout() 
         }
     }
     assert_eq!(parse(&bytes).status, 200);
-    assert!(closed_by_peer(&mut stream).await, "the idle connection is open");
+    assert!(
+        closed_by_peer(&mut stream).await,
+        "the idle connection is open"
+    );
     service.stop().await;
 }
 
