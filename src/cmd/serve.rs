@@ -8,7 +8,7 @@ use std::process::ExitCode;
 use std::sync::Arc;
 
 use anyhow::Context;
-use emplan::service::{ServiceConfig, Token, VehicleLink, DEFAULT_RESUME_WITHIN};
+use emplan::service::{HttpConfig, ServiceConfig, Token, VehicleLink, DEFAULT_RESUME_WITHIN};
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -31,6 +31,11 @@ pub struct Args {
     /// fresh random token, readable by its owner only, when absent; default: LOG_DIR/token)
     #[arg(long)]
     token_file: Option<PathBuf>,
+    /// A host name the API answers to besides IP addresses and localhost (repeatable): a
+    /// request naming another host is refused, so a web page cannot rebind its own name to
+    /// this machine and read the API
+    #[arg(long = "allow-host", value_name = "NAME")]
+    allow_hosts: Vec<String>,
     #[command(flatten)]
     model: super::VehicleArgs,
     #[command(flatten)]
@@ -123,7 +128,19 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         .token_file
         .clone()
         .unwrap_or_else(|| args.log_dir.join("token"));
+    for name in &args.allow_hosts {
+        let plain = !name.is_empty()
+            && name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '.' | '_'));
+        if !plain {
+            anyhow::bail!("--allow-host {name:?}: expected a host name (letters, digits, '-', '.'), without a port");
+        }
+    }
     let (token, created) = Token::load_or_create(&token_file)?;
+    for weakness in emplan::service::token::weaknesses(&token_file, &token) {
+        tracing::warn!("{weakness}");
+    }
     if !args.http.ip().is_loopback() {
         tracing::warn!(
             "the API listens on {} beyond this machine: reads need no token",
@@ -142,6 +159,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         watch: emplan::service::missions::WatchSettings {
             settle: std::time::Duration::from_millis(args.settle_ms),
             ..Default::default()
+        },
+        http: HttpConfig {
+            allowed_hosts: args.allow_hosts.clone(),
+            ..HttpConfig::default()
         },
     };
     // Several threads: HTTP clients and the link's tasks side by side (the recorder writes on

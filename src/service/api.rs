@@ -18,6 +18,10 @@
 //! - `GET /api/missions/{name}/plot.svg`, `GET /api/flights/{name}/plot.svg`: the figures of
 //!   `emplan plan --plot` and `emplan report --plot` (`crate::plot`) as `image/svg+xml`.
 //! - `GET /api/events`: server-sent events (see `events`).
+//!
+//! Every request is first checked for its `Host` (`http::check_host`: 421 for a name the service
+//! does not answer to); plots and file downloads pass the gate that bounds them (503 when busy);
+//! files are streamed from disk.
 
 use std::convert::Infallible;
 use std::path::{Path as FsPath, PathBuf};
@@ -34,9 +38,10 @@ use serde::Deserialize;
 use tokio::sync::{broadcast, watch};
 
 use super::events::{Event, Hub};
+use super::http::{Gate, HostCheck};
 use super::missions::CatalogRx;
 use super::vehicle::{UploadJob, VehicleHandle};
-use super::{Refusal, Token};
+use super::{escape_controls, Refusal, Token};
 use crate::flightlog::recorder::{read_report, PLAN_FILE, REPORT_FILE, SAMPLES_FILE, TLOG_FILE};
 use crate::physics::{Profile, VehicleModel};
 use crate::plan::solver;
@@ -55,12 +60,17 @@ pub struct Shared {
     pub solver: solver::Options,
     /// Turns true when the service stops (event streams end).
     pub stop: watch::Receiver<bool>,
+    /// The hosts requests may name.
+    pub hosts: HostCheck,
+    /// Bounds the plots and file downloads served at once.
+    pub heavy: Gate,
 }
 
 type AppState = Arc<Shared>;
 
 /// The routes.
 pub fn router(shared: Shared) -> Router {
+    let hosts = shared.hosts.clone();
     Router::new()
         .route("/", get(super::dashboard::page))
         .route("/dashboard.js", get(super::dashboard::script))
@@ -82,6 +92,10 @@ pub fn router(shared: Shared) -> Router {
         .route("/api/{*rest}", get(not_found).post(not_found))
         .fallback(not_found)
         .layer(axum::middleware::map_response(json_errors))
+        .layer(axum::middleware::from_fn_with_state(
+            hosts,
+            super::http::check_host,
+        ))
         .with_state(Arc::new(shared))
 }
 
@@ -117,6 +131,11 @@ impl IntoResponse for Refusal {
                 header::HeaderValue::from_static("Bearer"),
             );
         }
+        if status == StatusCode::SERVICE_UNAVAILABLE {
+            response
+                .headers_mut()
+                .insert(header::RETRY_AFTER, header::HeaderValue::from_static("2"));
+        }
         response
     }
 }
@@ -129,12 +148,21 @@ async fn not_found() -> Refusal {
     )
 }
 
+/// The credentials of an `Authorization: Bearer TOKEN` header; the scheme's name in any case
+/// (RFC 7235 section 2.1), one or more spaces after it.
+fn bearer(value: &str) -> Option<&str> {
+    let (scheme, credentials) = value.trim().split_once(' ')?;
+    scheme
+        .eq_ignore_ascii_case("bearer")
+        .then(|| credentials.trim_start_matches(' '))
+}
+
 /// Checks the bearer token of a request that changes the vehicle.
 fn authorize(headers: &HeaderMap, token: &Token) -> Result<(), Refusal> {
     let offered = headers
         .get(header::AUTHORIZATION)
         .and_then(|v| v.to_str().ok())
-        .and_then(|v| v.strip_prefix("Bearer "));
+        .and_then(bearer);
     match offered {
         None => Err(Refusal::new(
             401,
@@ -209,6 +237,7 @@ async fn mission_plot(
         return Err(Refusal::new(409, "plan", &message));
     };
     let plan = plan.clone();
+    let _permit = s.heavy.enter("mission plot").await?;
     let drawn = tokio::task::spawn_blocking(move || crate::plot::plan_svg(&mission, &plan))
         .await
         .map_err(|e| Refusal::new(500, "plot", &format!("drawing stopped: {e}")))?
@@ -223,7 +252,10 @@ async fn flight_plot(
 ) -> Result<Response, Refusal> {
     let dir = flight_dir(&s.log_dir, &name).ok_or_else(|| unknown_flight(&s.log_dir, &name))?;
     let model = s.model.clone();
+    // The replay holds the whole log's readings in memory: a few at a time.
+    let permit = s.heavy.enter("flight plot").await?;
     let drawn = tokio::task::spawn_blocking(move || {
+        let _permit = permit;
         let analysis = crate::session::replay(
             &dir.join(TLOG_FILE),
             None,
@@ -310,14 +342,18 @@ async fn upload(
     let request = UploadRequest::parse(&body)?;
     let span = tracing::info_span!(
         "upload",
-        mission = %name,
+        mission = %escape_controls(&name),
         order = ?request.order,
         sortie = request.sortie,
     );
     let outcome = upload_mission(&s, &name, request, span.clone()).await;
     span.in_scope(|| match &outcome {
         Ok(_) => tracing::info!("uploaded and verified"),
-        Err(r) => tracing::warn!(status = r.status, "refused: {}", r.message()),
+        Err(r) => tracing::warn!(
+            status = r.status,
+            "refused: {}",
+            escape_controls(&r.message())
+        ),
     });
     let (ok, result) = match &outcome {
         Ok(doc) => (true, doc.clone()),
@@ -571,7 +607,8 @@ async fn file(
             ))
         }
     };
-    let bytes = tokio::fs::read(dir.join(&file))
+    let permit = s.heavy.enter("file download").await?;
+    let (body, length) = stream_file(&dir.join(&file), permit)
         .await
         .map_err(|e| Refusal::new(404, "flight", &format!("{name}/{file}: {e}")))?;
     let disposition = format!("attachment; filename=\"{name}-{file}\"");
@@ -579,10 +616,38 @@ async fn file(
         [
             (header::CONTENT_TYPE, content_type.to_string()),
             (header::CONTENT_DISPOSITION, disposition),
+            (header::CONTENT_LENGTH, length.to_string()),
         ],
-        Body::from(bytes),
+        body,
     )
         .into_response())
+}
+
+/// A file as a body read in chunks as it is sent (a log may be hundreds of megabytes), with its
+/// length when opened: a log still being written is sent as it was then. `permit` is held until
+/// the body is sent or dropped.
+async fn stream_file(
+    path: &FsPath,
+    permit: tokio::sync::OwnedSemaphorePermit,
+) -> std::io::Result<(Body, u64)> {
+    use tokio::io::AsyncReadExt;
+    const CHUNK_BYTES: usize = 64 * 1024;
+    let file = tokio::fs::File::open(path).await?;
+    let length = file.metadata().await?.len();
+    let reader = file.take(length);
+    let chunks = futures_util::stream::unfold(Some((reader, permit)), |state| async move {
+        let (mut reader, permit) = state?;
+        let mut chunk = vec![0u8; CHUNK_BYTES];
+        match reader.read(&mut chunk).await {
+            Ok(0) => None,
+            Ok(n) => {
+                chunk.truncate(n);
+                Some((Ok(Bytes::from(chunk)), Some((reader, permit))))
+            }
+            Err(e) => Some((Err(e), None)),
+        }
+    });
+    Ok((Body::from_stream(chunks), length))
 }
 
 async fn events(State(s): State<AppState>) -> Response {
@@ -608,4 +673,25 @@ async fn events(State(s): State<AppState>) -> Response {
     Sse::new(stream)
         .keep_alive(KeepAlive::default())
         .into_response()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_bearer_scheme_is_read_in_any_case_with_any_spaces() {
+        for value in [
+            "Bearer abc",
+            "bearer abc",
+            "BEARER abc",
+            "bEaReR   abc",
+            " Bearer abc ",
+        ] {
+            assert_eq!(bearer(value), Some("abc"), "{value:?}");
+        }
+        for value in ["Basic abc", "Bearerabc", "Bearer", "abc", "Bear abc"] {
+            assert_eq!(bearer(value), None, "{value:?}");
+        }
+    }
 }

@@ -418,8 +418,8 @@ fn log_flight_event(span: &mut Option<tracing::Span>, event: &FlightEvent) {
             s.in_scope(|| {
                 tracing::info!(
                     part = name,
-                    from = %part.from,
-                    to = %part.to,
+                    from = %super::escape_controls(&part.from),
+                    to = %super::escape_controls(&part.to),
                     predicted_kj = part.predicted_j.map(|j| j / 1000.0),
                     measured_kj = part.measured_j.map(|j| j / 1000.0),
                     duration_s = part.duration_s,

@@ -729,9 +729,9 @@ impl Folder {
         for name in gone {
             if let Some(job) = self.files.remove(&name).and_then(|w| w.job) {
                 job.cancel.cancel();
-                tracing::info!(mission = %name, "mission file removed while planned: planning stopped");
+                tracing::info!(mission = %super::escape_controls(&name), "mission file removed while planned: planning stopped");
             } else {
-                tracing::info!(mission = %name, "mission file removed");
+                tracing::info!(mission = %super::escape_controls(&name), "mission file removed");
             }
             self.catalog.send_modify(|c| {
                 let mut next = (**c).clone();
@@ -776,7 +776,7 @@ impl Folder {
                     w.read = None;
                     if let Some(job) = w.job.take() {
                         job.cancel.cancel();
-                        tracing::info!(mission = %name, "mission file changed while planned: planning stopped");
+                        tracing::info!(mission = %super::escape_controls(&name), "mission file changed while planned: planning stopped");
                     }
                     self.changing(&name);
                 }
@@ -816,7 +816,7 @@ impl Folder {
             }
             Err(e) => {
                 // Listed with why, and read again when it changes.
-                tracing::warn!(mission = %name, "not read: {e}");
+                tracing::warn!(mission = %super::escape_controls(&name), "not read: {e}");
                 w.read = Some(String::new());
                 w.done = None;
                 let entry = MissionEntry {
@@ -885,7 +885,7 @@ impl Folder {
             let started = Instant::now();
             let token = cancel.clone().with_deadline(started + limit);
             let thread_token = token.clone();
-            let span = tracing::info_span!("plan", mission = %name);
+            let span = tracing::info_span!("plan", mission = %super::escape_controls(&name));
             let thread = tokio::task::spawn_blocking(move || {
                 // Held until the thread ends, whatever the watchdog below decides.
                 let _permit = permit;
@@ -971,9 +971,9 @@ impl Folder {
         });
         w.done = Some(entry.clone());
         self.publish_arc(entry.clone());
-        let span = tracing::info_span!("plan", mission = %done.name);
+        let span = tracing::info_span!("plan", mission = %super::escape_controls(&done.name));
         span.in_scope(|| match &entry.outcome {
-            Outcome::Failed(p) => tracing::warn!("{}", p.message),
+            Outcome::Failed(p) => tracing::warn!("{}", super::escape_controls(&p.message)),
             _ => tracing::info!(seconds, "planned"),
         });
         self.hub.publish(&match entry.outcome {

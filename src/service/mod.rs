@@ -8,8 +8,9 @@
 //! the recorder, the built-in mock; uploads and starts go to it as `(command, oneshot)`), the
 //! missions task (`missions`: owns the catalog, watches the folder, plans), the event forwarder
 //! (`events`: recorder events and telemetry to the hub that feeds the event stream), and the
-//! axum routes (`api`), thin over them. No lock is held across an await. `client` is the HTTP
-//! client of `--service`; `token` the bearer token.
+//! axum routes (`api`), thin over them, served by `http` (time limits on connections, the
+//! `Host` check, the bound on plots and downloads at once). No lock is held across an await.
+//! `client` is the HTTP client of `--service`; `token` the bearer token.
 //!
 //! Shutdown: the signal stops the HTTP server (no new requests; event streams end; requests in
 //! progress finish), then the vehicle actor closes the flight log (an open flight's files are
@@ -20,11 +21,13 @@ pub mod api;
 pub mod client;
 pub mod dashboard;
 pub mod events;
+pub mod http;
 pub mod missions;
 pub mod remote;
 pub mod token;
 pub mod vehicle;
 
+use std::borrow::Cow;
 use std::future::Future;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -50,8 +53,6 @@ pub enum ServiceError {
     Missions { dir: String, reason: String },
     #[error("log directory {dir}: {reason}")]
     LogDir { dir: String, reason: String },
-    #[error("HTTP server: {0}")]
-    Http(#[source] std::io::Error),
     #[error("vehicle thread: {0}")]
     Thread(#[source] std::io::Error),
 }
@@ -102,6 +103,58 @@ pub struct ServiceConfig {
     pub resume_within: Duration,
     /// How the missions folder is watched: the settle time, the plans run at once.
     pub watch: missions::WatchSettings,
+    /// Limits of the HTTP side.
+    pub http: HttpConfig,
+}
+
+/// Limits of the HTTP side, for a service that may be reachable beyond this machine.
+#[derive(Debug, Clone)]
+pub struct HttpConfig {
+    /// Time a connection has to send a request's head, from its opening and again from the end
+    /// of each response (so also how long a kept-alive connection may stay idle).
+    pub header_timeout: Duration,
+    /// Host names the service answers to besides IP addresses and `localhost` (see
+    /// `http::HostCheck`).
+    pub allowed_hosts: Vec<String>,
+    /// Plots and file downloads served at once.
+    pub heavy_requests: usize,
+    /// How long a plot or download beyond those waits for one to finish before it is refused
+    /// (503).
+    pub heavy_wait: Duration,
+}
+
+impl Default for HttpConfig {
+    fn default() -> HttpConfig {
+        HttpConfig {
+            header_timeout: Duration::from_secs(10),
+            allowed_hosts: Vec::new(),
+            heavy_requests: 2,
+            heavy_wait: Duration::from_secs(5),
+        }
+    }
+}
+
+/// `text` with its control characters (C0, DEL, C1), line and paragraph separators and
+/// bidirectional overrides written as escapes (`\n`, `\u{1b}`), for names from a file system or
+/// a request written to the log: a name cannot forge a log line, move the cursor or colour a
+/// terminal.
+pub fn escape_controls(text: &str) -> Cow<'_, str> {
+    let hidden = |c: char| {
+        c.is_control()
+            || matches!(c, '\u{2028}' | '\u{2029}' | '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}')
+    };
+    if !text.chars().any(hidden) {
+        return Cow::Borrowed(text);
+    }
+    let mut out = String::with_capacity(text.len() + 8);
+    for c in text.chars() {
+        if hidden(c) {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    Cow::Owned(out)
 }
 
 /// How long after its recording was cut off a flight is resumed by default: about a battery.
@@ -166,6 +219,8 @@ pub async fn run(
         model: cfg.model.clone(),
         solver: cfg.solver,
         stop: http_stop,
+        hosts: http::HostCheck::new(&cfg.http.allowed_hosts),
+        heavy: http::Gate::new(cfg.http.heavy_requests, cfg.http.heavy_wait),
     });
     if let Ok(addr) = listener.local_addr() {
         tracing::info!(
@@ -174,17 +229,33 @@ pub async fn run(
             cfg.log_dir.display()
         );
     }
-    let served = axum::serve(listener, app)
-        .with_graceful_shutdown(async move {
-            shutdown.await;
-            tracing::info!("stopping: no new requests; closing the event streams");
-            let _ = http_stop_tx.send(true);
-        })
-        .await;
+    http::serve(listener, app, cfg.http.header_timeout, async move {
+        shutdown.await;
+        tracing::info!("stopping: no new requests; closing the event streams");
+        let _ = http_stop_tx.send(true);
+    })
+    .await;
     // Requests in progress have finished: the vehicle actor closes the flight log.
     let _ = stop_tx.send(true);
     let _ = vehicle_done.await;
     let _ = missions_task.await;
     tracing::info!("stopped; flight log closed");
-    served.map_err(ServiceError::Http)
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn control_characters_in_a_name_are_escaped_and_other_text_kept() {
+        assert!(matches!(
+            escape_controls("sample 1 – été.toml"),
+            Cow::Borrowed("sample 1 – été.toml")
+        ));
+        assert_eq!(
+            escape_controls("a\nINFO forged\u{1b}[31mred\r\t\u{7f}\u{85}\u{202e}b"),
+            "a\\nINFO forged\\u{1b}[31mred\\r\\t\\u{7f}\\u{85}\\u{202e}b"
+        );
+    }
 }

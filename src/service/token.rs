@@ -1,10 +1,14 @@
 //! The bearer token that guards everything that changes the vehicle: 32 random bytes from the
 //! operating system, written as 64 hexadecimal characters to a file only its owner can read
-//! (mode 0600), created when absent. Requests are compared with it in constant time.
+//! (mode 0600), created when absent. Requests are compared with it in constant time. A token file
+//! of the user's own that others may read, or whose token is short, is reported (`weaknesses`).
 
 use std::path::Path;
 
 use super::ServiceError;
+
+/// Tokens shorter than this are reported as weak (a fresh token is 64 characters).
+pub const MIN_TOKEN_CHARS: usize = 32;
 
 /// The service's secret.
 #[derive(Clone, PartialEq, Eq)]
@@ -76,6 +80,39 @@ impl Token {
     }
 }
 
+/// What makes the token in `path` weak, one sentence naming the file each: a mode that lets
+/// others than its owner read or change it, a token shorter than [`MIN_TOKEN_CHARS`].
+pub fn weaknesses(path: &Path, token: &Token) -> Vec<String> {
+    #[cfg(unix)]
+    let mode = {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::metadata(path).ok().map(|m| m.permissions().mode())
+    };
+    #[cfg(not(unix))]
+    let mode = None;
+    weaknesses_of(path, mode, token.as_str().chars().count())
+}
+
+/// [`weaknesses`] of a file of unix `mode` (None: not known) holding a token of `chars`
+/// characters.
+fn weaknesses_of(path: &Path, mode: Option<u32>, chars: usize) -> Vec<String> {
+    let mut found = Vec::new();
+    if let Some(mode) = mode.filter(|m| m & 0o077 != 0) {
+        found.push(format!(
+            "token file {}: mode {:04o} lets others than its owner read or change it (chmod 600 it)",
+            path.display(),
+            mode & 0o7777
+        ));
+    }
+    if chars < MIN_TOKEN_CHARS {
+        found.push(format!(
+            "token file {}: the token is {chars} characters, shorter than {MIN_TOKEN_CHARS} and easier to guess (delete the file to have a fresh one made)",
+            path.display()
+        ));
+    }
+    found
+}
+
 /// Compares two byte strings in time that depends only on their lengths (a length mismatch is
 /// answered at once: the length of a token is not a secret).
 pub fn constant_time_eq(a: &[u8], b: &[u8]) -> bool {
@@ -138,6 +175,39 @@ mod tests {
         }
         assert!(Token::new("  \n").is_err());
         assert!(Token::new("two words").is_err());
+    }
+
+    #[test]
+    fn a_token_file_others_may_read_or_with_a_short_token_is_weak() {
+        let path = Path::new("flights/token");
+        assert!(weaknesses_of(path, Some(0o100600), 64).is_empty());
+        assert!(weaknesses_of(path, Some(0o400), 32).is_empty());
+        assert!(weaknesses_of(path, None, 64).is_empty());
+        for mode in [0o644, 0o640, 0o604, 0o620, 0o602, 0o100660] {
+            let found = weaknesses_of(path, Some(mode), 64);
+            assert_eq!(found.len(), 1, "{mode:o}: {found:?}");
+            assert!(found[0].contains("flights/token"), "{}", found[0]);
+            assert!(found[0].contains("chmod 600"), "{}", found[0]);
+        }
+        let found = weaknesses_of(path, Some(0o600), 31);
+        assert_eq!(found.len(), 1, "{found:?}");
+        assert!(found[0].contains("31 characters"), "{}", found[0]);
+        assert_eq!(weaknesses_of(path, Some(0o644), 8).len(), 2);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_created_token_file_has_no_weakness_and_a_shared_short_one_two() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("token");
+        let (token, _) = Token::load_or_create(&path).expect("created");
+        assert!(weaknesses(&path, &token).is_empty());
+        let shared = dir.path().join("shared");
+        std::fs::write(&shared, "secret\n").expect("written");
+        std::fs::set_permissions(&shared, std::fs::Permissions::from_mode(0o644)).expect("mode");
+        let (token, _) = Token::load_or_create(&shared).expect("read");
+        assert_eq!(weaknesses(&shared, &token).len(), 2);
     }
 
     #[test]

@@ -737,12 +737,15 @@ impl Actor {
         {
             Ok(held) => {
                 if current.as_ref().is_some_and(|c| same_flight(c, &held)) {
-                    tracing::info!("flying the mission {} planned", held.mission);
+                    tracing::info!(
+                        "flying the mission {} planned",
+                        super::escape_controls(&held.mission)
+                    );
                 } else {
                     tracing::info!(
                         points = held.points.len(),
                         "measuring against the mission the vehicle holds ({})",
-                        held.mission
+                        super::escape_controls(&held.mission)
                     );
                     self.recorder.set_plan(held);
                 }

@@ -16,6 +16,7 @@ mod snapshots;
 mod solvers;
 mod sorties;
 mod study;
+mod svchardening;
 mod svcwatch;
 mod tidy;
 mod tlogcorrupt;

@@ -113,6 +113,7 @@ async fn serve(vehicle: VehicleLink, files: &[&str]) -> Running {
             settle: Duration::from_millis(300),
             ..Default::default()
         },
+        http: Default::default(),
     };
     let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
     let task = tokio::spawn(emplan::service::run(listener, cfg, async move {
