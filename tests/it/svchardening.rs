@@ -54,6 +54,10 @@ impl Service {
             solver: Default::default(),
             transfer_budget: None,
             resume_within: emplan::service::DEFAULT_RESUME_WITHIN,
+            watch: emplan::service::missions::WatchSettings {
+                settle: std::time::Duration::from_millis(300),
+                ..Default::default()
+            },
             http,
         };
         let (stop, stopped) = tokio::sync::oneshot::channel::<()>();

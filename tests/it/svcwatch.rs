@@ -90,6 +90,7 @@ async fn serve(settings: Settings) -> Running {
             settle: settings.settle,
             plans_at_once: settings.plans_at_once,
         },
+        http: Default::default(),
     };
     let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
     let task = tokio::spawn(emplan::service::run(listener, cfg, async move {
