@@ -408,6 +408,9 @@ impl<R: Read> TlogReader<R> {
     /// follows the last record, or two records that follow each other, one of them checking.
     fn judge(&mut self, check: FrameChecker) -> std::io::Result<Verdict> {
         let skipping = self.gap_start.is_some();
+        if !matches!(self.buf[self.pos + 8], STX_V1 | STX_V2) {
+            return Ok(Verdict::Bad);
+        }
         let Ok((wall_us, total)) = self.head(0) else {
             return Ok(Verdict::Bad);
         };
@@ -682,8 +685,12 @@ mod tests {
         f
     }
 
-    /// `n` records at 10 Hz of checked frames of varied ids and lengths; their offsets.
-    fn checked_log(n: u64) -> (Vec<u8>, Vec<(u64, Vec<u8>)>, Vec<usize>) {
+    /// (wall time, frame) of each record.
+    type Records = Vec<(u64, Vec<u8>)>;
+
+    /// `n` records at 10 Hz of checked frames of varied ids and lengths: the log, its records
+    /// and their offsets.
+    fn checked_log(n: u64) -> (Vec<u8>, Records, Vec<usize>) {
         let mut bytes = Vec::new();
         let mut records = Vec::new();
         let mut offsets = Vec::new();
