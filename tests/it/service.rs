@@ -455,7 +455,7 @@ async fn an_invalid_mission_file_is_listed_with_its_located_error_while_the_othe
                 .as_array()
                 .unwrap()
                 .iter()
-                .all(|m| m["status"] != "planning")
+                .all(|m| m["status"] == "planned" || m["status"] == "error")
     })
     .await;
     let by_name = |name: &str| {
