@@ -88,7 +88,13 @@ try {
   });
 
   // The mission's plan: how many legs the energy order flies (the origin back included).
-  const detail = await (await page.request.get(`${opts.url}/api/missions/${encodeURIComponent(opts.mission)}`)).json();
+  // The service plans a file once it has settled (unchanged for its settle time): ask until
+  // it is planned, or the timeout.
+  let detail = {};
+  for (const until = Date.now() + timeout; Date.now() < until; await new Promise((r) => setTimeout(r, 250))) {
+    detail = await (await page.request.get(`${opts.url}/api/missions/${encodeURIComponent(opts.mission)}`)).json();
+    if (detail.plan || detail.status === 'error') break;
+  }
   const energy = (detail.plan?.orders || []).find((o) => o.objective === 'energy');
   if (!energy) throw new Error(`${opts.mission}: not planned by the service (${JSON.stringify(detail).slice(0, 300)})`);
   const legs = energy.legs.length;
@@ -100,7 +106,7 @@ try {
   if (opts.broken) {
     // A mission file that does not read is listed with its located error.
     const cell = `#missions-body tr[data-name="${opts.broken}"] td.status`;
-    await page.waitForFunction((sel) => document.querySelector(sel) && document.querySelector(sel).textContent !== 'planning', cell, { timeout });
+    await page.waitForFunction((sel) => document.querySelector(sel) && !['planning', 'changing'].includes(document.querySelector(sel).textContent), cell, { timeout });
     const status = await page.locator(cell).textContent();
     if (!/^error \((line|item) \d+\)$/.test(status)) throw new Error(`${opts.broken} is listed as ${JSON.stringify(status)}, not as an error with its line`);
     log(`${opts.broken}: listed as ${status}`);

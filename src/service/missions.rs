@@ -816,7 +816,7 @@ impl Folder {
             }
             Err(e) => {
                 // Listed with why, and read again when it changes.
-                tracing::warn!(mission = %super::escape_controls(&name), "not read: {e}");
+                tracing::warn!(mission = %super::escape_controls(name), "not read: {e}");
                 w.read = Some(String::new());
                 w.done = None;
                 let entry = MissionEntry {

@@ -255,9 +255,10 @@ fn a_thousand_waypoint_mission_is_generated_above_the_minimum_height() {
         let height = mission.origin.height_above_home_m(w.position);
         assert!(height >= 5.0 - 1e-6, "{} at {height} m above home", w.name);
     }
+    let none = dir.path().join("none.toml");
     let (ok, _, stderr) = emplan(&[
         "generate",
-        path.to_str().unwrap(),
+        none.to_str().unwrap(),
         "--waypoints",
         "0",
         "--xy",
