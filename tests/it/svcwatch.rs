@@ -215,8 +215,19 @@ async fn a_mission_written_in_pieces_is_never_listed_planned_with_part_of_its_wa
         e.is_some_and(|e| e["status"] == "planned" && e["digest"] == whole.as_str())
     })
     .await;
-    looking.abort();
+    // The poller may not have looked since the plan was listed: wait until it has seen it too.
     let mut seen = Vec::new();
+    let _ = tokio::time::timeout(Duration::from_secs(10), async {
+        while let Some(s) = seen_rx.recv().await {
+            let planned = s.0 == "planned";
+            seen.push(s);
+            if planned {
+                break;
+            }
+        }
+    })
+    .await;
+    looking.abort();
     while let Ok(s) = seen_rx.try_recv() {
         seen.push(s);
     }
