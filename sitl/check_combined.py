@@ -5,7 +5,7 @@ usage: check_combined.py COMBINED.json --flights N [--legs-within PCT]
 
 Every leg must have been measured on all N flights, and with --legs-within the mean of its
 measured energies must be within PCT of its prediction. One flight's legs on PX4 SITL spread
-with the moment PX4 was armed (README, "PX4 SITL"); the mean over flights armed at different
+with the moment PX4 was armed (docs/px4-sitl.md); the mean over flights armed at different
 moments is what the `px4` profile's error is, so this bound is the one that catches a profile
 that has drifted. Prints the per-leg comparison either way.
 """

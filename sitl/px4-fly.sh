@@ -10,7 +10,7 @@
 # Env: EMPLAN (default target/debug/emplan), PX4_SITL_DIR (see sitl/px4-run.sh), PX4_SPEED (10),
 #      FLY_DELAY_S (0): seconds to wait, once PX4 and the battery are up, before `emplan fly`.
 #      PX4 SITL flies the same way each time it is armed at the same moment after its boot, and
-#      differently when armed at another (README, "PX4 SITL"): flights with different delays
+#      differently when armed at another (docs/px4-sitl.md): flights with different delays
 #      sample its flight-to-flight spread.
 # PX4's and the battery process's output go to LOG_DIR/px4.log and LOG_DIR/battery-sim.log.
 # One PX4 per machine: fails at once when something already listens on PX4's UDP port 18570.

@@ -144,7 +144,7 @@ async fn not_found() -> Refusal {
     Refusal::new(
         404,
         "request",
-        "no such endpoint (see README: the service's API)",
+        "no such endpoint (see docs/service.md: the API)",
     )
 }
 
