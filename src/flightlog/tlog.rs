@@ -707,17 +707,10 @@ mod tests {
         (bytes, records, offsets)
     }
 
-    /// `n` bytes of xorshift noise from `seed`.
+    /// `n` bytes of noise from `seed` (the project's own generator).
     fn noise(n: usize, seed: u64) -> Vec<u8> {
-        let mut x = seed.max(1);
-        (0..n)
-            .map(|_| {
-                x ^= x << 13;
-                x ^= x >> 7;
-                x ^= x << 17;
-                (x >> 24) as u8
-            })
-            .collect()
+        let mut rng = crate::rng::Rng::new(seed);
+        (0..n).map(|_| (rng.next_u64() >> 24) as u8).collect()
     }
 
     fn read_resynchronising(bytes: &[u8]) -> (Vec<TlogRecord>, Vec<TlogGap>, Option<u64>) {

@@ -34,7 +34,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::flightlog::plan::FlightPlan;
-use crate::flightlog::recorder::{read_report, PLAN_FILE, REPORT_FILE, TLOG_FILE};
+use crate::flightlog::recorder::{read_report, PLAN_FILE, REPORT_FILE};
 use crate::flightlog::FlightLogError;
 use crate::mission::Enu;
 use crate::physics::calibration::nelder_mead;
@@ -127,7 +127,7 @@ pub struct Flights {
 /// Whether `dir` is a flight directory: it holds plan.json or flight.tlog (one without
 /// plan.json was recorded with nothing to measure it against, and is left out when read).
 fn is_flight_dir(dir: &Path) -> bool {
-    dir.join(PLAN_FILE).is_file() || dir.join(TLOG_FILE).is_file()
+    dir.join(PLAN_FILE).is_file() || crate::flightlog::recorder::is_flight_dir(dir)
 }
 
 /// The flight directories under `paths`: a directory holding plan.json (or flight.tlog) is a
@@ -761,7 +761,7 @@ mod tests {
         // Recorded without a plan: only its log.
         let planless = tmp.path().join("b-planless");
         std::fs::create_dir_all(&planless).expect("made");
-        std::fs::write(planless.join(TLOG_FILE), b"").expect("written");
+        std::fs::write(planless.join(crate::flightlog::recorder::TLOG_FILE), b"").expect("written");
         let flights = read_flights(&[tmp.path().to_path_buf()]).expect("read");
         assert!(flights.flights.is_empty());
         let reasons: Vec<(&Path, &str)> = flights

@@ -159,7 +159,7 @@ impl MissionEntry {
                 let saving_pct = energy
                     .zip(distance)
                     .filter(|(_, d)| *d > 0.0)
-                    .map(|(e, d)| (d - e) / d * 100.0);
+                    .map(|(e, d)| crate::planner::explain::saving_pct(e, d));
                 let battery = crate::planner::json::battery_json(plan);
                 map.insert("profile".into(), serde_json::json!(plan.profile));
                 map.insert("energy_kj".into(), serde_json::json!(energy));

@@ -9,17 +9,10 @@ use serde_json::Value;
 
 use crate::{emplan, json};
 
-/// `n` bytes of xorshift noise from `seed`.
+/// `n` bytes of noise from `seed` (the project's own generator).
 fn noise(n: usize, seed: u64) -> Vec<u8> {
-    let mut x = seed.max(1);
-    (0..n)
-        .map(|_| {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            (x >> 24) as u8
-        })
-        .collect()
+    let mut rng = emplan::rng::Rng::new(seed);
+    (0..n).map(|_| (rng.next_u64() >> 24) as u8).collect()
 }
 
 /// Flies the 8-waypoint sample on the built-in mock into `log_dir`: its flight directory and
