@@ -13,6 +13,7 @@ mod snapshots;
 mod solvers;
 mod sorties;
 mod study;
+mod svcstart;
 mod tidy;
 mod upload;
 
