@@ -6,20 +6,30 @@
 //!   3), MAV_CMD_MISSION_START (../shared/sitl/ardupilot/README.md; ArduCopter refuses to arm in
 //!   AUTO: `Copter::ModeAuto::allows_arming` is false without AUTO_OPTIONS).
 //!
-//! Every command is resent until its COMMAND_ACK. An autopilot that is not ready yet (pre-arm
-//! checks still failing at boot: TEMPORARILY_REJECTED, DENIED or FAILED) is asked again every
-//! retry period until the time budget runs out; the STATUSTEXTs it sent meanwhile ("PreArm: ...")
-//! go into the error. A step is done when it is acknowledged ACCEPTED, or when the autopilot's
-//! HEARTBEAT already shows it (the ack was lost). The next step follows at once: PX4 disarms an
-//! armed vehicle that has not taken off within COM_DISARM_PRFLT (10 s), and its HEARTBEAT comes
-//! once a second, so waiting for the heartbeat to confirm the arming would spend a tenth of
-//! that; the recorder sees the flight begin from the heartbeats anyway.
+//! Every command is resent until its COMMAND_ACK. An autopilot that is not ready yet is asked
+//! again every retry period until the time budget runs out: TEMPORARILY_REJECTED at any step
+//! (PX4's answer to an arming its pre-arm checks refuse, commander `handle_command`), and FAILED
+//! before the vehicle is armed (ArduCopter's answer to a mode change or an arming while its
+//! pre-arm checks fail after boot, GCS_Common.cpp). DENIED, and FAILED once armed, are answers
+//! that asking again does not change (PX4 "Mission start denied! No valid mission", ArduCopter
+//! "Auto: Missing Takeoff Cmd"): the start fails at once. The warnings the autopilot sent
+//! (STATUSTEXT of severity WARNING or worse: "PreArm: ...", "No valid mission") go into the
+//! error. A step is done when it is acknowledged ACCEPTED, or when the autopilot's HEARTBEAT
+//! already shows it (the ack was lost). The next step follows at once: PX4 disarms an armed
+//! vehicle that has not taken off within COM_DISARM_PRFLT (10 s), and its HEARTBEAT comes once a
+//! second, so waiting for the heartbeat to confirm the arming would spend a tenth of that; the
+//! recorder sees the flight begin from the heartbeats anyway.
+//!
+//! A start that fails after it armed the vehicle disarms it (not forced: an autopilot refuses
+//! to disarm in the air), resent until acknowledged or shown by a heartbeat, for at most
+//! [`DISARM_BUDGET`]; the error says whether it did.
 
 use std::time::Duration;
 
 use super::connection::Autopilot;
 use super::mav::{
-    MavCmd, MavMessage, MavModeFlag, MavResult, COMMAND_ACK_DATA, COMMAND_LONG_DATA, HEARTBEAT_DATA,
+    MavCmd, MavMessage, MavModeFlag, MavResult, MavSeverity, COMMAND_ACK_DATA, COMMAND_LONG_DATA,
+    HEARTBEAT_DATA,
 };
 use super::Flavour;
 
@@ -53,20 +63,31 @@ impl std::fmt::Display for Step {
     }
 }
 
+/// The longest a failed start spends disarming the vehicle it armed.
+pub const DISARM_BUDGET: Duration = Duration::from_secs(3);
+
 /// Why a mission could not be started.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum StartError {
-    #[error("{step}: refused by the autopilot ({result:?}){}", statustext_suffix(.statustext))]
+    #[error(
+        "{step}: refused by the autopilot ({result:?}){}{}",
+        statustext_suffix(.statustext),
+        disarm_suffix(*.disarmed)
+    )]
     Refused {
         step: Step,
         result: MavResult,
-        /// The autopilot's last STATUSTEXT, often the reason ("PreArm: ...").
+        /// The autopilot's last warning (STATUSTEXT), often the reason ("PreArm: ...").
         statustext: Option<String>,
+        /// After the start had armed the vehicle: whether it disarmed again (None: the start
+        /// had not armed it).
+        disarmed: Option<bool>,
     },
     #[error(
-        "{step}: not done within {budget_s:.0} s ({attempts} commands sent, last answer: {}){}",
+        "{step}: not done within {budget_s:.0} s ({attempts} commands sent, last answer: {}){}{}",
         .last.map(|r| format!("{r:?}")).unwrap_or_else(|| "none".into()),
-        statustext_suffix(.statustext)
+        statustext_suffix(.statustext),
+        disarm_suffix(*.disarmed)
     )]
     Timeout {
         step: Step,
@@ -74,13 +95,64 @@ pub enum StartError {
         attempts: u32,
         last: Option<MavResult>,
         statustext: Option<String>,
+        disarmed: Option<bool>,
     },
+}
+
+impl StartError {
+    /// Whether the start had armed the vehicle before it failed.
+    pub fn armed(&self) -> bool {
+        self.disarmed().is_some()
+    }
+
+    /// The autopilot's answer to the step that failed (its last one, for a timeout).
+    pub fn result(&self) -> Option<MavResult> {
+        match self {
+            StartError::Refused { result, .. } => Some(*result),
+            StartError::Timeout { last, .. } => *last,
+        }
+    }
+
+    /// After the start had armed the vehicle: whether it disarmed again (None: it had not
+    /// armed it).
+    pub fn disarmed(&self) -> Option<bool> {
+        match self {
+            StartError::Refused { disarmed, .. } | StartError::Timeout { disarmed, .. } => {
+                *disarmed
+            }
+        }
+    }
+
+    fn set_disarm(&mut self, done: bool, text: Option<String>) {
+        let (StartError::Refused {
+            disarmed,
+            statustext,
+            ..
+        }
+        | StartError::Timeout {
+            disarmed,
+            statustext,
+            ..
+        }) = self;
+        *disarmed = Some(done);
+        if text.is_some() {
+            *statustext = text;
+        }
+    }
 }
 
 fn statustext_suffix(text: &Option<String>) -> String {
     text.as_ref()
         .map(|t| format!("; the autopilot said: {t:?}"))
         .unwrap_or_default()
+}
+
+fn disarm_suffix(disarmed: Option<bool>) -> &'static str {
+    match disarmed {
+        None => "",
+        Some(true) => "; disarmed again",
+        Some(false) => "; the disarm was not acknowledged: the vehicle may still be armed",
+    }
 }
 
 /// Timing of [`Start`].
@@ -106,6 +178,15 @@ impl Default for StartConfig {
     }
 }
 
+/// A failed start disarming the vehicle it had armed.
+#[derive(Debug, Clone)]
+struct Disarming {
+    error: StartError,
+    since: Duration,
+    /// A warning the autopilot sent since the failure (its reason often follows its ack).
+    statustext: Option<String>,
+}
+
 /// Starts the uploaded mission on `target`.
 #[derive(Debug, Clone)]
 pub struct Start {
@@ -121,6 +202,9 @@ pub struct Start {
     statustext: Option<String>,
     armed: bool,
     mode: Option<u32>,
+    /// The arming step is done: a failure from now on disarms.
+    armed_by_start: bool,
+    disarming: Option<Disarming>,
     result: Option<Result<(), StartError>>,
 }
 
@@ -144,6 +228,8 @@ impl Start {
             statustext: None,
             armed: false,
             mode: None,
+            armed_by_start: false,
+            disarming: None,
             result: None,
         }
     }
@@ -153,13 +239,25 @@ impl Start {
         self.result.as_ref()
     }
 
-    /// The step in progress (None when finished).
+    /// The step in progress (None when finished, or disarming after a failure).
     pub fn step(&self) -> Option<Step> {
-        if self.result.is_some() {
+        if self.result.is_some() || self.disarming.is_some() {
             None
         } else {
             self.steps.get(self.index).copied()
         }
+    }
+
+    fn command_long(&self, command: MavCmd, param1: f32, param2: f32) -> MavMessage {
+        MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+            param1,
+            param2,
+            command,
+            target_system: self.target.system_id,
+            target_component: self.target.component_id,
+            confirmation: self.attempts.min(255) as u8,
+            ..Default::default()
+        })
     }
 
     fn command(&self, step: Step) -> MavMessage {
@@ -178,15 +276,7 @@ impl Start {
             // param1/param2 = 0: from the first item to the last.
             Step::MissionStart => (MavCmd::MAV_CMD_MISSION_START, 0.0, 0.0),
         };
-        MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
-            param1,
-            param2,
-            command,
-            target_system: self.target.system_id,
-            target_component: self.target.component_id,
-            confirmation: self.attempts.min(255) as u8,
-            ..Default::default()
-        })
+        self.command_long(command, param1, param2)
     }
 
     fn command_of(step: Step) -> MavCmd {
@@ -237,10 +327,47 @@ impl Start {
     fn advance(&mut self, now: Duration) -> Vec<MavMessage> {
         match self.step() {
             Some(step) if self.acked || (step != Step::MissionStart && self.visible(step)) => {
+                if step == Step::Arm {
+                    self.armed_by_start = true;
+                }
                 self.index += 1;
                 self.begin_step(now)
             }
             _ => Vec::new(),
+        }
+    }
+
+    /// The start failed: it ends now, or once the vehicle it armed is disarmed.
+    fn fail(&mut self, now: Duration, error: StartError) -> Vec<MavMessage> {
+        if !self.armed_by_start {
+            self.result = Some(Err(error));
+            return Vec::new();
+        }
+        self.disarming = Some(Disarming {
+            error,
+            since: now,
+            statustext: None,
+        });
+        self.attempts = 0;
+        self.send_disarm(now)
+    }
+
+    /// Not forced (param2 0): an autopilot refuses it in the air.
+    fn send_disarm(&mut self, now: Duration) -> Vec<MavMessage> {
+        self.attempts += 1;
+        self.next_send = now + self.cfg.retry;
+        vec![self.command_long(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, 0.0, 0.0)]
+    }
+
+    fn disarm_done(&mut self, disarmed: bool) {
+        if let Some(Disarming {
+            mut error,
+            statustext,
+            ..
+        }) = self.disarming.take()
+        {
+            error.set_disarm(disarmed, statustext);
+            self.result = Some(Err(error));
         }
     }
 
@@ -256,10 +383,12 @@ impl Start {
         }
     }
 
-    fn on_ack(&mut self, now: Duration, ack: &COMMAND_ACK_DATA) {
-        let Some(step) = self.step() else { return };
+    fn on_ack(&mut self, now: Duration, ack: &COMMAND_ACK_DATA) -> Vec<MavMessage> {
+        let Some(step) = self.step() else {
+            return Vec::new();
+        };
         if ack.command != Self::command_of(step) {
-            return;
+            return Vec::new();
         }
         self.last_result = Some(ack.result);
         match ack.result {
@@ -268,17 +397,61 @@ impl Start {
             MavResult::MAV_RESULT_IN_PROGRESS => self.next_send = now + self.cfg.retry,
             // Not ready yet (pre-arm checks, EKF settling after boot): asked again on the next
             // retry, within the budget.
-            MavResult::MAV_RESULT_TEMPORARILY_REJECTED
-            | MavResult::MAV_RESULT_DENIED
-            | MavResult::MAV_RESULT_FAILED => {}
-            // Never going to work: stop now.
+            MavResult::MAV_RESULT_TEMPORARILY_REJECTED => {}
+            MavResult::MAV_RESULT_FAILED if !self.armed_by_start => {}
+            // Never going to work (DENIED; FAILED once armed, when the pre-arm checks have
+            // passed; UNSUPPORTED): stop now.
             other => {
-                self.result = Some(Err(StartError::Refused {
+                let error = StartError::Refused {
                     step,
                     result: other,
                     statustext: self.statustext.clone(),
-                }));
+                    disarmed: None,
+                };
+                return self.fail(now, error);
             }
+        }
+        Vec::new()
+    }
+
+    /// Keeps the autopilot's warnings (its reasons), not its information ("Armed by ...").
+    fn on_statustext(&mut self, text: &super::mav::STATUSTEXT_DATA) {
+        if text.severity as u8 > MavSeverity::MAV_SEVERITY_WARNING as u8 {
+            return;
+        }
+        let t = String::from_utf8_lossy(&text.text.to_vec())
+            .trim_end_matches('\0')
+            .to_string();
+        if t.is_empty() {
+            return;
+        }
+        if let Some(disarming) = self.disarming.as_mut() {
+            disarming.statustext = Some(t.clone());
+        }
+        self.statustext = Some(t);
+    }
+
+    /// While disarming: done when a heartbeat shows the vehicle disarmed or the disarm is
+    /// acknowledged; refused (in the air) or not answered, the vehicle may still be armed.
+    fn handle_disarming(&mut self, message: &MavMessage) {
+        match message {
+            MavMessage::HEARTBEAT(hb)
+                if hb.autopilot != super::mav::MavAutopilot::MAV_AUTOPILOT_INVALID =>
+            {
+                self.on_heartbeat(hb);
+                if !self.armed {
+                    self.disarm_done(true);
+                }
+            }
+            MavMessage::COMMAND_ACK(ack) if ack.command == MavCmd::MAV_CMD_COMPONENT_ARM_DISARM => {
+                match ack.result {
+                    MavResult::MAV_RESULT_ACCEPTED => self.disarm_done(true),
+                    MavResult::MAV_RESULT_IN_PROGRESS
+                    | MavResult::MAV_RESULT_TEMPORARILY_REJECTED => {}
+                    _ => self.disarm_done(false),
+                }
+            }
+            _ => {}
         }
     }
 
@@ -287,46 +460,58 @@ impl Start {
         if self.result.is_some() {
             return Vec::new();
         }
+        if let MavMessage::STATUSTEXT(text) = message {
+            self.on_statustext(text);
+        }
+        if self.disarming.is_some() {
+            self.handle_disarming(message);
+            return Vec::new();
+        }
         match message {
             MavMessage::HEARTBEAT(hb)
                 if hb.autopilot != super::mav::MavAutopilot::MAV_AUTOPILOT_INVALID =>
             {
                 self.on_heartbeat(hb)
             }
-            MavMessage::COMMAND_ACK(ack) => self.on_ack(now, ack),
-            MavMessage::STATUSTEXT(text) => {
-                let t = String::from_utf8_lossy(&text.text.to_vec())
-                    .trim_end_matches('\0')
-                    .to_string();
-                if !t.is_empty() {
-                    self.statustext = Some(t);
+            MavMessage::COMMAND_ACK(ack) => {
+                let out = self.on_ack(now, ack);
+                if self.step().is_none() {
+                    return out;
                 }
             }
             _ => {}
-        }
-        if self.result.is_some() {
-            return Vec::new();
         }
         self.advance(now)
     }
 
     /// Resends an unacknowledged command; gives up when the step's budget is spent.
     pub fn tick(&mut self, now: Duration) -> Vec<MavMessage> {
+        if let Some(since) = self.disarming.as_ref().map(|d| d.since) {
+            if now.saturating_sub(since) >= DISARM_BUDGET {
+                self.disarm_done(false);
+                return Vec::new();
+            }
+            if now >= self.next_send {
+                return self.send_disarm(now);
+            }
+            return Vec::new();
+        }
         let Some(step) = self.step() else {
             return Vec::new();
         };
         if now.saturating_sub(self.step_started) >= self.cfg.budget {
-            self.result = Some(Err(StartError::Timeout {
+            let error = StartError::Timeout {
                 step,
                 budget_s: self.cfg.budget.as_secs_f64(),
                 attempts: self.attempts,
                 last: self.last_result,
                 statustext: self.statustext.clone(),
-            }));
-            return Vec::new();
+                disarmed: None,
+            };
+            return self.fail(now, error);
         }
         let advanced = self.advance(now);
-        if !advanced.is_empty() || self.result.is_some() {
+        if !advanced.is_empty() || self.step().is_none() {
             return advanced;
         }
         // Resent when the ack did not come (or said "not now").
@@ -340,7 +525,7 @@ impl Start {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::link::mav::{MavAutopilot, MavState, MavType, STATUSTEXT_DATA};
+    use crate::link::mav::{MavAutopilot, MavSeverity, MavState, MavType, STATUSTEXT_DATA};
 
     fn ms(t: u64) -> Duration {
         Duration::from_millis(t)
@@ -479,7 +664,10 @@ mod tests {
             ..Default::default()
         });
         s.handle(ms(5), &text);
-        s.handle(ms(10), &ack(ARM, MavResult::MAV_RESULT_DENIED));
+        s.handle(
+            ms(10),
+            &ack(ARM, MavResult::MAV_RESULT_TEMPORARILY_REJECTED),
+        );
         for t in 1..=3 {
             s.tick(ms(1000 * t));
         }
@@ -505,11 +693,14 @@ mod tests {
         s.start(ms(0));
         s.handle(ms(5), &ack(ARM, OK));
         s.handle(ms(7), &ack(START, MavResult::MAV_RESULT_UNSUPPORTED));
+        // Once the vehicle it armed is disarmed.
+        s.handle(ms(9), &heartbeat(false, 0));
         assert!(matches!(
             s.finished(),
             Some(Err(StartError::Refused {
                 step: Step::MissionStart,
                 result: MavResult::MAV_RESULT_UNSUPPORTED,
+                disarmed: Some(true),
                 ..
             }))
         ));
@@ -523,5 +714,181 @@ mod tests {
             .handle(ms(5), &ack(MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL, OK))
             .is_empty());
         assert_eq!(s.step(), Some(Step::Arm));
+    }
+
+    fn statustext(severity: MavSeverity, text: &str) -> MavMessage {
+        MavMessage::STATUSTEXT(STATUSTEXT_DATA {
+            severity,
+            text: text.into(),
+            ..Default::default()
+        })
+    }
+
+    const DISARM: (MavCmd, f32, f32) = (ARM, 0.0, 0.0);
+
+    #[test]
+    fn a_mission_start_denied_after_arming_disarms_and_fails_at_once_naming_the_reason() {
+        let mut s = Start::new(target(Flavour::Px4), StartConfig::default());
+        s.start(ms(0));
+        s.handle(ms(10), &ack(ARM, OK));
+        s.handle(
+            ms(12),
+            &statustext(MavSeverity::MAV_SEVERITY_INFO, "Armed by external command"),
+        );
+        s.handle(
+            ms(15),
+            &statustext(
+                MavSeverity::MAV_SEVERITY_CRITICAL,
+                "Mission start denied! No valid mission",
+            ),
+        );
+        // No second MISSION_START: the disarm at once.
+        assert_eq!(
+            commands(&s.handle(ms(20), &ack(START, MavResult::MAV_RESULT_DENIED))),
+            vec![DISARM]
+        );
+        assert!(s.finished().is_none());
+        assert_eq!(commands(&s.tick(ms(120))), vec![DISARM]);
+        s.handle(ms(130), &heartbeat(false, 0));
+        let err = s.finished().cloned().unwrap().unwrap_err();
+        assert_eq!(
+            err,
+            StartError::Refused {
+                step: Step::MissionStart,
+                result: MavResult::MAV_RESULT_DENIED,
+                statustext: Some("Mission start denied! No valid mission".into()),
+                disarmed: Some(true),
+            }
+        );
+        let text = err.to_string();
+        assert!(
+            text.contains("MAV_RESULT_DENIED")
+                && text.contains("No valid mission")
+                && text.contains("disarmed again"),
+            "{text}"
+        );
+        assert!(s.tick(ms(5000)).is_empty());
+    }
+
+    #[test]
+    fn the_reason_sent_after_the_refusal_is_taken_while_disarming() {
+        let mut s = Start::new(target(Flavour::Px4), StartConfig::default());
+        s.start(ms(0));
+        s.handle(ms(10), &ack(ARM, OK));
+        s.handle(ms(20), &ack(START, MavResult::MAV_RESULT_DENIED));
+        s.handle(
+            ms(25),
+            &statustext(MavSeverity::MAV_SEVERITY_CRITICAL, "Mission start denied"),
+        );
+        s.handle(ms(30), &ack(ARM, OK));
+        assert!(matches!(
+            s.finished(),
+            Some(Err(StartError::Refused { statustext: Some(t), disarmed: Some(true), .. }))
+                if t == "Mission start denied"
+        ));
+    }
+
+    #[test]
+    fn a_denied_arming_fails_at_once_and_sends_no_disarm() {
+        let mut s = Start::new(target(Flavour::Px4), StartConfig::default());
+        s.start(ms(0));
+        assert!(s
+            .handle(ms(10), &ack(ARM, MavResult::MAV_RESULT_DENIED))
+            .is_empty());
+        let err = s.finished().cloned().unwrap().unwrap_err();
+        assert!(!err.armed());
+        assert_eq!(err.result(), Some(MavResult::MAV_RESULT_DENIED));
+        assert!(s.tick(ms(200)).is_empty());
+    }
+
+    #[test]
+    fn arming_failed_while_ardupilots_prearm_checks_fail_is_retried() {
+        let mut s = Start::new(target(Flavour::ArduPilot), StartConfig::default());
+        s.start(ms(0));
+        s.handle(ms(5), &ack(MODE, OK));
+        s.handle(ms(10), &ack(ARM, MavResult::MAV_RESULT_FAILED));
+        assert!(s.finished().is_none());
+        assert_eq!(commands(&s.tick(ms(110))), vec![(ARM, 1.0, 0.0)]);
+    }
+
+    #[test]
+    fn ardupilots_mode_auto_failed_once_armed_disarms_and_fails_at_once() {
+        let mut s = Start::new(target(Flavour::ArduPilot), StartConfig::default());
+        s.start(ms(0));
+        s.handle(ms(5), &ack(MODE, OK));
+        s.handle(ms(7), &ack(ARM, OK));
+        s.handle(
+            ms(8),
+            &statustext(
+                MavSeverity::MAV_SEVERITY_CRITICAL,
+                "Auto: Missing Takeoff Cmd",
+            ),
+        );
+        assert_eq!(
+            commands(&s.handle(ms(9), &ack(MODE, MavResult::MAV_RESULT_FAILED))),
+            vec![DISARM]
+        );
+        s.handle(ms(11), &ack(ARM, OK));
+        let err = s.finished().cloned().unwrap().unwrap_err();
+        assert!(matches!(
+            err,
+            StartError::Refused {
+                step: Step::Auto,
+                result: MavResult::MAV_RESULT_FAILED,
+                disarmed: Some(true),
+                ..
+            }
+        ));
+        assert!(err.to_string().contains("Missing Takeoff Cmd"), "{err}");
+    }
+
+    #[test]
+    fn a_disarm_not_confirmed_within_its_budget_says_the_vehicle_may_still_be_armed() {
+        let mut s = Start::new(target(Flavour::Px4), StartConfig::default());
+        s.start(ms(0));
+        s.handle(ms(10), &ack(ARM, OK));
+        s.handle(ms(20), &ack(START, MavResult::MAV_RESULT_DENIED));
+        let mut sent = 1;
+        let mut t = 20;
+        while s.finished().is_none() {
+            t += 50;
+            sent += commands(&s.tick(ms(t))).len();
+            s.handle(ms(t), &heartbeat(true, 0));
+        }
+        assert!(ms(t) >= DISARM_BUDGET);
+        assert!(sent <= 31, "{sent} disarm commands");
+        let err = s.finished().cloned().unwrap().unwrap_err();
+        assert!(matches!(
+            err,
+            StartError::Refused {
+                disarmed: Some(false),
+                ..
+            }
+        ));
+        assert!(err.to_string().contains("may still be armed"), "{err}");
+    }
+
+    #[test]
+    fn a_mission_start_unanswered_within_the_budget_disarms_the_vehicle_it_armed() {
+        let cfg = StartConfig {
+            retry: Duration::from_secs(1),
+            budget: Duration::from_secs(3),
+        };
+        let mut s = Start::new(target(Flavour::Px4), cfg);
+        s.start(ms(0));
+        s.handle(ms(10), &ack(ARM, OK));
+        for t in 1..=3 {
+            s.tick(ms(10 + 1000 * t));
+        }
+        assert!(s.finished().is_none());
+        s.handle(ms(3100), &heartbeat(false, 0));
+        assert!(matches!(
+            s.finished(),
+            Some(Err(StartError::Timeout {
+                step: Step::MissionStart,
+                disarmed: Some(true),
+                ..
+            }))
+        ));
     }
 }

@@ -7,6 +7,13 @@
 //! every reconnect or return of the heartbeat, and when a flight starts reads back the mission
 //! the vehicle holds: the flight is measured against what it flies, whoever uploaded it.
 //!
+//! A start is refused before anything is armed unless the vehicle holds a mission: the one this
+//! service uploaded and read back (and nothing since may have changed: an upload begun, the
+//! heartbeat lost, a start refused), or else one it reads back from the vehicle at the start (a
+//! pilot's upload). A start the autopilot refuses after arming disarms at once
+//! (`link::flight::Start`), and the flight folder that arming opened is removed when nothing was
+//! flown in it.
+//!
 //! Reads (link state, telemetry, flights) never wait for it: they come from watch channels and
 //! the event hub.
 
@@ -27,17 +34,19 @@ use crate::flightlog::recorder::PLAN_FILE;
 use crate::link::commands::{drive, heartbeats, Heard};
 use crate::link::connection::{Autopilot, Identity, Link};
 use crate::link::driver::{download, upload_verified};
-use crate::link::flight::{Start, StartConfig};
-use crate::link::items::{item_json, mission_items, read_flight, ItemOptions};
+use crate::link::flight::{Start, StartConfig, StartError};
+use crate::link::items::{item_json, mission_items, read_flight, FlightItems, ItemOptions};
+use crate::link::mav::MISSION_ITEM_INT_DATA;
 use crate::link::transfer::TransferConfig;
+use crate::link::Flavour;
 use crate::mission::{Geodetic, Mission, Origin};
 use crate::physics::{Vehicle, VehicleModel};
 use crate::planner::json::upload_document;
 use crate::planner::{FlightChoice, Plan};
 use crate::session::upload::{failure_json, UploadJson};
 use crate::session::{
-    flight_plan, plan_from_items, request_streams, spawn_recorder, FlightEvent, RecorderConfig,
-    RecorderHandle,
+    discard_unflown, flight_plan, plan_from_items, request_streams, spawn_recorder, FlightEvent,
+    RecorderConfig, RecorderHandle,
 };
 use crate::sim::{MockAutopilot, MockConfig, MockHandle};
 
@@ -389,6 +398,7 @@ async fn run(
         target: None,
         transfer_budget: cfg.transfer_budget,
         expected: None,
+        mission_verified: false,
         started: None,
     };
     actor.serve(&mut stop, &mut commands).await;
@@ -427,8 +437,14 @@ struct Actor {
     transfer_budget: Option<Duration>,
     /// The plan the service set for the next flight (its upload).
     expected: Option<FlightPlan>,
-    /// When the service last armed the vehicle.
-    started: Option<Instant>,
+    /// The vehicle holds the mission this service last uploaded and read back, as far as the
+    /// actor knows: set by a verified upload; cleared when an upload begins (a failed one
+    /// leaves the vehicle's mission unknown), when the link is reopened or the heartbeat lost
+    /// (the vehicle may have rebooted), and when the autopilot refuses a start.
+    mission_verified: bool,
+    /// When the service last armed the vehicle (true), or disarmed it again after a start the
+    /// autopilot refused (false).
+    started: Option<(Instant, bool)>,
 }
 
 impl Actor {
@@ -468,6 +484,7 @@ impl Actor {
                     if changed.is_ok() {
                         let n = *reconnects.borrow_and_update();
                         self.status.send_modify(|s| s.reconnects = n);
+                        self.mission_verified = false;
                         self.ask_streams().await;
                     }
                 }
@@ -519,10 +536,13 @@ impl Actor {
                     tracing::info!("link to the autopilot up");
                     self.ask_streams().await;
                 }
-                LinkState::Lost => tracing::warn!(
-                    "no heartbeat from the autopilot for {} s",
-                    HEARTBEAT_LOST.as_secs()
-                ),
+                LinkState::Lost => {
+                    self.mission_verified = false;
+                    tracing::warn!(
+                        "no heartbeat from the autopilot for {} s",
+                        HEARTBEAT_LOST.as_secs()
+                    )
+                }
                 _ => {}
             }
         }
@@ -549,12 +569,13 @@ impl Actor {
         }
     }
 
-    /// Whether the vehicle is armed: its last heartbeat says so, or none has come since the
-    /// service armed it.
+    /// Whether the vehicle is armed: its last heartbeat says so, unless none has come since the
+    /// service armed it or disarmed it again.
     fn armed(&self) -> bool {
-        match *self.heard.borrow() {
-            Some(beat) => beat.armed || self.started.is_some_and(|t| beat.at <= t),
-            None => false,
+        match (*self.heard.borrow(), self.started) {
+            (Some(beat), Some((at, armed))) if beat.at <= at => armed,
+            (Some(beat), _) => beat.armed,
+            (None, _) => false,
         }
     }
 
@@ -572,6 +593,8 @@ impl Actor {
             .choice
             .flight(&job.plan)
             .map_err(|e| Refusal::new(422, "plan", &e.to_string()))?;
+        // From here the vehicle's mission may change, whatever the outcome.
+        self.mission_verified = false;
         if let Some(mock) = self.mock.as_mut() {
             let home = job.mission.origin.home;
             if mock.home().is_some_and(|h| !same_home(h, home)) {
@@ -636,6 +659,7 @@ impl Actor {
         let (rtt_ms, restarts, refusals) = (report.rtt_ms, report.restarts, report.refusals);
         self.recorder.set_plan(measured_against.clone());
         self.expected = Some(measured_against);
+        self.mission_verified = true;
         let uploaded = UploadJson {
             plan: planned,
             autopilot: target,
@@ -689,17 +713,9 @@ impl Actor {
             return Err(Refusal::new(409, "vehicle", "the vehicle is already armed"));
         }
         let span = tracing::info_span!("start");
-        let mut start = Start::new(target, StartConfig::default());
-        let driven = drive(&self.link, &target, &mut start)
-            .instrument(span.clone())
-            .await;
-        let outcome = match (driven, start.finished()) {
-            (Err(e), _) => Err(Refusal::new(502, "start", &e.to_string())),
-            (Ok(()), Some(Err(e))) => Err(Refusal::new(502, "start", &e.to_string())),
-            (Ok(()), _) => {
-                self.started = Some(Instant::now());
-                Ok(())
-            }
+        let outcome = match self.mission_held(&target).instrument(span.clone()).await {
+            Ok(()) => self.arm_and_start(target, &span).await,
+            Err(refusal) => Err(refusal),
         };
         span.in_scope(|| match &outcome {
             Ok(()) => tracing::info!("armed and started"),
@@ -710,6 +726,71 @@ impl Actor {
             error: outcome.as_ref().err().map(|r| r.message()),
         });
         outcome
+    }
+
+    /// Refuses a start (before anything is armed) unless the vehicle holds a mission: this
+    /// service's verified upload, or one read back from the vehicle now.
+    async fn mission_held(&mut self, target: &Autopilot) -> Result<(), Refusal> {
+        if self.mission_verified {
+            return Ok(());
+        }
+        let items = download(&self.link, target, self.transfer_config(target))
+            .await
+            .map_err(|e| {
+                Refusal::new(
+                    502,
+                    "start",
+                    &format!("reading the vehicle's mission before arming failed: {e}"),
+                )
+            })?;
+        let held = mission_len(&items, target.flavour);
+        if held == 0 {
+            return Err(Refusal::new(
+                409,
+                "vehicle",
+                "no mission on the vehicle: upload one first (POST /api/missions/FILE/upload); \
+                 nothing was armed",
+            ));
+        }
+        tracing::info!(
+            items = held,
+            "starting the mission the vehicle holds (not this service's upload)"
+        );
+        Ok(())
+    }
+
+    async fn arm_and_start(
+        &mut self,
+        target: Autopilot,
+        span: &tracing::Span,
+    ) -> Result<(), Refusal> {
+        // Subscribed before arming: the flight the arming opens is seen.
+        let flights = self.recorder.subscribe();
+        let mut start = Start::new(target, StartConfig::default());
+        let driven = drive(&self.link, &target, &mut start)
+            .instrument(span.clone())
+            .await;
+        match (driven, start.finished()) {
+            (Err(e), _) => Err(Refusal::new(502, "start", &e.to_string())),
+            (Ok(()), Some(Err(e))) => {
+                // The autopilot did not take it: what it holds is read back next time.
+                self.mission_verified = false;
+                if let Some(disarmed) = e.disarmed() {
+                    self.started = Some((Instant::now(), !disarmed));
+                    if disarmed {
+                        tokio::spawn(
+                            discard_unflown(flights, DISCARD_OPENED_WITHIN, DISCARD_ENDED_WITHIN)
+                                .instrument(span.clone()),
+                        );
+                    }
+                }
+                Err(start_refusal(e))
+            }
+            (Ok(()), _) => {
+                self.started = Some((Instant::now(), true));
+                Ok(())
+            }
+        }
     }
 
     /// A flight started: what does the vehicle fly? Its mission read back is compared with the
@@ -735,13 +816,12 @@ impl Actor {
         )
         .await
         {
-            Ok(held) => {
-                if current.as_ref().is_some_and(|c| same_flight(c, &held)) {
-                    tracing::info!(
-                        "flying the mission {} planned",
-                        super::escape_controls(&held.mission)
-                    );
-                } else {
+            Ok(held) => match current.filter(|c| same_flight(c, &held)) {
+                // Named after the upload: missions sharing a home read back alike.
+                Some(current) => {
+                    tracing::info!("flying the mission {} planned", super::escape_controls(&current.mission))
+                }
+                None => {
                     tracing::info!(
                         points = held.points.len(),
                         "measuring against the mission the vehicle holds ({})",
@@ -749,16 +829,84 @@ impl Actor {
                     );
                     self.recorder.set_plan(held);
                 }
-            }
+            },
             Err(e) => tracing::warn!("{e}; recording the telemetry only"),
         }
     }
 }
 
+/// How long after a start refused once armed the flight its arming opened may take to appear
+/// (the recorder opens it at the first heartbeat showing the vehicle armed: PX4 and ArduPilot
+/// send one a second), and to end once it has (the recorder's tail after the disarm).
+const DISCARD_OPENED_WITHIN: Duration = Duration::from_secs(3);
+const DISCARD_ENDED_WITHIN: Duration = Duration::from_secs(10);
+
+/// The refusal of a start the autopilot did not take: its answer in `result`.
+fn start_refusal(e: &StartError) -> Refusal {
+    let mut refusal = Refusal::new(502, "start", &e.to_string());
+    if let (Some(result), Some(doc)) = (e.result(), refusal.doc.as_object_mut()) {
+        doc.insert("result".into(), format!("{result:?}").into());
+    }
+    refusal
+}
+
+/// The items of a mission `items` holds (ArduPilot's home at seq 0 is none).
+fn mission_len(items: &[MISSION_ITEM_INT_DATA], flavour: Flavour) -> usize {
+    items
+        .iter()
+        .filter(|i| !(flavour == Flavour::ArduPilot && i.seq == 0))
+        .count()
+}
+
+/// Which of `missions` the flight `items` (taking off at `takeoff`) is: of those whose home is
+/// the take-off point (within 2 m), the one whose waypoints are the most of its points (within
+/// 1 m), then the one with the fewest waypoints besides (several missions of a field share its
+/// home); with the flight read at that mission's home altitude.
+fn mission_of<'m>(
+    items: &[MISSION_ITEM_INT_DATA],
+    flavour: Flavour,
+    takeoff: Geodetic,
+    missions: &[&'m Mission],
+) -> Option<(&'m Mission, FlightItems)> {
+    let near = |a: &crate::mission::Enu, b: &crate::mission::Enu| {
+        (a.x_east_m - b.x_east_m)
+            .hypot(a.y_north_m - b.y_north_m)
+            .hypot(a.z_up_m - b.z_up_m)
+            < 1.0
+    };
+    missions
+        .iter()
+        .filter_map(|&m| {
+            let origin = Origin {
+                home: m.origin.home,
+                height_above_home_m: 0.0,
+            };
+            let at = origin.to_enu(Geodetic {
+                alt_m: m.origin.home.alt_m,
+                ..takeoff
+            });
+            if at.x_east_m.hypot(at.y_north_m) >= 2.0 {
+                return None;
+            }
+            // The home altitude is the mission's when the autopilot keeps no home item.
+            let read = read_flight(items, flavour, m.origin.home.alt_m).ok()?;
+            let named = read
+                .points
+                .iter()
+                .filter(|(_, enu, _)| m.waypoints.iter().any(|w| near(&w.position, enu)))
+                .count();
+            let others = m.waypoints.len().saturating_sub(named);
+            Some(((std::cmp::Reverse(named), others), m, read))
+        })
+        // The first of the best.
+        .min_by_key(|(score, _, _)| *score)
+        .map(|(_, m, read)| (m, read))
+}
+
 /// What a vehicle flies when someone else uploaded it (a pilot with QGroundControl): its
-/// mission read back now, as a FlightPlan named after whichever of `missions` has its home at
-/// the take-off point (within 2 m), whose waypoints name the points ("flight" and "item N" when
-/// none does); legs priced with `model`.
+/// mission read back now, as a FlightPlan named after the one of `missions` it is
+/// ([`mission_of`]), whose waypoints name the points ("flight" and "item N" when none is);
+/// legs priced with `model`.
 async fn held_flight_plan(
     link: &Link,
     target: &Autopilot,
@@ -771,23 +919,42 @@ async fn held_flight_plan(
         .map_err(|e| format!("reading the vehicle's mission failed: {e}"))?;
     let unmeasurable = |e: String| format!("the vehicle's mission cannot be measured: {e}");
     let read = read_flight(&items, target.flavour, 0.0).map_err(|e| unmeasurable(e.to_string()))?;
-    let mission = missions.iter().copied().find(|m| {
-        let origin = Origin {
-            home: m.origin.home,
-            height_above_home_m: 0.0,
-        };
-        let at = origin.to_enu(Geodetic {
-            alt_m: m.origin.home.alt_m,
-            ..read.home
-        });
-        at.x_east_m.hypot(at.y_north_m) < 2.0
-    });
-    // The home altitude is the mission's when the autopilot keeps no home item.
-    let read = match mission {
-        Some(m) => read_flight(&items, target.flavour, m.origin.home.alt_m)
-            .map_err(|e| unmeasurable(e.to_string()))?,
-        None => read,
+    let (mission, read) = match mission_of(&items, target.flavour, read.home, missions) {
+        Some((m, read)) => (Some(m), read),
+        None => (None, read),
     };
     let name = mission.map_or("flight", |m| m.name.as_str());
     plan_from_items(name, &read, mission, Some(model)).map_err(|e| unmeasurable(e.to_string()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample(file: &str) -> Mission {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("missions")
+            .join(file);
+        crate::mission::load(&path).expect("a shipped mission")
+    }
+
+    fn read_back(mission: &Mission) -> Vec<MISSION_ITEM_INT_DATA> {
+        let order: Vec<usize> = (0..mission.waypoints.len()).collect();
+        mission_items(mission, &order, &ItemOptions::default()).expect("items")
+    }
+
+    #[test]
+    fn a_flight_read_back_is_named_after_the_mission_it_is_among_several_of_the_same_home() {
+        let three = sample("paper-sample-3wp.toml");
+        let eight = sample("paper-sample-8wp.toml");
+        assert!(same_home(three.origin.home, eight.origin.home));
+        let missions = [&three, &eight];
+        for (flown, name) in [(&eight, "paper-sample-8wp"), (&three, "paper-sample-3wp")] {
+            let items = read_back(flown);
+            let read = read_flight(&items, Flavour::Px4, 0.0).expect("reads");
+            let (m, read) = mission_of(&items, Flavour::Px4, read.home, &missions).expect("found");
+            assert_eq!(m.name, name);
+            assert_eq!(read.points.len(), flown.waypoints.len() + 1);
+        }
+    }
 }

@@ -1,11 +1,13 @@
 //! `fly`: upload the planned flight and prove it arrived, hand the recorder what to measure it
 //! against, start it (arming only when asked: with a real vehicle the pilot may start it), and
 //! wait until the recorder has seen it land and disarm; the recorder's report is the answer.
+//! A start the autopilot refuses fails at once (`link::flight::Start` disarms a vehicle it
+//! armed), and the flight folder that arming opened goes with it ([`discard_unflown`]).
 
 use std::path::PathBuf;
 use std::time::Duration;
 
-use tokio::sync::broadcast::error::RecvError;
+use tokio::sync::broadcast::{self, error::RecvError};
 
 use super::plan::{flight_plan, flight_plan_predicted, predicted_by_simulation};
 use super::recorder::{FlightEvent, RecorderHandle};
@@ -143,8 +145,12 @@ pub async fn fly(
     let flying = async {
         if opts.arm {
             let mut start = Start::new(*target, opts.start);
+            let opened = recorder.subscribe();
             drive(link, target, &mut start).await?;
             if let Some(Err(e)) = start.finished() {
+                if e.disarmed() == Some(true) {
+                    discard_unflown(opened, DISCARD_OPENED_WITHIN, DISCARD_ENDED_WITHIN).await;
+                }
                 return Err(FlyError::Start(e.clone()));
             }
         }
@@ -210,5 +216,156 @@ pub async fn fly(
                 .as_ref()
                 .map(|f| f.dir.clone()),
         }),
+    }
+}
+
+/// How long [`fly`] waits, after a refused start it disarmed, for the flight its arming opened
+/// (the recorder opens it at the first heartbeat showing the vehicle armed, one a second) and
+/// for that flight to end (the recorder's tail after the disarm).
+const DISCARD_OPENED_WITHIN: Duration = Duration::from_secs(2);
+const DISCARD_ENDED_WITHIN: Duration = Duration::from_secs(5);
+
+/// After a start that failed once it had armed the vehicle, and disarmed it again: removes the
+/// flight folder that arming opened (the first flight `events`, subscribed before the start,
+/// sees open within `opened_within`) once it has ended (within `ended_within`), when no leg of
+/// a mission was flown in it. A refused start leaves no empty flight folder behind. Returns the
+/// folder removed.
+pub async fn discard_unflown(
+    mut events: broadcast::Receiver<FlightEvent>,
+    opened_within: Duration,
+    ended_within: Duration,
+) -> Option<PathBuf> {
+    let opened = tokio::time::timeout(opened_within, async {
+        loop {
+            match events.recv().await {
+                Ok(FlightEvent::Started {
+                    dir,
+                    resumed: false,
+                    ..
+                }) => return Some(dir),
+                Ok(_) | Err(RecvError::Lagged(_)) => {}
+                Err(RecvError::Closed) => return None,
+            }
+        }
+    })
+    .await
+    .ok()
+    .flatten()?;
+    let unflown = tokio::time::timeout(ended_within, async {
+        loop {
+            match events.recv().await {
+                Ok(FlightEvent::Ended { dir, report, .. }) if dir == opened => {
+                    return report.is_none_or(|r| r.legs.is_empty());
+                }
+                Ok(_) | Err(RecvError::Lagged(_)) => {}
+                Err(RecvError::Closed) => return false,
+            }
+        }
+    })
+    .await
+    .unwrap_or(false);
+    if !unflown {
+        return None;
+    }
+    match tokio::fs::remove_dir_all(&opened).await {
+        Ok(()) => {
+            tracing::info!(
+                "removed {}: the start failed before anything was flown",
+                opened.display()
+            );
+            Some(opened)
+        }
+        Err(e) => {
+            tracing::warn!("{}: not removed: {e}", opened.display());
+            None
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::flightlog::report::{FlightReport, PartReport};
+
+    fn started(dir: &std::path::Path) -> FlightEvent {
+        FlightEvent::Started {
+            flight: "f".into(),
+            dir: dir.to_path_buf(),
+            resumed: false,
+        }
+    }
+
+    fn ended(dir: &std::path::Path, legs: usize) -> FlightEvent {
+        let leg = PartReport {
+            from: "origin".into(),
+            to: "A".into(),
+            predicted_j: None,
+            measured_j: None,
+            consumed_j: None,
+            duration_s: 1.0,
+            predicted_duration_s: None,
+            start_s: 0.0,
+            end_s: 1.0,
+            coverage: 1.0,
+            flags: Vec::new(),
+            start_offset_m: None,
+            start_speed_m_s: None,
+        };
+        FlightEvent::Ended {
+            flight: "f".into(),
+            dir: dir.to_path_buf(),
+            report: Some(Box::new(FlightReport {
+                flight: "f".into(),
+                takeoff: None,
+                legs: vec![leg; legs],
+                settles: Vec::new(),
+                hovers: Vec::new(),
+                landing: None,
+                predicted_j: None,
+                measured_j: None,
+                duration_s: 1.0,
+                complete: true,
+                flags: Vec::new(),
+            })),
+        }
+    }
+
+    const S: Duration = Duration::from_secs(1);
+
+    #[tokio::test]
+    async fn the_folder_a_refused_start_opened_is_removed_once_it_ends_with_nothing_flown() {
+        let work = tempfile::tempdir().unwrap();
+        let (other, ours) = (work.path().join("other"), work.path().join("ours"));
+        for d in [&other, &ours] {
+            std::fs::create_dir(d).unwrap();
+        }
+        let (tx, rx) = broadcast::channel(16);
+        tx.send(started(&ours)).unwrap();
+        tx.send(ended(&other, 0)).unwrap();
+        tx.send(ended(&ours, 0)).unwrap();
+        assert_eq!(discard_unflown(rx, S, S).await, Some(ours.clone()));
+        assert!(!ours.exists() && other.exists());
+    }
+
+    #[tokio::test]
+    async fn a_flight_with_a_leg_flown_is_kept() {
+        let work = tempfile::tempdir().unwrap();
+        let (tx, rx) = broadcast::channel(16);
+        tx.send(started(work.path())).unwrap();
+        tx.send(ended(work.path(), 1)).unwrap();
+        assert_eq!(discard_unflown(rx, S, S).await, None);
+        assert!(work.path().exists());
+    }
+
+    #[tokio::test]
+    async fn a_flight_not_ended_in_time_is_kept_and_none_opened_is_waited_for_no_longer() {
+        let short = Duration::from_millis(20);
+        let work = tempfile::tempdir().unwrap();
+        let (tx, rx) = broadcast::channel(16);
+        tx.send(started(work.path())).unwrap();
+        assert_eq!(discard_unflown(rx, S, short).await, None);
+        assert!(work.path().exists());
+        let (_tx, rx) = broadcast::channel(16);
+        assert_eq!(discard_unflown(rx, short, S).await, None);
     }
 }

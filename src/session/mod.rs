@@ -16,7 +16,7 @@ pub mod replay;
 pub mod upload;
 
 pub use crate::link::commands::{keep_streams, request_streams};
-pub use fly::{fly, Flown, FlyError, FlyOptions};
+pub use fly::{discard_unflown, fly, Flown, FlyError, FlyOptions};
 pub use params::{check_px4_params, ParamCheck};
 pub use plan::{
     flight_plan, flight_plan_predicted, plan_from_items, predicted, predicted_by_simulation,

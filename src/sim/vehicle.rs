@@ -282,6 +282,8 @@ fn default_interval_s(flavour: Flavour, id: u32) -> Option<f64> {
 pub struct Snapshot {
     pub time_s: f64,
     pub armed: bool,
+    /// Times armed since boot.
+    pub arms: u32,
     pub mode: Mode,
     pub landed: Landed,
     /// East, north, up from home (m).
@@ -328,6 +330,8 @@ pub struct SimVehicle<'v> {
     /// Next 1 Hz tick of PX4's mission manager (repeats of MISSION_ITEM_REACHED).
     slow_next_step: u64,
     idle_since_s: Option<f64>,
+    /// Times armed since boot.
+    arms: u32,
     /// When the land detector confirmed a landing (the disarm follows).
     landed_s: Option<f64>,
     heading_rad: f64,
@@ -390,6 +394,7 @@ impl<'v> SimVehicle<'v> {
             streams,
             slow_next_step: 1,
             idle_since_s: None,
+            arms: 0,
             landed_s: None,
             heading_rad: 0.0,
             params: vehicle.px4.autopilot_values(),
@@ -432,6 +437,7 @@ impl<'v> SimVehicle<'v> {
         Snapshot {
             time_s: self.now_s,
             armed: self.flight.armed(),
+            arms: self.arms,
             mode: self.mode,
             landed: self.flight.landed(),
             position: self.flight.position(),
@@ -699,6 +705,7 @@ impl<'v> SimVehicle<'v> {
             return MavResult::MAV_RESULT_FAILED;
         }
         self.flight.arm();
+        self.arms += 1;
         self.idle_since_s = Some(self.now_s);
         self.landed_s = None;
         self.maybe_fly();

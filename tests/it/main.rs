@@ -17,6 +17,7 @@ mod solvers;
 mod sorties;
 mod study;
 mod svchardening;
+mod svcstart;
 mod svcwatch;
 mod tidy;
 mod tlogcorrupt;

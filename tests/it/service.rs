@@ -20,7 +20,7 @@ use emplan::service::{Client, ServiceConfig, ServiceError, Token, VehicleLink};
 use emplan::sim::{FlightConfig, MockConfig};
 use serde_json::{json, Value};
 
-fn root() -> PathBuf {
+pub(crate) fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
@@ -46,11 +46,11 @@ fn builtin(speedup: f64) -> VehicleLink {
 }
 
 /// A service running in this process.
-struct Running {
-    client: Client,
+pub(crate) struct Running {
+    pub(crate) client: Client,
     token: Token,
     missions: PathBuf,
-    log_dir: PathBuf,
+    pub(crate) log_dir: PathBuf,
     stop: Option<tokio::sync::oneshot::Sender<()>>,
     task: tokio::task::JoinHandle<Result<(), ServiceError>>,
     _work: tempfile::TempDir,
@@ -58,7 +58,7 @@ struct Running {
 
 impl Running {
     /// Stops the service (as Ctrl-C does) and returns what `run` returned.
-    async fn shutdown(self) -> Result<(), ServiceError> {
+    pub(crate) async fn shutdown(self) -> Result<(), ServiceError> {
         self.shutdown_keeping_files().await.0
     }
 
@@ -85,7 +85,7 @@ impl Running {
 }
 
 /// Starts the service on 127.0.0.1:0 with the shipped missions `files` in its folder.
-async fn serve(vehicle: VehicleLink, files: &[&str]) -> Running {
+pub(crate) async fn serve(vehicle: VehicleLink, files: &[&str]) -> Running {
     let work = tempfile::tempdir().expect("temp dir");
     let missions = work.path().join("missions");
     let log_dir = work.path().join("flights");
@@ -131,7 +131,7 @@ async fn serve(vehicle: VehicleLink, files: &[&str]) -> Running {
 }
 
 /// Waits (up to `seconds`) for an event `accept` takes; fails the test otherwise.
-async fn wait_for(
+pub(crate) async fn wait_for(
     events: &mut EventStream,
     seconds: u64,
     accept: impl Fn(&Value) -> bool,
@@ -149,7 +149,7 @@ async fn wait_for(
     }
 }
 
-fn is(kind: &str) -> impl Fn(&Value) -> bool + '_ {
+pub(crate) fn is(kind: &str) -> impl Fn(&Value) -> bool + '_ {
     move |e| e["type"] == kind
 }
 
@@ -175,7 +175,7 @@ async fn poll(
 }
 
 /// Waits until the service has planned mission file `name`.
-async fn planned(client: &Client, name: &str) {
+pub(crate) async fn planned(client: &Client, name: &str) {
     poll(client, &format!("/api/missions/{name}"), 60, |a| {
         a.body["status"] == "planned"
     })
@@ -183,11 +183,11 @@ async fn planned(client: &Client, name: &str) {
 }
 
 /// Waits until the service's link is connected to the autopilot.
-async fn connected(client: &Client) {
+pub(crate) async fn connected(client: &Client) {
     poll(client, "/api/link", 20, |a| a.body["state"] == "connected").await;
 }
 
-async fn upload(client: &Client, name: &str, body: Value) -> Answer {
+pub(crate) async fn upload(client: &Client, name: &str, body: Value) -> Answer {
     client
         .post(&format!("/api/missions/{name}/upload"), &body)
         .await
@@ -573,7 +573,7 @@ async fn a_mission_one_battery_cannot_fly_is_refused_unless_overridden_or_split(
 }
 
 /// A mock autopilot of the test's own, flying from the samples' home.
-async fn own_mock(speedup: f64) -> emplan::sim::MockHandle {
+pub(crate) async fn own_mock(speedup: f64) -> emplan::sim::MockHandle {
     emplan::sim::MockAutopilot::spawn(
         "udpin:127.0.0.1:0",
         MockConfig {
@@ -707,7 +707,7 @@ async fn a_shutdown_mid_flight_finishes_the_flight_log_and_stops_serving() {
 }
 
 /// A child process killed and reaped when the test ends, passed or failed.
-struct Reaped(std::process::Child);
+pub(crate) struct Reaped(pub(crate) std::process::Child);
 
 impl Drop for Reaped {
     fn drop(&mut self) {
@@ -728,7 +728,7 @@ fn first_line(child: &mut std::process::Child) -> String {
 }
 
 /// `emplan serve` as a child process (stdout piped for its URL, stderr to `log`).
-fn spawn_serve(args: &[&str], log: &Path) -> (std::process::Child, String) {
+pub(crate) fn spawn_serve(args: &[&str], log: &Path) -> (std::process::Child, String) {
     let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_emplan"))
         .arg("serve")
         .args(args)
