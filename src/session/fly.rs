@@ -326,6 +326,7 @@ mod tests {
                 duration_s: 1.0,
                 complete: true,
                 flags: Vec::new(),
+                log_gaps: Vec::new(),
             })),
         }
     }
