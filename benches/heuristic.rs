@@ -1,5 +1,5 @@
 //! Criterion benches of the direction-preserving iterated local search
-//! (`emplan::plan::heuristic`) with a fixed kick budget: TSPLIB rbg443 (optimum 2720) and a
+//! (`emplan::tour::heuristic`) with a fixed kick budget: TSPLIB rbg443 (optimum 2720) and a
 //! 1000-waypoint mission (the study's distribution, XY 50 m, Z 25 m) priced with the S1000
 //! energy table. Run with `cargo bench --bench heuristic`.
 
@@ -8,8 +8,8 @@ mod common;
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use emplan::plan::heuristic::{solve, Options};
-use emplan::plan::tsplib;
+use emplan::tour::heuristic::{solve, Options};
+use emplan::tour::tsplib;
 
 /// Kicks per run: about the default budget for 443 nodes, 40% of it for 1000.
 const KICKS: u64 = 40_000;

@@ -8,7 +8,7 @@ use std::time::Duration;
 
 use common::energy_mission;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
-use emplan::plan::{held_karp, solver, tsplib};
+use emplan::tour::{held_karp, solver, tsplib};
 
 fn held_karp_bench(c: &mut Criterion) {
     let mut group = c.benchmark_group("held_karp");

@@ -10,11 +10,11 @@
 
 use crate::mission::{Enu, Mission};
 use crate::physics::Profile;
-use crate::plan::study::{Study, BASELINES};
-use crate::plan::Objective;
 use crate::planner::explain::saving_words;
 use crate::planner::json::energy_kj;
 use crate::planner::{Order, Plan};
+use crate::tour::study::{Study, BASELINES};
+use crate::tour::Objective;
 use plotters::coord::types::RangedCoordf64;
 use plotters::element::DashedPathElement;
 use plotters::prelude::*;

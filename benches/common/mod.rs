@@ -4,9 +4,9 @@
 use std::path::Path;
 
 use emplan::physics::{EnergyTable, Vehicle};
-use emplan::plan::energy::energy_matrix;
-use emplan::plan::study::{mission_geometry, StudySettings};
-use emplan::plan::CostMatrix;
+use emplan::tour::energy::energy_matrix;
+use emplan::tour::study::{mission_geometry, StudySettings};
+use emplan::tour::CostMatrix;
 
 /// The energy matrix (J) of mission 0 of the study setting (`waypoints`, `xy_m`, `z_m`, seed 1).
 pub fn energy_mission(waypoints: usize, xy_m: f64, z_m: f64) -> CostMatrix {

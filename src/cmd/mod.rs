@@ -34,9 +34,9 @@ pub fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
 
 /// A study or generator setting refused by the library, in the words of the command line
 /// (`--xy 60: ...`).
-pub fn setting_error(e: emplan::plan::study::StudyError) -> anyhow::Error {
+pub fn setting_error(e: emplan::tour::study::StudyError) -> anyhow::Error {
     match e {
-        emplan::plan::study::StudyError::Setting {
+        emplan::tour::study::StudyError::Setting {
             setting,
             value,
             problem,
@@ -140,7 +140,7 @@ pub struct SolverArgs {
     /// Tour solver: auto (Held-Karp up to 12 waypoints, branch-and-cut up to 500 nodes, the
     /// heuristic beyond), held-karp, branch-cut or heuristic
     #[arg(long, default_value = "auto")]
-    pub solver: emplan::plan::solver::Solver,
+    pub solver: emplan::tour::solver::Solver,
     /// Wall-clock budget of the command's solves together (s); a solve cut short reports its
     /// best tour and a proven lower bound
     #[arg(long, default_value_t = 60.0)]
@@ -155,14 +155,14 @@ pub struct SolverArgs {
 
 impl SolverArgs {
     /// The library's solver options.
-    pub fn options(&self) -> anyhow::Result<emplan::plan::solver::Options> {
+    pub fn options(&self) -> anyhow::Result<emplan::tour::solver::Options> {
         if !(self.time_limit.is_finite() && self.time_limit >= 0.0) {
             anyhow::bail!(
                 "--time-limit {}: expected a non-negative number of seconds",
                 self.time_limit
             );
         }
-        Ok(emplan::plan::solver::Options {
+        Ok(emplan::tour::solver::Options {
             solver: self.solver,
             time_limit: std::time::Duration::from_secs_f64(self.time_limit.min(1e9)),
             seed: self.seed,

@@ -7,10 +7,10 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use emplan::output::Output;
-use emplan::plan::Objective;
 use emplan::planner::explain::saving_words;
 use emplan::planner::json::{plan_document, BatteryJson, PlanJson};
 use emplan::planner::{plan_mission, Explanation, Orders, Plan, PlanOptions};
+use emplan::tour::Objective;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -80,7 +80,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         plan_mission(&mission, &model, &options)
     })?;
     if let Some(out) = &atsp {
-        let text = emplan::plan::tsplib::to_text(&mission.name, &plan.energy, ATSP_UNITS_PER_J)
+        let text = emplan::tour::tsplib::to_text(&mission.name, &plan.energy, ATSP_UNITS_PER_J)
             .with_context(|| format!("exporting {}", out.path.display()))?;
         out.write(text.as_bytes())?;
         eprintln!("wrote {}", out.path.display());

@@ -7,7 +7,7 @@ use std::io::IsTerminal;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
-use emplan::plan::progress::{self, Event};
+use emplan::tour::progress::{self, Event};
 use indicatif::{ProgressBar, ProgressFinish, ProgressStyle};
 
 static QUIET: AtomicBool = AtomicBool::new(false);

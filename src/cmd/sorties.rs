@@ -1,8 +1,8 @@
 //! The sorties of `emplan plan --sorties` as text, after the plan's table (the split itself is
 //! `emplan::planner`'s; this prints its JSON view).
 
-use emplan::plan::sorties::Method;
 use emplan::planner::json::SortiesJson;
+use emplan::tour::sorties::Method;
 
 /// The sorties as text.
 pub fn print(report: &SortiesJson) {

@@ -8,8 +8,8 @@ use std::process::ExitCode;
 use anyhow::{anyhow, bail};
 use emplan::output::Output;
 use emplan::physics::Profile;
-use emplan::plan::study::StudySettings;
 use emplan::planner::study::{self, check_envelope, study_document, StudyJson, StudyRunError};
+use emplan::tour::study::StudySettings;
 
 /// Arguments of `emplan study` (its help text is on the subcommand in main.rs).
 #[derive(Debug, clap::Args)]
@@ -195,7 +195,7 @@ fn print_table(docs: &[StudyJson], profile: Profile, args: &Args) {
         "X_beats_D",
         "seconds"
     );
-    let cell = |s: &emplan::plan::study::Stats| {
+    let cell = |s: &emplan::tour::study::Stats| {
         format!("{:>5.2} {:>6.2} {:>6.2}", s.mean_pct, s.p90_pct, s.max_pct)
     };
     for d in docs {

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::Context;
-use emplan::plan::{solver, tsplib};
+use emplan::tour::{solver, tsplib};
 
 #[derive(Debug, clap::Args)]
 pub struct Args {

@@ -10,7 +10,7 @@
 pub mod clock;
 pub mod csv;
 pub mod energy;
-pub mod plan;
+pub mod flight_plan;
 pub mod recorder;
 pub mod report;
 pub mod samples;

@@ -16,7 +16,7 @@
 use std::path::{Path, PathBuf};
 
 use super::csv::{SampleRow, SamplesWriter};
-use super::plan::FlightPlan;
+use super::flight_plan::FlightPlan;
 use super::report::FlightReport;
 use super::samples::{BatteryFeed, FeedConfig};
 use super::telemetry::{Reading, Stamped, VehicleState};

@@ -12,7 +12,7 @@ use std::collections::BTreeMap;
 use serde::{Deserialize, Serialize};
 
 use super::energy::{Flag, Measurement};
-use super::plan::ORIGIN_NAME;
+use super::flight_plan::ORIGIN_NAME;
 use super::segment::{Segment, SegmentKind, Segmenter};
 use super::tlog::TlogGap;
 

@@ -32,7 +32,7 @@
 use serde::Serialize;
 
 use super::energy::{EnergyConfig, Measurement, PowerSeries};
-use super::plan::{FlightPlan, Target};
+use super::flight_plan::{FlightPlan, Target};
 use super::samples::{BatteryFeed, FeedConfig};
 use super::telemetry::{FlightMode, LandedState, Reading, Stamped, VehicleState};
 use super::FlightLogError;

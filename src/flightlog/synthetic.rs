@@ -10,7 +10,7 @@
 //! This is not the physics model's flight (that is `sim`'s); it exists so segmentation and
 //! integration can be checked against an analytic answer.
 
-use super::plan::{FlightPlan, PlannedPoint, Predicted, PredictedLeg, ORIGIN_NAME};
+use super::flight_plan::{FlightPlan, PlannedPoint, Predicted, PredictedLeg, ORIGIN_NAME};
 use super::segment::SegmentKind;
 use super::telemetry::{
     Battery, BatterySource, FlightMode, LandedState, MissionState, Position, Reading, Stamped,

@@ -31,7 +31,7 @@ use super::mav::{
 };
 use super::Flavour;
 use crate::flightlog::clock::VehicleClock;
-use crate::flightlog::plan::FlightPlan;
+use crate::flightlog::flight_plan::FlightPlan;
 use crate::flightlog::recorder::{flight_name, PLAN_FILE, TLOG_FILE};
 use crate::flightlog::report::FlightReport;
 use crate::flightlog::segment::{SegmentConfig, Segmenter};

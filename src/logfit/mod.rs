@@ -33,7 +33,7 @@ use std::path::{Path, PathBuf};
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::flightlog::plan::FlightPlan;
+use crate::flightlog::flight_plan::FlightPlan;
 use crate::flightlog::recorder::{read_report, PLAN_FILE, REPORT_FILE};
 use crate::flightlog::FlightLogError;
 use crate::mission::Enu;

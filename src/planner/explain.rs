@@ -5,7 +5,7 @@
 //! diagonally).
 
 use super::{Leg, Order};
-use crate::plan::Direction;
+use crate::tour::Direction;
 
 /// How many of the distance order's dropped legs [`Saving::costliest_avoided`] lists.
 const COSTLIEST: usize = 3;
@@ -132,7 +132,7 @@ fn steep_legs(o: &Order) -> usize {
 mod tests {
     use super::*;
     use crate::physics::LegEnergy;
-    use crate::plan::Objective;
+    use crate::tour::Objective;
 
     /// An order through points (x, z) on a line, each leg priced `energy_j` per metre climbed
     /// plus one per metre across.

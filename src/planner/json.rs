@@ -10,9 +10,9 @@ use serde::Serialize;
 
 use super::{Flight, Leg, Order, Orders, Plan, Sorties};
 use crate::physics::{Pricing, Profile};
-use crate::plan::solver::Solver;
-use crate::plan::sorties::Method;
-use crate::plan::{Direction, Objective};
+use crate::tour::solver::Solver;
+use crate::tour::sorties::Method;
+use crate::tour::{Direction, Objective};
 
 /// kJ of `j` joules.
 pub fn kj(j: f64) -> f64 {

@@ -14,7 +14,7 @@
 //! Energies are in J here; [`json`] converts to kJ for output.
 //!
 //! A plan can be stopped from another thread: run [`plan_mission`] inside
-//! [`crate::plan::cancel::within`] and raise the token; it then answers
+//! [`crate::tour::cancel::within`] and raise the token; it then answers
 //! [`PlannerError::Cancelled`] within milliseconds, whatever phase it was in.
 //!
 //! Invariant: pure; no IO, no tokio, no MAVLink.
@@ -27,10 +27,10 @@ use serde::Serialize;
 
 use crate::mission::Mission;
 use crate::physics::{BatteryCheck, Budget, LegEnergy, PhysicsError, Pricing, Profile};
-use crate::plan::energy::energy_matrix;
-use crate::plan::orders::{baseline, energy_order, plan_orders};
-use crate::plan::sorties::{self, Method, SortieError, SortieOptions, SortieProblem};
-use crate::plan::{cancel, solver, CostMatrix, Direction, Geometry, Objective, PlanError, Proof};
+use crate::tour::energy::energy_matrix;
+use crate::tour::orders::{baseline, energy_order, plan_orders};
+use crate::tour::sorties::{self, Method, SortieError, SortieOptions, SortieProblem};
+use crate::tour::{cancel, solver, CostMatrix, Direction, Geometry, Objective, PlanError, Proof};
 
 pub use crate::physics::VehicleModel;
 pub use explain::{Explanation, Saving};
@@ -401,7 +401,7 @@ pub enum PlannerError {
         usable_j: f64,
         reserve_pct: f64,
     },
-    /// The thread's cancel token asked the plan to stop (`plan::cancel`).
+    /// The thread's cancel token asked the plan to stop (`tour::cancel`).
     #[error("planning mission {mission} was stopped before it finished")]
     Cancelled { mission: String },
 }

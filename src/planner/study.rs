@@ -1,4 +1,4 @@
-//! The paper's random-mission study (`plan::study`) run with a vehicle: each setting checked
+//! The paper's random-mission study (`tour::study`) run with a vehicle: each setting checked
 //! against the vehicle's energy table before any mission is drawn, the legs priced from the
 //! table (start to settled hover as `emplan plan` prices them, or to the paper's 4 m rule with
 //! [`Pricing::Paper`]), and the study's JSON view.
@@ -8,8 +8,8 @@ use std::time::Instant;
 use serde::Serialize;
 
 use crate::physics::{EnergyTable, Pricing, Profile, VehicleModel};
-use crate::plan::study::{run_study, Study, StudyError, StudySettings, Summary};
-use crate::plan::Objective;
+use crate::tour::study::{run_study, Study, StudyError, StudySettings, Summary};
+use crate::tour::Objective;
 
 /// A study run with a vehicle.
 #[derive(Debug, Clone, PartialEq)]

@@ -238,9 +238,9 @@ fn a_plan_whose_cancel_token_is_raised_answers_cancelled_whatever_its_phase() {
     let m = model();
     let sample = mission("paper-sample-8wp.toml");
     let options = options(Orders::All, true);
-    let before = crate::plan::cancel::Cancel::new();
+    let before = crate::tour::cancel::Cancel::new();
     before.cancel();
-    let out = crate::plan::cancel::within(&before, || plan_mission(&sample, &m, &options));
+    let out = crate::tour::cancel::within(&before, || plan_mission(&sample, &m, &options));
     assert_eq!(
         out,
         Err(PlannerError::Cancelled {
@@ -248,10 +248,10 @@ fn a_plan_whose_cancel_token_is_raised_answers_cancelled_whatever_its_phase() {
         })
     );
     // Raised by the solver's first event: after pricing, while the orders are solved.
-    let during = crate::plan::cancel::Cancel::new();
+    let during = crate::tour::cancel::Cancel::new();
     let raise = during.clone();
-    let out = crate::plan::cancel::within(&during, || {
-        crate::plan::progress::listen(
+    let out = crate::tour::cancel::within(&during, || {
+        crate::tour::progress::listen(
             move |_| raise.cancel(),
             || plan_mission(&sample, &m, &options),
         )

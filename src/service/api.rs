@@ -44,9 +44,9 @@ use super::vehicle::{UploadJob, VehicleHandle};
 use super::{escape_controls, Refusal, Token};
 use crate::flightlog::recorder::{read_report, PLAN_FILE, REPORT_FILE, SAMPLES_FILE, TLOG_FILE};
 use crate::physics::{Profile, VehicleModel};
-use crate::plan::solver;
 use crate::planner::{FlightChoice, FlownOrder};
 use crate::session::flight_dirs;
+use crate::tour::solver;
 
 /// What every handler reaches.
 #[derive(Debug)]
@@ -559,7 +559,7 @@ async fn flight(
     let now = recording(&s.hub);
     let mut doc = flight_summary(&dir, now.as_deref());
     if let Some(map) = doc.as_object_mut() {
-        let plan = crate::flightlog::plan::FlightPlan::read_json(&dir.join(PLAN_FILE)).ok();
+        let plan = crate::flightlog::flight_plan::FlightPlan::read_json(&dir.join(PLAN_FILE)).ok();
         map.insert("mission".into(), serde_json::json!(plan.map(|p| p.mission)));
         map.insert("dir".into(), serde_json::json!(dir));
         map.insert(

@@ -11,7 +11,7 @@
 //! planning of the others: every order and baseline (what `emplan plan --json` prints) and,
 //! when one battery cannot fly the mission, its sorties. A plan is stopped (its memory given
 //! back) when its file is deleted or changes, and when it runs past the time limit (then the
-//! file is listed as an error); see `plan::cancel`. An invalid file is listed with its located
+//! file is listed as an error); see `tour::cancel`. An invalid file is listed with its located
 //! error (file, line or item); it never stops the others. Handlers read the catalog from a
 //! watch channel.
 //!
@@ -30,11 +30,11 @@ use super::events::{Event, Hub};
 use super::Refusal;
 use crate::mission::{Format, Mission, MissionError, Place};
 use crate::physics::VehicleModel;
-use crate::plan::cancel::{self, Cancel};
-use crate::plan::solver;
-use crate::plan::Objective;
 use crate::planner::json::{energy_kj, plan_document};
 use crate::planner::{plan_mission, Orders, Plan, PlanOptions};
+use crate::tour::cancel::{self, Cancel};
+use crate::tour::solver;
+use crate::tour::Objective;
 
 /// The extensions planned (`.txt` is a WPL extension too, but a folder's README is not a
 /// mission).

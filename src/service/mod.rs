@@ -41,8 +41,8 @@ pub use token::Token;
 pub use vehicle::{LinkState, LinkStatus, VehicleLink};
 
 use crate::physics::VehicleModel;
-use crate::plan::solver;
 use crate::session::RecorderConfig;
+use crate::tour::solver;
 
 /// Why the service could not run.
 #[derive(Debug, thiserror::Error)]

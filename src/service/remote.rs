@@ -14,8 +14,8 @@ use super::missions::digest;
 use crate::flightlog::report::{PartJson, PartReport, ReportJson};
 use crate::flightlog::segment::SegmentKind;
 use crate::physics::Profile;
-use crate::plan::solver;
 use crate::planner::FlightChoice;
+use crate::tour::solver;
 
 /// Why an upload or a flight through the service did not succeed.
 #[derive(Debug, thiserror::Error)]

@@ -29,7 +29,7 @@ use tracing::Instrument;
 use super::events::{self, Hub};
 use super::missions::CatalogRx;
 use super::Refusal;
-use crate::flightlog::plan::FlightPlan;
+use crate::flightlog::flight_plan::FlightPlan;
 use crate::flightlog::recorder::PLAN_FILE;
 use crate::link::commands::{drive, heartbeats, Heard};
 use crate::link::connection::{Autopilot, Identity, Link};
@@ -819,7 +819,10 @@ impl Actor {
             Ok(held) => match current.filter(|c| same_flight(c, &held)) {
                 // Named after the upload: missions sharing a home read back alike.
                 Some(current) => {
-                    tracing::info!("flying the mission {} planned", super::escape_controls(&current.mission))
+                    tracing::info!(
+                        "flying the mission {} planned",
+                        super::escape_controls(&current.mission)
+                    )
                 }
                 None => {
                     tracing::info!(

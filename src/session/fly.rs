@@ -9,7 +9,7 @@ use std::time::Duration;
 
 use tokio::sync::broadcast::{self, error::RecvError};
 
-use super::plan::{flight_plan, flight_plan_predicted, predicted_by_simulation};
+use super::predict::{flight_plan, flight_plan_predicted, predicted_by_simulation};
 use super::recorder::{FlightEvent, RecorderHandle};
 use crate::flightlog::report::FlightReport;
 use crate::link::commands::{drive, keep_streams, request_streams};

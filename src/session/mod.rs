@@ -10,7 +10,7 @@
 
 pub mod fly;
 pub mod params;
-pub mod plan;
+pub mod predict;
 pub mod recorder;
 pub mod replay;
 pub mod upload;
@@ -18,7 +18,7 @@ pub mod upload;
 pub use crate::link::commands::{keep_streams, request_streams};
 pub use fly::{discard_unflown, fly, Flown, FlyError, FlyOptions};
 pub use params::{check_px4_params, ParamCheck};
-pub use plan::{
+pub use predict::{
     flight_plan, flight_plan_predicted, plan_from_items, predicted, predicted_by_simulation,
     FlightItemsError,
 };

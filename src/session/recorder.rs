@@ -20,7 +20,7 @@ use std::time::Duration;
 
 use tokio::sync::{broadcast, mpsc, oneshot, watch};
 
-use crate::flightlog::plan::FlightPlan;
+use crate::flightlog::flight_plan::FlightPlan;
 use crate::flightlog::recorder::{
     flight_name, read_report, write_report, Recorder, PLAN_FILE, TLOG_FILE,
 };

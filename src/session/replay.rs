@@ -6,7 +6,7 @@
 
 use std::path::Path;
 
-use crate::flightlog::plan::FlightPlan;
+use crate::flightlog::flight_plan::FlightPlan;
 use crate::flightlog::recorder::{flight_name, PLAN_FILE};
 use crate::flightlog::segment::SegmentConfig;
 use crate::link::items::read_flight;
@@ -14,7 +14,7 @@ use crate::link::telemetry::{analyse_tlog, mission_in_tlog, Analysis, TelemetryE
 use crate::mission::Mission;
 use crate::physics::VehicleModel;
 
-use super::plan::{plan_from_items, FlightItemsError};
+use super::predict::{plan_from_items, FlightItemsError};
 
 /// Why a log could not be replayed.
 #[derive(Debug, thiserror::Error)]

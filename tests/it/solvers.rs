@@ -6,9 +6,9 @@ use std::path::Path;
 use std::time::Duration;
 
 use emplan::physics::{EnergyTable, Vehicle};
-use emplan::plan::energy::energy_matrix;
-use emplan::plan::study::{mission_geometry, StudySettings};
-use emplan::plan::{held_karp, solver, tsplib, CostMatrix};
+use emplan::tour::energy::energy_matrix;
+use emplan::tour::study::{mission_geometry, StudySettings};
+use emplan::tour::{held_karp, solver, tsplib, CostMatrix};
 
 fn energy_mission(waypoints: usize, seed: u64) -> CostMatrix {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/s1000");

@@ -80,7 +80,7 @@ async fn serve(settings: Settings) -> Running {
         log_dir: work.path().join("flights"),
         token: token.clone(),
         model: model(),
-        solver: emplan::plan::solver::Options {
+        solver: emplan::tour::solver::Options {
             time_limit: settings.time_limit,
             ..Default::default()
         },

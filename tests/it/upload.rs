@@ -20,7 +20,7 @@ fn sample_items(flavour: Flavour) -> Vec<MISSION_ITEM_INT_DATA> {
     )
     .unwrap();
     let order =
-        emplan::plan::order_waypoints(&mission, emplan::plan::Objective::Distance, None).unwrap();
+        emplan::tour::order_waypoints(&mission, emplan::tour::Objective::Distance, None).unwrap();
     mission_items(
         &mission,
         &order,

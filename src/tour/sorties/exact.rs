@@ -126,8 +126,8 @@ fn subset_order(parent: &[u8], m: usize, s: usize, last: usize) -> Vec<usize> {
 mod tests {
     use super::super::testing::*;
     use super::*;
-    use crate::plan::CostMatrix;
     use crate::rng::Rng;
+    use crate::tour::CostMatrix;
 
     #[test]
     fn exact_equals_brute_force_over_every_partition_and_order_on_small_random_instances() {

@@ -1005,9 +1005,9 @@ impl Lagrangian {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plan::testing::{drone, tsplib_instance};
-    use crate::plan::{branch_cut, held_karp};
     use crate::rng::Rng;
+    use crate::tour::testing::{drone, tsplib_instance};
+    use crate::tour::{branch_cut, held_karp};
 
     fn identity_order(n: usize) -> Vec<usize> {
         (1..n).collect()

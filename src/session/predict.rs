@@ -5,7 +5,9 @@
 //!
 //! The items are read as a flight by `link::items::read_flight` (the MAVLink side).
 
-use crate::flightlog::plan::{FlightPlan, PlannedPoint, Predicted, PredictedLeg, ORIGIN_NAME};
+use crate::flightlog::flight_plan::{
+    FlightPlan, PlannedPoint, Predicted, PredictedLeg, ORIGIN_NAME,
+};
 use crate::flightlog::FlightLogError;
 use crate::link::items::{FlightItems, ReadItemsError};
 use crate::link::Flavour;

@@ -719,8 +719,8 @@ impl Search<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plan::held_karp;
     use crate::rng::Rng;
+    use crate::tour::held_karp;
 
     fn identity_order(n: usize) -> Vec<usize> {
         (1..n).collect()
@@ -746,7 +746,7 @@ mod tests {
         let mut rng = Rng::new(5);
         for trial in 0..20 {
             let n = 6 + trial % 10;
-            let m = crate::plan::testing::drone(n, rng.next_u64());
+            let m = crate::tour::testing::drone(n, rng.next_u64());
             let hk = held_karp::solve(&m).unwrap();
             let bc = solve(&m, &identity_order(n), &Options::default()).unwrap();
             assert!(bc.tour.optimal);
@@ -762,7 +762,7 @@ mod tests {
         let mut rng = Rng::new(17);
         for trial in 0..12 {
             let n = 8 + trial % 6;
-            let m = crate::plan::testing::drone(n, rng.next_u64());
+            let m = crate::tour::testing::drone(n, rng.next_u64());
             let hk = held_karp::solve(&m).unwrap();
             for tree in [TreeSearch::Own, TreeSearch::Milp, TreeSearch::Hybrid] {
                 let options = Options {

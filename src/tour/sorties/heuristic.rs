@@ -5,11 +5,11 @@
 //! (relocate, exchange, tail swap and merge between sorties; each changed sortie re-ordered
 //! exactly by Held-Karp when small, by Or-opt otherwise), restarted from seeded perturbations
 //! of the best giant tour. Deterministic for a seed. Stops early, with the best split so far,
-//! when the thread's [`crate::plan::cancel`] token asks.
+//! when the thread's [`crate::tour::cancel`] token asks.
 
 use super::{check, Checked, Method, SortieError, SortieOptions, SortiePlan, SortieProblem};
-use crate::plan::{held_karp, is_tour_order};
 use crate::rng::Rng;
+use crate::tour::{held_karp, is_tour_order};
 
 /// Largest sortie re-ordered exactly (Held-Karp) inside the heuristic's local search.
 const SUBTOUR_EXACT_MAX: usize = 12;
@@ -34,7 +34,7 @@ pub fn heuristic(
     let mut best_j = solution_j(&p, &best);
     let mut rng = Rng::new(options.seed);
     for _ in 1..options.restarts {
-        if crate::plan::cancel::requested() {
+        if crate::tour::cancel::requested() {
             break;
         }
         let mut sorties = best.clone();
@@ -251,7 +251,7 @@ fn improve(p: &Checked, sorties: Vec<Vec<usize>>) -> Vec<Vec<usize>> {
     // Each move lowers the total by more than eps, so this bound is never the reason to stop
     // in practice; it only guarantees termination.
     for _ in 0..100_000 {
-        if crate::plan::cancel::requested() {
+        if crate::tour::cancel::requested() {
             break;
         }
         let moved = merge(p, &mut routes)

@@ -188,7 +188,7 @@ pub fn solve_with<C: PathCost>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plan::brute;
+    use crate::tour::brute;
     use proptest::prelude::*;
 
     fn matrix(n: usize, costs: &[u32]) -> CostMatrix {

@@ -209,7 +209,7 @@ fn run_heuristic(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plan::testing::drone;
+    use crate::tour::testing::drone;
 
     #[test]
     fn every_solver_agrees_with_held_karp_on_random_missions_up_to_fifteen_waypoints() {

@@ -808,8 +808,8 @@ impl<'a> Search<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plan::held_karp;
-    use crate::plan::testing::{drone, tsplib_instance};
+    use crate::tour::held_karp;
+    use crate::tour::testing::{drone, tsplib_instance};
 
     fn random_matrix(n: usize, rng: &mut Rng) -> CostMatrix {
         let costs: Vec<f64> = (0..n * n).map(|_| rng.uniform(1.0, 100.0)).collect();

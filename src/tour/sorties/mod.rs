@@ -381,8 +381,8 @@ pub(super) mod testing {
 mod tests {
     use super::testing::*;
     use super::*;
-    use crate::plan::held_karp;
     use crate::rng::Rng;
+    use crate::tour::held_karp;
 
     #[test]
     fn every_sortie_fits_the_budget_and_every_waypoint_is_flown_exactly_once() {

@@ -48,7 +48,7 @@ pub fn report(event: Event) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plan::{solver, CostMatrix};
+    use crate::tour::{solver, CostMatrix};
     use std::rc::Rc;
 
     #[test]
