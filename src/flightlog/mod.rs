@@ -11,6 +11,7 @@ pub mod clock;
 pub mod csv;
 pub mod energy;
 pub mod flight_plan;
+pub mod guard;
 pub mod recorder;
 pub mod report;
 pub mod samples;
