@@ -7,6 +7,7 @@
 pub mod convert;
 pub mod geodesy;
 mod qgc_plan;
+pub mod rehome;
 mod toml_format;
 mod wpl;
 
