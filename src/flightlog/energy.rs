@@ -32,6 +32,10 @@ pub enum Flag {
     /// A leg the autopilot finished before the vehicle came within the arrival radius (its
     /// acceptance radius is larger): the leg ends when the autopilot moved on.
     MissedRadius,
+    /// A leg that began further than `report::FAR_START_M` from the point it was planned to
+    /// leave (the vehicle took off elsewhere, or was flown there by hand): the model priced it
+    /// from hover on that point.
+    FarStart,
 }
 
 impl Flag {
@@ -46,6 +50,7 @@ impl Flag {
             Flag::Incomplete => "incomplete",
             Flag::LogGap => "log_gap",
             Flag::MissedRadius => "missed_radius",
+            Flag::FarStart => "far_start",
         }
     }
 }

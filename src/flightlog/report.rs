@@ -16,6 +16,12 @@ use super::flight_plan::ORIGIN_NAME;
 use super::segment::{Segment, SegmentKind, Segmenter};
 use super::tlog::TlogGap;
 
+/// A leg that begins further than this from the point it was planned to leave is flagged
+/// `far_start` (m): five times the acceptance radius PX4 and ArduPilot default to (2 m). PX4 SITL's
+/// legs begin 0.1-2 m off their point (docs/px4-sitl.md); a vehicle that took off away from the
+/// mission's origin begins its first leg as far off as it stood.
+pub const FAR_START_M: f64 = 10.0;
+
 /// One part of a flight, predicted and measured.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PartReport {
@@ -85,6 +91,12 @@ fn part(
     }
     if segment.missed_radius {
         flags.push(Flag::MissedRadius);
+    }
+    if segment
+        .start_state
+        .is_some_and(|s| s.offset_m > FAR_START_M)
+    {
+        flags.push(Flag::FarStart);
     }
     flags.sort();
     flags.dedup();
@@ -659,6 +671,32 @@ mod tests {
             complete: true,
             flags: vec![],
             log_gaps: vec![],
+        }
+    }
+
+    #[test]
+    fn a_leg_begun_far_from_its_point_is_flagged_far_start() {
+        use crate::flightlog::segment::{SegmentConfig, Segmenter};
+        use crate::flightlog::synthetic::{square_plan, SyntheticConfig, SyntheticFlight};
+        let plan = square_plan();
+        let flight = SyntheticFlight::fly(&plan, &SyntheticConfig::default());
+        let s = Segmenter::run(plan, SegmentConfig::default(), &flight.stamped()).expect("valid");
+        let leg = *s
+            .completed()
+            .iter()
+            .find(|x| x.kind == SegmentKind::Leg(0))
+            .expect("leg 0");
+        let names = || ("origin".to_string(), "A".to_string());
+        let near = part(&s, &leg, names(), None);
+        assert!(!near.flags.contains(&Flag::FarStart), "{near:?}");
+        for (offset_m, far) in [(FAR_START_M - 0.5, false), (FAR_START_M + 0.5, true)] {
+            let mut moved = leg;
+            moved.start_state = Some(crate::flightlog::segment::StartState {
+                offset_m,
+                speed_m_s: 0.0,
+            });
+            let p = part(&s, &moved, names(), None);
+            assert_eq!(p.flags.contains(&Flag::FarStart), far, "{offset_m}: {p:?}");
         }
     }
 
