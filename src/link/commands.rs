@@ -1,6 +1,6 @@
 //! Running the small command machines on a link: starting a mission (`flight::Start`), asking
 //! for telemetry rates (`telemetry::StreamRequests`) and reading parameters by name
-//! (`params::ParamReads`). All are sans-IO
+//! (`params::ParamReads`), sending the vehicle home (`home::ReturnHome`). All are sans-IO
 //! (`start/handle/tick` return the messages to send); this feeds them the target autopilot's
 //! messages and a 50 ms tick. [`heartbeats`] follows the autopilot's heartbeat (who, armed,
 //! when last heard) for a process that holds a link all day.
@@ -13,6 +13,7 @@ use tokio::time::Instant;
 use super::connection::{Autopilot, Identity, Link};
 use super::flavour::Flavour;
 use super::flight::Start;
+use super::home::{ReturnConfig, ReturnError, ReturnHome};
 use super::mav::MavMessage;
 use super::params::{ParamConfig, ParamReads};
 use super::telemetry::{
@@ -37,6 +38,21 @@ impl CommandMachine for Start {
     }
     fn tick(&mut self, now: Duration) -> Vec<MavMessage> {
         Start::tick(self, now)
+    }
+    fn done(&self) -> bool {
+        self.finished().is_some()
+    }
+}
+
+impl CommandMachine for ReturnHome {
+    fn start(&mut self, now: Duration) -> Vec<MavMessage> {
+        ReturnHome::start(self, now)
+    }
+    fn handle(&mut self, now: Duration, message: &MavMessage) -> Vec<MavMessage> {
+        ReturnHome::handle(self, now, message)
+    }
+    fn tick(&mut self, now: Duration) -> Vec<MavMessage> {
+        ReturnHome::tick(self, now)
     }
     fn done(&self) -> bool {
         self.finished().is_some()
@@ -105,6 +121,25 @@ pub async fn drive<M: CommandMachine>(
             _ = tick.tick() => machine.tick(t0.elapsed()),
         };
     }
+}
+
+/// Sends `target` home (MAV_CMD_NAV_RETURN_TO_LAUNCH) and returns once it is acknowledged or
+/// the autopilot shows its return mode; the outer error is the link's, the inner the autopilot's
+/// answer.
+pub async fn return_home(
+    link: &Link,
+    target: &Autopilot,
+) -> Result<Result<(), ReturnError>, LinkError> {
+    let mut machine = ReturnHome::new(*target, ReturnConfig::default());
+    drive(link, target, &mut machine).await?;
+    Ok(machine
+        .finished()
+        .cloned()
+        .unwrap_or(Err(ReturnError::Timeout {
+            budget_s: ReturnConfig::default().budget.as_secs_f64(),
+            attempts: 0,
+            statustext: None,
+        })))
 }
 
 /// Asks `target` for the telemetry the flight log needs (battery and position at 10 Hz,

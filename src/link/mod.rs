@@ -10,6 +10,7 @@ pub mod connection;
 pub mod driver;
 pub mod flavour;
 pub mod flight;
+pub mod home;
 pub mod items;
 pub mod params;
 pub mod readback;
