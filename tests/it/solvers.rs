@@ -6,8 +6,8 @@ use std::path::Path;
 use std::time::Duration;
 
 use emplan::physics::{EnergyTable, Vehicle};
+use emplan::planner::study::{mission_geometry, StudySettings};
 use emplan::tour::energy::energy_matrix;
-use emplan::tour::study::{mission_geometry, StudySettings};
 use emplan::tour::{held_karp, solver, tsplib, CostMatrix};
 
 fn energy_mission(waypoints: usize, seed: u64) -> CostMatrix {
