@@ -64,7 +64,7 @@ fn tsplib_instance(name: &str) -> tsplib::Instance {
 
 #[test]
 fn every_tsplib_instance_up_to_ftv170_is_proven_optimal_at_its_published_optimum() {
-    // The optima of ../shared/tsplib-atsp/README.md (TSPLIB95's list).
+    // TSPLIB95's published optima.
     let optima = [
         ("br17", 39.0),
         ("ftv33", 1286.0),

@@ -1,5 +1,5 @@
 //! The random-mission study, the generator and the plots through the `emplan` binary: the study
-//! JSON of DESIGN.md and its reproducibility, the SVG files, and generated missions that
+//! JSON of docs/json.md and its reproducibility, the SVG files, and generated missions that
 //! `emplan plan` loads.
 
 use serde_json::Value;
