@@ -293,7 +293,7 @@ fn mark_test_only_files(sources: &mut [Source]) {
     let mut test_files = BTreeSet::new();
     for s in sources.iter() {
         let dir = match s.rel.rsplit_once('/') {
-            Some((dir, file)) if matches!(file, "mod.rs" | "lib.rs" | "main.rs") => dir.to_string(),
+            Some((dir, "mod.rs" | "lib.rs" | "main.rs")) => dir.to_string(),
             _ => s.rel.trim_end_matches(".rs").to_string(),
         };
         for (k, line) in s.code.iter().enumerate() {
@@ -592,7 +592,7 @@ fn no_two_files_import_each_other() {
         let own = edges.entry(s.rel.clone()).or_default();
         for (n, _) in s.non_test() {
             for path in paths(&s.code, n - 1) {
-                let Some(target) = resolve(&s, &path) else {
+                let Some(target) = resolve(s, &path) else {
                     continue;
                 };
                 // A module's own parents declare it; using them is no circle.
