@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use emplan::physics::{EnergyTable, Vehicle};
-use emplan::tour::study::{run_study, StudySettings};
+use emplan::planner::study::{run_study, StudySettings};
 
 fn study_bench(c: &mut Criterion) {
     let dir = Path::new("models/s1000");

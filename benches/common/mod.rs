@@ -4,8 +4,8 @@
 use std::path::Path;
 
 use emplan::physics::{EnergyTable, Vehicle};
+use emplan::planner::study::{mission_geometry, StudySettings};
 use emplan::tour::energy::energy_matrix;
-use emplan::tour::study::{mission_geometry, StudySettings};
 use emplan::tour::CostMatrix;
 
 /// The energy matrix (J) of mission 0 of the study setting (`waypoints`, `xy_m`, `z_m`, seed 1).

@@ -8,7 +8,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 use emplan::mission::{Format, Geodetic};
 use emplan::output::Output;
-use emplan::tour::study::{random_mission, Site, StudySettings};
+use emplan::planner::study::{random_mission, Site, StudySettings};
 
 /// Arguments of `emplan generate` (its help text is on the subcommand in main.rs).
 #[derive(Debug, clap::Args)]

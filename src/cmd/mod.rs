@@ -34,9 +34,9 @@ pub fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
 
 /// A study or generator setting refused by the library, in the words of the command line
 /// (`--xy 60: ...`).
-pub fn setting_error(e: emplan::tour::study::StudyError) -> anyhow::Error {
+pub fn setting_error(e: emplan::planner::study::StudyError) -> anyhow::Error {
     match e {
-        emplan::tour::study::StudyError::Setting {
+        emplan::planner::study::StudyError::Setting {
             setting,
             value,
             problem,

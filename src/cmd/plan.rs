@@ -1,6 +1,6 @@
 //! `emplan plan`: order a mission's waypoints by minimum energy and by the distance baselines
 //! (`emplan::planner::plan_mission`), and print every order's metrics and energies (a table, or
-//! the JSON of DESIGN.md), where the energy order saves, and the mission against the battery.
+//! the JSON of docs/json.md), where the energy order saves, and the mission against the battery.
 
 use std::path::PathBuf;
 use std::process::ExitCode;

@@ -7,8 +7,8 @@ use anyhow::Context;
 use emplan::mission::Mission;
 use emplan::output::Output;
 use emplan::physics::Profile;
+use emplan::planner::study::Study;
 use emplan::planner::Plan;
-use emplan::tour::study::Study;
 
 fn write_svg(out: &Output, svg: Result<String, emplan::plot::PlotError>) -> anyhow::Result<()> {
     let svg = svg.with_context(|| format!("plotting {}", out.path.display()))?;

@@ -1,6 +1,6 @@
-//! `emplan study`: the paper's random-mission study (NOTES.md section 4) with the vehicle's
-//! energy table: the JSON of DESIGN.md or a table, a progress bar on stderr, and optionally a
-//! histogram of the baseline/minimum-energy energy ratios.
+//! `emplan study`: the command line of `planner::study` (the paper's random-mission study with
+//! the vehicle's energy table): its JSON view or a table, a progress bar on stderr, and
+//! optionally a histogram of the baseline/minimum-energy energy ratios.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -8,8 +8,9 @@ use std::process::ExitCode;
 use anyhow::{anyhow, bail};
 use emplan::output::Output;
 use emplan::physics::Profile;
-use emplan::planner::study::{self, check_envelope, study_document, StudyJson, StudyRunError};
-use emplan::tour::study::StudySettings;
+use emplan::planner::study::{
+    self, check_envelope, study_document, Stats, StudyJson, StudyRunError, StudySettings,
+};
 
 /// Arguments of `emplan study` (its help text is on the subcommand in main.rs).
 #[derive(Debug, clap::Args)]
@@ -195,9 +196,7 @@ fn print_table(docs: &[StudyJson], profile: Profile, args: &Args) {
         "X_beats_D",
         "seconds"
     );
-    let cell = |s: &emplan::tour::study::Stats| {
-        format!("{:>5.2} {:>6.2} {:>6.2}", s.mean_pct, s.p90_pct, s.max_pct)
-    };
+    let cell = |s: &Stats| format!("{:>5.2} {:>6.2} {:>6.2}", s.mean_pct, s.p90_pct, s.max_pct);
     for d in docs {
         println!(
             "{:>3} {:>5} {:>5} | {:^20} | {:^20} | {:^20} | {:>8.1}% {:>8.1}% {:>8.1}% {:>8.2}",

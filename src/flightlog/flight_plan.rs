@@ -4,7 +4,7 @@
 //! mission read back from the autopilot); the recorder writes it as plan.json so a replay can
 //! always rebuild the report.
 //!
-//! Mission layout flown (FLIGHT-DESIGN.md): `[ArduPilot: home at seq 0] NAV_TAKEOFF, NAV_WAYPOINT
+//! Mission layout flown: `[ArduPilot: home at seq 0] NAV_TAKEOFF, NAV_WAYPOINT
 //! x N (the planned order), NAV_WAYPOINT at the origin (the return leg), NAV_LAND`. Positions are
 //! in the mission's own frame (`Mission::waypoints`: metres east, north, up from the origin hover
 //! point at `origin_height_m` above home); the vehicle's GLOBAL_POSITION_INT is brought into it

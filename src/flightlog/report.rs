@@ -2,7 +2,7 @@
 //! totals and flags, for one flight ([`FlightReport`]) or for repeated flights of the same legs
 //! ([`combine`]: mean, sample standard deviation, min, max and count per leg, matched by (from,
 //! to), as the paper averaged repeated operations). Energies are joules here; the JSON views
-//! ([`ReportJson`], [`CombinedJson`]) are in kJ, the shape of DESIGN.md:
+//! ([`ReportJson`], [`CombinedJson`]) are in kJ, the shape of docs/json.md:
 //! `{"flight", "legs": [{"from", "to", "predicted_kj", "measured_kj", "error_pct", "duration_s",
 //! "flags"}], "hovers": [..], "total": {"predicted_kj", "measured_kj"}}` plus take-off, landing,
 //! settles, times, coverage and the spans of a replayed .tlog skipped as corrupt (`log_gaps`).

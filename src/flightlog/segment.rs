@@ -1,5 +1,5 @@
 //! Cutting a flight into contiguous segments against the plan that was flown, so the parts add
-//! up to the whole flight's energy (FLIGHT-DESIGN.md):
+//! up to the whole flight's energy (the layout flown is `flight_plan`'s):
 //! - `takeoff`: arming -> the vehicle leaves the origin hover for the first leg;
 //! - `leg` k from P to Q = points[k]: leaves hover at P (MISSION_CURRENT names Q or a later
 //!   item; departure from P as fallback) -> first within the arrival radius (4 m, 3D) of Q, the

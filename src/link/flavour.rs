@@ -6,7 +6,7 @@
 //! Sources: PX4-Autopilot `src/modules/mavlink/mavlink_mission.cpp` (commit 001bb4d7, PX4 main),
 //! ArduPilot `libraries/GCS_MAVLink/MissionItemProtocol.{h,cpp}`, MAVSDK
 //! `cpp/src/mavsdk/core/mavlink_mission_transfer_server.cpp` (the MissionRawServer a `Generic`
-//! autopilot is in our tests), and what the SITLs of `../shared/sitl` were seen to do.
+//! autopilot is in our tests), and what the SITLs of sitl/README.md were seen to do.
 
 use std::time::Duration;
 

@@ -1,9 +1,9 @@
 //! Starting an uploaded mission the way each autopilot wants it, as a sans-IO machine
 //! (`start(now)`, `handle(now, message)`, `tick(now)` return the messages to send):
 //! - PX4: arm (MAV_CMD_COMPONENT_ARM_DISARM), then MAV_CMD_MISSION_START; PX4 switches to
-//!   AUTO.MISSION, takes off and flies (../shared/sitl/px4/README.md, "Flying a mission").
+//!   AUTO.MISSION, takes off and flies (as PX4 SITL does: sitl/README.md).
 //! - ArduPilot: mode GUIDED (MAV_CMD_DO_SET_MODE, custom mode 4), arm, mode AUTO (custom mode
-//!   3), MAV_CMD_MISSION_START (../shared/sitl/ardupilot/README.md; ArduCopter refuses to arm in
+//!   3), MAV_CMD_MISSION_START (as ArduCopter SITL does: sitl/README.md; ArduCopter refuses to arm in
 //!   AUTO: `Copter::ModeAuto::allows_arming` is false without AUTO_OPTIONS).
 //!
 //! Every command is resent until its COMMAND_ACK. An autopilot that is not ready yet is asked

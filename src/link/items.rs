@@ -4,7 +4,7 @@
 //! default a NAV_WAYPOINT back at the origin hover point, then NAV_LAND there (the return leg
 //! and the landing the plan priced: PX4's RTL would first climb to RTL_RETURN_ALT, which is not
 //! the planned leg); NAV_RETURN_TO_LAUNCH or a bare NAV_LAND on request. Frames PX4 accepts: GLOBAL_RELATIVE_ALT (3) for navigation items,
-//! MISSION (2) for commands (research notes mavlink.md section 2.6, recommendation 6). ArduPilot
+//! MISSION (2) for commands (PX4's mission item checks; docs/mavlink.md). ArduPilot
 //! gets its home item at seq 0.
 
 use super::mav::{MavCmd, MavFrame, MavMissionType, MISSION_ITEM_INT_DATA};

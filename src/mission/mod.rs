@@ -74,8 +74,7 @@ pub const DEFAULT_TAKEOFF_HEIGHT_M: f64 = 10.0;
 /// f64 (32 MB each at 2000 waypoints; the 86 129 points of a 5 MB `.waypoints` file asked for
 /// 59 GB and aborted), and what runs besides the solver's time limit (pricing every leg,
 /// candidate lists, the baselines) grows as n^2 too. Measured with `emplan generate --xy 50
-/// --z 25` and `emplan plan --time-limit 20` (debug build, 2 cores shared with other builds,
-/// 2026-11-26): 1000 waypoints 42 s wall and 37 MB, 2000 waypoints 114 s and 88 MB, 5000
+/// --z 25` and `emplan plan --time-limit 20` (debug build, 2 cores shared with other builds): 1000 waypoints 42 s wall and 37 MB, 2000 waypoints 114 s and 88 MB, 5000
 /// waypoints still running after 10 min at 425 MB (stopped); the service gives a plan 60 s of
 /// solving. Checked once, where every format's waypoints are validated
 /// ([`RawMission::build`]), before anything of that size is allocated.

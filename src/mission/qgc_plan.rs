@@ -1,5 +1,5 @@
-//! QGroundControl `.plan` (JSON) import and export (QGC dev guide `file_formats/plan.md`;
-//! research notes mavlink.md section 5.1). `plannedHomePosition` is home; NAV_TAKEOFF sets the
+//! QGroundControl `.plan` (JSON) import and export (the QGC dev guide's plan file
+//! format; docs/mission-files.md). `plannedHomePosition` is home; NAV_TAKEOFF sets the
 //! origin's height above home; NAV_WAYPOINT items are the waypoints (param1 = hover time);
 //! RTL / LAND end the mission and DO_CHANGE_SPEED is ignored (emplan's flight profile sets speed).
 //! Complex items (surveys, scans) and any other command are rejected, naming the item.

@@ -1,4 +1,4 @@
-//! emplan's own mission format (TOML), documented in missions/README.md. Unknown keys are errors;
+//! emplan's own mission format (TOML), documented in docs/mission-files.md. Unknown keys are errors;
 //! every error names its line.
 
 use serde::{Deserialize, Serialize};

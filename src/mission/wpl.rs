@@ -1,5 +1,5 @@
 //! `QGC WPL 110` text missions (`.waypoints`, `.txt`) as Mission Planner, MAVProxy and QGC write
-//! them (research notes mavlink.md section 5.2): a header line, then one item per line with 12
+//! them (docs/mission-files.md): a header line, then one item per line with 12
 //! fields `seq current frame command p1 p2 p3 p4 lat lon alt autocontinue`; the first item is
 //! home (AMSL altitude). Read: any whitespace, `#` comments and blank lines allowed. Write: tabs,
 //! 10 decimals for degrees (about 0.01 mm). Names are not stored: imported waypoints are WP1..WPn.

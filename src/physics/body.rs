@@ -1,10 +1,10 @@
 //! The rigid body in the vertical plane of a leg (X horizontal along the leg, Z up, pitch
 //! Theta), with quasi-static pitch: the attitude that points the total thrust where the planned
-//! acceleration needs it (NOTES.md section 2; energy-model.md section 9.3):
+//! acceleration needs it (the paper's vehicle model; docs/energy-model.md):
 //!
 //! F_x = m X'' + C_BD X'|X'|,  F_z = m (Z'' + g) + C_BDz Z'|Z'|,  T = |F|,  Theta = atan2(F_x, F_z)
 //!
-//! (the paper neglects the vertical body drag C_BDz; energy-model.md section 9.3 keeps it), and the rotor-frame inflow
+//! (the paper neglects the vertical body drag C_BDz; docs/energy-model.md keeps it), and the rotor-frame inflow
 //! v_x = X' cos Theta - Z' sin Theta, v_z = X' sin Theta + Z' cos Theta. The pitch-rate term
 //! Theta' x_j of the paper's per-rotor inflow is dropped: with quasi-static pitch all rotors
 //! share one operating point (energy effect below 1-2 %, research section 9.3).

@@ -1,7 +1,7 @@
 //! The vehicle energy model: rotor (blade element + momentum theory), motor and ESC, battery,
 //! planar rigid body, flight profiles, operation simulation and the precomputed energy table.
 //!
-//! The model is the paper's (shared/paper/NOTES.md section 2): per time step of a planned
+//! The model is the paper's (Michel et al., arXiv 2410.17585; docs/energy-model.md): per time step of a planned
 //! trajectory the rigid body gives the thrust and pitch it needs, the rotor model the rotor speed
 //! and torque that make that thrust at the rotor-frame inflow, the motor and ESC the electrical
 //! power, and the battery the terminal voltage. Energy is battery terminal energy (what a power

@@ -1,6 +1,6 @@
 //! Motor, ESC and battery: from a rotor's speed and torque to battery terminal power.
 //!
-//! Motor (DC brushless, steady state; energy-model.md section 9.6): i_m = Q/K_t + i_0,
+//! Motor (DC brushless, steady state; docs/energy-model.md): i_m = Q/K_t + i_0,
 //! V_m = R_m i_m + K_e Omega with K_e = K_t = 60 / (2 pi KV). ESC: V_m = d V_t with duty d <= 1,
 //! input power V_m i_m / eta_esc. Battery (lumped; section 9.7): V_t = OCV(SOC) - R_b I_b, and the
 //! terminal power V_t I_b (what a power module measures) equals the load, so

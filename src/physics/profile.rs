@@ -2,8 +2,8 @@
 //! flies the straight line from start to end (Xf horizontal, Zf vertical) with a rest-to-rest
 //! speed schedule s(t) along it:
 //! - `ptf`: the paper's energy-optimal polynomial trajectory, s = L p(t/T) with the quintic
-//!   p = 10 tau^3 - 15 tau^4 + 6 tau^5 (zero speed and acceleration at both ends; energy-model.md
-//!   section 4) and the duration T chosen to minimise energy under speed and tilt limits;
+//!   p = 10 tau^3 - 15 tau^4 + 6 tau^5 (zero speed and acceleration at both ends;
+//!   docs/energy-model.md) and the duration T chosen to minimise energy under speed and tilt limits;
 //! - `hvb`: the high-velocity baseline, a trapezoidal speed profile at the speed and
 //!   acceleration limits, then a settle in hover;
 //! - `px4`: PX4 mission mode, PX4's own trajectory generator run in time steps (`physics::px4`:

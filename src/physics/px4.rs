@@ -1,7 +1,7 @@
 //! How PX4 flies a mission leg, a take-off and a landing: its multicopter trajectory generator
 //! run in time steps in the leg's vertical plane (x horizontal along the leg, z up), so the
-//! `px4` profile prices the motion PX4 really commands. Ported from PX4-Autopilot (main of
-//! 2026-03-02, the build in ../shared/sitl/px4):
+//! `px4` profile prices the motion PX4 really commands. Ported from PX4-Autopilot (its main
+//! branch, the build the PX4 SITL of sitl/README.md runs):
 //! - `src/lib/motion_planning/VelocitySmoothing.cpp`: each axis follows its velocity setpoint
 //!   with a jerk-limited, acceleration-limited profile (T1 jerk, T2 constant acceleration, T3
 //!   jerk back to zero), the axes time-synchronised so they arrive together;
@@ -55,7 +55,7 @@ const ARRIVED_M_S: f64 = 0.01;
 /// the vehicle's departure error. PX4's `_generateTrajectory` as written would (a trajectory with
 /// no horizontal velocity is never "ahead"), but on PX4 SITL the 24 m descent of
 /// `paper-sample-3wp --order listed` measured +4.7% over the unslowed price against -9.6% under
-/// the slowed one (issue 15). Mission coordinates in 1e-7 degrees and a vehicle hovering
+/// the slowed one. Mission coordinates in 1e-7 degrees and a vehicle hovering
 /// centimetres off its waypoint make a vertical leg's horizontal distance a few centimetres, not
 /// zero, and must not switch the slowing on; the bound is below the table's 1 m grid step, so the
 /// table is unchanged.

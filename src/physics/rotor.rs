@@ -1,5 +1,5 @@
 //! One rotor: blade element theory coupled with momentum theory, in the paper's form
-//! (NOTES.md section 2):
+//! (the paper's rotor model):
 //!
 //! T = (1/2pi) int_psi int_{R0}^{B R} 1/2 N rho u_pl^2 c a (theta - u_pr/u_pl) dr dpsi
 //! Q = (1/2pi) int_psi int_{R0}^{R} 1/2 N r rho u_pl^2 c (phi a (theta - u_pr/u_pl) + c_d) dr dpsi

@@ -128,7 +128,7 @@ impl From<&Operation> for LegEnergy {
 
 /// What a leg's energy counts (`--pricing`): to settled hover at the end point (what the
 /// battery pays; emplan's default), or to the paper's 4 m rule only (the paper's own convention:
-/// its published tables and mission energies; NOTES.md section 3).
+/// its published tables and mission energies).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Pricing {

@@ -45,7 +45,7 @@ pub struct Body {
     pub gravity_m_s2: f64,
     pub air_density_kg_m3: f64,
     pub drag_coefficient_n_s2_m2: f64,
-    /// Vertical body drag C_BDz: F_z gains C_BDz Z'|Z'| (energy-model.md section 9.3; the paper
+    /// Vertical body drag C_BDz: F_z gains C_BDz Z'|Z'| (docs/energy-model.md; the paper
     /// neglects it). 0 for files written before it.
     #[serde(default)]
     pub vertical_drag_coefficient_n_s2_m2: f64,
@@ -111,7 +111,7 @@ pub struct PtfParams {
     pub max_speed_down_m_s: f64,
     /// How long the PTF's tracking controller lags its reference: the vehicle leaves hover this
     /// long after the operation starts (the paper's PTF is a PID loop following the polynomial,
-    /// energy-model.md section 4). 0 for files written before it.
+    /// docs/energy-model.md). 0 for files written before it.
     #[serde(default)]
     pub tracking_lag_s: f64,
     pub steps: u32,
@@ -202,7 +202,7 @@ impl Px4Params {
             .collect()
     }
 
-    /// The parameters the autopilot holds, by PX4 name (PX4 main of 2026-03; MPC_Z_V_AUTO_UP/DN
+    /// The parameters the autopilot holds, by PX4 name (PX4's main branch as CI builds it; MPC_Z_V_AUTO_UP/DN
     /// were MPC_Z_VEL_MAX_UP/DN in auto modes before v1.14), with this set's values.
     pub fn autopilot_values(&self) -> Vec<(&'static str, f64)> {
         vec![

@@ -1,4 +1,4 @@
-//! The JSON views of a [`Plan`] (the shapes of DESIGN.md): the document `emplan plan --json`
+//! The JSON views of a [`Plan`] (the shapes of docs/json.md): the document `emplan plan --json`
 //! prints and the planning fields of `emplan upload --json`. The CLI and the HTTP service
 //! serialise these, so both print the same document. Energies become kJ here, and only here.
 //!
@@ -38,7 +38,7 @@ pub struct PlanJson {
     pub sorties: Option<SortiesJson>,
 }
 
-/// One order (the ORDER object of DESIGN.md).
+/// One order (the ORDER object of docs/json.md).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct OrderJson {
     /// "energy", "distance", "horizontal", "vertical", or "listed".

@@ -1,13 +1,14 @@
 //! The planning pipeline as one library call: a mission and a vehicle model in, a [`Plan`] out
 //! (every order asked for with each leg's predicted energy and duration, the battery check of
 //! the order to fly, the sorties when asked, the solver's proof and where the energy order
-//! saves). The CLI (`emplan plan`, `emplan upload`) and the coming `fly` and HTTP service call
-//! [`plan_mission`] and print [`json`]'s views of its result.
+//! saves). The CLI (`emplan plan`, `emplan upload`, `emplan fly`) and the HTTP service call
+//! [`plan_mission`] and print [`json`]'s views of its result. [`study`] is the paper's
+//! random-mission study, which prices its missions the same way.
 //!
-//! The planner sits above `physics` and `plan` and joins them: it prices legs with the vehicle's
-//! energy table and hands `plan` the resulting cost matrix, so `plan` never imports `physics`.
+//! The planner sits above `physics` and `tour` and joins them: it prices legs with the vehicle's
+//! energy table and hands `tour` the resulting cost matrix, so `tour` never imports `physics`.
 //!
-//! Node numbering, as in `plan`: node 0 is the origin, node `k + 1` is waypoint `k` of the
+//! Node numbering, as in `tour`: node 0 is the origin, node `k + 1` is waypoint `k` of the
 //! mission file. [`Order::waypoints`] and [`Flight::waypoints`] give 0-based waypoint indices,
 //! what `link::items::mission_items` takes.
 //!

@@ -1,7 +1,7 @@
 //! The simulated battery pack and the autopilot's battery monitor, sans-IO.
 //!
-//! Pack (the physics model's lumped battery, physics/powertrain.rs; energy-model.md section
-//! 9.7): terminal voltage V = OCV(SOC) - R I, and the terminal power V I equals the load P, so
+//! Pack (the physics model's lumped battery, `physics::powertrain`;
+//! docs/energy-model.md): terminal voltage V = OCV(SOC) - R I, and the terminal power V I equals the load P, so
 //! I = (OCV - sqrt(OCV^2 - 4 R P)) / (2 R); the state of charge falls by I dt / capacity.
 //!
 //! Monitor (what a power module and the autopilot's battery driver report): the true voltage and

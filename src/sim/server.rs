@@ -1,5 +1,5 @@
 //! The mission protocol's vehicle side as a sans-IO state machine that behaves as the autopilot
-//! of its flavour does, never kinder (DESIGN.md "The mock autopilot must be as strict as PX4"):
+//! of its flavour does, never kinder (the mock autopilot must be as strict as PX4):
 //!
 //! - PX4 (`mavlink_mission.cpp`): requests items with MISSION_REQUEST_INT, re-requests every
 //!   250 ms, abandons a transfer after 5 s without hearing from the ground (no ack); an upload is

@@ -24,7 +24,7 @@
 //!    cost, the AP's arcs and the given tour's arcs (so the restricted LP is feasible).
 //! 2. The DFJ LP on the candidates is solved with microlp and its violated subtour cuts added
 //!    until none is left (or the gain tails off): a quick look at the components of the heavy
-//!    arcs first, then exact separation (`branch_cut::violated_sides`: components, then
+//!    arcs first, then exact separation (`subtour::violated_sides`: components, then
 //!    minimum cuts from the origin) on the support with its paths of arcs at one shrunk.
 //! 3. microlp reports no duals, so the dual LP (`max sum u + sum v + sum_c y_c rhs_c` subject to
 //!    `u_i + v_j + sum_c y_c a_c,ij <= c_ij` on the candidates) is solved explicitly, over the
@@ -1062,8 +1062,8 @@ mod tests {
 
     #[test]
     fn the_bound_is_within_about_two_percent_of_the_optimum_on_ftv70_kro124p_and_ftv170() {
-        // Optimum (TSPLIB) and the DFJ LP bound rounded up (shared/research/solvers.md 1.5:
-        // 1909, 35999.1, 2715.2).
+        // Optimum (TSPLIB) and the DFJ LP bound rounded up (published DFJ LP
+        // values: 1909, 35999.1, 2715.2).
         for (name, optimum, dfj_lp) in [
             ("ftv70", 1950.0, 1909.0),
             ("kro124p", 36230.0, 36000.0),
@@ -1095,7 +1095,7 @@ mod tests {
             b.lower_bound <= exact.cost * (1.0 + 1e-9),
             "{b:?} {exact:?}"
         );
-        // DFJ LP gaps on such costs run 0.1-2% (research notes: 0.4% at N = 100, 2.1% ftv70).
+        // DFJ LP gaps on such costs run 0.1-2% (0.4% at N = 100, 2.1% on ftv70).
         assert!(b.lower_bound >= 0.98 * exact.cost, "{b:?} {exact:?}");
         // The assignment bound is several percent off on such costs.
         assert!(b.assignment_bound < 0.97 * exact.cost, "{b:?} {exact:?}");

@@ -16,7 +16,7 @@
 //!   moves between nodes by fixing and releasing variables, so each node's LP is re-solved from
 //!   its neighbour's basis (microlp's dual simplex). Cuts stay valid everywhere and are kept.
 //!
-//! The LP is microlp (pure Rust, maintained; shared/research/solvers.md measured it workable).
+//! The LP is microlp (pure Rust, maintained, measured workable on these instances).
 //! Every node's LP value is a lower bound for its subtree, so a run cut short by the time limit
 //! still reports a proven lower bound: the least bound among the open nodes.
 

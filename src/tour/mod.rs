@@ -1,6 +1,6 @@
 //! Planning: legs between every ordered pair of points, cost matrices, exact and heuristic
 //! solvers for the asymmetric travelling-salesman tour through the origin, the distance
-//! baselines, and the random-mission study.
+//! baselines, and the sorties of a mission too large for one battery.
 //!
 //! Invariant: pure and deterministic (seeded); no IO, no tokio, no MAVLink.
 
@@ -17,7 +17,6 @@ pub mod orders;
 pub mod progress;
 pub mod solver;
 pub mod sorties;
-pub mod study;
 pub(crate) mod subtour;
 #[cfg(test)]
 pub(crate) mod testing;

@@ -25,7 +25,8 @@ pub fn drone(n: usize, seed: u64) -> CostMatrix {
     })
 }
 
-/// The TSPLIB instance `name` from ../shared/tsplib-atsp.
+/// The TSPLIB instance `name` (TSPLIB95's ATSP files, kept beside the repository as .ci/run
+/// arranges).
 pub fn tsplib_instance(name: &str) -> CostMatrix {
     let path = format!(
         "{}/../shared/tsplib-atsp/{name}.atsp",

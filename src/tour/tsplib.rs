@@ -26,7 +26,7 @@ pub enum TsplibError {
     Truncated { missing: usize, expected: usize },
 }
 
-/// `emplan tsp --json` (DESIGN.md): the tour in TSPLIB's 1-based node ids, from node 1.
+/// `emplan tsp --json` (docs/json.md): the tour in TSPLIB's 1-based node ids, from node 1.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SolutionJson {
     pub instance: String,

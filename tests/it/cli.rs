@@ -1,4 +1,4 @@
-//! The `emplan` binary end to end: the JSON contract of DESIGN.md on the paper's sample missions
+//! The `emplan` binary end to end: the JSON contract of docs/json.md on the paper's sample missions
 //! and on TSPLIB's br17, and clear failures on bad input.
 
 use std::path::Path;

@@ -1,4 +1,4 @@
-//! Failing at once, and saying where (issue 25): `fly` with a log directory it cannot write
+//! Failing at once, and saying where: `fly` with a log directory it cannot write
 //! ends before anything is uploaded or armed; `--connect` URLs of no known form fail before any
 //! waiting, listing the forms; `calibrate --from-logs` leaves out each flight directory it
 //! cannot read (a recording cut off and never resumed, a torn report.json, a short samples.csv

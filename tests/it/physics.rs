@@ -44,7 +44,7 @@ fn energy_kj(xf: f64, zf: f64, profile: &str) -> f64 {
         .expect("energy_kj")
 }
 
-/// The paper's simulated operation energies (NOTES.md section 3), kJ.
+/// The paper's simulated operation energies, kJ.
 const PTF: [(f64, f64, f64); 9] = [
     (40.0, 25.0, 7.04),
     (40.0, 1.0, 4.52),

@@ -6,8 +6,8 @@ use std::path::Path;
 use std::time::Duration;
 
 use emplan::physics::{EnergyTable, Vehicle};
+use emplan::planner::study::{mission_geometry, StudySettings};
 use emplan::tour::energy::energy_matrix;
-use emplan::tour::study::{mission_geometry, StudySettings};
 use emplan::tour::{held_karp, solver, tsplib, CostMatrix};
 
 fn energy_mission(waypoints: usize, seed: u64) -> CostMatrix {
@@ -64,7 +64,7 @@ fn tsplib_instance(name: &str) -> tsplib::Instance {
 
 #[test]
 fn every_tsplib_instance_up_to_ftv170_is_proven_optimal_at_its_published_optimum() {
-    // The optima of ../shared/tsplib-atsp/README.md (TSPLIB95's list).
+    // TSPLIB95's published optima.
     let optima = [
         ("br17", 39.0),
         ("ftv33", 1286.0),

@@ -1,5 +1,5 @@
 //! The random-mission study, the generator and the plots through the `emplan` binary: the study
-//! JSON of DESIGN.md and its reproducibility, the SVG files, and generated missions that
+//! JSON of docs/json.md and its reproducibility, the SVG files, and generated missions that
 //! `emplan plan` loads.
 
 use serde_json::Value;
@@ -221,14 +221,14 @@ fn generated_missions_load_in_plan_and_match_the_study_mission() {
     let names: Vec<&str> = mission.waypoints.iter().map(|w| w.name.as_str()).collect();
     assert_eq!(names, ["W1", "W2", "W3", "W4", "W5", "W6"]);
     // The file holds mission 2 of the study with the same seed, to full precision.
-    let settings = emplan::tour::study::StudySettings {
+    let settings = emplan::planner::study::StudySettings {
         waypoints: 6,
         xy_m: 30.0,
         z_m: 25.0,
         missions: 1,
         seed: 4,
     };
-    let points = emplan::tour::study::random_points(&settings, 2);
+    let points = emplan::planner::study::random_points(&settings, 2);
     for (w, p) in mission.waypoints.iter().zip(&points) {
         assert_eq!(w.position, *p);
     }

@@ -1,15 +1,11 @@
-//! The paper's random-mission study (`tour::study`) run with a vehicle: each setting checked
-//! against the vehicle's energy table before any mission is drawn, the legs priced from the
-//! table (start to settled hover as `emplan plan` prices them, or to the paper's 4 m rule with
-//! [`Pricing::Paper`]), and the study's JSON view.
+//! The study run with a vehicle: each setting checked against the vehicle's energy table before
+//! any mission is drawn, the legs priced from the table (start to settled hover as `emplan plan`
+//! prices them, or to the paper's 4 m rule with [`Pricing::Paper`]).
 
 use std::time::Instant;
 
-use serde::Serialize;
-
+use super::{run_study, Study, StudyError, StudySettings};
 use crate::physics::{EnergyTable, Pricing, Profile, VehicleModel};
-use crate::tour::study::{run_study, Study, StudyError, StudySettings, Summary};
-use crate::tour::Objective;
 
 /// A study run with a vehicle.
 #[derive(Debug, Clone, PartialEq)]
@@ -119,54 +115,11 @@ pub fn run(
     })
 }
 
-/// Which mission of the study had the largest increase, per baseline.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Worst {
-    pub distance: Option<u64>,
-    pub horizontal: Option<u64>,
-    pub vertical: Option<u64>,
-}
-
-/// `emplan study --json`: the JSON of DESIGN.md (the summary, flattened) plus the setting, the
-/// profile, the worst missions and the wall time.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct StudyJson {
-    pub waypoints: usize,
-    pub xy_m: f64,
-    pub z_m: f64,
-    pub seed: u64,
-    pub profile: Profile,
-    /// What each leg's energy counted: "settled" or "paper" (to the 4 m rule).
-    pub pricing: Pricing,
-    #[serde(flatten)]
-    pub summary: Summary,
-    pub worst_mission: Worst,
-    pub seconds: f64,
-}
-
-/// The JSON view of a study run.
-pub fn study_document(run: &StudyRun) -> StudyJson {
-    let s = &run.study.settings;
-    StudyJson {
-        waypoints: s.waypoints,
-        xy_m: s.xy_m,
-        z_m: s.z_m,
-        seed: s.seed,
-        profile: run.profile,
-        pricing: run.pricing,
-        summary: run.study.summary,
-        worst_mission: Worst {
-            distance: run.study.worst_mission(Objective::Distance),
-            horizontal: run.study.worst_mission(Objective::Horizontal),
-            vertical: run.study.worst_mission(Objective::Vertical),
-        },
-        seconds: run.seconds,
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::planner::study::study_document;
+    use crate::tour::Objective;
 
     fn model() -> VehicleModel {
         VehicleModel::load(

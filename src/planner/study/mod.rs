@@ -1,26 +1,37 @@
-//! The paper's random-mission study (shared/paper/NOTES.md section 4): many random missions of
-//! N waypoints drawn uniformly in a box around the origin; for each, the minimum-energy order
-//! and the three distance baselines (min 3D distance, min horizontal, min vertical with ties
-//! broken by horizontal), each baseline flown in its better direction; then the energy increase
-//! of every baseline over the minimum-energy order, summarised as mean, 90th percentile and
-//! maximum, and the share of missions whose min-distance order differs from the energy order.
+//! The paper's random-mission study, the one home of everything `emplan study` and `emplan
+//! generate` compute: many random missions of N waypoints drawn uniformly in a box around the
+//! origin (`random`); for each, the minimum-energy order and the three distance baselines (min 3D
+//! distance, min horizontal, min vertical with ties broken by horizontal), each baseline flown in
+//! its better direction; then the energy increase of every baseline over the minimum-energy
+//! order, summarised as mean, 90th percentile and maximum, and the share of missions whose
+//! min-distance order differs from the energy order (`summary`, with the JSON view). `vehicle`
+//! runs it with a vehicle's energy table.
 //!
 //! Pure and deterministic: mission `k` is drawn from its own stream `Rng::stream(seed, k)` and
 //! the per-mission results are collected in mission order, so the study reproduces exactly from
-//! its seed whatever the number of threads. Legs are priced by a function passed in, so this
-//! module knows nothing of the physics.
+//! its seed whatever the number of threads. [`run_study`] prices legs by a function passed in;
+//! only `vehicle` knows the physics.
 
 use std::fmt::Display;
 
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::energy::energy_matrix;
-use super::held_karp;
-use super::orders::{solve_order, Objective};
-use super::{Geometry, PlanError};
-use crate::mission::{Enu, Geodetic, Mission, Origin, Waypoint};
-use crate::rng::Rng;
+use crate::tour::energy::energy_matrix;
+use crate::tour::held_karp;
+use crate::tour::orders::{solve_order, Objective};
+use crate::tour::PlanError;
+
+mod random;
+mod summary;
+mod vehicle;
+
+pub use random::{
+    mission_geometry, random_mission, random_points, waypoint_name, Site, CLEARANCE_M,
+    MAX_GENERATED_WAYPOINTS,
+};
+pub use summary::{study_document, MissionOutcome, Stats, StudyJson, Summary, Worst};
+pub use vehicle::{check_envelope, run, StudyRun, StudyRunError};
 
 /// Most missions one study runs (each keeps a small record for the statistics).
 pub const MAX_MISSIONS: usize = 10_000_000;
@@ -43,7 +54,7 @@ pub struct StudySettings {
     pub seed: u64,
 }
 
-/// The six settings (N, XY, Z) of the paper's study (NOTES.md section 4).
+/// The six settings (N, XY, Z) of the paper's study (the paper's Section on random missions).
 pub const PAPER_SETTINGS: [(usize, f64, f64); 6] = [
     (6, 30.0, 25.0),
     (8, 20.0, 25.0),
@@ -114,245 +125,6 @@ impl StudySettings {
     /// The largest vertical displacement (climb or descent) any leg can have.
     pub fn max_vertical_leg_m(&self) -> f64 {
         2.0 * self.z_m
-    }
-}
-
-/// Name of waypoint `k` (0-based) of a random mission: `W1`, `W2`, ... (node 0 is `origin`).
-pub fn waypoint_name(k: usize) -> String {
-    format!("W{}", k + 1)
-}
-
-/// The waypoints (origin excluded) of random mission `mission` of a setting: each uniform in
-/// [-xy_m, xy_m) x [-xy_m, xy_m) x [-z_m, z_m), drawn x, y, z in turn from
-/// `Rng::stream(seed, mission)`. `settings.missions` is not used, so any mission number can be
-/// regenerated on its own.
-pub fn random_points(settings: &StudySettings, mission: u64) -> Vec<Enu> {
-    let mut rng = Rng::stream(settings.seed, mission);
-    let (xy, z) = (settings.xy_m, settings.z_m);
-    (0..settings.waypoints)
-        .map(|_| {
-            let x_east_m = rng.uniform(-xy, xy);
-            let y_north_m = rng.uniform(-xy, xy);
-            let z_up_m = rng.uniform(-z, z);
-            Enu {
-                x_east_m,
-                y_north_m,
-                z_up_m,
-            }
-        })
-        .collect()
-}
-
-/// Most waypoints one generated mission may have.
-pub const MAX_GENERATED_WAYPOINTS: usize = 1_000_000;
-
-/// How far the origin of a generated mission hovers above its lowest possible waypoint: the
-/// origin's height above home is Z + this, so every waypoint is at least this high above home
-/// (the mission minimum is 2 m).
-pub const CLEARANCE_M: f64 = 5.0;
-
-/// Where a generated mission flies from, and how it hovers.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Site {
-    /// Home: latitude, longitude and altitude above mean sea level.
-    pub home: Geodetic,
-    /// Hover time at every waypoint.
-    pub hover_s: f64,
-    /// The mission's name (default: `random-N-XY-Z-sS-K`).
-    pub name: Option<String>,
-}
-
-/// Mission `mission` of the study `settings` as a mission file would hold it: waypoints W1..WN
-/// in local x/y/z around an origin `Z + CLEARANCE_M` above `site.home`. Up to
-/// [`MAX_GENERATED_WAYPOINTS`] waypoints (`settings.missions` is not used); errors name the
-/// setting (`waypoints`, `xy_m`, `z_m`, `lat_deg`, `lon_deg`, `home_alt_amsl_m`, `hover_s`).
-pub fn random_mission(
-    settings: &StudySettings,
-    mission: u64,
-    site: &Site,
-) -> Result<Mission, StudyError> {
-    let bad = |setting: &'static str, value: String, problem: &str| {
-        Err(StudyError::Setting {
-            setting,
-            value,
-            problem: problem.to_string(),
-        })
-    };
-    if settings.waypoints == 0 || settings.waypoints > MAX_GENERATED_WAYPOINTS {
-        return bad(
-            "waypoints",
-            settings.waypoints.to_string(),
-            &format!("allowed: 1 to {MAX_GENERATED_WAYPOINTS}"),
-        );
-    }
-    for (setting, value) in [("xy_m", settings.xy_m), ("z_m", settings.z_m)] {
-        if !(value.is_finite() && value >= 0.0) {
-            return bad(
-                setting,
-                value.to_string(),
-                "allowed: a finite half-width of 0 m or more",
-            );
-        }
-    }
-    let home = site.home;
-    if !(home.lat_deg.is_finite() && (-90.0..=90.0).contains(&home.lat_deg)) {
-        return bad("lat_deg", home.lat_deg.to_string(), "allowed: -90 to 90");
-    }
-    if !(home.lon_deg.is_finite() && (-180.0..=180.0).contains(&home.lon_deg)) {
-        return bad("lon_deg", home.lon_deg.to_string(), "allowed: -180 to 180");
-    }
-    if !home.alt_m.is_finite() {
-        return bad(
-            "home_alt_amsl_m",
-            home.alt_m.to_string(),
-            "a finite altitude is required",
-        );
-    }
-    if !(site.hover_s.is_finite() && site.hover_s >= 0.0) {
-        return bad("hover_s", site.hover_s.to_string(), "allowed: 0 s or more");
-    }
-    let name = site.name.clone().unwrap_or_else(|| {
-        format!(
-            "random-{}-{}-{}-s{}-{}",
-            settings.waypoints, settings.xy_m, settings.z_m, settings.seed, mission
-        )
-    });
-    Ok(Mission {
-        name,
-        origin: Origin {
-            home,
-            height_above_home_m: settings.z_m + CLEARANCE_M,
-        },
-        waypoints: random_points(settings, mission)
-            .into_iter()
-            .enumerate()
-            .map(|(k, position)| Waypoint {
-                name: waypoint_name(k),
-                position,
-                hover_s: site.hover_s,
-            })
-            .collect(),
-        default_hover_s: site.hover_s,
-        min_height_above_home_m: crate::mission::DEFAULT_MIN_HEIGHT_ABOVE_HOME_M,
-        source: None,
-    })
-}
-
-/// Mission `mission` of a study as legs: the origin (node 0) and its random waypoints.
-pub fn mission_geometry(settings: &StudySettings, mission: u64) -> Geometry {
-    Geometry::from_points(
-        std::iter::once(Enu::default())
-            .chain(random_points(settings, mission))
-            .collect(),
-    )
-}
-
-/// What one mission of the study found. Energies are whole tours (origin to origin), each
-/// baseline in its better direction.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct MissionOutcome {
-    pub energy_j: f64,
-    pub distance_j: f64,
-    pub horizontal_j: f64,
-    pub vertical_j: f64,
-    /// The min-distance tour, in neither direction, is the minimum-energy order.
-    pub distance_differs: bool,
-}
-
-impl MissionOutcome {
-    /// Tour energy of an objective's order (a baseline's better direction).
-    pub fn energy_of(&self, objective: Objective) -> f64 {
-        match objective {
-            Objective::Energy => self.energy_j,
-            Objective::Distance => self.distance_j,
-            Objective::Horizontal => self.horizontal_j,
-            Objective::Vertical => self.vertical_j,
-        }
-    }
-
-    /// Energy increase of a baseline over the minimum-energy order, in percent (>= 0).
-    pub fn increase_pct(&self, baseline: Objective) -> f64 {
-        // Held-Karp is exact, so a baseline never truly beats the energy order; a negative
-        // difference can only be summation rounding (the same legs added in another order).
-        (100.0 * (self.energy_of(baseline) - self.energy_j) / self.energy_j).max(0.0)
-    }
-
-    /// Baseline energy over minimum energy (>= 1).
-    pub fn ratio(&self, baseline: Objective) -> f64 {
-        1.0 + self.increase_pct(baseline) / 100.0
-    }
-
-    /// Whether `baseline`'s better direction needs strictly less energy than min-distance's
-    /// (by more than a relative 1e-9, so the same tour found twice is not a win).
-    pub fn beats_distance(&self, baseline: Objective) -> bool {
-        self.energy_of(baseline) < self.distance_j * (1.0 - 1e-9)
-    }
-}
-
-/// Mean, 90th percentile and maximum of one baseline's increase over the minimum-energy order
-/// (the STATS object of DESIGN.md). The percentile is the nearest-rank one: the
-/// ceil(0.9 K)-th smallest of the K increases, an increase some mission actually had.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Stats {
-    pub mean_pct: f64,
-    pub p90_pct: f64,
-    pub max_pct: f64,
-}
-
-impl Stats {
-    /// Statistics of `values` (not empty; the order does not matter).
-    pub fn of(values: &[f64]) -> Stats {
-        if values.is_empty() {
-            return Stats {
-                mean_pct: 0.0,
-                p90_pct: 0.0,
-                max_pct: 0.0,
-            };
-        }
-        let mean_pct = values.iter().sum::<f64>() / values.len() as f64;
-        let mut sorted = values.to_vec();
-        sorted.sort_by(f64::total_cmp);
-        let rank = (0.9 * sorted.len() as f64).ceil() as usize;
-        Stats {
-            mean_pct,
-            p90_pct: sorted[rank.clamp(1, sorted.len()) - 1],
-            max_pct: sorted[sorted.len() - 1],
-        }
-    }
-}
-
-/// The study's summary: the JSON document of DESIGN.md (`emplan study --json`).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Summary {
-    pub missions: usize,
-    pub distance: Stats,
-    pub horizontal: Stats,
-    pub vertical: Stats,
-    pub distance_differs_pct: f64,
-    pub vertical_beats_distance_pct: f64,
-    pub horizontal_beats_distance_pct: f64,
-}
-
-impl Summary {
-    /// Aggregates per-mission outcomes.
-    pub fn of(outcomes: &[MissionOutcome]) -> Summary {
-        let stats = |baseline: Objective| {
-            let values: Vec<f64> = outcomes.iter().map(|o| o.increase_pct(baseline)).collect();
-            Stats::of(&values)
-        };
-        let share = |pred: &dyn Fn(&MissionOutcome) -> bool| {
-            let count = outcomes.iter().filter(|o| pred(o)).count();
-            100.0 * count as f64 / outcomes.len().max(1) as f64
-        };
-        Summary {
-            missions: outcomes.len(),
-            distance: stats(Objective::Distance),
-            horizontal: stats(Objective::Horizontal),
-            vertical: stats(Objective::Vertical),
-            distance_differs_pct: share(&|o| o.distance_differs),
-            vertical_beats_distance_pct: share(&|o| o.beats_distance(Objective::Vertical)),
-            horizontal_beats_distance_pct: share(&|o| o.beats_distance(Objective::Horizontal)),
-        }
     }
 }
 
@@ -572,28 +344,6 @@ mod tests {
     }
 
     #[test]
-    fn random_points_stay_inside_the_box_and_fill_it() {
-        let s = StudySettings {
-            waypoints: 500,
-            xy_m: 40.0,
-            z_m: 15.0,
-            missions: 1,
-            seed: 3,
-        };
-        let points = random_points(&s, 7);
-        assert_eq!(points.len(), 500);
-        for p in &points {
-            assert!(p.x_east_m.abs() <= 40.0 && p.y_north_m.abs() <= 40.0);
-            assert!(p.z_up_m.abs() <= 15.0);
-        }
-        let max_z = points.iter().map(|p| p.z_up_m).fold(f64::MIN, f64::max);
-        let min_x = points.iter().map(|p| p.x_east_m).fold(f64::MAX, f64::min);
-        assert!(max_z > 14.0 && min_x < -38.0);
-        assert_eq!(points, random_points(&s, 7));
-        assert_ne!(points, random_points(&s, 8));
-    }
-
-    #[test]
     fn progress_is_reported_once_per_mission() {
         let done = std::sync::atomic::AtomicUsize::new(0);
         let count = || {
@@ -601,46 +351,6 @@ mod tests {
         };
         run_study(&settings(5, 37, 2), climb_averse, &count).unwrap();
         assert_eq!(done.into_inner(), 37);
-    }
-
-    #[test]
-    fn a_generated_mission_is_the_study_mission_above_home_and_bad_settings_are_named() {
-        let s = settings(6, 1, 4);
-        let site = Site {
-            home: Geodetic {
-                lat_deg: 38.5,
-                lon_deg: -121.7,
-                alt_m: 16.0,
-            },
-            hover_s: 3.0,
-            name: None,
-        };
-        let m = random_mission(&s, 2, &site).unwrap();
-        assert_eq!(m.name, format!("random-6-{}-{}-s4-2", s.xy_m, s.z_m));
-        assert_eq!(m.origin.height_above_home_m, s.z_m + CLEARANCE_M);
-        let points: Vec<Enu> = m.waypoints.iter().map(|w| w.position).collect();
-        assert_eq!(points, random_points(&s, 2));
-        assert!(m.waypoints.iter().all(|w| w.hover_s == 3.0));
-        assert_eq!(m.waypoints[5].name, "W6");
-        let refused = |s: &StudySettings, site: &Site| match random_mission(s, 0, site) {
-            Err(StudyError::Setting { setting, .. }) => setting,
-            other => panic!("{other:?}"),
-        };
-        assert_eq!(refused(&settings(0, 1, 1), &site), "waypoints");
-        let mut far = site.clone();
-        far.home.lat_deg = 91.0;
-        assert_eq!(refused(&s, &far), "lat_deg");
-        let mut negative = site.clone();
-        negative.hover_s = -1.0;
-        assert_eq!(refused(&s, &negative), "hover_s");
-    }
-
-    #[test]
-    fn p90_is_the_nearest_rank_value() {
-        let values: Vec<f64> = (1..=20).rev().map(f64::from).collect();
-        let s = Stats::of(&values);
-        assert_eq!((s.mean_pct, s.p90_pct, s.max_pct), (10.5, 18.0, 20.0));
-        assert_eq!(Stats::of(&[4.0]).p90_pct, 4.0);
     }
 
     #[test]
