@@ -23,10 +23,10 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
-use serde::Serialize;
 use tokio::sync::{mpsc, watch, Semaphore};
 
-use super::events::{Event, Hub};
+use super::events::Hub;
+use super::wire::{Event, MissionProblem};
 use super::Refusal;
 use crate::mission::{Format, Mission, MissionError, Place};
 use crate::physics::VehicleModel;
@@ -51,19 +51,6 @@ pub fn digest(bytes: &[u8]) -> String {
     format!("{h:016x}")
 }
 
-/// Why a mission has no plan, located.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct MissionProblem {
-    /// `mission` (the file cannot be read as a mission) or `plan` (it cannot be planned).
-    pub stage: &'static str,
-    pub message: String,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub line: Option<usize>,
-    /// The 0-based item of a `.plan` file.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub item: Option<usize>,
-}
-
 impl MissionProblem {
     fn of_mission(e: &MissionError) -> MissionProblem {
         let (line, item) = match e {
@@ -78,7 +65,7 @@ impl MissionProblem {
             _ => (None, None),
         };
         MissionProblem {
-            stage: "mission",
+            stage: "mission".into(),
             message: e.to_string(),
             line,
             item,
@@ -390,7 +377,7 @@ fn plan_file(path: &Path, bytes: &[u8], settings: &PlanSettings) -> (Option<Miss
     };
     let failed = |e: crate::planner::PlannerError| {
         Outcome::Failed(MissionProblem {
-            stage: "plan",
+            stage: "plan".into(),
             message: e.to_string(),
             line: None,
             item: None,
@@ -418,7 +405,7 @@ fn plan_file(path: &Path, bytes: &[u8], settings: &PlanSettings) -> (Option<Miss
             return (
                 Some(mission),
                 Outcome::Failed(MissionProblem {
-                    stage: "plan",
+                    stage: "plan".into(),
                     message: e.to_string(),
                     line: None,
                     item: None,
@@ -826,7 +813,7 @@ impl Folder {
                     modified_ms: w.seen.modified_ms,
                     mission: None,
                     outcome: Outcome::Failed(MissionProblem {
-                        stage: "mission",
+                        stage: "mission".into(),
                         message: format!("{}: cannot be read ({e})", path.display()),
                         line: None,
                         item: None,
@@ -898,7 +885,7 @@ impl Folder {
             });
             let exceeded = || {
                 Outcome::Failed(MissionProblem {
-                    stage: "plan",
+                    stage: "plan".into(),
                     message: format!(
                         "planning exceeded the {} s limit (serve --time-limit) and was stopped",
                         limit.as_secs_f64()
@@ -918,7 +905,7 @@ impl Folder {
                 Ok(Err(e)) => Ended::Finished {
                     mission: None,
                     outcome: Outcome::Failed(MissionProblem {
-                        stage: "plan",
+                        stage: "plan".into(),
                         message: format!("planning stopped: {e}"),
                         line: None,
                         item: None,
