@@ -211,6 +211,8 @@ pub struct Catalog {
     pub entries: BTreeMap<String, Arc<MissionEntry>>,
     /// How long a file must stay unchanged before it is planned.
     pub settle: Duration,
+    /// The folder has been read once: a file absent now is not in it.
+    pub scanned: bool,
     /// Asks the missions task to read a file again (an upload found it changed).
     rechecks: Option<mpsc::UnboundedSender<String>>,
 }
@@ -482,6 +484,7 @@ pub fn spawn(
         dir: dir.clone(),
         entries: BTreeMap::new(),
         settle: settings.watch.settle,
+        scanned: false,
         rechecks: Some(recheck_tx),
     }));
     let (done_tx, done) = mpsc::unbounded_channel();
@@ -590,6 +593,9 @@ async fn run(
         if rescan_at.is_some_and(|at| Instant::now() >= at) {
             rescan_at = None;
             folder.rescan().await;
+            folder
+                .catalog
+                .send_if_modified(|c| !std::mem::replace(&mut Arc::make_mut(c).scanned, true));
         }
         if *stop.borrow() {
             break;

@@ -210,6 +210,8 @@ pub async fn run(
         stop.clone(),
     )
     .map_err(ServiceError::Thread)?;
+    // No answer before the folder is read once: a mission file in it is never "not found".
+    let _ = catalog.clone().wait_for(|c| c.scanned).await;
     let app = api::router(api::Shared {
         vehicle,
         catalog,

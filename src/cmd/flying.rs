@@ -1,15 +1,110 @@
-//! What `emplan fly` prints while and after it flies, alone or through a service: the
-//! parameter warnings and the "flying" line before the upload, a line per part as the flight
-//! goes (and on a terminal the part in progress, rewritten), the report at the end, and the
-//! failure document.
+//! `emplan fly`'s options of the built-in mock, and what it prints while and after it flies,
+//! alone or through a service: the parameter warnings and the "flying" line before the upload,
+//! a line per part as the flight goes (and on a terminal the part in progress, rewritten), the
+//! report at the end, and the failure document.
 
+use std::path::PathBuf;
 use std::process::ExitCode;
+
+use anyhow::Context;
 
 use emplan::flightlog::report::{FlightReport, PartReport};
 use emplan::flightlog::segment::SegmentKind;
 use emplan::service::remote::RemoteError;
+use emplan::service::wire::UploadAnswer;
 use emplan::service::wire::{segment_kind, Event};
-use emplan::session::{FlightEvent, FlyError, FlyFailure, FlyJson, Live, OpenError, Px4Parameters};
+use emplan::session::{
+    parse_param, FlightEvent, FlyError, FlyFailure, FlyJson, Live, MockFlight, OpenError,
+    Px4Parameters, Session,
+};
+
+/// How `fly` runs the built-in mock autopilot (no `--connect`).
+#[derive(Debug, clap::Args)]
+pub struct MockArgs {
+    /// Built-in mock only: simulated seconds per wall second
+    #[arg(long, default_value_t = emplan::sim::DEFAULT_SPEEDUP)]
+    speedup: f64,
+    /// Built-in mock only: probability that a datagram is lost, each way (telemetry and
+    /// mission protocol alike)
+    #[arg(long, default_value_t = 0.0)]
+    mock_loss: f64,
+    /// Built-in mock only: seed of its faults and sensor noise
+    #[arg(long, default_value_t = 1)]
+    mock_seed: u64,
+    /// Built-in mock only: a PX4 trajectory parameter the mock autopilot holds (and flies with)
+    /// instead of the vehicle file's value, NAME=VALUE (e.g. MPC_XY_CRUISE=8); repeatable
+    #[arg(long, value_name = "NAME=VALUE")]
+    mock_param: Vec<String>,
+    /// Built-in mock only: a vehicle directory whose physics and battery the mock flies (the
+    /// truth measured against), instead of the planning vehicle's: flights of a vehicle that
+    /// is not what the vehicle file says, for `calibrate --from-logs`
+    #[arg(long, value_name = "DIR")]
+    mock_vehicle: Option<PathBuf>,
+}
+
+impl MockArgs {
+    /// Refuses what no flight can take, before anything else (`--mock-loss`; with `service`,
+    /// `--mock-vehicle`).
+    pub fn check(&self, service: bool) -> anyhow::Result<()> {
+        if !(0.0..=1.0).contains(&self.mock_loss) {
+            anyhow::bail!(
+                "--mock-loss {}: a probability between 0 and 1 is required",
+                self.mock_loss
+            );
+        }
+        if service && self.mock_vehicle.is_some() {
+            anyhow::bail!("--mock-vehicle is for the built-in mock (not --service)");
+        }
+        Ok(())
+    }
+
+    /// The mock flying `mission`'s `plan` (`planned`: the planning vehicle); `builtin`: no
+    /// `--connect` was given (else its options are refused).
+    pub fn mock(
+        &self,
+        mission: &emplan::mission::Mission,
+        plan: &emplan::planner::Plan,
+        planned: &emplan::physics::Vehicle,
+        builtin: bool,
+    ) -> anyhow::Result<MockFlight> {
+        let params = (self.mock_param.iter())
+            .map(|p| parse_param(p).map_err(|e| anyhow::anyhow!("--mock-param {e}")))
+            .collect::<anyhow::Result<Vec<_>>>()?;
+        if !params.is_empty() && !builtin {
+            anyhow::bail!("--mock-param is for the built-in mock (no --connect)");
+        }
+        let truth = match &self.mock_vehicle {
+            Some(_) if !builtin => {
+                anyhow::bail!("--mock-vehicle is for the built-in mock (no --connect)")
+            }
+            Some(dir) => emplan::physics::Vehicle::load(dir)
+                .with_context(|| format!("--mock-vehicle {}", dir.display()))?,
+            None => planned.clone(),
+        };
+        Ok(MockFlight {
+            home: mission.origin.home,
+            profile: plan.profile,
+            truth,
+            params,
+            speedup: self.speedup,
+            seed: self.mock_seed,
+            loss: self.mock_loss,
+            signing_key: None,
+        })
+    }
+}
+
+/// Ends `fly`: with `--json`, a failure prints its document (and the error) and exits 1.
+pub fn finish(outcome: anyhow::Result<ExitCode>, json: bool) -> anyhow::Result<ExitCode> {
+    match outcome {
+        Err(err) if json => {
+            println!("{}", serde_json::to_string_pretty(&failure(&err).json())?);
+            eprintln!("error: {err:#}");
+            Ok(ExitCode::FAILURE)
+        }
+        outcome => outcome,
+    }
+}
 
 /// The `fly --json` failure document of `err`: its stage, whether the autopilot had accepted
 /// the mission.
@@ -46,6 +141,43 @@ pub struct Flying<'a> {
     pub log_dir: Option<&'a std::path::Path>,
     /// The pilot starts the mission.
     pub pilot: bool,
+}
+
+impl Flying<'_> {
+    /// A flight of `flight` (of `mission`) on `session`'s autopilot, logged in `log_dir`.
+    pub fn of<'a>(
+        session: &Session,
+        mission: &'a emplan::mission::Mission,
+        flight: &emplan::planner::Flight<'_>,
+        log_dir: &'a std::path::Path,
+        pilot: bool,
+    ) -> Flying<'a> {
+        Flying {
+            mission: &mission.name,
+            legs: flight.legs.len(),
+            predicted_kj: flight.battery.total_j / 1000.0,
+            flavour: session.target.flavour,
+            system_id: session.target.system_id,
+            place: format!("at {}", session.describe),
+            log_dir: Some(log_dir),
+            pilot,
+        }
+    }
+
+    /// The flight a service answered an upload with (at `url`).
+    pub fn uploaded<'a>(answer: &'a UploadAnswer, url: &str, pilot: bool) -> Flying<'a> {
+        let (plan, autopilot) = (&answer.upload.plan, answer.upload.autopilot);
+        Flying {
+            mission: &plan.mission,
+            legs: plan.sequence.len() + 1,
+            predicted_kj: plan.predicted_mission_kj,
+            flavour: autopilot.flavour,
+            system_id: autopilot.system_id,
+            place: format!("through the service at {url}"),
+            log_dir: None,
+            pilot,
+        }
+    }
 }
 
 /// The lines of one flight: quiet with `--json` (but parts still shown on a terminal).
