@@ -1,7 +1,8 @@
 //! `emplan fly --service` against `emplan serve`, both the binary: a fly started the moment the
 //! service's port answers waits for the service's vehicle link and measures every leg, and its
 //! report has the keys and legs `fly` alone gives; on a PX4 holding other trajectory
-//! parameters than the vehicle file, it warns and re-prices as `fly` alone does; every event
+//! parameters than the vehicle file, it warns and re-prices as `fly` alone does; an upload
+//! through a service whose vehicle is not heard yet waits for it (`--discover-s`); every event
 //! the service sends reads as `service::wire::Event` and writes back as the same JSON.
 
 use std::path::{Path, PathBuf};
@@ -255,4 +256,72 @@ async fn every_event_of_a_flight_reads_as_a_wire_event_and_writes_back_as_the_sa
     ] {
         assert!(kinds.contains(kind), "no {kind} event among {kinds:?}");
     }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_upload_through_a_service_whose_vehicle_is_not_heard_yet_waits_for_it() {
+    let work = tempfile::tempdir().expect("temp dir");
+    let missions = work.path().join("missions");
+    std::fs::create_dir_all(&missions).expect("dir");
+    let mission = missions.join("paper-sample-3wp.toml");
+    std::fs::copy(root().join("missions/paper-sample-3wp.toml"), &mission).expect("copied");
+    let (logs, token) = (work.path().join("flights"), work.path().join("token"));
+    let vehicle = format!("127.0.0.1:{}", free_port());
+    let (serve, url) = crate::service::spawn_serve(
+        &[
+            "--connect",
+            &format!("udpout:{vehicle}"),
+            "--missions",
+            missions.to_str().unwrap(),
+            "--log-dir",
+            logs.to_str().unwrap(),
+            "--http",
+            "127.0.0.1:0",
+            "--token-file",
+            token.to_str().unwrap(),
+            "--settle-ms",
+            "100",
+        ],
+        &work.path().join("serve.log"),
+    );
+    let _serve = Reaped(serve);
+    // The mission is planned and the vehicle not heard: today's answer would be a refusal.
+    let client = Client::new(&url, None).expect("client");
+    let began = Instant::now();
+    loop {
+        let entry = client.get("/api/missions/paper-sample-3wp.toml").await;
+        if entry.is_ok_and(|a| a.body["status"] == "planned") {
+            break;
+        }
+        assert!(began.elapsed() < Duration::from_secs(30), "never planned");
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    let link = client.get("/api/link").await.expect("link");
+    assert_eq!(link.body["state"], "waiting_for_heartbeat", "{}", link.body);
+    let uploading = tokio::task::spawn_blocking(move || {
+        crate::emplan(&[
+            "upload",
+            mission.to_str().unwrap(),
+            "--service",
+            &url,
+            "--token-file",
+            token.to_str().unwrap(),
+            "--discover-s",
+            "60",
+            "--json",
+        ])
+    });
+    // The vehicle appears while the upload waits for it.
+    tokio::time::sleep(Duration::from_millis(1500)).await;
+    let mock = std::process::Command::new(env!("CARGO_BIN_EXE_emplan"))
+        .args(["mock-autopilot", "--listen", &format!("udpin:{vehicle}")])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("emplan mock-autopilot runs");
+    let _mock = Reaped(mock);
+    let (ok, stdout, stderr) = uploading.await.expect("ran");
+    assert!(ok, "{stdout}\n{stderr}");
+    let doc: Value = serde_json::from_str(&stdout).expect("the upload document");
+    assert_eq!(doc["report"]["verified"], true, "{doc}");
 }
