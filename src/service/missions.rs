@@ -530,7 +530,7 @@ struct Watched {
 #[derive(Debug)]
 enum Ended {
     Finished {
-        mission: Option<Mission>,
+        mission: Option<Box<Mission>>,
         outcome: Outcome,
         seconds: f64,
     },
@@ -905,7 +905,7 @@ impl Folder {
                 Ok(Ok((_, false))) => Ended::Stale,
                 Ok(Ok(((mission, outcome), true))) => Ended::Finished {
                     outcome: if token.expired() { exceeded() } else { outcome },
-                    mission,
+                    mission: mission.map(Box::new),
                     seconds: started.elapsed().as_secs_f64(),
                 },
                 Ok(Err(e)) => Ended::Finished {
@@ -952,7 +952,7 @@ impl Folder {
                 mission,
                 outcome,
                 seconds,
-            } => (mission, outcome, seconds),
+            } => (mission.map(|m| *m), outcome, seconds),
         };
         let entry = Arc::new(MissionEntry {
             name: done.name.clone(),
