@@ -427,10 +427,10 @@ async fn upload_mission(
 async fn start(
     State(s): State<AppState>,
     headers: HeaderMap,
-) -> Result<Json<serde_json::Value>, Refusal> {
+) -> Result<Json<super::wire::Started>, Refusal> {
     authorize(&headers, &s.token)?;
     s.vehicle.start().await?;
-    Ok(Json(serde_json::json!({"ok": true})))
+    Ok(Json(super::wire::Started { ok: true }))
 }
 
 async fn vehicle(State(s): State<AppState>) -> Json<serde_json::Value> {
