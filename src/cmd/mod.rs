@@ -342,13 +342,13 @@ impl LinkArgs {
         &self,
         mock: Option<emplan::session::MockFlight>,
     ) -> anyhow::Result<emplan::session::Session> {
-        use emplan::session::{OpenOptions, Target};
+        use emplan::session::{LinkOptions, Target};
         if let Some(url) = &self.connect {
             // Before any waiting: a URL of no known form, or a serial device that is not there.
             emplan::link::connection::check_url(url)
                 .map_err(|e| anyhow::Error::new(e).context("--connect"))?;
         }
-        let options = OpenOptions {
+        let options = LinkOptions {
             discover: seconds("discover-s", self.discover_s)?,
             transfer_budget: self.budget_s.map(|b| seconds("budget-s", b)).transpose()?,
         };

@@ -23,7 +23,7 @@ pub use crate::link::commands::{keep_streams, request_streams};
 pub use fly::{
     discard_unflown, fly, load, Flown, FlyError, FlyFailure, FlyJson, FlyOptions, Load, Loaded,
 };
-pub use open::{open, MockFlight, OpenError, OpenOptions, Session, Target, Uploaded};
+pub use open::{open, LinkOptions, MockFlight, OpenError, Session, Target, Uploaded};
 pub use params::{check_px4_params, parse_param, ParamCheck, Px4Parameters};
 pub use predict::{
     flight_plan, flight_plan_predicted, plan_from_items, predicted, predicted_by_simulation,

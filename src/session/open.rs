@@ -38,16 +38,16 @@ pub enum Target {
 
 /// How a session is opened.
 #[derive(Debug, Clone, PartialEq)]
-pub struct OpenOptions {
+pub struct LinkOptions {
     /// Time allowed for the transport to open, then again for the autopilot's heartbeat.
     pub discover: Duration,
     /// Time allowed for one transfer (None: the default for its item count).
     pub transfer_budget: Option<Duration>,
 }
 
-impl Default for OpenOptions {
+impl Default for LinkOptions {
     fn default() -> Self {
-        OpenOptions {
+        LinkOptions {
             discover: Duration::from_secs(10),
             transfer_budget: None,
         }
@@ -86,7 +86,7 @@ impl std::fmt::Debug for Session {
 }
 
 /// Starts the built-in mock or connects, and waits for the autopilot's heartbeat.
-pub async fn open(target: Target, options: &OpenOptions) -> Result<Session, OpenError> {
+pub async fn open(target: Target, options: &LinkOptions) -> Result<Session, OpenError> {
     let (url, describe, signing_key, mock) = match target {
         Target::Connect { url, signing_key } => (url.clone(), url, signing_key, None),
         Target::Mock { config, vehicle } => {
