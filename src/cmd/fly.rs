@@ -10,7 +10,7 @@ use std::time::Duration;
 
 use super::flying::{self, Flying, Lines};
 use emplan::service::remote::{self, Starting};
-use emplan::session::{FlyError, FlyJson, FlyOptions, Load, Px4Parameters, RecorderConfig};
+use emplan::session::{FlyError, FlyJson, FlyOptions, Px4Parameters, RecorderConfig};
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -64,13 +64,7 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
     let flight = args.flight.flight(&plan)?;
     let builtin = args.link.connect.is_none();
     let mock = args.mock.mock(&mission, &plan, &model.vehicle, builtin)?;
-    let load = Load {
-        mission: &mission,
-        plan: &plan,
-        flight: &flight,
-        acceptance_radius_m: args.flight.acceptance_radius_m,
-        vehicle: &model.vehicle,
-    };
+    let load = (args.flight).load(&mission, &plan, &flight, &model.vehicle);
     let lines = Lines::new(args.json);
     super::runtime()?.block_on(async {
         let session = args.link.open_with(Some(mock)).await?;

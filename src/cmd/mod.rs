@@ -288,6 +288,23 @@ impl ServiceArgs {
 }
 
 impl FlightArgs {
+    /// What goes onto the vehicle: `flight` of `plan` (of `mission`), planned with `vehicle`.
+    pub fn load<'a>(
+        &self,
+        mission: &'a emplan::mission::Mission,
+        plan: &'a emplan::planner::Plan,
+        flight: &'a emplan::planner::Flight<'a>,
+        vehicle: &'a emplan::physics::Vehicle,
+    ) -> emplan::session::Load<'a> {
+        emplan::session::Load {
+            mission,
+            plan,
+            flight,
+            acceptance_radius_m: self.acceptance_radius_m,
+            vehicle,
+        }
+    }
+
     /// The upload request a service gets for these options.
     pub fn service_request(&self) -> anyhow::Result<emplan::service::wire::UploadRequest> {
         Ok(emplan::service::wire::UploadRequest::new(

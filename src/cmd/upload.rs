@@ -9,7 +9,7 @@ use anyhow::Context;
 use emplan::link::driver::UploadError;
 use emplan::planner::json::upload_document;
 use emplan::session::upload::UploadJson;
-use emplan::session::{FlyError, Load};
+use emplan::session::FlyError;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -85,13 +85,7 @@ fn upload(args: Args) -> anyhow::Result<ExitCode> {
     let (model, plan) = args.flight.plan(&mission)?;
     let flight = args.flight.flight(&plan)?;
     let planned = upload_document(&plan, &flight);
-    let load = Load {
-        mission: &mission,
-        plan: &plan,
-        flight: &flight,
-        acceptance_radius_m: args.flight.acceptance_radius_m,
-        vehicle: &model.vehicle,
-    };
+    let load = (args.flight).load(&mission, &plan, &flight, &model.vehicle);
     let runtime = super::runtime()?;
     runtime.block_on(async {
         let session = args.link.open().await.map_err(|cause| Staged {

@@ -50,23 +50,10 @@ use crate::session::{
 };
 use crate::sim::{MockAutopilot, MockConfig, MockHandle};
 
-/// How to reach the vehicle.
-#[derive(Debug, Clone)]
-pub enum VehicleLink {
-    /// A MAVLink connection URL (`udpin:`, `udpout:`, `tcpin:`, `tcpout:`, `serial:DEV:BAUD`),
-    /// with an optional MAVLink 2 signing key.
-    Connect {
-        url: String,
-        signing_key: Option<[u8; 32]>,
-    },
-    /// The built-in mock autopilot on loopback (`config.flight` makes it fly), flying `vehicle`
-    /// (None: the built-in S1000). Its home follows the missions uploaded (it is restarted at
-    /// a mission's home before an upload from elsewhere, while disarmed).
-    Mock {
-        config: Box<MockConfig>,
-        vehicle: Option<Box<Vehicle>>,
-    },
-}
+/// How to reach the vehicle: a session's target. The built-in mock's home follows the missions
+/// uploaded (it is restarted at a mission's home before an upload from elsewhere, while
+/// disarmed).
+pub use crate::session::Target as VehicleLink;
 
 /// The vehicle side of the service.
 #[derive(Debug, Clone)]

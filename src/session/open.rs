@@ -28,8 +28,9 @@ pub enum Target {
         url: String,
         signing_key: Option<[u8; 32]>,
     },
-    /// The built-in mock autopilot on loopback, configured by `config` (its signing key is the
-    /// link's), flying `vehicle`'s physics (None: the built-in S1000).
+    /// The built-in mock autopilot on loopback, configured by `config` (`config.flight` makes
+    /// it fly; its signing key is the link's), flying `vehicle`'s physics (None: the built-in
+    /// S1000).
     Mock {
         config: Box<MockConfig>,
         vehicle: Option<Box<Vehicle>>,
