@@ -34,7 +34,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     runtime.block_on(async {
         let opened = args.link.open().await?;
         let target = opened.target;
-        let items = download(&opened.link, &target, opened.config)
+        let items = download(&opened.link, &target, opened.transfer)
             .await
             .with_context(|| format!("downloading from {}", opened.describe))?;
         let json: Vec<serde_json::Value> =

@@ -7,6 +7,7 @@ pub mod convert;
 pub mod download;
 pub mod energy;
 pub mod fly;
+pub mod flying;
 pub mod generate;
 pub mod mock_autopilot;
 pub mod plan;
@@ -278,39 +279,40 @@ pub struct ServiceArgs {
 impl ServiceArgs {
     /// The client of the service, when one was given, with its token.
     pub fn client(&self) -> anyhow::Result<Option<emplan::service::Client>> {
-        use emplan::service::Token;
         let Some(url) = &self.service else {
             return Ok(None);
         };
-        let token = match (&self.token_file, std::env::var("EMPLAN_TOKEN")) {
-            (Some(file), _) => {
-                let text = std::fs::read_to_string(file)
-                    .map_err(|e| anyhow::anyhow!("--token-file {}: {e}", file.display()))?;
-                Some(
-                    Token::new(&text)
-                        .map_err(|e| anyhow::anyhow!("--token-file {}: {e}", file.display()))?,
-                )
-            }
-            (None, Ok(text)) => {
-                Some(Token::new(&text).map_err(|e| anyhow::anyhow!("EMPLAN_TOKEN: {e}"))?)
-            }
-            (None, Err(_)) => std::fs::read_to_string("flights/token")
-                .ok()
-                .and_then(|t| Token::new(&t).ok()),
-        };
+        let token = emplan::service::client::find_token(self.token_file.as_deref())?;
         Ok(Some(emplan::service::Client::new(url, token)?))
     }
 }
 
 impl FlightArgs {
-    /// The upload request a service gets for these options.
-    pub fn service_request(&self) -> anyhow::Result<emplan::service::remote::UploadRequest> {
-        Ok(emplan::service::remote::UploadRequest {
-            choice: self.choice(),
+    /// What goes onto the vehicle: `flight` of `plan` (of `mission`), planned with `vehicle`.
+    pub fn load<'a>(
+        &self,
+        mission: &'a emplan::mission::Mission,
+        plan: &'a emplan::planner::Plan,
+        flight: &'a emplan::planner::Flight<'a>,
+        vehicle: &'a emplan::physics::Vehicle,
+    ) -> emplan::session::Load<'a> {
+        emplan::session::Load {
+            mission,
+            plan,
+            flight,
             acceptance_radius_m: self.acceptance_radius_m,
-            profile: self.model.profile,
-            solver: self.solver.options()?,
-        })
+            vehicle,
+        }
+    }
+
+    /// The upload request a service gets for these options.
+    pub fn service_request(&self) -> anyhow::Result<emplan::service::wire::UploadRequest> {
+        Ok(emplan::service::wire::UploadRequest::new(
+            &self.choice(),
+            self.acceptance_radius_m,
+            self.model.profile,
+            &self.solver.options()?,
+        ))
     }
 }
 
@@ -336,17 +338,6 @@ pub struct LinkArgs {
     pub signing_key: Option<std::path::PathBuf>,
 }
 
-/// An open link to the autopilot (and the built-in mock, when that is the autopilot).
-pub struct Opened {
-    pub link: emplan::link::connection::Link,
-    pub target: emplan::link::connection::Autopilot,
-    pub config: emplan::link::transfer::TransferConfig,
-    /// Where the autopilot is, for messages.
-    pub describe: String,
-    /// Kept alive as long as the link; dropped (and stopped) with it.
-    pub _mock: Option<emplan::sim::MockHandle>,
-}
-
 /// Seconds from the command line as a duration: finite, positive and at most a year.
 fn seconds(flag: &str, value: f64) -> anyhow::Result<std::time::Duration> {
     if !(value.is_finite() && value > 0.0 && value <= 3.2e7) {
@@ -356,76 +347,50 @@ fn seconds(flag: &str, value: f64) -> anyhow::Result<std::time::Duration> {
 }
 
 impl LinkArgs {
-    /// Connects (starting the built-in mock when no `--connect` is given), discovers the
-    /// autopilot and returns the link with the transfer settings.
-    pub async fn open(&self) -> anyhow::Result<Opened> {
-        self.open_with(emplan::sim::MockConfig::default(), None)
-            .await
+    /// Opens the session (see [`emplan::session::open`]): `--connect`, else the built-in mock
+    /// (a default one, PX4 flavour).
+    pub async fn open(&self) -> anyhow::Result<emplan::session::Session> {
+        self.open_with(None).await
     }
 
-    /// As [`LinkArgs::open`], the built-in mock (when no `--connect` is given) configured by
-    /// `mock` and flying with `vehicle` (None: the built-in S1000).
+    /// As [`LinkArgs::open`], the built-in mock (when no `--connect` is given) started as
+    /// `mock` says.
     pub async fn open_with(
         &self,
-        mock: emplan::sim::MockConfig,
-        vehicle: Option<emplan::physics::Vehicle>,
-    ) -> anyhow::Result<Opened> {
+        mock: Option<emplan::session::MockFlight>,
+    ) -> anyhow::Result<emplan::session::Session> {
+        use emplan::session::{LinkOptions, Target};
         if let Some(url) = &self.connect {
             // Before any waiting: a URL of no known form, or a serial device that is not there.
             emplan::link::connection::check_url(url)
                 .map_err(|e| anyhow::Error::new(e).context("--connect"))?;
         }
-        let patience = seconds("discover-s", self.discover_s)?;
-        let budget = self.budget_s.map(|b| seconds("budget-s", b)).transpose()?;
+        let options = LinkOptions {
+            discover: seconds("discover-s", self.discover_s)?,
+            transfer_budget: self.budget_s.map(|b| seconds("budget-s", b)).transpose()?,
+        };
         let signing_key = match &self.signing_key {
             Some(path) => Some(emplan::link::read_signing_key(path)?),
             None => None,
         };
-        let (url, describe, mock) = match &self.connect {
-            Some(url) => (url.clone(), url.clone(), None),
-            None => {
-                let config = emplan::sim::MockConfig {
-                    signing_key,
-                    ..mock
-                };
-                let mock = match vehicle {
-                    Some(vehicle) => {
-                        emplan::sim::MockAutopilot::spawn_with_vehicle(
-                            "udpin:127.0.0.1:0",
-                            config,
-                            vehicle,
-                        )
-                        .await?
-                    }
-                    None => emplan::sim::MockAutopilot::spawn("udpin:127.0.0.1:0", config).await?,
-                };
-                let url = format!("udpout:{}", mock.local_addr());
-                let describe = format!("the built-in mock autopilot ({url}; no --connect given)");
-                (url, describe, Some(mock))
+        let target = match (&self.connect, mock) {
+            (Some(url), _) => Target::Connect {
+                url: url.clone(),
+                signing_key,
+            },
+            (None, Some(mock)) => emplan::session::MockFlight {
+                signing_key,
+                ..mock
             }
+            .target(),
+            (None, None) => Target::Mock {
+                config: Box::new(emplan::sim::MockConfig {
+                    signing_key,
+                    ..Default::default()
+                }),
+                vehicle: None,
+            },
         };
-        let signing = signing_key.map(emplan::link::signing_config);
-        let link = emplan::link::connection::Link::connect_within(
-            &url,
-            Default::default(),
-            signing,
-            patience,
-        )
-        .await?;
-        let target = link.discover(patience).await?;
-        let config = emplan::link::transfer::TransferConfig {
-            target_system: target.system_id,
-            target_component: target.component_id,
-            flavour: target.flavour,
-            timing: Default::default(),
-            budget,
-        };
-        Ok(Opened {
-            link,
-            target,
-            config,
-            describe,
-            _mock: mock,
-        })
+        Ok(emplan::session::open(target, &options).await?)
     }
 }

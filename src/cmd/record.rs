@@ -60,7 +60,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                     Ok(FlightEvent::Started { dir, .. }) => {
                         eprintln!("armed: recording to {}", dir.display());
                         // What the vehicle flies: its mission, read back now.
-                        match emplan::link::driver::download(link, &target, opened.config).await {
+                        match emplan::link::driver::download(link, &target, opened.transfer).await {
                             Ok(items) => match emplan::link::items::read_flight(
                                 &items,
                                 target.flavour,

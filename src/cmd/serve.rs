@@ -61,6 +61,10 @@ pub struct Args {
     /// Built-in mock only: seed of its sensor noise
     #[arg(long, default_value_t = 1)]
     mock_seed: u64,
+    /// Built-in mock only: a PX4 trajectory parameter the mock autopilot holds (and flies with)
+    /// instead of the vehicle file's value, NAME=VALUE (e.g. MPC_XY_CRUISE=8); repeatable
+    #[arg(long, value_name = "NAME=VALUE")]
+    mock_param: Vec<String>,
 }
 
 /// Resolves on Ctrl-C or SIGTERM.
@@ -104,6 +108,14 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         // Its form only: the service waits for a serial device plugged in later.
         emplan::link::connection::parse_url(url).context("--connect")?;
     }
+    let mock_params = (args.mock_param.iter())
+        .map(|p| emplan::session::parse_param(p).map_err(|e| anyhow::anyhow!("--mock-param {e}")))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    if !mock_params.is_empty() && args.connect.is_some() {
+        anyhow::bail!("--mock-param is for the built-in mock (no --connect)");
+    }
+    let mut mock_vehicle = model.vehicle.clone();
+    mock_vehicle.px4 = mock_vehicle.px4.with_autopilot_values(&mock_params);
     let vehicle = match &args.connect {
         Some(url) => VehicleLink::Connect {
             url: url.clone(),
@@ -121,7 +133,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                 signing_key,
                 ..Default::default()
             }),
-            vehicle: Some(Box::new(model.vehicle.clone())),
+            vehicle: Some(Box::new(mock_vehicle)),
         },
     };
     let token_file = args

@@ -6,10 +6,10 @@
 //! "error", "item", "result"}`.
 
 use anyhow::Context;
-use emplan::link::driver::{upload_verified, UploadError};
-use emplan::link::items::{mission_items, ItemOptions};
+use emplan::link::driver::UploadError;
 use emplan::planner::json::upload_document;
 use emplan::session::upload::UploadJson;
+use emplan::session::FlyError;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -44,7 +44,12 @@ fn failure_json(err: &anyhow::Error) -> serde_json::Value {
     if err.downcast_ref::<emplan::service::ClientError>().is_some() {
         return emplan::session::upload::failure_json("service", None, &format!("{err:#}"));
     }
-    let upload = err.downcast_ref::<UploadError>();
+    let upload = err
+        .downcast_ref::<UploadError>()
+        .or(match err.downcast_ref::<FlyError>() {
+            Some(FlyError::Upload(e)) => Some(e),
+            _ => None,
+        });
     let stage = match (upload, err.downcast_ref::<Staged>()) {
         (Some(e), _) => e.stage.to_string(),
         (None, Some(staged)) => staged.stage.to_string(),
@@ -77,54 +82,55 @@ fn upload(args: Args) -> anyhow::Result<ExitCode> {
         return upload_through(&args, &client);
     }
     let mission = emplan::mission::load(&args.mission)?;
-    let (_, plan) = args.flight.plan(&mission)?;
+    let (model, plan) = args.flight.plan(&mission)?;
     let flight = args.flight.flight(&plan)?;
     let planned = upload_document(&plan, &flight);
-    let order = flight.waypoints();
+    let load = (args.flight).load(&mission, &plan, &flight, &model.vehicle);
     let runtime = super::runtime()?;
     runtime.block_on(async {
-        let opened = args.link.open().await.map_err(|cause| Staged {
+        let session = args.link.open().await.map_err(|cause| Staged {
             stage: "connect",
             cause,
         })?;
-        let (link, target, cfg) = (&opened.link, opened.target, opened.config);
-        let opts = ItemOptions {
-            flavour: target.flavour,
-            acceptance_radius_m: args.flight.acceptance_radius_m,
-            ..ItemOptions::default()
-        };
-        let items = mission_items(&mission, &order, &opts).context("building mission items")?;
+        let target = session.target;
+        let items = session.items(&load).context("building mission items")?;
         if !args.json {
             eprintln!(
                 "uploading {} items to {:?} autopilot {} on {}",
                 items.len(),
                 target.flavour,
                 target.system_id,
-                opened.describe
+                session.describe
             );
         }
         let bar = super::progress::bar(items.len() as u64, "{msg} [{bar:30}] item {pos}/{len}");
         bar.set_message("uploading");
-        let report = upload_verified(link, &target, &items, cfg, |done, total| {
-            if done == total {
-                bar.set_message("reading back");
-            }
-            bar.set_position(done as u64);
-        })
-        .await
-        .with_context(|| {
-            format!(
-                "uploading {} to {}",
-                args.mission.display(),
-                opened.describe
-            )
-        })?;
+        let uploaded = session
+            .upload(items, |done, total| {
+                if done == total {
+                    bar.set_message("reading back");
+                }
+                bar.set_position(done as u64);
+            })
+            .await
+            .with_context(|| {
+                format!(
+                    "uploading {} to {}",
+                    args.mission.display(),
+                    session.describe
+                )
+            })?;
+        let report = uploaded.report;
         if args.json {
             let doc = UploadJson {
                 plan: planned,
                 autopilot: target,
                 report,
-                items: items.iter().map(emplan::link::items::item_json).collect(),
+                items: uploaded
+                    .items
+                    .iter()
+                    .map(emplan::link::items::item_json)
+                    .collect(),
             };
             println!("{}", serde_json::to_string_pretty(&doc)?);
         } else {
@@ -166,30 +172,6 @@ fn verified_line(
     )
 }
 
-/// The upload report of a service's upload document (with its `"link"` numbers).
-fn report_of(doc: &serde_json::Value) -> emplan::link::driver::UploadReport {
-    let f = |path: &str| doc.pointer(path).and_then(|v| v.as_f64());
-    let n = |path: &str| doc.pointer(path).and_then(|v| v.as_u64()).unwrap_or(0);
-    emplan::link::driver::UploadReport {
-        items: n("/report/items") as usize,
-        acked: doc
-            .pointer("/report/acked")
-            .and_then(|v| v.as_bool())
-            .unwrap_or(false),
-        verified: doc
-            .pointer("/report/verified")
-            .and_then(|v| v.as_bool())
-            .unwrap_or(false),
-        upload_s: f("/report/upload_s").unwrap_or(0.0),
-        verify_s: f("/report/verify_s").unwrap_or(0.0),
-        count_sent: n("/report/count_sent") as u32,
-        items_sent: n("/report/items_sent") as u32,
-        restarts: n("/link/restarts") as u32,
-        refusals: n("/link/refusals") as u32,
-        rtt_ms: f("/link/rtt_ms"),
-    }
-}
-
 /// `upload --service URL`: the same through a running service.
 fn upload_through(args: &Args, client: &emplan::service::Client) -> anyhow::Result<ExitCode> {
     use emplan::service::remote;
@@ -197,22 +179,29 @@ fn upload_through(args: &Args, client: &emplan::service::Client) -> anyhow::Resu
     super::runtime()?.block_on(async {
         let name =
             remote::find_mission(client, &args.mission, std::time::Duration::from_secs(60)).await?;
+        let discover = std::time::Duration::from_secs_f64(args.link.discover_s.clamp(0.0, 3.2e7));
+        remote::wait_for_vehicle(client, discover).await?;
         if !args.json {
             eprintln!("uploading {name} through the service at {}", client.url());
         }
-        let mut doc = remote::upload(client, &name, &request).await?;
-        let report = report_of(&doc);
+        let answer = remote::upload(client, &name, &request).await?;
         if args.json {
             // `upload --json`'s document: the service adds the link's numbers.
-            if let Some(map) = doc.as_object_mut() {
-                map.remove("link");
-            }
-            println!("{}", serde_json::to_string_pretty(&doc)?);
-        } else {
-            let kj = |key: &str| doc.get(key).and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
             println!(
                 "{}",
-                verified_line(&report, kj("predicted_mission_kj"), kj("budget_kj"))
+                serde_json::to_string_pretty(&serde_json::to_value(&answer.upload)?)?
+            );
+        } else {
+            let report = emplan::link::driver::UploadReport {
+                rtt_ms: answer.link.rtt_ms,
+                restarts: answer.link.restarts,
+                refusals: answer.link.refusals,
+                ..answer.upload.report
+            };
+            let plan = &answer.upload.plan;
+            println!(
+                "{}",
+                verified_line(&report, plan.predicted_mission_kj, plan.budget_kj)
             );
         }
         Ok(ExitCode::SUCCESS)

@@ -39,7 +39,7 @@ impl Default for Identity {
 }
 
 /// The autopilot found on the link.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Autopilot {
     pub system_id: u8,
     pub component_id: u8,

@@ -60,7 +60,7 @@ impl std::fmt::Display for UploadError {
 }
 
 /// What an upload achieved.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct UploadReport {
     pub items: usize,
     /// The autopilot's ACCEPTED ack arrived (PX4 sends it once: it may be lost).

@@ -13,7 +13,7 @@ use std::time::Duration;
 use super::mav::{MavAutopilot, MavMissionResult};
 
 /// Which autopilot firmware answers (from its HEARTBEAT's `autopilot` field).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Flavour {
     Px4,

@@ -124,7 +124,7 @@ pub struct SortieJson {
 }
 
 /// The planning fields of `emplan upload --json` (the link's fields follow them).
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
 pub struct UploadPlanJson {
     pub mission: String,
     /// The order asked for ("energy", "distance" or "listed").

@@ -37,7 +37,7 @@ pub use crate::physics::VehicleModel;
 pub use explain::{Explanation, Saving};
 
 /// Which orders a plan computes; the order it flies (the one its battery check prices) follows.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Orders {
     /// The minimum-energy order and every distance baseline both ways (`emplan plan`); the

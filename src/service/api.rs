@@ -37,14 +37,15 @@ use axum::{Json, Router};
 use serde::Deserialize;
 use tokio::sync::{broadcast, watch};
 
-use super::events::{Event, Hub};
+use super::events::Hub;
 use super::http::{Gate, HostCheck};
 use super::missions::CatalogRx;
 use super::vehicle::{UploadJob, VehicleHandle};
+use super::wire::{Event, UploadRequest};
 use super::{escape_controls, Refusal, Token};
 use crate::flightlog::recorder::{read_report, PLAN_FILE, REPORT_FILE, SAMPLES_FILE, TLOG_FILE};
 use crate::physics::{Profile, VehicleModel};
-use crate::planner::{FlightChoice, FlownOrder};
+use crate::planner::FlightChoice;
 use crate::session::flight_dirs;
 use crate::tour::solver;
 
@@ -124,7 +125,7 @@ async fn json_errors(response: Response) -> Response {
 impl IntoResponse for Refusal {
     fn into_response(self) -> Response {
         let status = StatusCode::from_u16(self.status).unwrap_or(StatusCode::INTERNAL_SERVER_ERROR);
-        let mut response = (status, Json(self.doc)).into_response();
+        let mut response = (status, Json(self.doc.json())).into_response();
         if status == StatusCode::UNAUTHORIZED {
             response.headers_mut().insert(
                 header::WWW_AUTHENTICATE,
@@ -271,65 +272,50 @@ async fn flight_plot(
     Ok(svg(drawn))
 }
 
-/// The body of an upload request (every field optional).
-#[derive(Debug, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct UploadRequest {
-    #[serde(default)]
-    order: FlownOrder,
-    sortie: Option<usize>,
-    #[serde(default)]
-    allow_infeasible: bool,
-    acceptance_radius_m: Option<f32>,
-    /// Refused unless it is the service's own profile.
-    profile: Option<String>,
-    solver: Option<String>,
-    time_limit_s: Option<f64>,
-    seed: Option<u64>,
-    kicks: Option<u64>,
-}
-
 fn bad_request(message: String) -> Refusal {
     Refusal::new(400, "request", &message)
 }
 
-impl UploadRequest {
-    fn parse(body: &[u8]) -> Result<UploadRequest, Refusal> {
-        if body.iter().all(u8::is_ascii_whitespace) {
-            return Ok(UploadRequest::default());
-        }
-        serde_json::from_slice(body).map_err(|e| {
-            bad_request(format!(
-                "upload request body, line {} column {}: {e}",
-                e.line(),
-                e.column()
-            ))
-        })
+/// The upload request of `body` (none: every default).
+fn parse_upload(body: &[u8]) -> Result<UploadRequest, Refusal> {
+    if body.iter().all(u8::is_ascii_whitespace) {
+        return Ok(UploadRequest::default());
     }
+    serde_json::from_slice(body).map_err(|e| {
+        bad_request(format!(
+            "upload request body, line {} column {}: {e}",
+            e.line(),
+            e.column()
+        ))
+    })
+}
 
-    fn solver(&self, defaults: solver::Options) -> Result<solver::Options, Refusal> {
-        let mut options = defaults;
-        if let Some(name) = &self.solver {
-            options.solver = name
-                .parse()
-                .map_err(|e| bad_request(format!("solver {name:?}: {e}")))?;
-        }
-        if let Some(t) = self.time_limit_s {
-            if !(t.is_finite() && t >= 0.0) {
-                return Err(bad_request(format!(
-                    "time_limit_s {t}: expected a non-negative number of seconds"
-                )));
-            }
-            options.time_limit = std::time::Duration::from_secs_f64(t.min(1e9));
-        }
-        if let Some(seed) = self.seed {
-            options.seed = seed;
-        }
-        if self.kicks.is_some() {
-            options.kicks = self.kicks;
-        }
-        Ok(options)
+/// The solver options `request` asks for, from the service's `defaults`.
+fn solver_of(
+    request: &UploadRequest,
+    defaults: solver::Options,
+) -> Result<solver::Options, Refusal> {
+    let mut options = defaults;
+    if let Some(name) = &request.solver {
+        options.solver = name
+            .parse()
+            .map_err(|e| bad_request(format!("solver {name:?}: {e}")))?;
     }
+    if let Some(t) = request.time_limit_s {
+        if !(t.is_finite() && t >= 0.0) {
+            return Err(bad_request(format!(
+                "time_limit_s {t}: expected a non-negative number of seconds"
+            )));
+        }
+        options.time_limit = std::time::Duration::from_secs_f64(t.min(1e9));
+    }
+    if let Some(seed) = request.seed {
+        options.seed = seed;
+    }
+    if request.kicks.is_some() {
+        options.kicks = request.kicks;
+    }
+    Ok(options)
 }
 
 async fn upload(
@@ -339,7 +325,7 @@ async fn upload(
     body: Bytes,
 ) -> Result<Json<serde_json::Value>, Refusal> {
     authorize(&headers, &s.token)?;
-    let request = UploadRequest::parse(&body)?;
+    let request = parse_upload(&body)?;
     let span = tracing::info_span!(
         "upload",
         mission = %escape_controls(&name),
@@ -357,7 +343,7 @@ async fn upload(
     });
     let (ok, result) = match &outcome {
         Ok(doc) => (true, doc.clone()),
-        Err(r) => (false, r.doc.clone()),
+        Err(r) => (false, r.doc.json()),
     };
     s.hub.publish(&Event::Upload { name, ok, result });
     outcome.map(Json)
@@ -396,7 +382,7 @@ async fn upload_mission(
             ));
         }
     }
-    let solver = request.solver(s.solver)?;
+    let solver = solver_of(&request, s.solver)?;
     let acceptance_radius_m = request.acceptance_radius_m.unwrap_or(2.0);
     if !(acceptance_radius_m.is_finite()
         && acceptance_radius_m > 0.0
@@ -441,10 +427,10 @@ async fn upload_mission(
 async fn start(
     State(s): State<AppState>,
     headers: HeaderMap,
-) -> Result<Json<serde_json::Value>, Refusal> {
+) -> Result<Json<super::wire::Started>, Refusal> {
     authorize(&headers, &s.token)?;
     s.vehicle.start().await?;
-    Ok(Json(serde_json::json!({"ok": true})))
+    Ok(Json(super::wire::Started { ok: true }))
 }
 
 async fn vehicle(State(s): State<AppState>) -> Json<serde_json::Value> {

@@ -27,6 +27,39 @@ pub enum ClientError {
     },
 }
 
+/// Why the token a client was given cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum TokenError {
+    #[error("--token-file {file}: {reason}")]
+    File { file: String, reason: String },
+    #[error("EMPLAN_TOKEN: {0}")]
+    Variable(String),
+}
+
+/// The token a client of the service sends: read from `file` when given, else the
+/// `EMPLAN_TOKEN` environment variable, else `flights/token` (where `emplan serve` creates it
+/// by default; none when that is absent or unreadable).
+pub fn find_token(file: Option<&std::path::Path>) -> Result<Option<Token>, TokenError> {
+    let in_file = |file: &std::path::Path, reason: String| TokenError::File {
+        file: file.display().to_string(),
+        reason,
+    };
+    match (file, std::env::var("EMPLAN_TOKEN")) {
+        (Some(file), _) => {
+            let text = std::fs::read_to_string(file).map_err(|e| in_file(file, e.to_string()))?;
+            Token::new(&text)
+                .map(Some)
+                .map_err(|e| in_file(file, e.to_string()))
+        }
+        (None, Ok(text)) => Token::new(&text)
+            .map(Some)
+            .map_err(|e| TokenError::Variable(e.to_string())),
+        (None, Err(_)) => Ok(std::fs::read_to_string("flights/token")
+            .ok()
+            .and_then(|t| Token::new(&t).ok())),
+    }
+}
+
 /// A client of one service.
 #[derive(Debug, Clone)]
 pub struct Client {

@@ -3,204 +3,24 @@
 //! a page needs on arrival (the flight in progress with its parts so far, the battery over the
 //! last minutes, the latest telemetry).
 //!
-//! Events: `telemetry` (at most 5 Hz: link, armed, mode, mission item, landed state, battery
-//! V/I/P, position, the part in progress with its energy so far), `part` (a part of the flight
-//! completed, predicted vs measured), `flight_started`, `flight_ended` (with the report),
-//! `recording_failed`, `mission_planned`, `mission_error`, `mission_removed`, `link`, `upload`,
-//! `start`, and `lagged` (to one follower that fell behind: it missed that many events).
+//! The events themselves (their types and JSON) are in `wire`.
 //!
 //! The recorder never waits for any of this: its events and its latest state reach this module
 //! through a broadcast and a watch channel that drop or overwrite rather than block.
 
 use std::collections::VecDeque;
-use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use serde::Serialize;
 use tokio::sync::{broadcast, watch};
 
-use super::vehicle::{LinkState, LinkStatus};
-use crate::flightlog::report::{PartJson, PartReport, ReportJson};
-use crate::flightlog::segment::SegmentKind;
-use crate::link::connection::wall_us;
-use crate::session::recorder::{BatteryNow, FlightEvent, Live};
+pub use super::wire::{
+    kind_name, BatteryPoint, Event, FlightView, LinkState, LinkStatus, PartEventJson, TelemetryJson,
+};
+use crate::session::recorder::{FlightEvent, Live};
 
 /// How long the battery history reaches back.
 pub const BATTERY_HISTORY: Duration = Duration::from_secs(600);
-
-/// One event.
-// An event is built, serialised once and dropped, a few a second: its size does not matter,
-// and boxing its largest views only moves the lint to the next largest.
-#[allow(clippy::large_enum_variant)]
-#[derive(Debug, Clone, Serialize)]
-#[serde(tag = "type", rename_all = "snake_case")]
-pub enum Event {
-    Telemetry(TelemetryJson),
-    Part(PartEventJson),
-    FlightStarted {
-        flight: String,
-        dir: PathBuf,
-        resumed: bool,
-    },
-    FlightEnded {
-        flight: String,
-        dir: PathBuf,
-        /// None when nothing was known to measure the flight against.
-        report: Option<ReportJson>,
-    },
-    RecordingFailed {
-        flight: String,
-        error: String,
-    },
-    MissionPlanned(serde_json::Value),
-    MissionError(serde_json::Value),
-    MissionRemoved {
-        name: String,
-    },
-    Link(LinkStatus),
-    /// An upload through the service ended: `result` is the upload document or the failure
-    /// document (`ok` tells which).
-    Upload {
-        name: String,
-        ok: bool,
-        result: serde_json::Value,
-    },
-    /// A start through the service ended.
-    Start {
-        ok: bool,
-        error: Option<String>,
-    },
-    /// Sent to one follower only: it fell behind and missed `missed` events.
-    Lagged {
-        missed: u64,
-    },
-}
-
-/// The name of a part's kind and the index of its point (legs, settles, hovers).
-pub fn kind_name(kind: SegmentKind) -> (&'static str, Option<usize>) {
-    match kind {
-        SegmentKind::Takeoff => ("takeoff", None),
-        SegmentKind::Leg(k) => ("leg", Some(k)),
-        SegmentKind::Settle(k) => ("settle", Some(k)),
-        SegmentKind::Hover(k) => ("hover", Some(k)),
-        SegmentKind::Landing => ("landing", None),
-    }
-}
-
-/// A part of a flight: its kind (`takeoff`, `leg`, `settle`, `hover`, `landing`), the index of
-/// the planned point it ends at, and the report's fields (kJ).
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct PartEventJson {
-    pub flight: String,
-    pub kind: &'static str,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub index: Option<usize>,
-    #[serde(flatten)]
-    pub part: PartJson,
-}
-
-impl PartEventJson {
-    pub fn new(flight: &str, kind: SegmentKind, part: &PartReport) -> PartEventJson {
-        let (kind, index) = kind_name(kind);
-        PartEventJson {
-            flight: flight.to_string(),
-            kind,
-            index,
-            part: PartJson::from(part),
-        }
-    }
-}
-
-/// Where the vehicle is.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct PositionJson {
-    pub lat_deg: f64,
-    pub lon_deg: f64,
-    pub alt_amsl_m: f64,
-    pub relative_alt_m: f64,
-    pub speed_m_s: f64,
-}
-
-/// The flight being recorded, as a telemetry event carries it.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct LiveFlightJson {
-    pub flight: String,
-    /// Vehicle time since the flight's log began.
-    pub t_s: f64,
-    /// Parts completed.
-    pub parts: usize,
-    /// The part in progress, with its energy so far.
-    pub in_progress: Option<PartEventJson>,
-}
-
-/// The latest state of link and vehicle.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct TelemetryJson {
-    /// When the service published it (unix ms).
-    pub wall_ms: u64,
-    pub link: LinkState,
-    pub armed: Option<bool>,
-    pub mode: Option<String>,
-    pub mission_seq: Option<u16>,
-    pub landed: Option<&'static str>,
-    pub battery: Option<BatteryNow>,
-    pub position: Option<PositionJson>,
-    pub flight: Option<LiveFlightJson>,
-    /// Frames received and sent on the link so far.
-    pub frames: u64,
-}
-
-impl TelemetryJson {
-    pub fn new(live: &Live, link: LinkState) -> TelemetryJson {
-        let v = &live.vehicle;
-        TelemetryJson {
-            wall_ms: wall_us() / 1000,
-            link,
-            armed: v.armed,
-            mode: v.mode.as_ref().map(|m| m.name().to_string()),
-            mission_seq: v.mission_seq,
-            landed: v.landed.map(|l| l.name()),
-            battery: live.battery,
-            position: v.position.map(|p| PositionJson {
-                lat_deg: p.lat_deg,
-                lon_deg: p.lon_deg,
-                alt_amsl_m: p.alt_amsl_m,
-                relative_alt_m: p.relative_alt_m,
-                speed_m_s: p.speed_m_s(),
-            }),
-            flight: live.flight.as_ref().map(|f| LiveFlightJson {
-                flight: f.flight.clone(),
-                t_s: f.t_s,
-                parts: f.parts,
-                in_progress: f
-                    .in_progress
-                    .as_ref()
-                    .map(|(kind, part)| PartEventJson::new(&f.flight, *kind, part)),
-            }),
-            frames: live.frames,
-        }
-    }
-}
-
-/// One point of the battery history.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct BatteryPoint {
-    pub wall_ms: u64,
-    pub voltage_v: Option<f64>,
-    pub current_a: Option<f64>,
-    pub power_w: Option<f64>,
-}
-
-/// The flight in progress (or the last one), with the parts completed so far.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct FlightView {
-    pub flight: String,
-    pub dir: PathBuf,
-    pub resumed: bool,
-    pub recording: bool,
-    pub parts: Vec<PartEventJson>,
-}
 
 #[derive(Debug, Default)]
 struct HubState {
@@ -420,7 +240,7 @@ fn log_flight_event(span: &mut Option<tracing::Span>, event: &FlightEvent) {
             let s = span.clone().unwrap_or_else(tracing::Span::none);
             s.in_scope(|| {
                 tracing::info!(
-                    part = name,
+                    part = name.name(),
                     from = %super::escape_controls(&part.from),
                     to = %super::escape_controls(&part.to),
                     predicted_kj = part.predicted_j.map(|j| j / 1000.0),

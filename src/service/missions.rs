@@ -23,10 +23,10 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
-use serde::Serialize;
 use tokio::sync::{mpsc, watch, Semaphore};
 
-use super::events::{Event, Hub};
+use super::events::Hub;
+use super::wire::{Event, MissionProblem};
 use super::Refusal;
 use crate::mission::{Format, Mission, MissionError, Place};
 use crate::physics::VehicleModel;
@@ -51,19 +51,6 @@ pub fn digest(bytes: &[u8]) -> String {
     format!("{h:016x}")
 }
 
-/// Why a mission has no plan, located.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct MissionProblem {
-    /// `mission` (the file cannot be read as a mission) or `plan` (it cannot be planned).
-    pub stage: &'static str,
-    pub message: String,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub line: Option<usize>,
-    /// The 0-based item of a `.plan` file.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub item: Option<usize>,
-}
-
 impl MissionProblem {
     fn of_mission(e: &MissionError) -> MissionProblem {
         let (line, item) = match e {
@@ -78,7 +65,7 @@ impl MissionProblem {
             _ => (None, None),
         };
         MissionProblem {
-            stage: "mission",
+            stage: "mission".into(),
             message: e.to_string(),
             line,
             item,
@@ -224,6 +211,8 @@ pub struct Catalog {
     pub entries: BTreeMap<String, Arc<MissionEntry>>,
     /// How long a file must stay unchanged before it is planned.
     pub settle: Duration,
+    /// The folder has been read once: a file absent now is not in it.
+    pub scanned: bool,
     /// Asks the missions task to read a file again (an upload found it changed).
     rechecks: Option<mpsc::UnboundedSender<String>>,
 }
@@ -390,7 +379,7 @@ fn plan_file(path: &Path, bytes: &[u8], settings: &PlanSettings) -> (Option<Miss
     };
     let failed = |e: crate::planner::PlannerError| {
         Outcome::Failed(MissionProblem {
-            stage: "plan",
+            stage: "plan".into(),
             message: e.to_string(),
             line: None,
             item: None,
@@ -418,7 +407,7 @@ fn plan_file(path: &Path, bytes: &[u8], settings: &PlanSettings) -> (Option<Miss
             return (
                 Some(mission),
                 Outcome::Failed(MissionProblem {
-                    stage: "plan",
+                    stage: "plan".into(),
                     message: e.to_string(),
                     line: None,
                     item: None,
@@ -495,6 +484,7 @@ pub fn spawn(
         dir: dir.clone(),
         entries: BTreeMap::new(),
         settle: settings.watch.settle,
+        scanned: false,
         rechecks: Some(recheck_tx),
     }));
     let (done_tx, done) = mpsc::unbounded_channel();
@@ -540,7 +530,7 @@ struct Watched {
 #[derive(Debug)]
 enum Ended {
     Finished {
-        mission: Option<Mission>,
+        mission: Option<Box<Mission>>,
         outcome: Outcome,
         seconds: f64,
     },
@@ -603,6 +593,9 @@ async fn run(
         if rescan_at.is_some_and(|at| Instant::now() >= at) {
             rescan_at = None;
             folder.rescan().await;
+            folder
+                .catalog
+                .send_if_modified(|c| !std::mem::replace(&mut Arc::make_mut(c).scanned, true));
         }
         if *stop.borrow() {
             break;
@@ -826,7 +819,7 @@ impl Folder {
                     modified_ms: w.seen.modified_ms,
                     mission: None,
                     outcome: Outcome::Failed(MissionProblem {
-                        stage: "mission",
+                        stage: "mission".into(),
                         message: format!("{}: cannot be read ({e})", path.display()),
                         line: None,
                         item: None,
@@ -898,7 +891,7 @@ impl Folder {
             });
             let exceeded = || {
                 Outcome::Failed(MissionProblem {
-                    stage: "plan",
+                    stage: "plan".into(),
                     message: format!(
                         "planning exceeded the {} s limit (serve --time-limit) and was stopped",
                         limit.as_secs_f64()
@@ -912,13 +905,13 @@ impl Folder {
                 Ok(Ok((_, false))) => Ended::Stale,
                 Ok(Ok(((mission, outcome), true))) => Ended::Finished {
                     outcome: if token.expired() { exceeded() } else { outcome },
-                    mission,
+                    mission: mission.map(Box::new),
                     seconds: started.elapsed().as_secs_f64(),
                 },
                 Ok(Err(e)) => Ended::Finished {
                     mission: None,
                     outcome: Outcome::Failed(MissionProblem {
-                        stage: "plan",
+                        stage: "plan".into(),
                         message: format!("planning stopped: {e}"),
                         line: None,
                         item: None,
@@ -959,7 +952,7 @@ impl Folder {
                 mission,
                 outcome,
                 seconds,
-            } => (mission, outcome, seconds),
+            } => (mission.map(|m| *m), outcome, seconds),
         };
         let entry = Arc::new(MissionEntry {
             name: done.name.clone(),

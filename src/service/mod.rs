@@ -10,7 +10,9 @@
 //! (`events`: recorder events and telemetry to the hub that feeds the event stream), and the
 //! axum routes (`api`), thin over them, served by `http` (time limits on connections, the
 //! `Host` check, the bound on plots and downloads at once). No lock is held across an await.
-//! `client` is the HTTP client of `--service`; `token` the bearer token.
+//! `wire` holds every request, answer and event the HTTP side sends or takes, shared by the
+//! server and `client`, the HTTP client of `--service` (`remote`: upload and fly through a
+//! service); `token` the bearer token.
 //!
 //! Shutdown: the signal stops the HTTP server (no new requests; event streams end; requests in
 //! progress finish), then the vehicle actor closes the flight log (an open flight's files are
@@ -26,6 +28,7 @@ pub mod missions;
 pub mod remote;
 pub mod token;
 pub mod vehicle;
+pub mod wire;
 
 use std::borrow::Cow;
 use std::future::Future;
@@ -38,7 +41,8 @@ use tokio::sync::watch;
 
 pub use client::{Client, ClientError};
 pub use token::Token;
-pub use vehicle::{LinkState, LinkStatus, VehicleLink};
+pub use vehicle::VehicleLink;
+pub use wire::{LinkState, LinkStatus};
 
 use crate::physics::VehicleModel;
 use crate::session::RecorderConfig;
@@ -62,24 +66,20 @@ pub enum ServiceError {
 #[derive(Debug, Clone)]
 pub struct Refusal {
     pub status: u16,
-    pub doc: serde_json::Value,
+    pub doc: wire::Failure,
 }
 
 impl Refusal {
     pub fn new(status: u16, stage: &str, error: &str) -> Refusal {
         Refusal {
             status,
-            doc: crate::session::upload::failure_json(stage, None, error),
+            doc: wire::Failure::new(stage, None, error),
         }
     }
 
     /// The error message of the document.
     pub fn message(&self) -> String {
-        self.doc
-            .get("error")
-            .and_then(|e| e.as_str())
-            .unwrap_or("")
-            .to_string()
+        self.doc.error.clone()
     }
 }
 
@@ -210,6 +210,8 @@ pub async fn run(
         stop.clone(),
     )
     .map_err(ServiceError::Thread)?;
+    // No answer before the folder is read once: a mission file in it is never "not found".
+    let _ = catalog.clone().wait_for(|c| c.scanned).await;
     let app = api::router(api::Shared {
         vehicle,
         catalog,

@@ -7,15 +7,15 @@
 use std::path::Path;
 use std::time::Duration;
 
-use serde::Deserialize;
+use serde::de::DeserializeOwned;
 
-use super::client::{Client, ClientError, EventStream};
+use super::client::{Answer, Client, ClientError, EventStream};
 use super::missions::digest;
-use crate::flightlog::report::{PartJson, PartReport, ReportJson};
-use crate::flightlog::segment::SegmentKind;
-use crate::physics::Profile;
-use crate::planner::FlightChoice;
-use crate::tour::solver;
+use super::wire::{
+    Event, Failure, LinkState, LinkStatus, MissionStatus, MissionsFolder, UploadAnswer,
+    UploadRequest,
+};
+use crate::flightlog::report::ReportJson;
 
 /// Why an upload or a flight through the service did not succeed.
 #[derive(Debug, thiserror::Error)]
@@ -26,8 +26,15 @@ pub enum RemoteError {
     #[error("{0}")]
     Mission(String),
     /// The service refused or failed: its failure document.
-    #[error("{}", .doc.get("error").and_then(|e| e.as_str()).unwrap_or("refused by the service"))]
-    Refused { status: u16, doc: serde_json::Value },
+    #[error("{}", .doc.error)]
+    Refused { status: u16, doc: Failure },
+    /// The service's link to the vehicle did not come up in time.
+    #[error("the vehicle is not connected ({url}: {state:?}) after {seconds:.0} s")]
+    NotConnected {
+        url: String,
+        state: LinkState,
+        seconds: f64,
+    },
     #[error(
         "the flight did not end within {seconds:.0} s{}",
         .flight.as_ref().map(|f| format!(" (recorded so far in {f})")).unwrap_or_else(|| " (it never started: was it armed?)".into())
@@ -50,11 +57,8 @@ impl RemoteError {
         match self {
             RemoteError::Client(_) => "service".into(),
             RemoteError::Mission(_) => "mission".into(),
-            RemoteError::Refused { doc, .. } => doc
-                .get("stage")
-                .and_then(|s| s.as_str())
-                .unwrap_or("service")
-                .to_string(),
+            RemoteError::Refused { doc, .. } => doc.stage.clone(),
+            RemoteError::NotConnected { .. } => "connect".into(),
             RemoteError::Timeout { .. }
             | RemoteError::NotFlown { .. }
             | RemoteError::NoReport { .. } => "flight".into(),
@@ -65,11 +69,10 @@ impl RemoteError {
     /// Whether the autopilot had accepted the mission.
     pub fn accepted(&self) -> bool {
         match self {
-            RemoteError::Client(_) | RemoteError::Mission(_) => false,
-            RemoteError::Refused { doc, .. } => doc
-                .get("accepted")
-                .and_then(|a| a.as_bool())
-                .unwrap_or(false),
+            RemoteError::Client(_) | RemoteError::Mission(_) | RemoteError::NotConnected { .. } => {
+                false
+            }
+            RemoteError::Refused { doc, .. } => doc.accepted,
             _ => true,
         }
     }
@@ -78,58 +81,73 @@ impl RemoteError {
     /// "result"}`): the service's own when it refused.
     pub fn document(&self) -> serde_json::Value {
         match self {
-            RemoteError::Refused { doc, .. } => doc.clone(),
-            other => serde_json::json!({
-                "ok": false,
-                "stage": other.stage(),
-                "accepted": other.accepted(),
-                "error": other.to_string(),
-                "item": null,
-                "result": null,
-            }),
+            RemoteError::Refused { doc, .. } => doc.json(),
+            other => Failure {
+                ok: false,
+                stage: other.stage(),
+                accepted: other.accepted(),
+                error: other.to_string(),
+                item: None,
+                result: None,
+            }
+            .json(),
         }
     }
 }
 
-/// What to upload: the choice and the settings the command line would plan it with.
-#[derive(Debug, Clone, PartialEq)]
-pub struct UploadRequest {
-    pub choice: FlightChoice,
-    pub acceptance_radius_m: f32,
-    /// Checked against the service's profile (None: the service's).
-    pub profile: Option<Profile>,
-    pub solver: solver::Options,
-}
-
-impl UploadRequest {
-    /// The body of `POST /api/missions/{name}/upload`.
-    pub fn body(&self) -> serde_json::Value {
-        serde_json::json!({
-            "order": self.choice.order,
-            "sortie": self.choice.sortie,
-            "allow_infeasible": self.choice.allow_infeasible,
-            "acceptance_radius_m": self.acceptance_radius_m,
-            "profile": self.profile.map(|p| p.to_string()),
-            "solver": self.solver.solver.to_string(),
-            "time_limit_s": self.solver.time_limit.as_secs_f64(),
-            "seed": self.solver.seed,
-            "kicks": self.solver.kicks,
-        })
-    }
-}
-
-fn refused(answer: super::client::Answer) -> RemoteError {
-    let doc = if answer.body.get("ok").is_some() {
-        answer.body
-    } else {
-        serde_json::json!({
-            "ok": false, "stage": "service", "accepted": false,
-            "error": format!("HTTP {}: {}", answer.status, answer.body), "item": null, "result": null,
-        })
-    };
+fn refused(answer: Answer) -> RemoteError {
+    let doc = serde_json::from_value::<Failure>(answer.body.clone()).unwrap_or_else(|_| Failure {
+        ok: false,
+        stage: "service".into(),
+        accepted: false,
+        error: format!("HTTP {}: {}", answer.status, answer.body),
+        item: None,
+        result: None,
+    });
     RemoteError::Refused {
         status: answer.status,
         doc,
+    }
+}
+
+/// The body of a successful answer as `T`, or the refusal it is.
+fn answered<T: DeserializeOwned>(
+    client: &Client,
+    what: &str,
+    answer: Answer,
+) -> Result<T, RemoteError> {
+    if !answer.ok() {
+        return Err(refused(answer));
+    }
+    serde_json::from_value(answer.body).map_err(|e| {
+        RemoteError::Client(ClientError::Http {
+            url: client.url().to_string(),
+            what: what.to_string(),
+            reason: e.to_string(),
+        })
+    })
+}
+
+/// Waits (up to `patience`) until the service's link to the vehicle is up: a service just
+/// started is still connecting, as every command waits for its autopilot (`--discover-s`).
+pub async fn wait_for_vehicle(
+    client: &Client,
+    patience: Duration,
+) -> Result<LinkStatus, RemoteError> {
+    let began = tokio::time::Instant::now();
+    loop {
+        let status: LinkStatus = answered(client, "GET /api/link", client.get("/api/link").await?)?;
+        if status.state == LinkState::Connected {
+            return Ok(status);
+        }
+        if began.elapsed() >= patience {
+            return Err(RemoteError::NotConnected {
+                url: status.url,
+                state: status.state,
+                seconds: began.elapsed().as_secs_f64(),
+            });
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
     }
 }
 
@@ -152,95 +170,67 @@ pub async fn find_mission(
     loop {
         let answer = client.get(&format!("/api/missions/{name}")).await?;
         if answer.status == 404 {
-            let dir = client
-                .get("/api/missions")
-                .await
-                .ok()
-                .and_then(|a| a.body.get("dir").and_then(|d| d.as_str()).map(String::from))
-                .unwrap_or_else(|| "its missions folder".into());
+            let dir = match client.get("/api/missions").await {
+                Ok(a) => answered::<MissionsFolder>(client, "GET /api/missions", a)
+                    .map(|f| f.dir.display().to_string())
+                    .ok(),
+                Err(_) => None,
+            }
+            .unwrap_or_else(|| "its missions folder".into());
             return Err(RemoteError::Mission(format!(
                 "{name} is not in the service's missions folder {dir}: copy it there (the service plans what it finds there)"
             )));
         }
-        if !answer.ok() {
-            return Err(refused(answer));
-        }
-        let entry = &answer.body;
-        let theirs = entry.get("digest").and_then(|d| d.as_str()).unwrap_or("");
-        let file = entry.get("file").and_then(|f| f.as_str()).unwrap_or(&name);
-        let status = entry.get("status").and_then(|s| s.as_str()).unwrap_or("");
-        if theirs != mine {
+        let entry: MissionStatus = answered(client, "GET /api/missions/NAME", answer)?;
+        if entry.digest != mine {
             if tokio::time::Instant::now() < deadline {
                 // A copy just made may not be read yet.
                 tokio::time::sleep(Duration::from_millis(200)).await;
                 continue;
             }
             return Err(RemoteError::Mission(format!(
-                "the service's {file} differs from {}: copy yours into its missions folder",
+                "the service's {} differs from {}: copy yours into its missions folder",
+                entry.file.display(),
                 path.display()
             )));
         }
-        match status {
+        match entry.status.as_str() {
             "planning" | "changing" if tokio::time::Instant::now() < deadline => {
                 tokio::time::sleep(Duration::from_millis(200)).await;
             }
-            "error" if entry.get("mission").is_none_or(|m| m.is_null()) => {
+            "error" if entry.mission.is_none() => {
                 let message = entry
-                    .pointer("/error/message")
-                    .and_then(|m| m.as_str())
-                    .unwrap_or("cannot be read");
-                return Err(RemoteError::Mission(message.to_string()));
+                    .error
+                    .map_or_else(|| "cannot be read".to_string(), |e| e.message);
+                return Err(RemoteError::Mission(message));
             }
             _ => return Ok(name),
         }
     }
 }
 
-/// Uploads mission `name` of the service's folder; the upload document (with `"link"`: round
-/// trip, restarts, refusals) or the service's failure document.
+/// Uploads mission `name` of the service's folder; the upload answer or the service's failure
+/// document.
 pub async fn upload(
     client: &Client,
     name: &str,
     request: &UploadRequest,
-) -> Result<serde_json::Value, RemoteError> {
+) -> Result<UploadAnswer, RemoteError> {
+    let body = serde_json::to_value(request).map_err(|e| ClientError::Http {
+        url: client.url().to_string(),
+        what: "upload request".into(),
+        reason: e.to_string(),
+    })?;
     let answer = client
-        .post(&format!("/api/missions/{name}/upload"), &request.body())
+        .post(&format!("/api/missions/{name}/upload"), &body)
         .await?;
-    if answer.ok() {
-        Ok(answer.body)
-    } else {
-        Err(refused(answer))
-    }
-}
-
-/// A part event of the stream, read back.
-#[derive(Debug, Clone, Deserialize)]
-struct PartEvent {
-    kind: String,
-    index: Option<usize>,
-    #[serde(flatten)]
-    part: PartJson,
-}
-
-/// The kind and the part of a `part` event.
-pub fn part_of(event: &serde_json::Value) -> Option<(SegmentKind, PartReport)> {
-    let p: PartEvent = serde_json::from_value(event.clone()).ok()?;
-    let kind = match (p.kind.as_str(), p.index) {
-        ("takeoff", _) => SegmentKind::Takeoff,
-        ("landing", _) => SegmentKind::Landing,
-        ("leg", Some(k)) => SegmentKind::Leg(k),
-        ("settle", Some(k)) => SegmentKind::Settle(k),
-        ("hover", Some(k)) => SegmentKind::Hover(k),
-        _ => return None,
-    };
-    Some((kind, p.part.to_part()))
+    answered(client, "upload answer", answer)
 }
 
 /// A flight flown through the service.
 #[derive(Debug, Clone)]
 pub struct RemoteFlight {
-    /// The upload document.
-    pub upload: serde_json::Value,
+    pub upload: UploadAnswer,
     pub flight: String,
     /// The flight directory (on the service's machine).
     pub dir: String,
@@ -256,26 +246,22 @@ pub enum Starting {
     Pilot,
 }
 
-fn text<'a>(event: &'a serde_json::Value, key: &str) -> Option<&'a str> {
-    event.get(key).and_then(|v| v.as_str())
-}
-
 /// Uploads mission `name`, starts it (or waits for the pilot), and waits until its flight has
 /// landed and been reported, for at most `timeout` after the upload. `uploaded` sees the upload
-/// document at once; `on_event` sees every event of the stream after it.
+/// answer at once; `on_event` sees every event of the stream after it that concerns the flight.
 pub async fn fly(
     client: &Client,
     name: &str,
     request: &UploadRequest,
     starting: Starting,
     timeout: Duration,
-    uploaded: impl FnOnce(&serde_json::Value),
-    mut on_event: impl FnMut(&serde_json::Value),
+    uploaded: impl FnOnce(&UploadAnswer),
+    mut on_event: impl FnMut(&Event),
 ) -> Result<RemoteFlight, RemoteError> {
     // Following the events from before the start: none of the flight's is missed.
     let mut events: EventStream = client.events().await?;
-    let upload_doc = upload(client, name, request).await?;
-    uploaded(&upload_doc);
+    let upload_answer = upload(client, name, request).await?;
+    uploaded(&upload_answer);
     if starting == Starting::Service {
         let answer = client
             .post("/api/vehicle/start", &serde_json::json!({}))
@@ -284,7 +270,7 @@ pub async fn fly(
             let mut err = refused(answer);
             if let RemoteError::Refused { doc, .. } = &mut err {
                 // The mission was accepted before the start failed.
-                doc["accepted"] = true.into();
+                doc.accepted = true;
             }
             return Err(err);
         }
@@ -303,28 +289,28 @@ pub async fn fly(
             Ok(None) => return Err(RemoteError::Stopped { flight }),
             Ok(Some(event)) => event?,
         };
-        let kind = text(&event, "type").unwrap_or("");
-        let ours = |f: &Option<String>| {
-            text(&event, "flight").is_some() && f.as_deref() == text(&event, "flight")
+        let event: Event = match serde_json::from_value(event) {
+            Ok(event) => event,
+            Err(e) => {
+                tracing::debug!("an event of the service not read: {e}");
+                continue;
+            }
         };
-        match kind {
-            "flight_started" if flight.is_none() => {
-                flight = text(&event, "flight").map(String::from);
+        let ours = |f: &str| flight.as_deref() == Some(f);
+        match &event {
+            Event::FlightStarted { flight: f, .. } if flight.is_none() => {
+                flight = Some(f.clone());
                 on_event(&event);
             }
-            "flight_ended" if ours(&flight) => {
+            Event::FlightEnded {
+                flight: f,
+                dir,
+                report,
+            } if ours(f) => {
                 on_event(&event);
-                let dir = text(&event, "dir").unwrap_or("").to_string();
-                let report = match event.get("report") {
-                    Some(r) if !r.is_null() => serde_json::from_value::<ReportJson>(r.clone())
-                        .map_err(|e| {
-                            RemoteError::Client(ClientError::Http {
-                                url: client.url().to_string(),
-                                what: "flight report".into(),
-                                reason: e.to_string(),
-                            })
-                        })?,
-                    _ => return Err(RemoteError::NoReport { dir }),
+                let dir = dir.display().to_string();
+                let Some(report) = report.clone() else {
+                    return Err(RemoteError::NoReport { dir });
                 };
                 if report.legs.is_empty() {
                     return Err(RemoteError::NotFlown {
@@ -333,13 +319,14 @@ pub async fn fly(
                     });
                 }
                 return Ok(RemoteFlight {
-                    upload: upload_doc,
-                    flight: flight.unwrap_or_default(),
+                    upload: upload_answer,
+                    flight: f.clone(),
                     dir,
                     report,
                 });
             }
-            "part" | "recording_failed" if ours(&flight) => on_event(&event),
+            Event::Part(p) if ours(&p.flight) => on_event(&event),
+            Event::RecordingFailed { flight: f, .. } if ours(f) => on_event(&event),
             _ => {}
         }
     }

@@ -21,21 +21,21 @@ use std::net::SocketAddr;
 use std::sync::Arc;
 use std::time::Duration;
 
-use serde::Serialize;
 use tokio::sync::{broadcast, mpsc, oneshot, watch};
 use tokio::time::Instant;
 use tracing::Instrument;
 
 use super::events::{self, Hub};
 use super::missions::CatalogRx;
+use super::wire::{Failure, LinkNumbers, LinkState, LinkStatus, UploadAnswer};
 use super::Refusal;
 use crate::flightlog::flight_plan::FlightPlan;
 use crate::flightlog::recorder::PLAN_FILE;
 use crate::link::commands::{drive, heartbeats, Heard};
 use crate::link::connection::{Autopilot, Identity, Link};
-use crate::link::driver::{download, upload_verified};
+use crate::link::driver::download;
 use crate::link::flight::{Start, StartConfig, StartError};
-use crate::link::items::{item_json, mission_items, read_flight, FlightItems, ItemOptions};
+use crate::link::items::{item_json, read_flight, FlightItems};
 use crate::link::mav::MISSION_ITEM_INT_DATA;
 use crate::link::transfer::TransferConfig;
 use crate::link::Flavour;
@@ -43,30 +43,17 @@ use crate::mission::{Geodetic, Mission, Origin};
 use crate::physics::{Vehicle, VehicleModel};
 use crate::planner::json::upload_document;
 use crate::planner::{FlightChoice, Plan};
-use crate::session::upload::{failure_json, UploadJson};
+use crate::session::upload::UploadJson;
 use crate::session::{
-    discard_unflown, flight_plan, plan_from_items, request_streams, spawn_recorder, FlightEvent,
-    RecorderConfig, RecorderHandle,
+    self, discard_unflown, plan_from_items, request_streams, spawn_recorder, FlightEvent, FlyError,
+    Load, Px4Parameters, RecorderConfig, RecorderHandle,
 };
 use crate::sim::{MockAutopilot, MockConfig, MockHandle};
 
-/// How to reach the vehicle.
-#[derive(Debug, Clone)]
-pub enum VehicleLink {
-    /// A MAVLink connection URL (`udpin:`, `udpout:`, `tcpin:`, `tcpout:`, `serial:DEV:BAUD`),
-    /// with an optional MAVLink 2 signing key.
-    Connect {
-        url: String,
-        signing_key: Option<[u8; 32]>,
-    },
-    /// The built-in mock autopilot on loopback (`config.flight` makes it fly), flying `vehicle`
-    /// (None: the built-in S1000). Its home follows the missions uploaded (it is restarted at
-    /// a mission's home before an upload from elsewhere, while disarmed).
-    Mock {
-        config: Box<MockConfig>,
-        vehicle: Option<Box<Vehicle>>,
-    },
-}
+/// How to reach the vehicle: a session's target. The built-in mock's home follows the missions
+/// uploaded (it is restarted at a mission's home before an upload from elsewhere, while
+/// disarmed).
+pub use crate::session::Target as VehicleLink;
 
 /// The vehicle side of the service.
 #[derive(Debug, Clone)]
@@ -75,35 +62,6 @@ pub struct VehicleConfig {
     /// Time allowed for one transfer (None: the link's default for its item count).
     pub transfer_budget: Option<Duration>,
     pub recorder: RecorderConfig,
-}
-
-/// The state of the link to the vehicle.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum LinkState {
-    /// The transport does not open yet (a TCP port not listening, a serial device absent).
-    Connecting,
-    /// Open, no autopilot heard yet.
-    WaitingForHeartbeat,
-    /// The autopilot's heartbeat arrives.
-    Connected,
-    /// The autopilot's heartbeat stopped (radio out of range, vehicle off).
-    Lost,
-}
-
-/// What a client sees of the link.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct LinkStatus {
-    pub state: LinkState,
-    pub url: String,
-    /// The vehicle is emplan's built-in mock autopilot (it has no pilot: the service starts
-    /// its missions).
-    pub builtin_mock: bool,
-    pub autopilot: Option<Autopilot>,
-    /// Times the transport was reopened.
-    pub reconnects: u64,
-    /// The last connection error, while connecting.
-    pub error: Option<String>,
 }
 
 /// An upload asked of the vehicle: `choice` of `plan` (planned for that choice) of `mission`.
@@ -615,67 +573,83 @@ impl Actor {
                 self.ask_streams().await;
             }
         }
-        let items_opts = ItemOptions {
-            flavour: target.flavour,
-            acceptance_radius_m: job.acceptance_radius_m,
-            ..ItemOptions::default()
-        };
-        let items =
-            mission_items(&job.mission, &flight.waypoints(), &items_opts).ok_or_else(|| {
-                Refusal::new(
-                    422,
-                    "plan",
-                    "the order names a waypoint the mission does not have",
-                )
-            })?;
-        let measured_against = flight_plan(&job.mission, &job.plan, &flight, target.flavour)
-            .map_err(|e| Refusal::new(422, "plan", &e.to_string()))?;
         let planned = upload_document(&job.plan, &flight);
-        tracing::info!(items = items.len(), "uploading");
-        let report = upload_verified(
+        let load = Load {
+            mission: &job.mission,
+            plan: &job.plan,
+            flight: &flight,
+            acceptance_radius_m: job.acceptance_radius_m,
+            vehicle: &self.model.vehicle,
+        };
+        tracing::info!("uploading");
+        let loaded = session::load(
             &self.link,
             &target,
-            &items,
             self.transfer_config(&target),
+            &self.recorder,
+            &load,
+            |params| {
+                if let Some(check) = params.filter(|c| !c.differences.is_empty()) {
+                    tracing::warn!(
+                        "PX4 holds other trajectory parameters than the vehicle file ({}): the flight is measured against its legs simulated with them",
+                        check
+                            .differences
+                            .iter()
+                            .map(|d| format!("{} {} for {}", d.name, d.autopilot_value, d.file_value))
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    );
+                }
+            },
             |_, _| {},
         )
         .await
         .map_err(|e| {
             tracing::warn!("upload failed: {e}");
+            let (stage, upload) = match &e {
+                FlyError::Upload(u) => (u.stage.to_string(), Some(u)),
+                other => (other.stage(), None),
+            };
+            let status = match e {
+                FlyError::Items | FlyError::Plan(_) => 422,
+                _ => 502,
+            };
             Refusal {
-                status: 502,
-                doc: failure_json(
-                    &e.stage.to_string(),
-                    Some(&e),
-                    &format!("uploading {} to {}: {e}", job.name, self.url),
+                status,
+                doc: Failure::new(
+                    &stage,
+                    upload,
+                    &match upload {
+                        Some(_) => format!("uploading {} to {}: {e}", job.name, self.url),
+                        None => e.to_string(),
+                    },
                 ),
             }
         })?;
+        let report = loaded.upload;
         tracing::info!(
             upload_s = report.upload_s,
             verify_s = report.verify_s,
             "verified"
         );
-        let (rtt_ms, restarts, refusals) = (report.rtt_ms, report.restarts, report.refusals);
-        self.recorder.set_plan(measured_against.clone());
-        self.expected = Some(measured_against);
-        self.mission_verified = true;
-        let uploaded = UploadJson {
-            plan: planned,
-            autopilot: target,
-            report,
-            items: items.iter().map(item_json).collect(),
+        let link = LinkNumbers {
+            rtt_ms: report.rtt_ms,
+            restarts: report.restarts,
+            refusals: report.refusals,
         };
-        let mut doc = serde_json::to_value(uploaded)
-            .map_err(|e| Refusal::new(500, "service", &e.to_string()))?;
-        if let Some(map) = doc.as_object_mut() {
-            // What the CLI's text line says of the link (not in `upload --json`'s document).
-            map.insert(
-                "link".into(),
-                serde_json::json!({"rtt_ms": rtt_ms, "restarts": restarts, "refusals": refusals}),
-            );
-        }
-        Ok(doc)
+        self.expected = Some(loaded.measured_against);
+        self.mission_verified = true;
+        let answer = UploadAnswer {
+            upload: UploadJson {
+                plan: planned,
+                autopilot: target,
+                report,
+                items: loaded.items.iter().map(item_json).collect(),
+            },
+            link,
+            px4_parameters: loaded.params.as_ref().map(Px4Parameters::from),
+        };
+        serde_json::to_value(answer).map_err(|e| Refusal::new(500, "service", &e.to_string()))
     }
 
     /// Waits (up to 10 s) for the autopilot's heartbeat after `since`.
@@ -847,8 +821,8 @@ const DISCARD_ENDED_WITHIN: Duration = Duration::from_secs(10);
 /// The refusal of a start the autopilot did not take: its answer in `result`.
 fn start_refusal(e: &StartError) -> Refusal {
     let mut refusal = Refusal::new(502, "start", &e.to_string());
-    if let (Some(result), Some(doc)) = (e.result(), refusal.doc.as_object_mut()) {
-        doc.insert("result".into(), format!("{result:?}").into());
+    if let Some(result) = e.result() {
+        refusal.doc.result = Some(format!("{result:?}"));
     }
     refusal
 }
@@ -933,6 +907,7 @@ async fn held_flight_plan(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::link::items::{mission_items, ItemOptions};
 
     fn sample(file: &str) -> Mission {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))

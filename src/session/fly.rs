@@ -9,18 +9,22 @@ use std::time::Duration;
 
 use tokio::sync::broadcast::{self, error::RecvError};
 
+use super::params::Px4Parameters;
+use super::params::{check_px4_params, ParamCheck};
 use super::predict::{flight_plan, flight_plan_predicted, predicted_by_simulation};
 use super::recorder::{FlightEvent, RecorderHandle};
-use crate::flightlog::report::FlightReport;
+use crate::flightlog::flight_plan::FlightPlan;
+use crate::flightlog::report::{FlightReport, ReportJson};
 use crate::link::commands::{drive, keep_streams, request_streams};
 use crate::link::connection::{Autopilot, Link};
 use crate::link::driver::{upload_verified, UploadError, UploadReport};
 use crate::link::flight::{Start, StartConfig, StartError};
 use crate::link::items::{mission_items, ItemOptions};
+use crate::link::mav::MISSION_ITEM_INT_DATA;
 use crate::link::transfer::TransferConfig;
-use crate::link::LinkError;
+use crate::link::{Flavour, LinkError};
 use crate::mission::Mission;
-use crate::physics::Vehicle;
+use crate::physics::{Profile, Vehicle};
 use crate::planner::{Flight, Plan};
 
 /// How to fly.
@@ -30,14 +34,8 @@ pub struct FlyOptions {
     /// MISSION_START). Without it, emplan waits for the pilot to start the mission.
     pub arm: bool,
     pub start: StartConfig,
-    /// Acceptance radius sent with each waypoint (m).
-    pub acceptance_radius_m: f32,
     /// The longest emplan waits (wall time) from the upload to the landing.
     pub timeout: Duration,
-    /// Measure the flight against this vehicle's legs simulated directly (the plan's profile)
-    /// instead of the plan's table prices: the vehicle as the autopilot flies it, when its
-    /// trajectory parameters differ from the vehicle file's (`params::check_px4_params`).
-    pub priced_with: Option<Vehicle>,
 }
 
 impl Default for FlyOptions {
@@ -45,11 +43,91 @@ impl Default for FlyOptions {
         FlyOptions {
             arm: false,
             start: StartConfig::default(),
-            acceptance_radius_m: 2.0,
             timeout: Duration::from_secs(3600),
-            priced_with: None,
         }
     }
+}
+
+/// What goes onto the vehicle: `flight` of `plan` (planned for `mission`), checked against
+/// `vehicle`, the vehicle file it was planned with.
+#[derive(Debug, Clone, Copy)]
+pub struct Load<'a> {
+    pub mission: &'a Mission,
+    pub plan: &'a Plan,
+    pub flight: &'a Flight<'a>,
+    /// Acceptance radius sent with each waypoint (m).
+    pub acceptance_radius_m: f32,
+    pub vehicle: &'a Vehicle,
+}
+
+/// A flight on the vehicle, verified, and what it will be measured against.
+#[derive(Debug, Clone)]
+pub struct Loaded {
+    pub upload: UploadReport,
+    /// The items sent and read back.
+    pub items: Vec<MISSION_ITEM_INT_DATA>,
+    /// The flight plan handed to the recorder.
+    pub measured_against: FlightPlan,
+    /// What a PX4 flying the px4 profile holds of the vehicle file's `[px4]` parameters (None
+    /// for any other autopilot or profile). When they differ, the legs are priced as the
+    /// autopilot flies them: simulated with its values.
+    pub params: Option<ParamCheck>,
+}
+
+/// Puts a flight onto the vehicle, the one way every command and the service do it: on a PX4
+/// flying the px4 profile, reads its trajectory parameters and prices the legs with them when
+/// they differ from the vehicle file's (`checked` sees the outcome before anything is sent),
+/// builds the items, uploads them and proves they arrived by reading them back, then hands the
+/// recorder the flight plan to measure the next flight against.
+#[allow(clippy::too_many_arguments)]
+pub async fn load(
+    link: &Link,
+    target: &Autopilot,
+    transfer: TransferConfig,
+    recorder: &RecorderHandle,
+    load: &Load<'_>,
+    checked: impl FnOnce(Option<&ParamCheck>),
+    progress: impl FnMut(usize, usize),
+) -> Result<Loaded, FlyError> {
+    let params = if target.flavour == Flavour::Px4 && load.plan.profile == Profile::Px4 {
+        Some(check_px4_params(link, target, load.vehicle).await?)
+    } else {
+        None
+    };
+    checked(params.as_ref());
+    let (mission, plan, flight) = (load.mission, load.plan, load.flight);
+    let items_opts = ItemOptions {
+        flavour: target.flavour,
+        acceptance_radius_m: load.acceptance_radius_m,
+        ..ItemOptions::default()
+    };
+    let items = mission_items(mission, &flight.waypoints(), &items_opts).ok_or(FlyError::Items)?;
+    let priced_with = params
+        .as_ref()
+        .filter(|c| !c.differences.is_empty())
+        .map(|c| &c.vehicle);
+    let measured_against = match priced_with {
+        None => flight_plan(mission, plan, flight, target.flavour),
+        Some(vehicle) => {
+            let predicted = predicted_by_simulation(
+                vehicle,
+                plan.profile,
+                mission.origin.height_above_home_m,
+                flight,
+            )
+            .map_err(|e| FlyError::Plan(e.to_string()))?;
+            flight_plan_predicted(mission, flight, target.flavour, predicted)
+        }
+    }
+    .map_err(|e| FlyError::Plan(e.to_string()))?;
+    let upload = upload_verified(link, target, &items, transfer, progress).await?;
+    recorder.set_plan(measured_against.clone());
+    Ok(Loaded {
+        upload,
+        items,
+        measured_against,
+        params,
+    })
 }
 
 /// Why a flight did not end in a report.
@@ -92,55 +170,49 @@ impl FlyError {
             FlyError::NotFlown { .. } => "flight".into(),
         }
     }
+
+    /// Whether the autopilot had accepted the mission when it failed: from the start on.
+    pub fn accepted(&self) -> bool {
+        match self {
+            FlyError::Upload(e) => e.accepted,
+            FlyError::Start(_)
+            | FlyError::Timeout { .. }
+            | FlyError::Recorder(_)
+            | FlyError::NotFlown { .. } => true,
+            FlyError::Items | FlyError::Plan(_) | FlyError::Link(_) | FlyError::LogDir(_) => false,
+        }
+    }
 }
 
 /// A flight flown and recorded.
 #[derive(Debug, Clone)]
 pub struct Flown {
     pub upload: UploadReport,
+    /// What the PX4 held of the vehicle file's trajectory parameters (see [`Loaded::params`]).
+    pub params: Option<ParamCheck>,
     pub dir: PathBuf,
     pub report: Option<FlightReport>,
 }
 
-/// Flies `flight` of `plan` (for `mission`) on `target`, recorded by `recorder` (spawned on the
-/// same link). `on_event` sees every flight event as it comes (for live lines).
+/// Flies `load` on `target`, recorded by `recorder` (spawned on the same link): the telemetry
+/// rates asked for, the flight [`load`]ed, started when `opts.arm` (else the pilot starts it),
+/// followed until it has landed. `checked` sees the parameter check before the upload;
+/// `on_event` every flight event as it comes (for live lines).
 #[allow(clippy::too_many_arguments)]
 pub async fn fly(
     link: &Link,
     target: &Autopilot,
     transfer: TransferConfig,
     recorder: &RecorderHandle,
-    mission: &Mission,
-    plan: &Plan,
-    flight: &Flight<'_>,
+    flight: &Load<'_>,
     opts: &FlyOptions,
+    checked: impl FnOnce(Option<&ParamCheck>),
     mut on_event: impl FnMut(&FlightEvent),
-    progress: impl FnMut(usize, usize),
 ) -> Result<Flown, FlyError> {
-    let items_opts = ItemOptions {
-        flavour: target.flavour,
-        acceptance_radius_m: opts.acceptance_radius_m,
-        ..ItemOptions::default()
-    };
-    let items = mission_items(mission, &flight.waypoints(), &items_opts).ok_or(FlyError::Items)?;
-    let measured_against = match &opts.priced_with {
-        None => flight_plan(mission, plan, flight, target.flavour),
-        Some(vehicle) => {
-            let predicted = predicted_by_simulation(
-                vehicle,
-                plan.profile,
-                mission.origin.height_above_home_m,
-                flight,
-            )
-            .map_err(|e| FlyError::Plan(e.to_string()))?;
-            flight_plan_predicted(mission, flight, target.flavour, predicted)
-        }
-    }
-    .map_err(|e| FlyError::Plan(e.to_string()))?;
     // The rates first: at its defaults PX4 sends BATTERY_STATUS every 2 s.
     request_streams(link, target).await?;
-    let upload = upload_verified(link, target, &items, transfer, progress).await?;
-    recorder.set_plan(measured_against);
+    let Loaded { upload, params, .. } =
+        load(link, target, transfer, recorder, flight, checked, |_, _| {}).await?;
     let mut events = recorder.subscribe();
     let flying = async {
         if opts.arm {
@@ -203,6 +275,7 @@ pub async fn fly(
     match outcome {
         Ok(Ok((dir, report))) => Ok(Flown {
             upload,
+            params,
             dir,
             report,
         }),
@@ -216,6 +289,66 @@ pub async fn fly(
                 .as_ref()
                 .map(|f| f.dir.clone()),
         }),
+    }
+}
+
+/// The document `emplan fly --json` prints for a flight flown, alone or through a service: the
+/// report, `ok`, the flight's directory and, on a PX4 flying the px4 profile, the trajectory
+/// parameters it held.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FlyJson {
+    #[serde(flatten)]
+    pub report: ReportJson,
+    pub ok: bool,
+    pub log_dir: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub px4_parameters: Option<Px4Parameters>,
+}
+
+impl FlyJson {
+    pub fn new(report: ReportJson, log_dir: &str, px4_parameters: Option<Px4Parameters>) -> Self {
+        FlyJson {
+            report,
+            ok: true,
+            log_dir: log_dir.to_string(),
+            px4_parameters,
+        }
+    }
+
+    /// As JSON, its keys in the order `fly --json` prints them.
+    pub fn json(&self) -> serde_json::Value {
+        serde_json::to_value(self).unwrap_or(serde_json::Value::Null)
+    }
+}
+
+/// The document `emplan fly --json` prints when the flight failed: the stage, whether the
+/// autopilot had accepted the mission, the error.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FlyFailure {
+    pub ok: bool,
+    pub stage: String,
+    pub accepted: bool,
+    pub error: String,
+}
+
+impl FlyFailure {
+    pub fn new(stage: &str, accepted: bool, error: &str) -> Self {
+        FlyFailure {
+            ok: false,
+            stage: stage.to_string(),
+            accepted,
+            error: error.to_string(),
+        }
+    }
+
+    /// The failure of `error` (its message is `message`, with the context it gathered).
+    pub fn of(error: &FlyError, message: &str) -> Self {
+        FlyFailure::new(&error.stage(), error.accepted(), message)
+    }
+
+    /// As JSON, its keys in the order `fly --json` prints them.
+    pub fn json(&self) -> serde_json::Value {
+        serde_json::to_value(self).unwrap_or(serde_json::Value::Null)
     }
 }
 

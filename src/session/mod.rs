@@ -1,7 +1,10 @@
 //! A live session with a vehicle over a link: the telemetry streams emplan asks for (asked again
 //! after every reconnect), the flight recorder that logs every flight from arming to disarming
-//! (one directory per flight: flight.tlog, samples.csv, plan.json, report.json), and `fly`
-//! (verified upload, start, record, report).
+//! (one directory per flight: flight.tlog, samples.csv, plan.json, report.json), and the flight
+//! workflow: `open` (the built-in mock or a connection, the autopilot waited for), `fly`'s
+//! `load` (PX4 parameter check and re-pricing, verified upload, the recorder's plan) and `fly`
+//! (start, record, report, which failures count as accepted), used by `emplan upload`, `emplan
+//! fly` and the service's vehicle actor alike.
 //!
 //! This is the async glue above `link` (MAVLink, sans-IO machines), `flightlog` (files,
 //! segmentation, energy; no tokio) and `planner`: what is decided lives in those layers, so a
@@ -9,6 +12,7 @@
 //! on a thread of its own (blocking writes and fsyncs never stall the link's tasks).
 
 pub mod fly;
+pub mod open;
 pub mod params;
 pub mod predict;
 pub mod recorder;
@@ -16,8 +20,11 @@ pub mod replay;
 pub mod upload;
 
 pub use crate::link::commands::{keep_streams, request_streams};
-pub use fly::{discard_unflown, fly, Flown, FlyError, FlyOptions};
-pub use params::{check_px4_params, ParamCheck};
+pub use fly::{
+    discard_unflown, fly, load, Flown, FlyError, FlyFailure, FlyJson, FlyOptions, Load, Loaded,
+};
+pub use open::{open, LinkOptions, MockFlight, OpenError, Session, Target, Uploaded};
+pub use params::{check_px4_params, parse_param, ParamCheck, Px4Parameters};
 pub use predict::{
     flight_plan, flight_plan_predicted, plan_from_items, predicted, predicted_by_simulation,
     FlightItemsError,

@@ -31,6 +31,62 @@ impl ParamCheck {
     }
 }
 
+/// A parameter that differs, as `px4_parameters` lists it.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct DifferingJson {
+    pub name: String,
+    pub vehicle_file: f64,
+    pub autopilot: f64,
+}
+
+/// `px4_parameters` of `fly --json` and of the service's upload answer: how many parameters
+/// PX4 answered, the ones it did not, and the ones that differ from the vehicle file.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Px4Parameters {
+    pub read: usize,
+    pub unanswered: Vec<String>,
+    pub differing: Vec<DifferingJson>,
+}
+
+impl From<&ParamCheck> for Px4Parameters {
+    fn from(check: &ParamCheck) -> Px4Parameters {
+        Px4Parameters {
+            read: check.read.iter().filter(|(_, v)| v.is_some()).count(),
+            unanswered: check.unanswered().into_iter().map(String::from).collect(),
+            differing: check
+                .differences
+                .iter()
+                .map(|d| DifferingJson {
+                    name: d.name.to_string(),
+                    vehicle_file: d.file_value,
+                    autopilot: d.autopilot_value,
+                })
+                .collect(),
+        }
+    }
+}
+
+/// Why a `NAME=VALUE` parameter setting does not read.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ParamSyntax {
+    #[error("{0}: NAME=VALUE expected")]
+    NoEquals(String),
+    #[error("{0}: the value is not a number")]
+    NotANumber(String),
+}
+
+/// A `NAME=VALUE` parameter setting (`MPC_XY_CRUISE=8`).
+pub fn parse_param(pair: &str) -> Result<(String, f64), ParamSyntax> {
+    let (name, value) = pair
+        .split_once('=')
+        .ok_or_else(|| ParamSyntax::NoEquals(pair.to_string()))?;
+    let value: f64 = value
+        .trim()
+        .parse()
+        .map_err(|_| ParamSyntax::NotANumber(pair.to_string()))?;
+    Ok((name.trim().to_string(), value))
+}
+
 /// Reads the `[px4]` trajectory parameters from `target` and compares them with `vehicle`'s.
 pub async fn check_px4_params(
     link: &Link,

@@ -90,7 +90,7 @@ pub enum FlightEvent {
 }
 
 /// The latest battery sample.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct BatteryNow {
     pub voltage_v: Option<f64>,
     pub current_a: Option<f64>,

@@ -3,14 +3,14 @@
 //! transfer's report, the items sent), or why not (`{"ok": false, "stage", "accepted", "error",
 //! "item", "result"}`).
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::link::connection::Autopilot;
 use crate::link::driver::{UploadError, UploadReport};
 use crate::planner::json::UploadPlanJson;
 
 /// A verified upload: `emplan upload --json`.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct UploadJson {
     /// mission, order, sortie, sequence, predicted_mission_kj, budget_kj.
     #[serde(flatten)]
@@ -26,12 +26,41 @@ pub struct UploadJson {
 /// the autopilot had accepted the mission, the error, and for a transfer failure the item and
 /// the autopilot's refusal.
 pub fn failure_json(stage: &str, upload: Option<&UploadError>, error: &str) -> serde_json::Value {
-    serde_json::json!({
-        "ok": false,
-        "stage": stage,
-        "accepted": upload.is_some_and(|e| e.accepted),
-        "error": error,
-        "item": upload.and_then(|e| e.item),
-        "result": upload.and_then(|e| e.refusal).map(crate::link::transfer::result_name),
-    })
+    Failure::new(stage, upload, error).json()
+}
+
+/// The document of a failed upload, start or flight (`{"ok": false, "stage", "accepted",
+/// "error", "item", "result"}`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Failure {
+    pub ok: bool,
+    pub stage: String,
+    /// The autopilot had accepted the mission.
+    pub accepted: bool,
+    pub error: String,
+    /// The item a transfer failed at.
+    pub item: Option<u16>,
+    /// The autopilot's answer (a MAV_MISSION_RESULT name, or a start's command result).
+    pub result: Option<String>,
+}
+
+impl Failure {
+    /// The failure at `stage`, with a transfer's item and refusal when it was one.
+    pub fn new(stage: &str, upload: Option<&UploadError>, error: &str) -> Failure {
+        Failure {
+            ok: false,
+            stage: stage.to_string(),
+            accepted: upload.is_some_and(|e| e.accepted),
+            error: error.to_string(),
+            item: upload.and_then(|e| e.item),
+            result: upload
+                .and_then(|e| e.refusal)
+                .map(|r| crate::link::transfer::result_name(r).to_string()),
+        }
+    }
+
+    /// The document as JSON (its keys in the order every failure document prints them).
+    pub fn json(&self) -> serde_json::Value {
+        serde_json::to_value(self).unwrap_or(serde_json::Value::Null)
+    }
 }

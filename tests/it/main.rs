@@ -5,6 +5,7 @@ mod crashes;
 mod failfast;
 mod flight;
 mod flightlog;
+mod flowservice;
 mod fly;
 mod fromlogs;
 mod install;

@@ -1,0 +1,365 @@
+//! `emplan fly`'s options of the built-in mock, and what it prints while and after it flies,
+//! alone or through a service: the parameter warnings and the "flying" line before the upload,
+//! a line per part as the flight goes (and on a terminal the part in progress, rewritten), the
+//! report at the end, and the failure document.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::Context;
+
+use emplan::flightlog::report::{FlightReport, PartReport};
+use emplan::flightlog::segment::SegmentKind;
+use emplan::service::remote::RemoteError;
+use emplan::service::wire::UploadAnswer;
+use emplan::service::wire::{segment_kind, Event};
+use emplan::session::{
+    parse_param, FlightEvent, FlyError, FlyFailure, FlyJson, Live, MockFlight, OpenError,
+    Px4Parameters, Session,
+};
+
+/// How `fly` runs the built-in mock autopilot (no `--connect`).
+#[derive(Debug, clap::Args)]
+pub struct MockArgs {
+    /// Built-in mock only: simulated seconds per wall second
+    #[arg(long, default_value_t = emplan::sim::DEFAULT_SPEEDUP)]
+    speedup: f64,
+    /// Built-in mock only: probability that a datagram is lost, each way (telemetry and
+    /// mission protocol alike)
+    #[arg(long, default_value_t = 0.0)]
+    mock_loss: f64,
+    /// Built-in mock only: seed of its faults and sensor noise
+    #[arg(long, default_value_t = 1)]
+    mock_seed: u64,
+    /// Built-in mock only: a PX4 trajectory parameter the mock autopilot holds (and flies with)
+    /// instead of the vehicle file's value, NAME=VALUE (e.g. MPC_XY_CRUISE=8); repeatable
+    #[arg(long, value_name = "NAME=VALUE")]
+    mock_param: Vec<String>,
+    /// Built-in mock only: a vehicle directory whose physics and battery the mock flies (the
+    /// truth measured against), instead of the planning vehicle's: flights of a vehicle that
+    /// is not what the vehicle file says, for `calibrate --from-logs`
+    #[arg(long, value_name = "DIR")]
+    mock_vehicle: Option<PathBuf>,
+}
+
+impl MockArgs {
+    /// Refuses what no flight can take, before anything else (`--mock-loss`; with `service`,
+    /// `--mock-vehicle`).
+    pub fn check(&self, service: bool) -> anyhow::Result<()> {
+        if !(0.0..=1.0).contains(&self.mock_loss) {
+            anyhow::bail!(
+                "--mock-loss {}: a probability between 0 and 1 is required",
+                self.mock_loss
+            );
+        }
+        if service && self.mock_vehicle.is_some() {
+            anyhow::bail!("--mock-vehicle is for the built-in mock (not --service)");
+        }
+        Ok(())
+    }
+
+    /// The mock flying `mission`'s `plan` (`planned`: the planning vehicle); `builtin`: no
+    /// `--connect` was given (else its options are refused).
+    pub fn mock(
+        &self,
+        mission: &emplan::mission::Mission,
+        plan: &emplan::planner::Plan,
+        planned: &emplan::physics::Vehicle,
+        builtin: bool,
+    ) -> anyhow::Result<MockFlight> {
+        let params = (self.mock_param.iter())
+            .map(|p| parse_param(p).map_err(|e| anyhow::anyhow!("--mock-param {e}")))
+            .collect::<anyhow::Result<Vec<_>>>()?;
+        if !params.is_empty() && !builtin {
+            anyhow::bail!("--mock-param is for the built-in mock (no --connect)");
+        }
+        let truth = match &self.mock_vehicle {
+            Some(_) if !builtin => {
+                anyhow::bail!("--mock-vehicle is for the built-in mock (no --connect)")
+            }
+            Some(dir) => emplan::physics::Vehicle::load(dir)
+                .with_context(|| format!("--mock-vehicle {}", dir.display()))?,
+            None => planned.clone(),
+        };
+        Ok(MockFlight {
+            home: mission.origin.home,
+            profile: plan.profile,
+            truth,
+            params,
+            speedup: self.speedup,
+            seed: self.mock_seed,
+            loss: self.mock_loss,
+            signing_key: None,
+        })
+    }
+}
+
+/// Ends `fly`: with `--json`, a failure prints its document (and the error) and exits 1.
+pub fn finish(outcome: anyhow::Result<ExitCode>, json: bool) -> anyhow::Result<ExitCode> {
+    match outcome {
+        Err(err) if json => {
+            println!("{}", serde_json::to_string_pretty(&failure(&err).json())?);
+            eprintln!("error: {err:#}");
+            Ok(ExitCode::FAILURE)
+        }
+        outcome => outcome,
+    }
+}
+
+/// The `fly --json` failure document of `err`: its stage, whether the autopilot had accepted
+/// the mission.
+pub fn failure(err: &anyhow::Error) -> FlyFailure {
+    let message = format!("{err:#}");
+    if let Some(e) = err.downcast_ref::<FlyError>() {
+        return FlyFailure::of(e, &message);
+    }
+    if let Some(r) = err.downcast_ref::<RemoteError>() {
+        return FlyFailure::new(&r.stage(), r.accepted(), &message);
+    }
+    let stage = if err.downcast_ref::<emplan::service::ClientError>().is_some() {
+        "service"
+    } else if matches!(err.downcast_ref::<OpenError>(), Some(OpenError::Link(_)))
+        || err.downcast_ref::<emplan::link::LinkError>().is_some()
+    {
+        "connect"
+    } else {
+        "plan"
+    };
+    FlyFailure::new(stage, false, &message)
+}
+
+/// What the "flying" line names.
+pub struct Flying<'a> {
+    pub mission: &'a str,
+    pub legs: usize,
+    pub predicted_kj: f64,
+    pub flavour: emplan::link::Flavour,
+    pub system_id: u8,
+    /// `at URL` or `through the service at URL`.
+    pub place: String,
+    /// The log directory, when flights are recorded here.
+    pub log_dir: Option<&'a std::path::Path>,
+    /// The pilot starts the mission.
+    pub pilot: bool,
+}
+
+impl Flying<'_> {
+    /// A flight of `flight` (of `mission`) on `session`'s autopilot, logged in `log_dir`.
+    pub fn of<'a>(
+        session: &Session,
+        mission: &'a emplan::mission::Mission,
+        flight: &emplan::planner::Flight<'_>,
+        log_dir: &'a std::path::Path,
+        pilot: bool,
+    ) -> Flying<'a> {
+        Flying {
+            mission: &mission.name,
+            legs: flight.legs.len(),
+            predicted_kj: flight.battery.total_j / 1000.0,
+            flavour: session.target.flavour,
+            system_id: session.target.system_id,
+            place: format!("at {}", session.describe),
+            log_dir: Some(log_dir),
+            pilot,
+        }
+    }
+
+    /// The flight a service answered an upload with (at `url`).
+    pub fn uploaded<'a>(answer: &'a UploadAnswer, url: &str, pilot: bool) -> Flying<'a> {
+        let (plan, autopilot) = (&answer.upload.plan, answer.upload.autopilot);
+        Flying {
+            mission: &plan.mission,
+            legs: plan.sequence.len() + 1,
+            predicted_kj: plan.predicted_mission_kj,
+            flavour: autopilot.flavour,
+            system_id: autopilot.system_id,
+            place: format!("through the service at {url}"),
+            log_dir: None,
+            pilot,
+        }
+    }
+}
+
+/// The lines of one flight: quiet with `--json` (but parts still shown on a terminal).
+#[derive(Debug, Clone, Copy)]
+pub struct Lines {
+    quiet: bool,
+    live: bool,
+}
+
+impl Lines {
+    pub fn new(json: bool) -> Lines {
+        Lines {
+            quiet: json,
+            live: super::progress::shown(),
+        }
+    }
+
+    /// Before the upload: the parameter warnings, then what is flown where.
+    pub fn flying(&self, params: Option<&Px4Parameters>, f: &Flying<'_>) {
+        if let Some(params) = params {
+            warn_params(params);
+        }
+        if self.quiet {
+            return;
+        }
+        let logging = f
+            .log_dir
+            .map(|d| format!("; logging to {}", d.display()))
+            .unwrap_or_default();
+        eprintln!(
+            "flying {} ({} legs, {:.1} kJ predicted) on {:?} autopilot {} {}{logging}",
+            f.mission, f.legs, f.predicted_kj, f.flavour, f.system_id, f.place
+        );
+        if f.pilot {
+            eprintln!(
+                "uploaded missions are started by the pilot: waiting for arming (or pass --arm)"
+            );
+        }
+    }
+
+    /// On a terminal: the part in progress on a line of its own, rewritten twice a second.
+    pub fn ticker(
+        &self,
+        live: tokio::sync::watch::Receiver<Live>,
+    ) -> Option<tokio::task::JoinHandle<()>> {
+        self.live.then(|| tokio::spawn(progress_line(live)))
+    }
+
+    /// Stops the ticker and clears its line.
+    pub fn stop(&self, ticker: Option<tokio::task::JoinHandle<()>>) {
+        if let Some(ticker) = ticker {
+            ticker.abort();
+            eprint!("{}", self.clear());
+        }
+    }
+
+    fn clear(&self) -> &'static str {
+        if self.live {
+            "\r\x1b[2K"
+        } else {
+            ""
+        }
+    }
+
+    fn shown(&self) -> bool {
+        !self.quiet || self.live
+    }
+
+    /// A flight event of the recorder here.
+    pub fn event(&self, event: &FlightEvent) {
+        if !self.shown() {
+            return;
+        }
+        let clear = self.clear();
+        match event {
+            FlightEvent::Started { dir, .. } => {
+                eprintln!("{clear}armed: recording to {}", dir.display())
+            }
+            FlightEvent::Part { part, kind, .. } => part_line(clear, *kind, part),
+            FlightEvent::Failed { error, .. } => eprintln!("{clear}recording failed: {error}"),
+            FlightEvent::Ended { .. } => {}
+        }
+    }
+
+    /// An event of the service's stream (its recorder's).
+    pub fn remote_event(&self, event: &Event) {
+        if !self.shown() {
+            return;
+        }
+        match event {
+            Event::FlightStarted { dir, .. } => {
+                eprintln!("armed: recording to {}", dir.display())
+            }
+            Event::Part(p) => {
+                if let Some(kind) = segment_kind(p.kind, p.index) {
+                    part_line("", kind, &p.part.to_part());
+                }
+            }
+            Event::RecordingFailed { error, .. } => eprintln!("recording failed: {error}"),
+            _ => {}
+        }
+    }
+}
+
+/// A live line for the parts `fly` shows as they complete (take-off, legs, landing).
+/// `clear` first wipes the live progress line when there is one.
+fn part_line(clear: &str, kind: SegmentKind, part: &PartReport) {
+    if matches!(
+        kind,
+        SegmentKind::Leg(_) | SegmentKind::Takeoff | SegmentKind::Landing
+    ) {
+        eprintln!("{clear}  {}", super::report::part_line(kind, part));
+    }
+}
+
+/// What `fly` prints at the end: the JSON document, or the table and the log directory.
+pub fn print(report: &FlightReport, doc: &FlyJson, json: bool) -> anyhow::Result<ExitCode> {
+    if json {
+        println!("{}", serde_json::to_string_pretty(&doc.json())?);
+    } else {
+        super::report::print(report);
+        println!("log: {}", doc.log_dir);
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Warns (stderr) of every parameter the autopilot holds at another value than the vehicle
+/// file, and of the ones it did not answer.
+fn warn_params(params: &Px4Parameters) {
+    for d in &params.differing {
+        eprintln!(
+            "warning: PX4 parameter {} is {} on the vehicle, {} in the vehicle file's [px4] section",
+            d.name, d.autopilot, d.vehicle_file
+        );
+    }
+    if !params.differing.is_empty() {
+        eprintln!(
+            "warning: the flight is measured against its legs simulated with the vehicle's values (the planned order is the vehicle file's)"
+        );
+    }
+    if !params.unanswered.is_empty() {
+        eprintln!(
+            "warning: PX4 did not answer for {}: the vehicle file's values are assumed",
+            params.unanswered.join(", ")
+        );
+    }
+}
+
+/// Rewrites one terminal line with the part in progress: `leg C -> D: 4.1 s, 2.31 kJ so far of
+/// 3.66 kJ predicted`.
+async fn progress_line(mut live: tokio::sync::watch::Receiver<Live>) {
+    let mut every = tokio::time::interval(std::time::Duration::from_millis(500));
+    loop {
+        every.tick().await;
+        let line = {
+            let state = live.borrow_and_update();
+            state
+                .flight
+                .as_ref()
+                .and_then(|f| f.in_progress.as_ref())
+                .map(|(kind, part)| {
+                    let what = match kind {
+                        SegmentKind::Takeoff => "take-off".to_string(),
+                        SegmentKind::Leg(_) => format!("leg {} -> {}", part.from, part.to),
+                        SegmentKind::Settle(_) => format!("settling at {}", part.to),
+                        SegmentKind::Hover(_) => format!("hovering at {}", part.to),
+                        SegmentKind::Landing => "landing".to_string(),
+                    };
+                    let so_far = part
+                        .measured_j
+                        .map_or("-".into(), |j| format!("{:.2}", j / 1000.0));
+                    let predicted = part.predicted_j.map_or(String::new(), |j| {
+                        format!(" of {:.2} kJ predicted", j / 1000.0)
+                    });
+                    format!(
+                        "{what}: {:.1} s, {so_far} kJ so far{predicted}",
+                        part.duration_s
+                    )
+                })
+        };
+        if let Some(line) = line {
+            eprint!("\r\x1b[2K  {line}");
+        }
+    }
+}
