@@ -39,6 +39,7 @@ use crate::link::items::{item_json, read_flight, FlightItems};
 use crate::link::mav::MISSION_ITEM_INT_DATA;
 use crate::link::transfer::TransferConfig;
 use crate::link::Flavour;
+use crate::mission::rehome::HomeOffset;
 use crate::mission::{Geodetic, Mission, Origin};
 use crate::physics::{Vehicle, VehicleModel};
 use crate::planner::json::upload_document;
@@ -854,15 +855,7 @@ fn mission_of<'m>(
     missions
         .iter()
         .filter_map(|&m| {
-            let origin = Origin {
-                home: m.origin.home,
-                height_above_home_m: 0.0,
-            };
-            let at = origin.to_enu(Geodetic {
-                alt_m: m.origin.home.alt_m,
-                ..takeoff
-            });
-            if at.x_east_m.hypot(at.y_north_m) >= 2.0 {
+            if HomeOffset::of(m, takeoff).horizontal_m >= 2.0 {
                 return None;
             }
             // The home altitude is the mission's when the autopilot keeps no home item.
