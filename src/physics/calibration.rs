@@ -7,6 +7,7 @@
 
 use serde::Serialize;
 
+use super::minimise::nelder_mead;
 use super::operation::Model;
 use super::vehicle::Vehicle;
 use super::{PhysicsError, Pricing, Profile};
@@ -763,119 +764,4 @@ fn current(v: &Vehicle, key: &str) -> f64 {
         "hvb.acceleration_m_s2" => v.hvb.acceleration_m_s2,
         _ => f64::NAN,
     }
-}
-
-/// What a golden-section search ends with: its last bracket and the better of the two points
-/// inside it, with its value.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct GoldenSection {
-    pub low: f64,
-    pub high: f64,
-    pub best: f64,
-    pub best_value: f64,
-}
-
-/// Golden-section search for the minimum of `f`, unimodal on `bracket`: at most `iterations`
-/// steps, stopping early once the bracket is narrower than `tolerance` (0: never).
-pub(crate) fn golden_section(
-    f: &impl Fn(f64) -> f64,
-    bracket: (f64, f64),
-    tolerance: f64,
-    iterations: usize,
-) -> GoldenSection {
-    let ratio = (5f64.sqrt() - 1.0) / 2.0;
-    let (mut a, mut b) = bracket;
-    let mut c = b - ratio * (b - a);
-    let mut d = a + ratio * (b - a);
-    let (mut fc, mut fd) = (f(c), f(d));
-    for _ in 0..iterations {
-        if fc <= fd {
-            b = d;
-            d = c;
-            fd = fc;
-            c = b - ratio * (b - a);
-            fc = f(c);
-        } else {
-            a = c;
-            c = d;
-            fc = fd;
-            d = a + ratio * (b - a);
-            fd = f(d);
-        }
-        if b - a < tolerance {
-            break;
-        }
-    }
-    let (best, best_value) = if fc <= fd { (c, fc) } else { (d, fd) };
-    GoldenSection {
-        low: a,
-        high: b,
-        best,
-        best_value,
-    }
-}
-
-/// Nelder-Mead simplex minimisation (Nelder & Mead 1965; standard coefficients 1, 2, 0.5, 0.5).
-pub(crate) fn nelder_mead(
-    start: &[f64],
-    step: &[f64],
-    iterations: usize,
-    f: &impl Fn(&[f64]) -> f64,
-) -> Vec<f64> {
-    let n = start.len();
-    let mut simplex: Vec<(Vec<f64>, f64)> = (0..=n)
-        .map(|k| {
-            let mut x = start.to_vec();
-            if k > 0 {
-                x[k - 1] += step[k - 1];
-            }
-            let fx = f(&x);
-            (x, fx)
-        })
-        .collect();
-    for _ in 0..iterations {
-        simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
-        let centroid: Vec<f64> = (0..n)
-            .map(|i| simplex[..n].iter().map(|(x, _)| x[i]).sum::<f64>() / n as f64)
-            .collect();
-        let toward = |t: f64| -> Vec<f64> {
-            centroid
-                .iter()
-                .zip(&simplex[n].0)
-                .map(|(c, w)| c + t * (w - c))
-                .collect()
-        };
-        let reflected = toward(-1.0);
-        let fr = f(&reflected);
-        if fr < simplex[0].1 {
-            let expanded = toward(-2.0);
-            let fe = f(&expanded);
-            simplex[n] = if fe < fr {
-                (expanded, fe)
-            } else {
-                (reflected, fr)
-            };
-        } else if fr < simplex[n - 1].1 {
-            simplex[n] = (reflected, fr);
-        } else {
-            let contracted = toward(0.5);
-            let fc = f(&contracted);
-            if fc < simplex[n].1 {
-                simplex[n] = (contracted, fc);
-            } else {
-                let best = simplex[0].0.clone();
-                for entry in simplex.iter_mut().skip(1) {
-                    let x: Vec<f64> = best
-                        .iter()
-                        .zip(&entry.0)
-                        .map(|(b, x)| b + 0.5 * (x - b))
-                        .collect();
-                    let fx = f(&x);
-                    *entry = (x, fx);
-                }
-            }
-        }
-    }
-    simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
-    simplex.swap_remove(0).0
 }

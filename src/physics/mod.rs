@@ -14,6 +14,7 @@ pub mod budget;
 pub mod builtin;
 pub mod calibration;
 pub mod longleg;
+pub mod minimise;
 pub mod model;
 pub mod operation;
 pub mod powertrain;

@@ -5,7 +5,7 @@
 //! profile's settle time in hover is recorded separately so mission totals include everything.
 
 use super::body::demand;
-use super::calibration::golden_section;
+use super::minimise::golden_section;
 use super::powertrain::Powertrain;
 use super::profile::{line_limit, trapezoid, Schedule};
 use super::px4;
