@@ -1304,7 +1304,8 @@ mod tests {
     use crate::link::items::{mission_items, Ending, ItemOptions};
     use crate::link::mav::COMMAND_LONG_DATA;
     use crate::mission::Mission;
-    use crate::physics::operation::{Model, ARRIVAL_RADIUS_M};
+    use crate::physics::power::Model;
+    use crate::physics::trajectory::ARRIVAL_RADIUS_M;
     use crate::physics::vehicle::shipped;
 
     const GCS: (u8, u8) = (255, 190);

@@ -6,7 +6,7 @@
 use serde::Serialize;
 
 use super::targets::{path_legs, Rank, PAPER, PAPER_MISSIONS, SAMPLE_1};
-use crate::physics::operation::Model;
+use crate::physics::power::Model;
 use crate::physics::vehicle::Vehicle;
 use crate::physics::{PhysicsError, Pricing, Profile};
 
