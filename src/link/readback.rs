@@ -9,7 +9,7 @@
 //!   MISSION_REQUEST_INT is answered with); checked against PX4 SITL (main of 2026-03).
 //! - ArduPilot: `libraries/AP_Mission/AP_Mission.cpp`, `mavlink_int_to_mission_cmd` (stored),
 //!   `mission_cmd_to_mavlink_int` (answered), `read_cmd_from_storage` (item 0 is home); checked
-//!   against ArduCopter SITL (`../shared/sitl/ardupilot`).
+//!   against ArduCopter SITL.
 //! - Generic (MAVSDK's MissionRawServer and any other): stores the items as received.
 
 use std::fmt;
