@@ -35,20 +35,21 @@
 //!   BATTERY_STATUS unfiltered with energy_consumed in hJ (GCS_Common.cpp
 //!   `send_battery_status`); the mission total excludes home at seq 0.
 //!
-//! The vehicle is cut as PX4 is: `commander` (flight modes, arming, mission start, the
-//! automatic disarms), `progress` (the navigator's mission progress: the current item,
-//! MISSION_CURRENT and MISSION_ITEM_REACHED), `streams` (the MAVLink telemetry streams and their
-//! rates) and `params` (the parameter server). This file holds the vehicle's state, its
+//! The vehicle is cut as PX4 is: `mode` (the flight modes and their numbers), `commander`
+//! (arming, mission start, mode changes, the automatic disarms), `progress` (the navigator's
+//! mission progress: the current item, MISSION_CURRENT and MISSION_ITEM_REACHED), `streams`
+//! (the MAVLink telemetry streams and their rates) and `params` (the parameter server). This file holds the vehicle's state, its
 //! configuration and the step loop that drives the others.
 
 mod commander;
+mod mode;
 mod params;
 mod progress;
 mod streams;
 #[cfg(test)]
 mod tests;
 
-pub use commander::Mode;
+pub use mode::Mode;
 
 use mavlink::MessageData;
 

@@ -5,7 +5,7 @@
 
 use mavlink::MessageData;
 
-use super::commander::Mode;
+use super::mode::Mode;
 use super::streams::steps;
 use super::SimVehicle;
 

@@ -4,7 +4,7 @@
 
 use mavlink::MessageData;
 
-use super::commander::Mode;
+use super::mode::Mode;
 use super::{SimVehicle, STEP_S};
 
 use crate::link::mav::{
