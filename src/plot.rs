@@ -393,7 +393,7 @@ pub fn study_histogram_svg(study: &Study, profile: Profile) -> Result<String, Pl
 
 /// A recorded flight (or several) drawn: battery power over vehicle time with every leg shaded
 /// and named, and each leg's predicted against measured energy as paired bars.
-pub fn flight_svg(analyses: &[crate::link::telemetry::Analysis]) -> Result<String, PlotError> {
+pub fn flight_svg(analyses: &[crate::flightlog::replay::Analysis]) -> Result<String, PlotError> {
     use crate::flightlog::segment::SegmentKind;
     let mut svg = String::new();
     {

@@ -28,7 +28,7 @@ pub fn study_histogram_svg(out: &Output, study: &Study, profile: Profile) -> any
 /// `report --plot`: recorded flights, power over time and energy per leg.
 pub fn flight_svg(
     out: &Output,
-    analyses: &[emplan::link::telemetry::Analysis],
+    analyses: &[emplan::flightlog::replay::Analysis],
 ) -> anyhow::Result<()> {
     write_svg(out, emplan::plot::flight_svg(analyses))
 }

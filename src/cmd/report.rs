@@ -7,9 +7,9 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::Context;
+use emplan::flightlog::replay::Analysis;
 use emplan::flightlog::report::{combine, joined, FlightReport, PartReport};
 use emplan::flightlog::segment::{SegmentConfig, SegmentKind};
-use emplan::link::telemetry::Analysis;
 use emplan::output::Output;
 
 #[derive(Debug, clap::Args)]
@@ -152,7 +152,7 @@ fn flights(dirs: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
 }
 
 /// Says on stderr what a replay of `tlog` skipped: a torn last record, each corrupt span.
-pub fn warn_skipped(tlog: &Path, replay: &emplan::link::telemetry::Replay) {
+pub fn warn_skipped(tlog: &Path, replay: &emplan::flightlog::replay::Replay) {
     if let Some(torn) = replay.torn_tail {
         eprintln!(
             "{}: the log ends in a torn record at byte {torn} (a recording cut short): replayed up to it",

@@ -13,6 +13,7 @@ pub mod energy;
 pub mod flight_plan;
 pub mod guard;
 pub mod recorder;
+pub mod replay;
 pub mod report;
 pub mod samples;
 pub mod segment;

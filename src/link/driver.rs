@@ -11,7 +11,7 @@ use tokio::time::Instant;
 
 use super::connection::{Autopilot, Link};
 use super::mav::{MavMessage, MavMissionResult, MISSION_ITEM_INT_DATA};
-use super::readback;
+use super::readback::{self, ReadbackError};
 use super::transfer::{
     Action, Command, Download, Rto, Stage, TransferConfig, TransferError, Upload,
 };
@@ -24,6 +24,8 @@ pub enum DriverError {
     Link(#[from] LinkError),
     #[error(transparent)]
     Transfer(#[from] TransferError),
+    #[error(transparent)]
+    Readback(#[from] ReadbackError),
 }
 
 /// Why a verified upload failed: the stage, whether the autopilot had accepted the mission,
@@ -46,6 +48,7 @@ impl std::fmt::Display for UploadError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match &self.cause {
             DriverError::Transfer(e) => write!(f, "{e}")?,
+            DriverError::Readback(e) => write!(f, "{e}")?,
             DriverError::Link(e) => write!(f, "{}: {e}", self.stage)?,
         }
         match (self.stage, self.accepted) {
@@ -230,6 +233,7 @@ pub async fn upload_verified(
         let fail = |stage: Stage, accepted: bool, cause: DriverError| {
             let (item, refusal) = match &cause {
                 DriverError::Transfer(e) => (e.item(), e.refusal()),
+                DriverError::Readback(e) => (e.item(), None),
                 DriverError::Link(_) => (None, None),
             };
             UploadError {

@@ -9,13 +9,12 @@
 //!   MISSION_REQUEST_INT is answered with); checked against PX4 SITL (main of 2026-03).
 //! - ArduPilot: `libraries/AP_Mission/AP_Mission.cpp`, `mavlink_int_to_mission_cmd` (stored),
 //!   `mission_cmd_to_mavlink_int` (answered), `read_cmd_from_storage` (item 0 is home); checked
-//!   against ArduCopter SITL (`../shared/sitl/ardupilot`).
+//!   against ArduCopter SITL.
 //! - Generic (MAVSDK's MissionRawServer and any other): stores the items as received.
 
 use std::fmt;
 
 use super::mav::{MavCmd, MavFrame, MISSION_ITEM_INT_DATA};
-use super::transfer::TransferError;
 use super::Flavour;
 
 /// One field of one item that differs from what the autopilot should hold.
@@ -409,20 +408,39 @@ pub fn check(
     Ok(())
 }
 
+/// Why a read-back does not hold what was sent (the upload's `verify` stage).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ReadbackError {
+    #[error("verify: the autopilot holds {held} items, {sent} were sent")]
+    CountMismatch { held: usize, sent: usize },
+    #[error("verify: {0}")]
+    Mismatch(Box<Difference>),
+}
+
+impl ReadbackError {
+    /// The item the difference concerns, if one.
+    pub fn item(&self) -> Option<u16> {
+        match self {
+            ReadbackError::Mismatch(d) => Some(d.seq),
+            ReadbackError::CountMismatch { .. } => None,
+        }
+    }
+}
+
 /// Compares a read-back with what was sent, by what `flavour` keeps of each item.
 pub fn verify(
     flavour: Flavour,
     sent: &[MISSION_ITEM_INT_DATA],
     read: &[MISSION_ITEM_INT_DATA],
-) -> Result<(), TransferError> {
+) -> Result<(), ReadbackError> {
     if sent.len() != read.len() {
-        return Err(TransferError::CountMismatch {
+        return Err(ReadbackError::CountMismatch {
             held: read.len(),
             sent: sent.len(),
         });
     }
     for (a, b) in sent.iter().zip(read) {
-        check(flavour, a, b).map_err(TransferError::Mismatch)?;
+        check(flavour, a, b).map_err(ReadbackError::Mismatch)?;
     }
     Ok(())
 }
@@ -686,7 +704,7 @@ mod tests {
                 let mut bad = read.clone();
                 change(&mut bad[3]);
                 match verify(flavour, &probe_sent(), &bad) {
-                    Err(TransferError::Mismatch(d)) => {
+                    Err(ReadbackError::Mismatch(d)) => {
                         assert_eq!((d.seq, d.field), (3, field), "{flavour:?}: {d}")
                     }
                     other => panic!("{flavour:?} {field}: {other:?}"),

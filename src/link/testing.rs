@@ -4,6 +4,8 @@
 
 use std::time::Duration;
 
+use mavlink::MavHeader;
+
 use super::mav::{
     MavCmd, MavFrame, MavMessage, MavMissionResult, MavMissionType, MISSION_ACK_DATA,
     MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA,
@@ -121,4 +123,13 @@ pub fn sent_items(actions: &[Action]) -> Vec<u16> {
             _ => None,
         })
         .collect()
+}
+
+/// The header of a message from the autopilot (system 1, component 1).
+pub fn autopilot_header() -> MavHeader {
+    MavHeader {
+        system_id: 1,
+        component_id: 1,
+        sequence: 0,
+    }
 }

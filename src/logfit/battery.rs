@@ -18,7 +18,7 @@ use serde::Serialize;
 use super::{Fitted, LogFitError};
 use crate::flightlog::csv::read_samples;
 use crate::flightlog::recorder::SAMPLES_FILE;
-use crate::physics::calibration::{golden_section, nelder_mead};
+use crate::physics::minimise::{golden_section, nelder_mead};
 use crate::physics::Vehicle;
 
 /// Fewest usable samples for a flight to count.

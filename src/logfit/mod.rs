@@ -37,8 +37,8 @@ use crate::flightlog::flight_plan::FlightPlan;
 use crate::flightlog::recorder::{read_report, PLAN_FILE, REPORT_FILE};
 use crate::flightlog::FlightLogError;
 use crate::mission::Enu;
-use crate::physics::calibration::nelder_mead;
-use crate::physics::operation::Model;
+use crate::physics::minimise::nelder_mead;
+use crate::physics::power::Model;
 use crate::physics::{PhysicsError, Profile, Vehicle};
 
 /// Everything calibration from logs can refuse; each names its flight directory or file.

@@ -10,7 +10,7 @@
 //! MPC_LAND_SPEED near the ground and ends at touchdown); hovering costs the model's hover power
 //! for the waypoint's hover time.
 
-use super::operation::Model;
+use super::power::Model;
 use super::{hover_power_w, Operation, PhysicsError, Profile, Vehicle};
 
 /// The fixed costs of flights from one origin with one vehicle and profile, and its battery.

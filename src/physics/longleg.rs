@@ -18,8 +18,9 @@
 //! quintic never cruises: a longer leg is a different trajectory throughout), and any leg whose
 //! steady cruise is too short to bring it inside the table. The table is never extrapolated.
 
-use super::operation::{Model, Trajectory};
+use super::power::Model;
 use super::table::{EnergyTable, LegEnergy};
+use super::trajectory::Trajectory;
 use super::{PhysicsError, Profile};
 
 /// Sampling step for finding the steady cruise on a trajectory given in closed form (a sampled

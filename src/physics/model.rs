@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use super::budget::Budget;
 use super::longleg;
-use super::operation::Model;
+use super::power::Model;
 use super::{builtin, EnergyTable, LegEnergy, PhysicsError, Profile, Vehicle};
 
 /// Where a vehicle and its tables come from.

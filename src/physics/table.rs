@@ -24,7 +24,7 @@ use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
 
-use super::operation::{Model, Operation};
+use super::power::{Model, Operation};
 use super::vehicle::Vehicle;
 use super::{PhysicsError, Profile};
 

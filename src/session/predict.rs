@@ -12,7 +12,7 @@ use crate::flightlog::FlightLogError;
 use crate::link::items::{FlightItems, ReadItemsError};
 use crate::link::Flavour;
 use crate::mission::{Enu, Mission};
-use crate::physics::operation::Model;
+use crate::physics::power::Model;
 use crate::physics::{Budget, Profile, Vehicle, VehicleModel};
 use crate::planner::{Flight, Plan};
 

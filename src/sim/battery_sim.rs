@@ -13,7 +13,7 @@
 //!   avionics and the idling motors (`flight::IDLE_SPIN_POWER_W`); taking off but still on the
 //!   ground, PX4's thrust ramp (`physics::px4::ground_ramp_az`: from no thrust to the weight,
 //!   counted from the first sample past ON_GROUND); in the air,
-//!   `physics::operation::Model::power_w` of the motion in its vertical plane: x along the
+//!   `physics::power::Model::power_w` of the motion in its vertical plane: x along the
 //!   horizontal velocity, z up, the horizontal force the body needs (mass x horizontal
 //!   acceleration + drag along the velocity, `physics::body::demand`) taken whole in that
 //!   plane, so a sideways acceleration costs its thrust too;
@@ -33,7 +33,7 @@ use crate::link::mav::{
     MavBatteryChargeState, MavBatteryFunction, MavBatteryType, MavLandedState, MavMessage,
     MavModeFlag, BATTERY_STATUS_DATA,
 };
-use crate::physics::operation::Model;
+use crate::physics::power::Model;
 use crate::physics::{PhysicsError, Vehicle};
 
 use super::battery::Pack;
@@ -412,7 +412,7 @@ mod tests {
     use crate::flightlog::telemetry::Reading;
     use crate::link::mav::{EXTENDED_SYS_STATE_DATA, HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA};
     use crate::link::telemetry::decode;
-    use crate::physics::operation::Model;
+    use crate::physics::power::Model;
     use crate::physics::vehicle::shipped;
     use crate::physics::Profile;
 

@@ -6,7 +6,7 @@
 //! Every motion between two points is a hover-to-hover operation flown with the profile's
 //! [`Trajectory`] from `physics` (the same trajectory the energy tables were built from) along
 //! the straight 3D line, followed by the profile's settle time in hover; electrical power at each
-//! instant is `physics::operation::Model::power_w` of the trajectory's kinematics in the leg's
+//! instant is `physics::power::Model::power_w` of the trajectory's kinematics in the leg's
 //! plane (the leg's horizontal direction does not matter to the planar model). So a leg flown
 //! here costs exactly the energy the planner predicted for it.
 //!
@@ -32,7 +32,8 @@
 
 use crate::link::mav::{MavCmd, MavFrame, MISSION_ITEM_INT_DATA};
 use crate::mission::{Geodetic, Origin};
-use crate::physics::operation::{Acceptance, Model, Trajectory};
+use crate::physics::power::Model;
+use crate::physics::trajectory::{Acceptance, Trajectory};
 use crate::physics::{PhysicsError, Profile, Vehicle};
 
 /// A point in the home-centred local frame: metres east, north and up from home.

@@ -29,7 +29,6 @@ use std::fmt;
 use std::time::Duration;
 
 use super::mav::{MavMessage, MavMissionResult, MavMissionType};
-use super::readback::Difference;
 use super::Flavour;
 
 pub(crate) const MISSION: MavMissionType = MavMissionType::MAV_MISSION_TYPE_MISSION;
@@ -175,10 +174,6 @@ pub enum TransferError {
     },
     #[error("upload: every item was sent but no MISSION_ACK came in {waited_s:.1} s")]
     AckLost { waited_s: f64 },
-    #[error("verify: the autopilot holds {held} items, {sent} were sent")]
-    CountMismatch { held: usize, sent: usize },
-    #[error("verify: {0}")]
-    Mismatch(Box<Difference>),
 }
 
 /// What a transfer did before its time ran out (for `TransferError::OutOfTime`).
@@ -214,7 +209,6 @@ impl TransferError {
         match self {
             TransferError::Refused { stage, .. } | TransferError::OutOfTime { stage, .. } => *stage,
             TransferError::BadRequest { .. } | TransferError::AckLost { .. } => Stage::Upload,
-            TransferError::CountMismatch { .. } | TransferError::Mismatch(_) => Stage::Verify,
         }
     }
 
@@ -223,8 +217,7 @@ impl TransferError {
         match self {
             TransferError::Refused { item, .. } | TransferError::OutOfTime { item, .. } => *item,
             TransferError::BadRequest { seq, .. } => Some(*seq),
-            TransferError::Mismatch(d) => Some(d.seq),
-            TransferError::AckLost { .. } | TransferError::CountMismatch { .. } => None,
+            TransferError::AckLost { .. } => None,
         }
     }
 

@@ -1,0 +1,706 @@
+//! Decoding: the one place MAVLink units become SI (cA, mV, degE7, mm, cm/s, custom modes),
+//! and the filter that listens to the first autopilot only.
+//!
+//! Unit rules (MAVLink common.xml; PX4 `BATTERY_STATUS.hpp` for how PX4 fills them):
+//! - BATTERY_STATUS `voltages[10]` mV with UINT16_MAX = no cell, `voltages_ext[4]` mV with 0 = no
+//!   cell: the pack voltage is the sum of the cells present. This also covers cells unknown (pack
+//!   in `voltages[0]`, the rest UINT16_MAX) and packs above 65534 mV (`voltages[0]` = 65534, the
+//!   rest in `voltages[1]`). `current_battery` cA with -1 unknown; `current_consumed` mAh, -1
+//!   unknown; `energy_consumed` hJ, -1 unknown; `battery_remaining` %, -1 unknown.
+//! - PX4 SITL's battery simulator has no current sensor: it reports -100 cA (-1 A) with a charge
+//!   consumed of zero or below. That is flagged `fake_current`, never integrated.
+//! - SYS_STATUS `voltage_battery` mV (UINT16_MAX unknown), `current_battery` cA (-1 unknown).
+//! - GLOBAL_POSITION_INT degE7, mm, cm/s (north, east, down); lat = lon = 0 is no fix.
+//! - HOME_POSITION `altitude` mm AMSL; lat = lon = 0 is no home yet.
+//! - HEARTBEAT of the autopilot only (not a GCS, camera or companion: `autopilot` INVALID or a
+//!   ground-station type); armed = `MAV_MODE_FLAG_SAFETY_ARMED`; the mode from `custom_mode`: PX4
+//!   main mode in byte 2, sub mode in byte 3; ArduCopter's mode numbers.
+
+use mavlink::MavHeader;
+
+use crate::flightlog::telemetry::{
+    Battery, BatterySource, FlightMode, LandedState, MissionState, Position, Reading,
+};
+use crate::link::mav::{
+    self, MavAutopilot, MavLandedState, MavMessage, MavModeFlag, MavType,
+    MissionState as MavMissionState,
+};
+
+/// What one message gives the flight log: a reading, and the vehicle's boot time if the
+/// message carries one (a clock anchor).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Decoded {
+    pub time_boot_ms: Option<u32>,
+    pub reading: Option<Reading>,
+}
+
+impl Decoded {
+    const NOTHING: Decoded = Decoded {
+        time_boot_ms: None,
+        reading: None,
+    };
+
+    fn reading(reading: Reading) -> Decoded {
+        Decoded {
+            time_boot_ms: None,
+            reading: Some(reading),
+        }
+    }
+
+    fn anchor(time_boot_ms: u32) -> Decoded {
+        Decoded {
+            time_boot_ms: Some(time_boot_ms),
+            reading: None,
+        }
+    }
+}
+
+/// Whether a HEARTBEAT comes from an autopilot (not a ground station, camera, gimbal or
+/// companion computer).
+pub fn is_autopilot(hb: &mav::HEARTBEAT_DATA) -> bool {
+    hb.autopilot != MavAutopilot::MAV_AUTOPILOT_INVALID
+        && !matches!(
+            hb.mavtype,
+            MavType::MAV_TYPE_GCS
+                | MavType::MAV_TYPE_ONBOARD_CONTROLLER
+                | MavType::MAV_TYPE_GIMBAL
+                | MavType::MAV_TYPE_CAMERA
+                | MavType::MAV_TYPE_ADSB
+                | MavType::MAV_TYPE_BATTERY
+                | MavType::MAV_TYPE_SERVO
+                | MavType::MAV_TYPE_ODID
+                | MavType::MAV_TYPE_LOG
+                | MavType::MAV_TYPE_OSD
+                | MavType::MAV_TYPE_ANTENNA_TRACKER
+        )
+}
+
+/// MAV_MODE_FLAG_SAFETY_ARMED.
+fn armed(hb: &mav::HEARTBEAT_DATA) -> bool {
+    hb.base_mode
+        .contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED)
+}
+
+/// PX4's custom mode: main mode in byte 2, sub mode in byte 3 (PX4 `px4_custom_mode.h`).
+fn px4_mode(custom_mode: u32) -> FlightMode {
+    let main = (custom_mode >> 16) & 0xFF;
+    let sub = (custom_mode >> 24) & 0xFF;
+    match (main, sub) {
+        (1 | 2 | 3 | 5 | 7 | 8, _) => FlightMode::Manual,
+        (4, 4) => FlightMode::Mission,
+        (4, 2 | 10) => FlightMode::Takeoff,
+        (4, 3) => FlightMode::Hold,
+        (4, 5) => FlightMode::Rtl,
+        (4, 6 | 9) => FlightMode::Land,
+        (4, 1) => FlightMode::Other("auto_ready".into()),
+        (4, 8) => FlightMode::Other("follow_target".into()),
+        (6, _) => FlightMode::Other("offboard".into()),
+        (10, _) => FlightMode::Other("termination".into()),
+        _ => FlightMode::Other(format!("px4 {main}.{sub}")),
+    }
+}
+
+fn is_copter(t: MavType) -> bool {
+    matches!(
+        t,
+        MavType::MAV_TYPE_QUADROTOR
+            | MavType::MAV_TYPE_COAXIAL
+            | MavType::MAV_TYPE_HELICOPTER
+            | MavType::MAV_TYPE_HEXAROTOR
+            | MavType::MAV_TYPE_OCTOROTOR
+            | MavType::MAV_TYPE_TRICOPTER
+            | MavType::MAV_TYPE_DODECAROTOR
+            | MavType::MAV_TYPE_DECAROTOR
+    )
+}
+
+/// ArduCopter's mode numbers (ArduCopter `mode.h`, `enum class Number`).
+fn arducopter_mode(custom_mode: u32) -> FlightMode {
+    match custom_mode {
+        0 | 1 | 2 | 11 | 13 | 16 | 22 => FlightMode::Manual,
+        3 => FlightMode::Mission,
+        4 | 20 => FlightMode::Guided,
+        5 | 17 => FlightMode::Hold,
+        6 | 21 | 27 => FlightMode::Rtl,
+        9 => FlightMode::Land,
+        7 => FlightMode::Other("circle".into()),
+        n => FlightMode::Other(format!("arducopter {n}")),
+    }
+}
+
+fn mode(hb: &mav::HEARTBEAT_DATA) -> FlightMode {
+    match hb.autopilot {
+        MavAutopilot::MAV_AUTOPILOT_PX4 => px4_mode(hb.custom_mode),
+        MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA if is_copter(hb.mavtype) => {
+            arducopter_mode(hb.custom_mode)
+        }
+        _ => FlightMode::Other(format!("custom {}", hb.custom_mode)),
+    }
+}
+
+fn known_i32(value: i32) -> Option<f64> {
+    (value != -1).then_some(f64::from(value))
+}
+
+/// Pack voltage from BATTERY_STATUS cells (see the module doc).
+fn pack_voltage_v(voltages: &[u16; 10], voltages_ext: &[u16; 4]) -> Option<f64> {
+    let mv: u32 = voltages
+        .iter()
+        .filter(|&&v| v != u16::MAX)
+        .chain(voltages_ext.iter().filter(|&&v| v != 0))
+        .map(|&v| u32::from(v))
+        .sum();
+    (mv > 0).then_some(f64::from(mv) * 1e-3)
+}
+
+fn battery_status(b: &mav::BATTERY_STATUS_DATA, component: u8) -> Battery {
+    let current_ca = b.current_battery;
+    Battery {
+        source: BatterySource::BatteryStatus {
+            id: b.id,
+            component,
+        },
+        voltage_v: pack_voltage_v(&b.voltages, &b.voltages_ext),
+        current_a: (current_ca != -1).then_some(f64::from(current_ca) * 0.01),
+        consumed_mah: known_i32(b.current_consumed),
+        energy_consumed_j: known_i32(b.energy_consumed).map(|hj| hj * 100.0),
+        remaining_pct: (b.battery_remaining != -1).then_some(f64::from(b.battery_remaining)),
+        fake_current: current_ca == -100 && b.current_consumed <= 0,
+    }
+}
+
+fn sys_status(s: &mav::SYS_STATUS_DATA) -> Battery {
+    Battery {
+        source: BatterySource::SysStatus,
+        voltage_v: (s.voltage_battery != u16::MAX && s.voltage_battery != 0)
+            .then_some(f64::from(s.voltage_battery) * 1e-3),
+        current_a: (s.current_battery != -1).then_some(f64::from(s.current_battery) * 0.01),
+        consumed_mah: None,
+        energy_consumed_j: None,
+        remaining_pct: (s.battery_remaining != -1).then_some(f64::from(s.battery_remaining)),
+        fake_current: s.current_battery == -100,
+    }
+}
+
+fn mission_state(s: MavMissionState) -> MissionState {
+    match s {
+        MavMissionState::MISSION_STATE_UNKNOWN => MissionState::Unknown,
+        MavMissionState::MISSION_STATE_NO_MISSION => MissionState::NoMission,
+        MavMissionState::MISSION_STATE_NOT_STARTED => MissionState::NotStarted,
+        MavMissionState::MISSION_STATE_ACTIVE => MissionState::Active,
+        MavMissionState::MISSION_STATE_PAUSED => MissionState::Paused,
+        MavMissionState::MISSION_STATE_COMPLETE => MissionState::Complete,
+    }
+}
+
+fn landed_state(s: MavLandedState) -> LandedState {
+    match s {
+        MavLandedState::MAV_LANDED_STATE_UNDEFINED => LandedState::Undefined,
+        MavLandedState::MAV_LANDED_STATE_ON_GROUND => LandedState::OnGround,
+        MavLandedState::MAV_LANDED_STATE_IN_AIR => LandedState::InAir,
+        MavLandedState::MAV_LANDED_STATE_TAKEOFF => LandedState::Takeoff,
+        MavLandedState::MAV_LANDED_STATE_LANDING => LandedState::Landing,
+    }
+}
+
+/// Decodes one message from the vehicle into SI units (see the module doc for every rule).
+pub fn decode(header: &MavHeader, message: &MavMessage) -> Decoded {
+    match message {
+        MavMessage::BATTERY_STATUS(b) => {
+            Decoded::reading(Reading::Battery(battery_status(b, header.component_id)))
+        }
+        MavMessage::SYS_STATUS(s) => Decoded::reading(Reading::Battery(sys_status(s))),
+        MavMessage::GLOBAL_POSITION_INT(p) => Decoded {
+            time_boot_ms: Some(p.time_boot_ms),
+            reading: (p.lat != 0 || p.lon != 0).then(|| {
+                Reading::Position(Position {
+                    time_boot_ms: p.time_boot_ms,
+                    lat_deg: f64::from(p.lat) * 1e-7,
+                    lon_deg: f64::from(p.lon) * 1e-7,
+                    alt_amsl_m: f64::from(p.alt) * 1e-3,
+                    relative_alt_m: f64::from(p.relative_alt) * 1e-3,
+                    vn_m_s: f64::from(p.vx) * 0.01,
+                    ve_m_s: f64::from(p.vy) * 0.01,
+                    vd_m_s: f64::from(p.vz) * 0.01,
+                })
+            }),
+        },
+        MavMessage::LOCAL_POSITION_NED(p) => Decoded::anchor(p.time_boot_ms),
+        MavMessage::ATTITUDE(a) => Decoded::anchor(a.time_boot_ms),
+        MavMessage::ATTITUDE_QUATERNION(a) => Decoded::anchor(a.time_boot_ms),
+        MavMessage::SYSTEM_TIME(s) if s.time_boot_ms != 0 => Decoded::anchor(s.time_boot_ms),
+        MavMessage::HEARTBEAT(hb) if is_autopilot(hb) => Decoded::reading(Reading::Heartbeat {
+            armed: armed(hb),
+            mode: mode(hb),
+        }),
+        MavMessage::MISSION_CURRENT(m) => Decoded::reading(Reading::MissionCurrent {
+            seq: m.seq,
+            total: (m.total != u16::MAX).then_some(m.total),
+            state: mission_state(m.mission_state),
+        }),
+        MavMessage::MISSION_ITEM_REACHED(m) => {
+            Decoded::reading(Reading::ItemReached { seq: m.seq })
+        }
+        MavMessage::EXTENDED_SYS_STATE(s) => {
+            Decoded::reading(Reading::Landed(landed_state(s.landed_state)))
+        }
+        // Untimed: its time_usec is when home was set, not when the message was sent.
+        MavMessage::HOME_POSITION(h) if h.latitude != 0 || h.longitude != 0 => {
+            Decoded::reading(Reading::Home {
+                lat_deg: f64::from(h.latitude) * 1e-7,
+                lon_deg: f64::from(h.longitude) * 1e-7,
+                alt_amsl_m: f64::from(h.altitude) * 1e-3,
+                set_boot_s: (h.time_usec > 0).then_some(h.time_usec as f64 * 1e-6),
+            })
+        }
+        MavMessage::STATUSTEXT(s) => {
+            let bytes: &[u8] = &s.text[..];
+            let end = bytes.iter().position(|&b| b == 0).unwrap_or(bytes.len());
+            Decoded::reading(Reading::StatusText {
+                severity: s.severity as u8,
+                text: String::from_utf8_lossy(&bytes[..end]).into_owned(),
+            })
+        }
+        _ => Decoded::NOTHING,
+    }
+}
+
+/// [`decode`] behind a source filter: once an autopilot's HEARTBEAT is seen, only its system is
+/// listened to, and only its component for everything but BATTERY_STATUS (a smart battery may be
+/// a component of its own). Before that every message counts (a log may start mid-flight).
+#[derive(Debug, Clone, Default)]
+pub struct TelemetryDecoder {
+    autopilot: Option<(u32, u8)>,
+}
+
+impl TelemetryDecoder {
+    pub fn new() -> TelemetryDecoder {
+        TelemetryDecoder::default()
+    }
+
+    /// A decoder that listens to a known autopilot (system, component) from the start.
+    pub fn for_autopilot(system_id: u8, component_id: u8) -> TelemetryDecoder {
+        TelemetryDecoder {
+            autopilot: Some((u32::from(system_id), component_id)),
+        }
+    }
+
+    /// The autopilot listened to.
+    pub fn autopilot(&self) -> Option<(u32, u8)> {
+        self.autopilot
+    }
+
+    pub fn decode(&mut self, header: &MavHeader, message: &MavMessage) -> Decoded {
+        if let MavMessage::HEARTBEAT(hb) = message {
+            if self.autopilot.is_none() && is_autopilot(hb) {
+                self.autopilot = Some((header.system_id, header.component_id));
+            }
+        }
+        if let Some((system, component)) = self.autopilot {
+            let battery = matches!(message, MavMessage::BATTERY_STATUS(_));
+            if header.system_id != system || (!battery && header.component_id != component) {
+                return Decoded::NOTHING;
+            }
+        }
+        decode(header, message)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::flightlog::telemetry::{
+        Battery, BatterySource, FlightMode, LandedState, MissionState, Reading,
+    };
+    use crate::link::mav::{
+        self, MavAutopilot, MavLandedState, MavMessage, MavModeFlag, MavType,
+        MissionState as MavMissionState,
+    };
+    use crate::link::telemetry::*;
+    use crate::link::testing::autopilot_header as vehicle;
+    use crate::link::Flavour;
+    use mavlink::MavHeader;
+
+    fn battery_status(
+        voltages: [u16; 10],
+        voltages_ext: [u16; 4],
+        current_battery: i16,
+        current_consumed: i32,
+    ) -> Battery {
+        let message = MavMessage::BATTERY_STATUS(mav::BATTERY_STATUS_DATA {
+            voltages,
+            voltages_ext,
+            current_battery,
+            current_consumed,
+            energy_consumed: -1,
+            battery_remaining: -1,
+            ..Default::default()
+        });
+        match decode(&vehicle(), &message).reading {
+            Some(Reading::Battery(b)) => b,
+            other => panic!("not a battery reading: {other:?}"),
+        }
+    }
+
+    const NONE10: [u16; 10] = [u16::MAX; 10];
+
+    #[test]
+    fn the_pack_voltage_is_the_sum_of_the_cells_present() {
+        let mut cells = NONE10;
+        cells[..6].copy_from_slice(&[4100, 4110, 4090, 4105, 4095, 4100]);
+        let b = battery_status(cells, [0; 4], 4150, 1200);
+        assert!((b.voltage_v.expect("known") - 24.6).abs() < 1e-9);
+        assert_eq!(b.current_a, Some(41.5));
+        assert_eq!(b.consumed_mah, Some(1200.0));
+        assert_eq!(b.energy_consumed_j, None);
+        assert!(!b.fake_current);
+    }
+
+    #[test]
+    fn extension_cells_eleven_to_fourteen_add_to_the_pack() {
+        let cells = [3900u16; 10];
+        let b = battery_status(cells, [3900, 3900, 0, 0], 100, 5);
+        assert!((b.voltage_v.expect("known") - 46.8).abs() < 1e-9);
+    }
+
+    #[test]
+    fn voltages_zero_alone_is_the_pack_when_cells_are_unknown() {
+        let mut cells = NONE10;
+        cells[0] = 16_200;
+        let b = battery_status(cells, [0; 4], 1250, 10);
+        assert_eq!(b.voltage_v, Some(16.2));
+    }
+
+    #[test]
+    fn a_pack_above_65534_mv_continues_in_the_next_cell() {
+        let mut cells = NONE10;
+        cells[0] = 65_534;
+        cells[1] = 4_466;
+        let b = battery_status(cells, [0; 4], 1250, 10);
+        assert!((b.voltage_v.expect("known") - 70.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn no_cells_at_all_is_an_unknown_voltage() {
+        let b = battery_status(NONE10, [0; 4], 1250, 10);
+        assert_eq!(b.voltage_v, None);
+    }
+
+    #[test]
+    fn current_minus_one_is_unknown_never_zero() {
+        let mut cells = NONE10;
+        cells[0] = 22_000;
+        let b = battery_status(cells, [0; 4], -1, -1);
+        assert_eq!(b.current_a, None);
+        assert_eq!(b.consumed_mah, None);
+        assert!(!b.fake_current);
+    }
+
+    #[test]
+    fn px4_simulated_battery_current_is_flagged_fake() {
+        let mut cells = NONE10;
+        cells[0] = 16_000;
+        assert!(battery_status(cells, [0; 4], -100, -37).fake_current);
+        assert!(battery_status(cells, [0; 4], -100, 0).fake_current);
+        // A real pack that has delivered charge: not the simulator.
+        assert!(!battery_status(cells, [0; 4], -100, 250).fake_current);
+    }
+
+    #[test]
+    fn sys_status_gives_voltage_and_current_and_their_unknowns() {
+        let known = MavMessage::SYS_STATUS(mav::SYS_STATUS_DATA {
+            voltage_battery: 22_800,
+            current_battery: 4_600,
+            battery_remaining: 71,
+            ..Default::default()
+        });
+        let Some(Reading::Battery(b)) = decode(&vehicle(), &known).reading else {
+            panic!("battery reading expected");
+        };
+        assert_eq!(b.source, BatterySource::SysStatus);
+        assert_eq!((b.voltage_v, b.current_a), (Some(22.8), Some(46.0)));
+        assert_eq!(b.remaining_pct, Some(71.0));
+        let unknown = MavMessage::SYS_STATUS(mav::SYS_STATUS_DATA {
+            voltage_battery: u16::MAX,
+            current_battery: -1,
+            battery_remaining: -1,
+            ..Default::default()
+        });
+        let Some(Reading::Battery(b)) = decode(&vehicle(), &unknown).reading else {
+            panic!("battery reading expected");
+        };
+        assert_eq!(
+            (b.voltage_v, b.current_a, b.remaining_pct),
+            (None, None, None)
+        );
+    }
+
+    #[test]
+    fn global_position_int_converts_dege7_millimetres_and_centimetres_per_second() {
+        let message = MavMessage::GLOBAL_POSITION_INT(mav::GLOBAL_POSITION_INT_DATA {
+            time_boot_ms: 12_345,
+            lat: 385_362_000,
+            lon: -1_217_875_000,
+            alt: 46_250,
+            relative_alt: 30_250,
+            vx: 150,
+            vy: -200,
+            vz: 50,
+            hdg: 0,
+        });
+        let decoded = decode(&vehicle(), &message);
+        assert_eq!(decoded.time_boot_ms, Some(12_345));
+        let Some(Reading::Position(p)) = decoded.reading else {
+            panic!("position expected");
+        };
+        assert!((p.lat_deg - 38.5362).abs() < 1e-9 && (p.lon_deg + 121.7875).abs() < 1e-9);
+        assert!((p.alt_amsl_m - 46.25).abs() < 1e-9 && (p.relative_alt_m - 30.25).abs() < 1e-9);
+        assert_eq!((p.vn_m_s, p.ve_m_s, p.vd_m_s), (1.5, -2.0, 0.5));
+    }
+
+    #[test]
+    fn home_position_gives_home_altitude_in_metres_untimed_and_nothing_before_home_is_set() {
+        let message = MavMessage::HOME_POSITION(mav::HOME_POSITION_DATA {
+            latitude: 385_362_010,
+            longitude: -1_217_874_959,
+            altitude: 16_186,
+            // When home was set, not when the message was sent: never a clock anchor.
+            time_usec: 3_828_000,
+            ..Default::default()
+        });
+        let decoded = decode(&vehicle(), &message);
+        assert_eq!(decoded.time_boot_ms, None);
+        let Some(
+            reading @ Reading::Home {
+                lat_deg,
+                lon_deg,
+                alt_amsl_m,
+                set_boot_s,
+            },
+        ) = decoded.reading
+        else {
+            panic!("home expected");
+        };
+        assert!((lat_deg - 38.536_201).abs() < 1e-9 && (lon_deg + 121.787_495_9).abs() < 1e-9);
+        assert!((alt_amsl_m - 16.186).abs() < 1e-9);
+        assert_eq!(set_boot_s, Some(3.828));
+        let unset = MavMessage::HOME_POSITION(mav::HOME_POSITION_DATA::default());
+        assert_eq!(decode(&vehicle(), &unset), Decoded::NOTHING);
+        assert_eq!(
+            decode(&vehicle(), &encode(&reading, Flavour::Px4)).reading,
+            Some(reading)
+        );
+    }
+
+    #[test]
+    fn a_position_without_a_fix_is_only_a_clock_anchor() {
+        let message = MavMessage::GLOBAL_POSITION_INT(mav::GLOBAL_POSITION_INT_DATA {
+            time_boot_ms: 500,
+            ..Default::default()
+        });
+        let decoded = decode(&vehicle(), &message);
+        assert_eq!(decoded, Decoded::anchor(500));
+    }
+
+    fn heartbeat(
+        autopilot: MavAutopilot,
+        mavtype: MavType,
+        custom_mode: u32,
+        armed: bool,
+    ) -> MavMessage {
+        let mut base_mode = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
+        if armed {
+            base_mode |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
+        }
+        MavMessage::HEARTBEAT(mav::HEARTBEAT_DATA {
+            custom_mode,
+            mavtype,
+            autopilot,
+            base_mode,
+            system_status: mav::MavState::MAV_STATE_ACTIVE,
+            mavlink_version: 3,
+        })
+    }
+
+    fn mode_of(message: &MavMessage) -> Option<(bool, FlightMode)> {
+        match decode(&vehicle(), message).reading {
+            Some(Reading::Heartbeat { armed, mode }) => Some((armed, mode)),
+            _ => None,
+        }
+    }
+
+    #[test]
+    fn px4_modes_come_from_the_main_and_sub_mode_bytes() {
+        let px4 = |main: u32, sub: u32| {
+            let hb = heartbeat(
+                MavAutopilot::MAV_AUTOPILOT_PX4,
+                MavType::MAV_TYPE_OCTOROTOR,
+                (main << 16) | (sub << 24),
+                true,
+            );
+            mode_of(&hb).expect("an autopilot heartbeat").1
+        };
+        assert_eq!(px4(4, 4), FlightMode::Mission);
+        assert_eq!(px4(4, 2), FlightMode::Takeoff);
+        assert_eq!(px4(4, 6), FlightMode::Land);
+        assert_eq!(px4(4, 5), FlightMode::Rtl);
+        assert_eq!(px4(4, 3), FlightMode::Hold);
+        assert_eq!(px4(3, 0), FlightMode::Manual);
+        assert_eq!(px4(6, 0), FlightMode::Other("offboard".into()));
+    }
+
+    #[test]
+    fn arducopter_modes_come_from_its_mode_numbers() {
+        let apm = |n: u32| {
+            let hb = heartbeat(
+                MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+                MavType::MAV_TYPE_OCTOROTOR,
+                n,
+                false,
+            );
+            mode_of(&hb).expect("an autopilot heartbeat").1
+        };
+        assert_eq!(apm(3), FlightMode::Mission);
+        assert_eq!(apm(4), FlightMode::Guided);
+        assert_eq!(apm(5), FlightMode::Hold);
+        assert_eq!(apm(6), FlightMode::Rtl);
+        assert_eq!(apm(9), FlightMode::Land);
+        assert_eq!(apm(0), FlightMode::Manual);
+        // ArduPlane numbers mean something else: not read as a copter's.
+        let plane = heartbeat(
+            MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+            MavType::MAV_TYPE_FIXED_WING,
+            10,
+            false,
+        );
+        assert_eq!(
+            mode_of(&plane).map(|m| m.1),
+            Some(FlightMode::Other("custom 10".into()))
+        );
+    }
+
+    #[test]
+    fn armed_is_the_safety_armed_flag() {
+        let on = heartbeat(
+            MavAutopilot::MAV_AUTOPILOT_PX4,
+            MavType::MAV_TYPE_QUADROTOR,
+            0,
+            true,
+        );
+        let off = heartbeat(
+            MavAutopilot::MAV_AUTOPILOT_PX4,
+            MavType::MAV_TYPE_QUADROTOR,
+            0,
+            false,
+        );
+        assert_eq!(mode_of(&on).map(|m| m.0), Some(true));
+        assert_eq!(mode_of(&off).map(|m| m.0), Some(false));
+    }
+
+    #[test]
+    fn heartbeats_of_ground_stations_and_peripherals_are_ignored() {
+        let gcs = heartbeat(
+            MavAutopilot::MAV_AUTOPILOT_INVALID,
+            MavType::MAV_TYPE_GCS,
+            0,
+            false,
+        );
+        let camera = heartbeat(
+            MavAutopilot::MAV_AUTOPILOT_INVALID,
+            MavType::MAV_TYPE_CAMERA,
+            0,
+            false,
+        );
+        let companion = heartbeat(
+            MavAutopilot::MAV_AUTOPILOT_PX4,
+            MavType::MAV_TYPE_ONBOARD_CONTROLLER,
+            0,
+            true,
+        );
+        assert_eq!(mode_of(&gcs), None);
+        assert_eq!(mode_of(&camera), None);
+        assert_eq!(mode_of(&companion), None);
+    }
+
+    #[test]
+    fn landed_states_and_mission_progress_are_decoded() {
+        let landed = |s| {
+            decode(
+                &vehicle(),
+                &MavMessage::EXTENDED_SYS_STATE(mav::EXTENDED_SYS_STATE_DATA {
+                    landed_state: s,
+                    ..Default::default()
+                }),
+            )
+            .reading
+        };
+        assert_eq!(
+            landed(MavLandedState::MAV_LANDED_STATE_ON_GROUND),
+            Some(Reading::Landed(LandedState::OnGround))
+        );
+        assert_eq!(
+            landed(MavLandedState::MAV_LANDED_STATE_TAKEOFF),
+            Some(Reading::Landed(LandedState::Takeoff))
+        );
+        assert_eq!(
+            landed(MavLandedState::MAV_LANDED_STATE_IN_AIR),
+            Some(Reading::Landed(LandedState::InAir))
+        );
+        assert_eq!(
+            landed(MavLandedState::MAV_LANDED_STATE_LANDING),
+            Some(Reading::Landed(LandedState::Landing))
+        );
+        let current = MavMessage::MISSION_CURRENT(mav::MISSION_CURRENT_DATA {
+            seq: 4,
+            total: u16::MAX,
+            mission_state: MavMissionState::MISSION_STATE_ACTIVE,
+            ..Default::default()
+        });
+        assert_eq!(
+            decode(&vehicle(), &current).reading,
+            Some(Reading::MissionCurrent {
+                seq: 4,
+                total: None,
+                state: MissionState::Active
+            })
+        );
+    }
+
+    #[test]
+    fn the_decoder_listens_only_to_the_first_autopilot_once_it_is_known() {
+        let mut decoder = TelemetryDecoder::new();
+        let hb = heartbeat(
+            MavAutopilot::MAV_AUTOPILOT_PX4,
+            MavType::MAV_TYPE_OCTOROTOR,
+            0,
+            true,
+        );
+        assert!(decoder.decode(&vehicle(), &hb).reading.is_some());
+        let other_vehicle = MavHeader {
+            system_id: 2,
+            ..vehicle()
+        };
+        let smart_battery = MavHeader {
+            component_id: 180,
+            ..vehicle()
+        };
+        let mut cells = NONE10;
+        cells[0] = 22_000;
+        let battery = MavMessage::BATTERY_STATUS(mav::BATTERY_STATUS_DATA {
+            voltages: cells,
+            ..Default::default()
+        });
+        assert!(decoder.decode(&other_vehicle, &battery).reading.is_none());
+        assert!(decoder.decode(&smart_battery, &battery).reading.is_some());
+        assert!(decoder.decode(&other_vehicle, &hb).reading.is_none());
+        let camera_clock = MavMessage::ATTITUDE(mav::ATTITUDE_DATA {
+            time_boot_ms: 99,
+            ..Default::default()
+        });
+        let camera = MavHeader {
+            component_id: 100,
+            ..vehicle()
+        };
+        assert_eq!(decoder.decode(&camera, &camera_clock), Decoded::NOTHING);
+    }
+}
