@@ -6,7 +6,7 @@
 //! Every rule names its source:
 //! - PX4: `src/modules/mavlink/mavlink_mission.cpp` (PX4-Autopilot commit 001bb4d7, PX4 main),
 //!   `parse_mavlink_mission_item` (what is stored) and `format_mavlink_mission_item` (what a
-//!   MISSION_REQUEST_INT is answered with); checked against PX4 SITL (main of 2026-03).
+//!   MISSION_REQUEST_INT is answered with); checked against PX4 SITL.
 //! - ArduPilot: `libraries/AP_Mission/AP_Mission.cpp`, `mavlink_int_to_mission_cmd` (stored),
 //!   `mission_cmd_to_mavlink_int` (answered), `read_cmd_from_storage` (item 0 is home); checked
 //!   against ArduCopter SITL.
@@ -540,7 +540,7 @@ mod tests {
         ]
     }
 
-    /// ... and what PX4 SITL (PX4 main of 2026-03) answered, field for field.
+    /// ... and what PX4 SITL answered, field for field.
     fn px4_read() -> Vec<MISSION_ITEM_INT_DATA> {
         vec![
             item(

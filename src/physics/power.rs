@@ -1,7 +1,7 @@
 //! The power model along a trajectory: at each sample of an operation's motion the body
 //! (`body`) gives the thrust and pitch it needs, the rotor model the rotor speed and torque that
 //! make that thrust, the motor and ESC the electrical power; the battery terminal energy is
-//! integrated with the midpoint rule. Operation energy follows the paper (NOTES.md section 3):
+//! integrated with the midpoint rule. Operation energy follows the paper (docs/energy-model.md):
 //! from the start until the vehicle first comes within 4 m of the end point; the rest of the
 //! trajectory plus the profile's settle time in hover is recorded separately so mission totals
 //! include everything. The PTF's trajectory is the one of least energy, so it is chosen here.

@@ -1,4 +1,4 @@
-//! What a flight is measured against (`flightlog::FlightPlan`): from a planner `Plan` when emplan
+//! What a flight is measured against (`flightlog::flight_plan::FlightPlan`): from a planner `Plan` when emplan
 //! planned and uploaded the mission (`fly`), or from the mission items the autopilot holds when
 //! someone else did (`record` reads them back, `replay` finds them in the log), priced with the
 //! vehicle's energy table.

@@ -1,4 +1,4 @@
-//! Issue 25, "crashes and wrong numbers", through the binary: a mission too large to plan is
+//! Crashes and wrong numbers, through the binary: a mission too large to plan is
 //! refused with its file, line and the limit (not an abort on a 59 GB allocation); two
 //! waypoints a metre apart give no negative leg (and `plan --sorties` plans them); `fly`'s text
 //! compares a point's settle and hover as one part; `plan`'s text and figure state the saving

@@ -128,7 +128,7 @@ fn within(model_kj: f64, paper_kj: f64, what: &str) {
 
 #[test]
 fn plan_with_the_papers_pricing_gives_the_papers_energies_of_both_sample_missions() {
-    // Issue 13, from the paper: sums of the legs' 4 m-rule energies. Where the paper gives one
+    // From the paper: sums of the legs' 4 m-rule energies. Where the paper gives one
     // value for a distance tour flown two ways, it is its cheaper direction.
     let one = paper_plan("missions/paper-sample-8wp.toml", "ptf");
     let energy = &one["orders"][0];

@@ -1,4 +1,4 @@
-//! Calibration against the paper's published operation energies (NOTES.md section 3): the
+//! Calibration against the paper's published operation energies (docs/energy-model.md): the
 //! paper's targets (`targets`), the model-vs-paper comparison (`compare`), and a Nelder-Mead
 //! fit of the few parameters the paper does not publish (`fit`). PTF fits the vehicle mass,
 //! the drags and its speed limits; HVB then fits its own speed and acceleration limits with the

@@ -1,4 +1,4 @@
-//! The paper's published energies (NOTES.md sections 3 and 5): its operation energies, its
+//! The paper's published energies (docs/energy-model.md): its operation energies, its
 //! two sample missions' waypoints and mission-level energies, and the marginal costs its PTF
 //! table implies. Data only: what the model is compared with and fitted to.
 
@@ -24,7 +24,7 @@ const fn target(xf_m: f64, zf_m: f64, profile: Profile, energy_kj: f64) -> Targe
     }
 }
 
-/// The paper's simulated operation energies for the S1000+ (NOTES.md section 3).
+/// The paper's simulated operation energies for the S1000+ (docs/energy-model.md).
 pub const PAPER: [Target; 15] = [
     target(40.0, 25.0, Profile::Ptf, 7.04),
     target(40.0, 1.0, Profile::Ptf, 4.52),
@@ -43,7 +43,7 @@ pub const PAPER: [Target; 15] = [
     target(0.0, -24.0, Profile::Hvb, 4.97),
 ];
 
-/// Waypoints of the paper's sample missions (NOTES.md section 5), (x, y, z) metres from the
+/// Waypoints of the paper's sample missions (docs/energy-model.md), (x, y, z) metres from the
 /// origin O. Geometry only: the same in every model.
 pub const SAMPLE_1: [(char, [f64; 3]); 8] = [
     ('A', [-20.0, 20.0, 19.0]),

@@ -20,8 +20,8 @@
 //!   replaces the waypoint's; before a LAND item PX4 SITL does report it); EXTENDED_SYS_STATE
 //!   ON_GROUND, TAKEOFF, IN_AIR, LANDING, ON_GROUND, with LANDING until the land detector
 //!   confirms the landing about 1.2 s after ground contact, then the LAND item reached,
-//!   mission complete and a disarm about 0.5 s later (all as measured on PX4 SITL SIH, PX4
-//!   main 2026-03, with sitl/px4_fly_land.py);
+//!   mission complete and a disarm about 0.5 s later (all as measured on PX4 SITL SIH
+//!   with sitl/px4_fly_land.py);
 //!   BATTERY_STATUS as streams/BATTERY_STATUS.hpp encodes it (pack voltage in voltages[0],
 //!   UINT16_MAX in the others, filtered current in cA, energy_consumed -1); HEARTBEAT for the
 //!   HEARTBEAT stream only: SET_MESSAGE_INTERVAL on it FAILS, as PX4's mavlink receiver does.

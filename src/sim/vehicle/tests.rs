@@ -30,7 +30,7 @@ fn sample_mission() -> Mission {
     .unwrap()
 }
 
-/// The layout `fly` uploads (FLIGHT-DESIGN.md "Mission layout flown"): [home,] take-off,
+/// The layout `fly` uploads (docs/flying.md): [home,] take-off,
 /// the waypoints in file order, a waypoint at the origin (hold 0), land.
 fn flown_items(mission: &Mission, flavour: Flavour) -> Vec<MISSION_ITEM_INT_DATA> {
     let mut with_return = mission.clone();
