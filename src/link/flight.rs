@@ -10,7 +10,8 @@
 //! again every retry period until the time budget runs out: TEMPORARILY_REJECTED at any step
 //! (PX4's answer to an arming its pre-arm checks refuse, commander `handle_command`), and FAILED
 //! before the vehicle is armed (ArduCopter's answer to a mode change or an arming while its
-//! pre-arm checks fail after boot, GCS_Common.cpp). DENIED, and FAILED once armed, are answers
+//! pre-arm checks fail after boot, GCS_Common.cpp), and DENIED of the mission start within a short
+//! grace (PX4 checks a new mission asynchronously). DENIED, and FAILED once armed, are answers
 //! that asking again does not change (PX4 "Mission start denied! No valid mission", ArduCopter
 //! "Auto: Missing Takeoff Cmd"): the start fails at once. The warnings the autopilot sent
 //! (STATUSTEXT of severity WARNING or worse: "PreArm: ...", "No valid mission") go into the
@@ -163,6 +164,11 @@ pub struct StartConfig {
     /// Give up a step that is not done within this time (SITL pre-arm checks take seconds
     /// after boot).
     pub budget: Duration,
+    /// A mission start DENIED this soon after its step began is asked again: PX4 checks a
+    /// newly uploaded mission asynchronously (its navigator's feasibility check sets the
+    /// commander's `auto_mission_available`), and until then answers MISSION_START with DENIED
+    /// "No valid mission". Past it, DENIED is the answer.
+    pub mission_start_grace: Duration,
 }
 
 impl Default for StartConfig {
@@ -174,6 +180,9 @@ impl Default for StartConfig {
             // commands, not a flood.
             retry: Duration::from_millis(100),
             budget: Duration::from_secs(60),
+            // Seen on PX4 SITL at 10x: a start right after a verified upload DENIED, the same
+            // start a moment later accepted. 3 s is many navigator cycles, even at 10x.
+            mission_start_grace: Duration::from_secs(3),
         }
     }
 }
@@ -399,6 +408,10 @@ impl Start {
             // retry, within the budget.
             MavResult::MAV_RESULT_TEMPORARILY_REJECTED => {}
             MavResult::MAV_RESULT_FAILED if !self.armed_by_start => {}
+            // The autopilot may not have checked the mission just uploaded yet.
+            MavResult::MAV_RESULT_DENIED
+                if step == Step::MissionStart
+                    && now.saturating_sub(self.step_started) < self.cfg.mission_start_grace => {}
             // Never going to work (DENIED; FAILED once armed, when the pre-arm checks have
             // passed; UNSUPPORTED): stop now.
             other => {
@@ -656,6 +669,7 @@ mod tests {
         let cfg = StartConfig {
             retry: Duration::from_secs(1),
             budget: Duration::from_secs(3),
+            ..StartConfig::default()
         };
         let mut s = Start::new(target(Flavour::Px4), cfg);
         s.start(ms(0));
@@ -744,12 +758,12 @@ mod tests {
         );
         // No second MISSION_START: the disarm at once.
         assert_eq!(
-            commands(&s.handle(ms(20), &ack(START, MavResult::MAV_RESULT_DENIED))),
+            commands(&s.handle(ms(3020), &ack(START, MavResult::MAV_RESULT_DENIED))),
             vec![DISARM]
         );
         assert!(s.finished().is_none());
-        assert_eq!(commands(&s.tick(ms(120))), vec![DISARM]);
-        s.handle(ms(130), &heartbeat(false, 0));
+        assert_eq!(commands(&s.tick(ms(3120))), vec![DISARM]);
+        s.handle(ms(3130), &heartbeat(false, 0));
         let err = s.finished().cloned().unwrap().unwrap_err();
         assert_eq!(
             err,
@@ -767,7 +781,40 @@ mod tests {
                 && text.contains("disarmed again"),
             "{text}"
         );
-        assert!(s.tick(ms(5000)).is_empty());
+        assert!(s.tick(ms(8000)).is_empty());
+    }
+
+    #[test]
+    fn a_mission_start_denied_just_after_the_upload_is_asked_again_within_the_grace() {
+        // PX4 SITL: the first MISSION_START after a verified upload DENIED ("No valid mission"
+        // until its navigator has checked the new mission), the next accepted.
+        let mut s = Start::new(target(Flavour::Px4), StartConfig::default());
+        s.start(ms(0));
+        s.handle(ms(10), &ack(ARM, OK));
+        assert!(s
+            .handle(ms(20), &ack(START, MavResult::MAV_RESULT_DENIED))
+            .is_empty());
+        assert!(s.finished().is_none());
+        assert_eq!(commands(&s.tick(ms(120))), vec![(START, 0.0, 0.0)]);
+        s.handle(ms(130), &ack(START, OK));
+        assert_eq!(s.finished(), Some(&Ok(())));
+        // Still denied after the grace: the answer, the vehicle disarmed.
+        let mut d = Start::new(target(Flavour::Px4), StartConfig::default());
+        d.start(ms(0));
+        d.handle(ms(10), &ack(ARM, OK));
+        let mut t = 10;
+        let mut starts = 0;
+        loop {
+            t += 100;
+            let out = commands(&d.tick(ms(t)));
+            starts += out.iter().filter(|c| **c == (START, 0.0, 0.0)).count();
+            let answer = commands(&d.handle(ms(t + 5), &ack(START, MavResult::MAV_RESULT_DENIED)));
+            if answer == vec![DISARM] {
+                break;
+            }
+            assert!(t < 4000, "still asking at {t} ms");
+        }
+        assert!(t >= 3000 && starts <= 31, "{t} ms, {starts} starts");
     }
 
     #[test]
@@ -775,12 +822,12 @@ mod tests {
         let mut s = Start::new(target(Flavour::Px4), StartConfig::default());
         s.start(ms(0));
         s.handle(ms(10), &ack(ARM, OK));
-        s.handle(ms(20), &ack(START, MavResult::MAV_RESULT_DENIED));
+        s.handle(ms(3020), &ack(START, MavResult::MAV_RESULT_DENIED));
         s.handle(
-            ms(25),
+            ms(3025),
             &statustext(MavSeverity::MAV_SEVERITY_CRITICAL, "Mission start denied"),
         );
-        s.handle(ms(30), &ack(ARM, OK));
+        s.handle(ms(3030), &ack(ARM, OK));
         assert!(matches!(
             s.finished(),
             Some(Err(StartError::Refused { statustext: Some(t), disarmed: Some(true), .. }))
@@ -847,15 +894,15 @@ mod tests {
         let mut s = Start::new(target(Flavour::Px4), StartConfig::default());
         s.start(ms(0));
         s.handle(ms(10), &ack(ARM, OK));
-        s.handle(ms(20), &ack(START, MavResult::MAV_RESULT_DENIED));
+        s.handle(ms(3020), &ack(START, MavResult::MAV_RESULT_DENIED));
         let mut sent = 1;
-        let mut t = 20;
+        let mut t = 3020;
         while s.finished().is_none() {
             t += 50;
             sent += commands(&s.tick(ms(t))).len();
             s.handle(ms(t), &heartbeat(true, 0));
         }
-        assert!(ms(t) >= DISARM_BUDGET);
+        assert!(ms(t - 3020) >= DISARM_BUDGET);
         assert!(sent <= 31, "{sent} disarm commands");
         let err = s.finished().cloned().unwrap().unwrap_err();
         assert!(matches!(
@@ -873,6 +920,7 @@ mod tests {
         let cfg = StartConfig {
             retry: Duration::from_secs(1),
             budget: Duration::from_secs(3),
+            ..StartConfig::default()
         };
         let mut s = Start::new(target(Flavour::Px4), cfg);
         s.start(ms(0));
