@@ -544,13 +544,7 @@ mod tests {
         Duration::from_millis(t)
     }
 
-    fn target(flavour: Flavour) -> Autopilot {
-        Autopilot {
-            system_id: 1,
-            component_id: 1,
-            flavour,
-        }
-    }
+    use crate::link::testing::autopilot as target;
 
     fn commands(out: &[MavMessage]) -> Vec<(MavCmd, f32, f32)> {
         out.iter()

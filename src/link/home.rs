@@ -194,13 +194,7 @@ mod tests {
         Duration::from_millis(t)
     }
 
-    fn target(flavour: Flavour) -> Autopilot {
-        Autopilot {
-            system_id: 1,
-            component_id: 1,
-            flavour,
-        }
-    }
+    use crate::link::testing::autopilot as target;
 
     fn sent(out: &[MavMessage]) -> usize {
         out.iter()

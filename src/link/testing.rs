@@ -10,6 +10,7 @@ use super::mav::{
     MavCmd, MavFrame, MavMessage, MavMissionResult, MavMissionType, MISSION_ACK_DATA,
     MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA,
 };
+use super::connection::Autopilot;
 use super::transfer::Action;
 use super::Flavour;
 
@@ -131,5 +132,14 @@ pub fn autopilot_header() -> MavHeader {
         system_id: 1,
         component_id: 1,
         sequence: 0,
+    }
+}
+
+/// The autopilot the machine tests talk to: system 1, component 1, of `flavour`.
+pub fn autopilot(flavour: Flavour) -> Autopilot {
+    Autopilot {
+        system_id: 1,
+        component_id: 1,
+        flavour,
     }
 }

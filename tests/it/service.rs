@@ -24,7 +24,7 @@ pub(crate) fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
-fn model() -> Arc<VehicleModel> {
+pub(crate) fn model() -> Arc<VehicleModel> {
     static MODEL: OnceLock<Arc<VehicleModel>> = OnceLock::new();
     MODEL
         .get_or_init(|| {
@@ -586,22 +586,41 @@ pub(crate) async fn own_mock(speedup: f64) -> emplan::sim::MockHandle {
     .expect("mock")
 }
 
+/// A ground station of the test's own on the mock: its link, the autopilot and the transfer
+/// settings for it.
+pub(crate) async fn ground_station(
+    mock: &emplan::sim::MockHandle,
+) -> (
+    emplan::link::connection::Link,
+    emplan::link::connection::Autopilot,
+    emplan::link::transfer::TransferConfig,
+) {
+    let link = emplan::link::connection::Link::connect(
+        &format!("udpout:{}", mock.local_addr()),
+        Default::default(),
+        None,
+    )
+    .await
+    .expect("link");
+    let target = link
+        .discover(Duration::from_secs(10))
+        .await
+        .expect("autopilot");
+    let cfg = emplan::link::transfer::TransferConfig {
+        target_system: target.system_id,
+        target_component: target.component_id,
+        flavour: target.flavour,
+        ..Default::default()
+    };
+    (link, target, cfg)
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_flight_uploaded_by_another_ground_station_is_measured_against_what_the_vehicle_holds() {
     let mock = own_mock(40.0).await;
     // "QGroundControl" uploads the 3-waypoint sample in its listed order, then lets go.
     {
-        let link = emplan::link::connection::Link::connect(
-            &format!("udpout:{}", mock.local_addr()),
-            Default::default(),
-            None,
-        )
-        .await
-        .expect("link");
-        let target = link
-            .discover(Duration::from_secs(10))
-            .await
-            .expect("autopilot");
+        let (link, target, cfg) = ground_station(&mock).await;
         let mission =
             emplan::mission::load(&root().join("missions/paper-sample-3wp.toml")).expect("mission");
         let items = emplan::link::items::mission_items(
@@ -613,12 +632,6 @@ async fn a_flight_uploaded_by_another_ground_station_is_measured_against_what_th
             &emplan::link::items::ItemOptions::default(),
         )
         .expect("items");
-        let cfg = emplan::link::transfer::TransferConfig {
-            target_system: target.system_id,
-            target_component: target.component_id,
-            flavour: target.flavour,
-            ..Default::default()
-        };
         emplan::link::driver::upload_verified(&link, &target, &items, cfg, |_, _| {})
             .await
             .expect("uploaded");

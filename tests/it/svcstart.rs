@@ -7,14 +7,14 @@
 use std::path::Path;
 use std::time::Duration;
 
-use emplan::link::connection::Link;
-use emplan::link::transfer::{Command, Rto, TransferConfig};
+use emplan::link::transfer::{Command, Rto};
 use emplan::service::client::Answer;
 use emplan::service::{Client, Token, VehicleLink};
 use serde_json::json;
 
 use super::service::{
-    connected, is, own_mock, planned, root, serve, spawn_serve, upload, wait_for, Reaped,
+    connected, ground_station, is, own_mock, planned, root, serve, spawn_serve, upload, wait_for,
+    Reaped,
 };
 
 /// Hang guard for a request that must not wait on the vehicle (the defect made them wait
@@ -79,23 +79,7 @@ async fn a_start_with_no_mission_on_the_vehicle_is_refused_before_arming_and_an_
 
 /// Clears the mock's mission from a ground station of the test's own.
 async fn clear_mission(mock: &emplan::sim::MockHandle) {
-    let link = Link::connect(
-        &format!("udpout:{}", mock.local_addr()),
-        Default::default(),
-        None,
-    )
-    .await
-    .expect("link");
-    let target = link
-        .discover(Duration::from_secs(10))
-        .await
-        .expect("autopilot");
-    let cfg = TransferConfig {
-        target_system: target.system_id,
-        target_component: target.component_id,
-        flavour: target.flavour,
-        ..Default::default()
-    };
+    let (link, target, cfg) = ground_station(mock).await;
     emplan::link::driver::command(
         &link,
         &target,

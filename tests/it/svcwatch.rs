@@ -16,18 +16,7 @@ use emplan::service::{Client, ServiceConfig, ServiceError, Token, VehicleLink};
 use emplan::sim::{FlightConfig, MockConfig};
 use serde_json::{json, Value};
 
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn model() -> Arc<VehicleModel> {
-    static MODEL: OnceLock<Arc<VehicleModel>> = OnceLock::new();
-    MODEL
-        .get_or_init(|| {
-            Arc::new(VehicleModel::load(&root().join("models/s1000"), None).expect("the model"))
-        })
-        .clone()
-}
+use super::service::{model, root};
 
 /// A service running in this process, its missions folder empty at the start.
 struct Running {

@@ -265,7 +265,7 @@ pub fn run_study<E: Display>(
 mod tests {
     use super::*;
 
-    fn settings(waypoints: usize, missions: usize, seed: u64) -> StudySettings {
+    pub(super) fn settings(waypoints: usize, missions: usize, seed: u64) -> StudySettings {
         StudySettings {
             waypoints,
             xy_m: 30.0,

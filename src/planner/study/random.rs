@@ -138,17 +138,8 @@ pub fn mission_geometry(settings: &StudySettings, mission: u64) -> Geometry {
 
 #[cfg(test)]
 mod tests {
+    use super::super::tests::settings;
     use super::*;
-
-    fn settings(waypoints: usize, missions: usize, seed: u64) -> StudySettings {
-        StudySettings {
-            waypoints,
-            xy_m: 30.0,
-            z_m: 25.0,
-            missions,
-            seed,
-        }
-    }
 
     #[test]
     fn random_points_stay_inside_the_box_and_fill_it() {
