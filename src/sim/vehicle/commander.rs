@@ -38,6 +38,8 @@ impl<'v> SimVehicle<'v> {
                 }
             }
             MavCmd::MAV_CMD_MISSION_START => self.mission_start(p[0], p[1]),
+            // PX4's commander and ArduCopter's GCS handler both take it as the mode change.
+            MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH => self.set_mode(Mode::Rtl),
             MavCmd::MAV_CMD_DO_SET_MODE => {
                 if (p[0] as u32) & (MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED.bits() as u32)
                     == 0

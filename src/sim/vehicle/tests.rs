@@ -592,6 +592,19 @@ fn px4_hold_pauses_the_mission_mission_resumes_it_and_rtl_lands_at_home() {
 }
 
 #[test]
+fn a_return_to_launch_command_mid_mission_brings_the_vehicle_home_in_its_return_mode() {
+    let (_, mut v) = with_sample(Flavour::Px4, FlightConfig::default());
+    let mut log = Log::new();
+    command(&mut v, MavCmd::MAV_CMD_MISSION_START, p1(0.0));
+    run_until(&mut v, &mut log, 60.0, |v| v.flight().current() == Some(3));
+    let out = v.handle(GCS, &long(MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH, [0.0; 7]));
+    assert_eq!(ack(&out, MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH), Some(OK));
+    assert_eq!(v.mode(), Mode::Rtl);
+    run_until(&mut v, &mut log, 300.0, |v| !v.armed());
+    assert_disarmed_at_home(&v);
+}
+
+#[test]
 fn ardupilot_refuses_to_arm_in_auto_and_flies_after_guided_arm_auto_mission_start() {
     let (_, mut v) = with_sample(Flavour::ArduPilot, FlightConfig::default());
     let mut log = Log::new();
