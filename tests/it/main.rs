@@ -6,6 +6,7 @@ mod failfast;
 mod flight;
 mod flightlog;
 mod flowservice;
+mod home;
 mod fly;
 mod fromlogs;
 mod install;
