@@ -6,11 +6,11 @@ use std::time::Duration;
 
 use mavlink::MavHeader;
 
+use super::connection::Autopilot;
 use super::mav::{
     MavCmd, MavFrame, MavMessage, MavMissionResult, MavMissionType, MISSION_ACK_DATA,
     MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA,
 };
-use super::connection::Autopilot;
 use super::transfer::Action;
 use super::Flavour;
 

@@ -38,7 +38,10 @@ async fn a_vehicle_sent_home_mid_mission_returns_and_lands_at_home() {
         if v.current.is_some_and(|c| c >= 4) {
             break;
         }
-        assert!(tokio::time::Instant::now() < deadline, "never got out: {v:?}");
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "never got out: {v:?}"
+        );
         tokio::time::sleep(Duration::from_millis(50)).await;
     }
     let sent = emplan::link::commands::return_home(&link, &target)
@@ -53,10 +56,17 @@ async fn a_vehicle_sent_home_mid_mission_returns_and_lands_at_home() {
         if !v.armed {
             break v;
         }
-        assert!(tokio::time::Instant::now() < deadline, "never landed: {v:?}");
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "never landed: {v:?}"
+        );
         tokio::time::sleep(Duration::from_millis(50)).await;
     };
     let [e, n, u] = landed.position;
-    assert!(e.hypot(n) < 1.0 && u.abs() < 0.5, "landed at {:?}", landed.position);
+    assert!(
+        e.hypot(n) < 1.0 && u.abs() < 0.5,
+        "landed at {:?}",
+        landed.position
+    );
     assert!(!landed.mission_complete, "{landed:?}");
 }

@@ -6,10 +6,8 @@
 //! settle time and time limit; waits are hang guards only.
 
 use std::path::{Path, PathBuf};
-use std::sync::{Arc, OnceLock};
 use std::time::Duration;
 
-use emplan::physics::VehicleModel;
 use emplan::service::client::Answer;
 use emplan::service::missions::{digest, WatchSettings};
 use emplan::service::{Client, ServiceConfig, ServiceError, Token, VehicleLink};
