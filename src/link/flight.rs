@@ -39,6 +39,19 @@ pub mod ardupilot_mode {
     pub const AUTO: u32 = 3;
     pub const GUIDED: u32 = 4;
     pub const LAND: u32 = 9;
+    pub const RTL: u32 = 6;
+}
+
+/// The text of an autopilot's warning (STATUSTEXT of severity WARNING or worse: "PreArm: ...",
+/// "No valid mission"), None for its information ("Armed by ...") or an empty text.
+pub(super) fn warning(text: &super::mav::STATUSTEXT_DATA) -> Option<String> {
+    if text.severity as u8 > MavSeverity::MAV_SEVERITY_WARNING as u8 {
+        return None;
+    }
+    let t = String::from_utf8_lossy(&text.text.to_vec())
+        .trim_end_matches('\0')
+        .to_string();
+    (!t.is_empty()).then_some(t)
 }
 
 /// One step of starting a mission.
@@ -429,15 +442,9 @@ impl Start {
 
     /// Keeps the autopilot's warnings (its reasons), not its information ("Armed by ...").
     fn on_statustext(&mut self, text: &super::mav::STATUSTEXT_DATA) {
-        if text.severity as u8 > MavSeverity::MAV_SEVERITY_WARNING as u8 {
+        let Some(t) = warning(text) else {
             return;
-        }
-        let t = String::from_utf8_lossy(&text.text.to_vec())
-            .trim_end_matches('\0')
-            .to_string();
-        if t.is_empty() {
-            return;
-        }
+        };
         if let Some(disarming) = self.disarming.as_mut() {
             disarming.statustext = Some(t.clone());
         }
@@ -540,11 +547,8 @@ mod tests {
     use super::*;
     use crate::link::mav::{MavAutopilot, MavSeverity, MavState, MavType, STATUSTEXT_DATA};
 
-    fn ms(t: u64) -> Duration {
-        Duration::from_millis(t)
-    }
-
     use crate::link::testing::autopilot as target;
+    use crate::link::testing::ms;
 
     fn commands(out: &[MavMessage]) -> Vec<(MavCmd, f32, f32)> {
         out.iter()

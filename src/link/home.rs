@@ -10,13 +10,10 @@
 use std::time::Duration;
 
 use super::connection::Autopilot;
-use super::mav::{
-    MavAutopilot, MavCmd, MavMessage, MavModeFlag, MavResult, MavSeverity, COMMAND_LONG_DATA,
-};
+use super::flight::{ardupilot_mode, warning};
+use super::mav::{MavAutopilot, MavCmd, MavMessage, MavModeFlag, MavResult, COMMAND_LONG_DATA};
 use super::Flavour;
 
-/// ArduCopter's RTL mode number (ArduCopter/mode.h `Mode::Number::RTL`).
-const ARDUPILOT_RTL: u32 = 6;
 /// PX4's main mode AUTO and its sub-mode RTL (px4_custom_mode.h), as HEARTBEAT's custom_mode
 /// carries them (main mode in bits 16-23, sub-mode in bits 24-31).
 const PX4_AUTO: u32 = 4;
@@ -67,7 +64,7 @@ fn suffix(text: &Option<String>) -> String {
 /// Whether a heartbeat's custom mode is `flavour`'s return mode.
 pub fn is_return_mode(flavour: Flavour, custom_mode: u32) -> bool {
     match flavour {
-        Flavour::ArduPilot => custom_mode == ARDUPILOT_RTL,
+        Flavour::ArduPilot => custom_mode == ardupilot_mode::RTL,
         Flavour::Px4 | Flavour::Generic => {
             (custom_mode >> 16) & 0xff == PX4_AUTO && (custom_mode >> 24) & 0xff == PX4_AUTO_RTL
         }
@@ -150,13 +147,8 @@ impl ReturnHome {
                     }
                 }
             }
-            MavMessage::STATUSTEXT(text)
-                if text.severity as u8 <= MavSeverity::MAV_SEVERITY_WARNING as u8 =>
-            {
-                let t = String::from_utf8_lossy(&text.text.to_vec())
-                    .trim_end_matches('\0')
-                    .to_string();
-                if !t.is_empty() {
+            MavMessage::STATUSTEXT(text) => {
+                if let Some(t) = warning(text) {
                     self.statustext = Some(t);
                 }
             }
@@ -188,11 +180,10 @@ impl ReturnHome {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::link::mav::{MavState, MavType, COMMAND_ACK_DATA, HEARTBEAT_DATA, STATUSTEXT_DATA};
-
-    fn ms(t: u64) -> Duration {
-        Duration::from_millis(t)
-    }
+    use crate::link::mav::{
+        MavSeverity, MavState, MavType, COMMAND_ACK_DATA, HEARTBEAT_DATA, STATUSTEXT_DATA,
+    };
+    use crate::link::testing::ms;
 
     use crate::link::testing::autopilot as target;
 
