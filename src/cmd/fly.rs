@@ -9,8 +9,9 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use super::flying::{self, Flying, Lines};
+use emplan::flightlog::watch::Policy;
 use emplan::service::remote::{self, Starting};
-use emplan::session::{FlyError, FlyJson, FlyOptions, Px4Parameters, RecorderConfig};
+use emplan::session::{FlyError, FlyJson, FlyOptions, Load, Px4Parameters, RecorderConfig};
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -33,6 +34,11 @@ pub struct Args {
     /// Give up when the flight has not landed this long after the upload (s)
     #[arg(long, default_value_t = 3600.0)]
     timeout_s: f64,
+    /// The energy guard in flight: warn when the battery is projected to land below its
+    /// reserve and at the point of no return (warn), and also send the vehicle home in time
+    /// to keep the reserve (rtl), or nothing (off)
+    #[arg(long, value_name = "POLICY")]
+    guard: Option<Policy>,
     #[command(flatten)]
     mock: flying::MockArgs,
     /// Print one JSON document (the report) instead of text
@@ -55,6 +61,11 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
         );
     }
     if let Some(client) = service {
+        if args.guard.is_some() {
+            anyhow::bail!(
+                "--guard: a service's flights are guarded as `emplan serve --guard` says"
+            );
+        }
         return fly_through(&args, &client);
     }
     // A flight log that cannot be written ends the command before anything is uploaded.
@@ -64,7 +75,10 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
     let flight = args.flight.flight(&plan)?;
     let builtin = args.link.connect.is_none();
     let mock = args.mock.mock(&mission, &plan, &model.vehicle, builtin)?;
-    let load = (args.flight).load(&mission, &plan, &flight, &model.vehicle);
+    let load = Load {
+        guard: args.guard.unwrap_or_default(),
+        ..(args.flight).load(&mission, &plan, &flight, &model.vehicle)
+    };
     let lines = Lines::new(args.json);
     super::runtime()?.block_on(async {
         let session = args.link.open_with(Some(mock)).await?;

@@ -302,6 +302,7 @@ impl FlightArgs {
             flight,
             acceptance_radius_m: self.acceptance_radius_m,
             vehicle,
+            guard: emplan::flightlog::watch::Policy::Off,
         }
     }
 

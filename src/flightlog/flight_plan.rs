@@ -70,6 +70,9 @@ pub struct FlightPlan {
     pub takeoff_seq: Option<u16>,
     pub land_seq: Option<u16>,
     pub predicted: Option<Predicted>,
+    /// The energy guard's setup (policy, pack, return prices), when the flight is guarded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub guard: Option<crate::flightlog::watch::GuardSetup>,
 }
 
 /// What a mission sequence number means for the flight.
@@ -128,6 +131,7 @@ impl FlightPlan {
             takeoff_seq: Some(first_seq),
             land_seq: Some(seq_at(first_seq, order.len() + 2)?),
             predicted,
+            guard: None,
         };
         plan.validate()?;
         Ok(plan)

@@ -15,7 +15,8 @@ use super::predict::{flight_plan, flight_plan_predicted, predicted_by_simulation
 use super::recorder::{FlightEvent, RecorderHandle};
 use crate::flightlog::flight_plan::FlightPlan;
 use crate::flightlog::report::{FlightReport, ReportJson};
-use crate::link::commands::{drive, keep_streams, request_streams};
+use crate::flightlog::watch::{NoteKind, Policy};
+use crate::link::commands::{drive, keep_streams, request_streams, return_home};
 use crate::link::connection::{Autopilot, Link};
 use crate::link::driver::{upload_verified, UploadError, UploadReport};
 use crate::link::flight::{Start, StartConfig, StartError};
@@ -58,6 +59,8 @@ pub struct Load<'a> {
     /// Acceptance radius sent with each waypoint (m).
     pub acceptance_radius_m: f32,
     pub vehicle: &'a Vehicle,
+    /// What the energy guard may do in flight.
+    pub guard: Policy,
 }
 
 /// A flight on the vehicle, verified, and what it will be measured against.
@@ -120,6 +123,20 @@ pub async fn load(
         }
     }
     .map_err(|e| FlyError::Plan(e.to_string()))?;
+    let mut measured_against = measured_against;
+    if load.guard != Policy::Off {
+        let return_alt_m = super::guard::return_altitude_m(link, target).await?;
+        let setup = super::guard::setup(
+            priced_with.unwrap_or(load.vehicle),
+            plan.profile,
+            target.flavour,
+            &measured_against,
+            load.guard,
+            return_alt_m,
+        )
+        .map_err(|e| FlyError::Plan(format!("the energy guard's return prices: {e}")))?;
+        measured_against.guard = Some(setup);
+    }
     let upload = upload_verified(link, target, &items, transfer, progress).await?;
     recorder.set_plan(measured_against.clone());
     Ok(Loaded {
@@ -250,7 +267,17 @@ pub async fn fly(
                         FlightEvent::Failed { error, .. } => {
                             tracing::error!("recording: {error}");
                         }
-                        FlightEvent::Part { .. } => {}
+                        FlightEvent::Guard { note, .. } if note.kind == NoteKind::Return => {
+                            // The guard decided: home now. A refusal is said; the guard's notes
+                            // go on (and the pilot can still act).
+                            match return_home(link, target).await? {
+                                Ok(()) => tracing::warn!("sent home by the energy guard"),
+                                Err(e) => tracing::error!(
+                                    "the energy guard sent the vehicle home and the autopilot did not go: {e}"
+                                ),
+                            }
+                        }
+                        FlightEvent::Part { .. } | FlightEvent::Guard { .. } => {}
                     }
                 }
                 Err(RecvError::Lagged(n)) => tracing::warn!("{n} flight events missed"),
@@ -460,6 +487,7 @@ mod tests {
                 complete: true,
                 flags: Vec::new(),
                 log_gaps: Vec::new(),
+                guard: None,
             })),
         }
     }
