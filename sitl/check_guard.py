@@ -110,7 +110,7 @@ def read(tlog):
             armed = now_armed
             was_armed = was_armed or now_armed
             continue
-        if src != autopilot:
+        if autopilot is not None and src != autopilot:
             continue
         if kind == "BATTERY_STATUS":
             s["battery"] = msg
@@ -155,7 +155,7 @@ def main(argv):
     left_j = usable_j - consumed_j
     reserve_j = usable_j * reserve_pct / 100.0
     cells = [c for c in battery.voltages if c != 65535]
-    landed_alt_m = position.relative_alt / 1000.0 if position is not None else float("nan")
+    landed_alt_m = position.relative_alt / 1000.0 + 0.0 if position is not None else float("nan")
     from_home_m = float("nan")
     if position is not None and s["home"] is not None:
         from_home_m = distance_m(s["home"][0], s["home"][1], position.lat / 1e7, position.lon / 1e7)
