@@ -168,11 +168,14 @@ pub async fn locate(
 ) -> Result<Result<Located, LocateError>, LinkError> {
     let mut machine = Locate::new(*target, cfg);
     drive(link, target, &mut machine).await?;
-    Ok(machine.finished().cloned().unwrap_or(Err(LocateError::Timeout {
-        budget_s: cfg.budget.as_secs_f64(),
-        requests: 0,
-        answer: None,
-    })))
+    Ok(machine
+        .finished()
+        .cloned()
+        .unwrap_or(Err(LocateError::Timeout {
+            budget_s: cfg.budget.as_secs_f64(),
+            requests: 0,
+            answer: None,
+        })))
 }
 
 /// Asks `target` for the telemetry the flight log needs (battery and position at 10 Hz,

@@ -581,6 +581,7 @@ impl Actor {
             flight: &flight,
             acceptance_radius_m: job.acceptance_radius_m,
             vehicle: &self.model.vehicle,
+            if_home_unknown: session::IfHomeUnknown::Refuse,
         };
         tracing::info!("uploading");
         let loaded = session::load(
@@ -612,7 +613,7 @@ impl Actor {
                 other => (other.stage(), None),
             };
             let status = match e {
-                FlyError::Items | FlyError::Plan(_) => 422,
+                FlyError::Items | FlyError::Plan(_) | FlyError::FarFromHome { .. } => 422,
                 _ => 502,
             };
             Refusal {

@@ -13,6 +13,7 @@ mod install;
 mod mission;
 mod outputs;
 mod physics;
+mod preflight;
 mod service;
 mod snapshots;
 mod solvers;
