@@ -180,3 +180,40 @@ fn a_home_within_the_tolerance_changes_nothing() {
     assert_eq!(explicit["items"], doc["items"], "the same mission uploaded");
     runtime.block_on(mock.shutdown()).unwrap();
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_service_refuses_an_upload_to_a_vehicle_far_from_the_missions_origin() {
+    use crate::service::{connected, planned, serve, upload};
+    let config = MockConfig {
+        flight: Some(FlightConfig {
+            home: north_of_sample(0.02),
+            ..FlightConfig::default()
+        }),
+        ..MockConfig::default()
+    };
+    let mock = MockAutopilot::spawn("udpin:127.0.0.1:0", config)
+        .await
+        .expect("mock");
+    let vehicle = emplan::service::VehicleLink::Connect {
+        url: format!("udpout:{}", mock.local_addr()),
+        signing_key: None,
+    };
+    let service = serve(vehicle, &["paper-sample-3wp.toml"]).await;
+    let client = &service.client;
+    connected(client).await;
+    planned(client, "paper-sample-3wp.toml").await;
+    let refused = upload(client, "paper-sample-3wp.toml", serde_json::json!({})).await;
+    assert_eq!(refused.status, 422, "{refused:?}");
+    assert_eq!(
+        (&refused.body["stage"], &refused.body["accepted"]),
+        (&Value::from("preflight"), &Value::from(false)),
+        "{refused:?}"
+    );
+    assert!(
+        refused.body["error"].as_str().unwrap().contains("2220 m"),
+        "{refused:?}"
+    );
+    nothing_uploaded_or_armed(&mock);
+    service.shutdown().await.expect("clean stop");
+    mock.shutdown().await.unwrap();
+}
