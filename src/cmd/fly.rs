@@ -63,7 +63,7 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
     let mission = emplan::mission::load(&args.mission)?;
     // From the mission's origin the plan comes first: a refusal needs no vehicle. From the
     // vehicle's home it waits for the vehicle to say where that is.
-    let (model, planned) = if args.flight.from_vehicle() {
+    let (model, planned) = if args.flight.plans_from_vehicle() {
         (args.flight.model.model()?, None)
     } else {
         let (model, plan) = args.flight.plan(&mission)?;

@@ -282,7 +282,7 @@ impl FlightArgs {
     }
 
     /// Whether the flight is planned from the vehicle's home (`--origin vehicle`).
-    pub fn from_vehicle(&self) -> bool {
+    pub fn plans_from_vehicle(&self) -> bool {
         self.origin == Some(OriginArg::Vehicle)
     }
 
@@ -369,7 +369,7 @@ impl FlightArgs {
 
     /// The upload request a service gets for these options.
     pub fn service_request(&self) -> anyhow::Result<emplan::service::wire::UploadRequest> {
-        if self.from_vehicle() {
+        if self.plans_from_vehicle() {
             anyhow::bail!(
                 "--origin vehicle is not offered through a service: plan with the service's own vehicle link, or run without --service"
             );
