@@ -281,6 +281,14 @@ impl FlightArgs {
         )?)
     }
 
+    /// The origin asked for (None: not asked, the mission's).
+    pub fn plan_origin(&self) -> Option<emplan::session::PlanOrigin> {
+        self.origin.map(|o| match o {
+            OriginArg::Mission => emplan::session::PlanOrigin::Mission,
+            OriginArg::Vehicle => emplan::session::PlanOrigin::Vehicle,
+        })
+    }
+
     /// Whether the flight is planned from the vehicle's home (`--origin vehicle`).
     pub fn plans_from_vehicle(&self) -> bool {
         self.origin == Some(OriginArg::Vehicle)
@@ -336,10 +344,7 @@ impl FlightArgs {
             flight,
             acceptance_radius_m: self.acceptance_radius_m,
             vehicle,
-            if_home_unknown: match self.origin {
-                Some(OriginArg::Mission) => emplan::session::IfHomeUnknown::FlyAsPlanned,
-                None | Some(OriginArg::Vehicle) => emplan::session::IfHomeUnknown::Refuse,
-            },
+            if_home_unknown: emplan::session::IfHomeUnknown::asked(self.plan_origin()),
         }
     }
 
@@ -369,17 +374,15 @@ impl FlightArgs {
 
     /// The upload request a service gets for these options.
     pub fn service_request(&self) -> anyhow::Result<emplan::service::wire::UploadRequest> {
-        if self.plans_from_vehicle() {
-            anyhow::bail!(
-                "--origin vehicle is not offered through a service: plan with the service's own vehicle link, or run without --service"
-            );
-        }
-        Ok(emplan::service::wire::UploadRequest::new(
-            &self.choice(),
-            self.acceptance_radius_m,
-            self.model.profile,
-            &self.solver.options()?,
-        ))
+        Ok(emplan::service::wire::UploadRequest {
+            origin: self.plan_origin(),
+            ..emplan::service::wire::UploadRequest::new(
+                &self.choice(),
+                self.acceptance_radius_m,
+                self.model.profile,
+                &self.solver.options()?,
+            )
+        })
     }
 }
 

@@ -13,6 +13,26 @@ use crate::mission::Mission;
 
 use super::fly::FlyError;
 
+/// Where a flight is planned from: the mission's origin (the check then requires the vehicle
+/// there) or the vehicle's home (the mission re-planned from where it stands).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PlanOrigin {
+    Mission,
+    Vehicle,
+}
+
+impl IfHomeUnknown {
+    /// What an origin asked for (None: not asked, the default) does with an unknown home: only
+    /// the mission's origin asked for explicitly flies as planned.
+    pub fn asked(origin: Option<PlanOrigin>) -> IfHomeUnknown {
+        match origin {
+            Some(PlanOrigin::Mission) => IfHomeUnknown::FlyAsPlanned,
+            None | Some(PlanOrigin::Vehicle) => IfHomeUnknown::Refuse,
+        }
+    }
+}
+
 /// What the check does when the vehicle says nothing of where it is within the time allowed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum IfHomeUnknown {

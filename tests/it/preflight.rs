@@ -217,3 +217,53 @@ async fn the_service_refuses_an_upload_to_a_vehicle_far_from_the_missions_origin
     service.shutdown().await.expect("clean stop");
     mock.shutdown().await.unwrap();
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_service_plans_from_the_vehicles_home_when_the_upload_asks_for_it() {
+    use crate::service::{connected, planned, serve, upload};
+    // 145 m north: beyond the tolerance, within the legs' limit.
+    let config = MockConfig {
+        flight: Some(FlightConfig {
+            home: north_of_sample(0.0013),
+            ..FlightConfig::default()
+        }),
+        ..MockConfig::default()
+    };
+    let mock = MockAutopilot::spawn("udpin:127.0.0.1:0", config)
+        .await
+        .expect("mock");
+    let vehicle = emplan::service::VehicleLink::Connect {
+        url: format!("udpout:{}", mock.local_addr()),
+        signing_key: None,
+    };
+    let service = serve(vehicle, &["paper-sample-3wp.toml"]).await;
+    let client = &service.client;
+    connected(client).await;
+    planned(client, "paper-sample-3wp.toml").await;
+    let body = |origin: &str| serde_json::json!({ "origin": origin });
+    let refused = upload(client, "paper-sample-3wp.toml", body("mission")).await;
+    assert_eq!(
+        (refused.status, &refused.body["stage"]),
+        (422, &Value::from("preflight")),
+        "{refused:?}"
+    );
+    nothing_uploaded_or_armed(&mock);
+    let moved = upload(client, "paper-sample-3wp.toml", body("vehicle")).await;
+    assert!(moved.ok(), "{moved:?}");
+    assert_eq!(moved.body["report"]["verified"], true, "{moved:?}");
+    assert_eq!(mock.stats().uploads_accepted, 1);
+    // Priced from the vehicle's home: not the plan the service made from the mission's origin.
+    let listed = client
+        .get("/api/missions/paper-sample-3wp.toml")
+        .await
+        .expect("GET");
+    let kj = |v: &Value| v.as_f64().expect("kJ");
+    assert!(
+        (kj(&moved.body["predicted_mission_kj"]) - kj(&listed.body["plan"]["battery"]["total_kj"]))
+            .abs()
+            > 0.1,
+        "{moved:?}"
+    );
+    service.shutdown().await.expect("clean stop");
+    mock.shutdown().await.unwrap();
+}
