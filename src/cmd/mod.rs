@@ -357,7 +357,9 @@ impl FlightArgs {
         quiet: bool,
     ) -> anyhow::Result<emplan::mission::Mission> {
         use emplan::mission::rehome::{rehomed, HomeOffset};
-        let located = emplan::session::vehicle_home(&session.link, &session.target).await?;
+        let located = emplan::session::vehicle_home(&session.link, &session.target)
+            .await
+            .map_err(emplan::session::FlyError::from)?;
         let offset = HomeOffset::of(mission, located.home);
         if !quiet {
             eprintln!(

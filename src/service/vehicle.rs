@@ -624,7 +624,9 @@ impl Actor {
                 other => (other.stage(), None),
             };
             let status = match e {
-                FlyError::Items | FlyError::Plan(_) | FlyError::FarFromHome { .. } => 422,
+                FlyError::Items
+                | FlyError::Plan(_)
+                | FlyError::Preflight(session::PreflightError::FarFromHome { .. }) => 422,
                 _ => 502,
             };
             Refusal {
@@ -674,7 +676,7 @@ impl Actor {
     ) -> Result<(), Refusal> {
         let located = session::vehicle_home(&self.link, target)
             .await
-            .map_err(|e| Refusal::new(502, &e.stage(), &e.to_string()))?;
+            .map_err(|e| Refusal::new(502, e.stage(), &e.to_string()))?;
         let mission = crate::mission::rehome::rehomed(&job.mission, located.home);
         tracing::info!(
             "origin moved to the vehicle's home, {:.0} m from the mission's",

@@ -11,7 +11,7 @@ use std::time::Duration;
 
 use tokio::sync::broadcast::{self, error::RecvError};
 
-use super::home::{check_home, IfHomeUnknown};
+use super::home::{check_home, IfHomeUnknown, PreflightError};
 use super::params::Px4Parameters;
 use super::params::{check_px4_params, ParamCheck};
 use super::predict::{flight_plan, flight_plan_predicted, predicted_by_simulation};
@@ -23,11 +23,10 @@ use crate::link::connection::{Autopilot, Link};
 use crate::link::driver::{upload_verified, UploadError, UploadReport};
 use crate::link::flight::{Start, StartConfig, StartError};
 use crate::link::items::{mission_items, ItemOptions};
-use crate::link::locate::{HomeSource, LocateError};
 use crate::link::mav::MISSION_ITEM_INT_DATA;
 use crate::link::transfer::TransferConfig;
 use crate::link::{Flavour, LinkError};
-use crate::mission::rehome::{HomeOffset, ORIGIN_TOLERANCE_M};
+use crate::mission::rehome::HomeOffset;
 use crate::mission::Mission;
 use crate::physics::{Profile, Vehicle};
 use crate::planner::{Flight, Plan};
@@ -86,7 +85,7 @@ pub struct Loaded {
 }
 
 /// Puts a flight onto the vehicle, the one way every command and the service do it: checks
-/// that the vehicle's home is the mission's origin (within [`ORIGIN_TOLERANCE_M`]), on a PX4
+/// that the vehicle's home is the mission's origin (within `mission::rehome`'s tolerance), on a PX4
 /// flying the px4 profile, reads its trajectory parameters and prices the legs with them when
 /// they differ from the vehicle file's (`checked` sees the outcome before anything is sent),
 /// builds the items, uploads them and proves they arrived by reading them back, then hands the
@@ -149,22 +148,10 @@ pub async fn load(
 pub enum FlyError {
     #[error("mission items: the order names a waypoint the mission does not have")]
     Items,
-    /// The vehicle stands too far from where the plan starts: found before anything was
-    /// uploaded or armed.
-    #[error(
-        "{}{}: farther than the {ORIGIN_TOLERANCE_M} m a plan allows, nothing was uploaded (plan the mission from the vehicle's home, or take the vehicle to the mission's origin)",
-        .offset.describe(),
-        match .from { HomeSource::Position => " (its position: it sent no home)", HomeSource::HomePosition => "" }
-    )]
-    FarFromHome {
-        offset: HomeOffset,
-        from: HomeSource,
-    },
-    /// Where the vehicle is could not be learned: nothing was uploaded or armed.
-    #[error(
-        "{0}; nothing was uploaded (the plan cannot be checked against where the vehicle stands)"
-    )]
-    NoHome(#[from] LocateError),
+    /// The vehicle is not where the plan starts, or did not say where it is: found before
+    /// anything was uploaded or armed.
+    #[error(transparent)]
+    Preflight(#[from] PreflightError),
     #[error(transparent)]
     Upload(#[from] UploadError),
     #[error("flight plan: {0}")]
@@ -192,7 +179,7 @@ impl FlyError {
     pub fn stage(&self) -> String {
         match self {
             FlyError::Items | FlyError::Plan(_) => "plan".into(),
-            FlyError::FarFromHome { .. } | FlyError::NoHome(_) => "preflight".into(),
+            FlyError::Preflight(e) => e.stage().into(),
             FlyError::Upload(e) => e.stage.to_string(),
             FlyError::Start(_) => "start".into(),
             FlyError::Link(_) => "connect".into(),
@@ -214,8 +201,7 @@ impl FlyError {
             | FlyError::Plan(_)
             | FlyError::Link(_)
             | FlyError::LogDir(_)
-            | FlyError::FarFromHome { .. }
-            | FlyError::NoHome(_) => false,
+            | FlyError::Preflight(_) => false,
         }
     }
 }

@@ -7,11 +7,43 @@
 
 use crate::link::commands::locate;
 use crate::link::connection::{Autopilot, Link};
-use crate::link::locate::{LocateConfig, Located};
+use crate::link::locate::{HomeSource, LocateConfig, LocateError, Located};
+use crate::link::LinkError;
 use crate::mission::rehome::{HomeOffset, ORIGIN_TOLERANCE_M};
 use crate::mission::Mission;
 
-use super::fly::FlyError;
+/// Why a flight did not pass the check: found before anything was uploaded or armed.
+#[derive(Debug, thiserror::Error)]
+pub enum PreflightError {
+    /// The vehicle stands too far from where the plan starts.
+    #[error(
+        "{}{}: farther than the {ORIGIN_TOLERANCE_M} m a plan allows, nothing was uploaded (plan the mission from the vehicle's home, or take the vehicle to the mission's origin)",
+        .offset.describe(),
+        match .from { HomeSource::Position => " (its position: it sent no home)", HomeSource::HomePosition => "" }
+    )]
+    FarFromHome {
+        offset: HomeOffset,
+        from: HomeSource,
+    },
+    /// Where the vehicle is could not be learned.
+    #[error(
+        "{0}; nothing was uploaded (the plan cannot be checked against where the vehicle stands)"
+    )]
+    NoHome(#[from] LocateError),
+    #[error("link: {0}")]
+    Link(#[from] LinkError),
+}
+
+impl PreflightError {
+    /// The stage it failed in (the `stage` of the failure JSON): `preflight`, or `connect` for
+    /// the link.
+    pub fn stage(&self) -> &'static str {
+        match self {
+            PreflightError::Link(_) => "connect",
+            PreflightError::FarFromHome { .. } | PreflightError::NoHome(_) => "preflight",
+        }
+    }
+}
 
 /// Where a flight is planned from: the mission's origin (the check then requires the vehicle
 /// there) or the vehicle's home (the mission re-planned from where it stands).
@@ -47,7 +79,7 @@ pub enum IfHomeUnknown {
 
 /// Learns `target`'s home (see [`crate::link::locate::Locate`]); an error when neither its home
 /// nor its position came within the default budget.
-pub async fn vehicle_home(link: &Link, target: &Autopilot) -> Result<Located, FlyError> {
+pub async fn vehicle_home(link: &Link, target: &Autopilot) -> Result<Located, PreflightError> {
     Ok(locate(link, target, LocateConfig::default()).await??)
 }
 
@@ -56,12 +88,12 @@ pub async fn vehicle_home(link: &Link, target: &Autopilot) -> Result<Located, Fl
 /// `if_unknown` lets the flight go ahead.
 pub fn check(
     mission: &Mission,
-    located: Result<Located, FlyError>,
+    located: Result<Located, PreflightError>,
     if_unknown: IfHomeUnknown,
-) -> Result<Option<HomeOffset>, FlyError> {
+) -> Result<Option<HomeOffset>, PreflightError> {
     let located = match (located, if_unknown) {
         (Ok(located), _) => located,
-        (Err(FlyError::NoHome(e)), IfHomeUnknown::FlyAsPlanned) => {
+        (Err(PreflightError::NoHome(e)), IfHomeUnknown::FlyAsPlanned) => {
             tracing::warn!("{e}; flying the plan from the mission's origin, as asked");
             return Ok(None);
         }
@@ -69,7 +101,7 @@ pub fn check(
     };
     let offset = HomeOffset::of(mission, located.home);
     if !offset.within(ORIGIN_TOLERANCE_M) {
-        return Err(FlyError::FarFromHome {
+        return Err(PreflightError::FarFromHome {
             offset,
             from: located.source,
         });
@@ -84,15 +116,15 @@ pub async fn check_home(
     target: &Autopilot,
     mission: &Mission,
     if_unknown: IfHomeUnknown,
-) -> Result<Option<HomeOffset>, FlyError> {
+) -> Result<Option<HomeOffset>, PreflightError> {
     check(mission, vehicle_home(link, target).await, if_unknown)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::link::locate::{HomeSource, LocateError};
     use crate::mission::{load_str, Format, Geodetic};
+    use crate::session::FlyError;
 
     fn sample() -> Mission {
         let text = std::fs::read_to_string(
@@ -102,7 +134,7 @@ mod tests {
         load_str(&text, Format::Toml, None).unwrap()
     }
 
-    fn at(mission: &Mission, north_deg: f64) -> Result<Located, FlyError> {
+    fn at(mission: &Mission, north_deg: f64) -> Result<Located, PreflightError> {
         Ok(Located {
             home: Geodetic {
                 lat_deg: mission.origin.home.lat_deg + north_deg,
@@ -112,8 +144,8 @@ mod tests {
         })
     }
 
-    fn unknown() -> Result<Located, FlyError> {
-        Err(FlyError::NoHome(LocateError::Timeout {
+    fn unknown() -> Result<Located, PreflightError> {
+        Err(PreflightError::NoHome(LocateError::Timeout {
             budget_s: 30.0,
             requests: 30,
             answer: None,
@@ -128,13 +160,14 @@ mod tests {
         assert!(near.is_some_and(|o| (o.horizontal_m - 11.1).abs() < 0.2));
         // 0.02 degrees: about 2.2 km.
         let far = check(&m, at(&m, 0.02), IfHomeUnknown::FlyAsPlanned).unwrap_err();
-        assert!(matches!(far, FlyError::FarFromHome { .. }));
+        assert!(matches!(far, PreflightError::FarFromHome { .. }));
         let text = far.to_string();
         assert!(
             text.contains("2221 m") || text.contains("2220 m"),
             "the distance: {text}"
         );
         assert!(text.contains("(38.556200, -121.787500)"), "{text}");
+        let far = FlyError::from(far);
         assert_eq!((far.stage().as_str(), far.accepted()), ("preflight", false));
     }
 
@@ -142,7 +175,7 @@ mod tests {
     fn an_unknown_home_is_refused_unless_the_mission_origin_was_asked_for() {
         let m = sample();
         let refused = check(&m, unknown(), IfHomeUnknown::Refuse).unwrap_err();
-        assert!(matches!(refused, FlyError::NoHome(_)));
+        assert!(matches!(refused, PreflightError::NoHome(_)));
         assert_eq!(refused.stage(), "preflight");
         assert_eq!(
             check(&m, unknown(), IfHomeUnknown::FlyAsPlanned).unwrap(),

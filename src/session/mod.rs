@@ -25,7 +25,7 @@ pub use crate::link::commands::{keep_streams, request_streams};
 pub use fly::{
     discard_unflown, fly, load, Flown, FlyError, FlyFailure, FlyJson, FlyOptions, Load, Loaded,
 };
-pub use home::{check_home, vehicle_home, IfHomeUnknown, PlanOrigin};
+pub use home::{check_home, vehicle_home, IfHomeUnknown, PlanOrigin, PreflightError};
 pub use open::{open, LinkOptions, MockFlight, OpenError, Session, Target, Uploaded};
 pub use params::{check_px4_params, parse_param, ParamCheck, Px4Parameters};
 pub use predict::{

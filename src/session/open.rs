@@ -154,7 +154,10 @@ impl Session {
         &self,
         load: &Load<'_>,
     ) -> Result<Option<crate::mission::rehome::HomeOffset>, FlyError> {
-        super::home::check_home(&self.link, &self.target, load.mission, load.if_home_unknown).await
+        Ok(
+            super::home::check_home(&self.link, &self.target, load.mission, load.if_home_unknown)
+                .await?,
+        )
     }
 
     /// Uploads `items` and proves they arrived by reading them back; `progress` sees the items
