@@ -3,6 +3,7 @@
 //! and print the per-leg energy report. Without `--connect` the built-in mock autopilot flies
 //! the mission in simulated time with the vehicle's physics. The flight is the library
 //! session's (`emplan::session`); with `--service` the service's (`emplan::service::remote`).
+//! `--origin vehicle` connects first and plans the mission from the vehicle's home.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -71,17 +72,35 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
     // A flight log that cannot be written ends the command before anything is uploaded.
     emplan::flightlog::recorder::check_log_dir(&args.log_dir).map_err(FlyError::LogDir)?;
     let mission = emplan::mission::load(&args.mission)?;
-    let (model, plan) = args.flight.plan(&mission)?;
-    let flight = args.flight.flight(&plan)?;
-    let builtin = args.link.connect.is_none();
-    let mock = args.mock.mock(&mission, &plan, &model.vehicle, builtin)?;
-    let load = Load {
-        guard: args.guard.unwrap_or_default(),
-        ..(args.flight).load(&mission, &plan, &flight, &model.vehicle)
+    // From the mission's origin the plan comes first: a refusal needs no vehicle. From the
+    // vehicle's home it waits for the vehicle to say where that is.
+    let (model, planned) = if args.flight.plans_from_vehicle() {
+        (args.flight.model.model()?, None)
+    } else {
+        let (model, plan) = args.flight.plan(&mission)?;
+        args.flight.flight(&plan)?;
+        (model, Some(plan))
     };
+    let builtin = args.link.connect.is_none();
+    let mock = args
+        .mock
+        .mock(&mission, model.profile, &model.vehicle, builtin)?;
     let lines = Lines::new(args.json);
     super::runtime()?.block_on(async {
         let session = args.link.open_with(Some(mock)).await?;
+        let (mission, plan) = match planned {
+            Some(plan) => (mission, plan),
+            None => {
+                let mission = args.flight.rehome(&session, &mission, args.json).await?;
+                let plan = args.flight.plan_with(&mission, &model)?;
+                (mission, plan)
+            }
+        };
+        let flight = args.flight.flight(&plan)?;
+        let load = Load {
+            guard: args.guard.unwrap_or_default(),
+            ..(args.flight).load(&mission, &plan, &flight, &model.vehicle)
+        };
         let recorder = session.recorder(RecorderConfig::new(&args.log_dir));
         let options = FlyOptions {
             arm: args.arm || builtin,

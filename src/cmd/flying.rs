@@ -58,12 +58,12 @@ impl MockArgs {
         Ok(())
     }
 
-    /// The mock flying `mission`'s `plan` (`planned`: the planning vehicle); `builtin`: no
-    /// `--connect` was given (else its options are refused).
+    /// The mock flying `mission` with `profile` (`planned`: the planning vehicle); `builtin`:
+    /// no `--connect` was given (else its options are refused).
     pub fn mock(
         &self,
         mission: &emplan::mission::Mission,
-        plan: &emplan::planner::Plan,
+        profile: emplan::physics::Profile,
         planned: &emplan::physics::Vehicle,
         builtin: bool,
     ) -> anyhow::Result<MockFlight> {
@@ -83,7 +83,7 @@ impl MockArgs {
         };
         Ok(MockFlight {
             home: mission.origin.home,
-            profile: plan.profile,
+            profile,
             truth,
             params,
             speedup: self.speedup,

@@ -193,9 +193,24 @@ impl From<OrderArg> for emplan::planner::FlownOrder {
     }
 }
 
+/// Where a flight is planned from (`--origin`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum OriginArg {
+    /// The mission's origin; the vehicle's home must be within 20 m of it
+    Mission,
+    /// The vehicle's home, learned over the link: the mission re-planned from where it stands
+    Vehicle,
+}
+
 /// What to fly of a mission, and the checks before it goes to the vehicle (`upload`, `fly`).
 #[derive(Debug, clap::Args)]
 pub struct FlightArgs {
+    /// Plan from the mission's origin (default; refused when the vehicle's home is farther
+    /// than 20 m from it, or when the vehicle does not say where it is unless `mission` is
+    /// given explicitly) or from the vehicle's home (the mission's waypoints re-planned from
+    /// where the vehicle stands, the battery checked again)
+    #[arg(long, value_enum, value_name = "mission|vehicle")]
+    pub origin: Option<OriginArg>,
     #[arg(long, value_enum, default_value = "energy")]
     pub order: OrderArg,
     /// Fly only sortie K (1-based) of the split `emplan plan --sorties` prints: the mission
@@ -252,6 +267,33 @@ impl FlightArgs {
         Ok((model, plan))
     }
 
+    /// Plans `mission` with `model` (the vehicle chosen once, before a re-planning from the
+    /// vehicle's home).
+    pub fn plan_with(
+        &self,
+        mission: &emplan::mission::Mission,
+        model: &emplan::physics::VehicleModel,
+    ) -> anyhow::Result<emplan::planner::Plan> {
+        let (choice, solver) = (self.choice(), self.solver.options()?);
+        Ok(progress::solving(
+            &format!("planning {}", mission.name),
+            || choice.plan(mission, model, solver),
+        )?)
+    }
+
+    /// The origin asked for (None: not asked, the mission's).
+    pub fn plan_origin(&self) -> Option<emplan::session::PlanOrigin> {
+        self.origin.map(|o| match o {
+            OriginArg::Mission => emplan::session::PlanOrigin::Mission,
+            OriginArg::Vehicle => emplan::session::PlanOrigin::Vehicle,
+        })
+    }
+
+    /// Whether the flight is planned from the vehicle's home (`--origin vehicle`).
+    pub fn plans_from_vehicle(&self) -> bool {
+        self.origin == Some(OriginArg::Vehicle)
+    }
+
     /// The flight chosen (`--sortie K` or the order), refused when the battery cannot fly it
     /// with its reserve unless `--allow-infeasible`.
     pub fn flight<'a>(
@@ -303,17 +345,47 @@ impl FlightArgs {
             acceptance_radius_m: self.acceptance_radius_m,
             vehicle,
             guard: emplan::flightlog::watch::Policy::Off,
+            if_home_unknown: emplan::session::IfHomeUnknown::asked(self.plan_origin()),
         }
+    }
+
+    /// `--origin vehicle`: `mission` re-expressed from the vehicle's home, learned over
+    /// `session`'s link; says (unless `quiet`) how far the origin moved.
+    pub async fn rehome(
+        &self,
+        session: &emplan::session::Session,
+        mission: &emplan::mission::Mission,
+        quiet: bool,
+    ) -> anyhow::Result<emplan::mission::Mission> {
+        use emplan::mission::rehome::{rehomed, HomeOffset};
+        let located = emplan::session::vehicle_home(&session.link, &session.target)
+            .await
+            .map_err(emplan::session::FlyError::from)?;
+        let offset = HomeOffset::of(mission, located.home);
+        if !quiet {
+            eprintln!(
+                "origin moved to the vehicle's home ({:.6}, {:.6}), {:.0} m from the mission's ({:.6}, {:.6})",
+                located.home.lat_deg,
+                located.home.lon_deg,
+                offset.horizontal_m,
+                mission.origin.home.lat_deg,
+                mission.origin.home.lon_deg
+            );
+        }
+        Ok(rehomed(mission, located.home))
     }
 
     /// The upload request a service gets for these options.
     pub fn service_request(&self) -> anyhow::Result<emplan::service::wire::UploadRequest> {
-        Ok(emplan::service::wire::UploadRequest::new(
-            &self.choice(),
-            self.acceptance_radius_m,
-            self.model.profile,
-            &self.solver.options()?,
-        ))
+        Ok(emplan::service::wire::UploadRequest {
+            origin: self.plan_origin(),
+            ..emplan::service::wire::UploadRequest::new(
+                &self.choice(),
+                self.acceptance_radius_m,
+                self.model.profile,
+                &self.solver.options()?,
+            )
+        })
     }
 }
 
@@ -354,10 +426,40 @@ impl LinkArgs {
         self.open_with(None).await
     }
 
+    /// As [`LinkArgs::open`], the built-in mock (when no `--connect` is given) standing at
+    /// `home` (a mission's origin: the mock is where the mission starts).
+    pub async fn open_at(
+        &self,
+        home: emplan::mission::Geodetic,
+    ) -> anyhow::Result<emplan::session::Session> {
+        if self.connect.is_some() {
+            return self.open().await;
+        }
+        let config = emplan::sim::MockConfig {
+            home: emplan::sim::storage::Home {
+                lat_e7: emplan::link::items::deg_e7(home.lat_deg),
+                lon_e7: emplan::link::items::deg_e7(home.lon_deg),
+                alt_m: home.alt_m as f32,
+            },
+            ..Default::default()
+        };
+        self.open_target(Some(config), None).await
+    }
+
     /// As [`LinkArgs::open`], the built-in mock (when no `--connect` is given) started as
     /// `mock` says.
     pub async fn open_with(
         &self,
+        mock: Option<emplan::session::MockFlight>,
+    ) -> anyhow::Result<emplan::session::Session> {
+        self.open_target(None, mock).await
+    }
+
+    /// Opens `--connect`, else the built-in mock: flying as `mock` says, else quiet as
+    /// `quiet` says (default: a quiet mock of the default configuration).
+    async fn open_target(
+        &self,
+        quiet: Option<emplan::sim::MockConfig>,
         mock: Option<emplan::session::MockFlight>,
     ) -> anyhow::Result<emplan::session::Session> {
         use emplan::session::{LinkOptions, Target};
@@ -387,7 +489,7 @@ impl LinkArgs {
             (None, None) => Target::Mock {
                 config: Box::new(emplan::sim::MockConfig {
                     signing_key,
-                    ..Default::default()
+                    ..quiet.unwrap_or_default()
                 }),
                 vehicle: None,
             },

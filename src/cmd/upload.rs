@@ -1,9 +1,10 @@
-//! `emplan upload`: plan a mission, check it against the battery, upload it to the autopilot and
-//! prove it arrived by reading it back. Exit 0 only when the autopilot took the mission and the
-//! read-back matched; otherwise the message names the stage (`mission`, `plan`, `connect`,
-//! `upload`, `read-back`, `verify`), whether the autopilot had accepted the mission and the item,
-//! and with `--json` a failure prints one JSON document too: `{"ok": false, "stage", "accepted",
-//! "error", "item", "result"}`.
+//! `emplan upload`: plan a mission, check it against the battery, check that the vehicle stands
+//! at its origin (or, with `--origin vehicle`, plan it from the vehicle's home), upload it to
+//! the autopilot and prove it arrived by reading it back. Exit 0 only when the autopilot took
+//! the mission and the read-back matched; otherwise the message names the stage (`mission`,
+//! `plan`, `connect`, `preflight`, `upload`, `read-back`, `verify`), whether the autopilot had
+//! accepted the mission and the item, and with `--json` a failure prints one JSON document too:
+//! `{"ok": false, "stage", "accepted", "error", "item", "result"}`.
 
 use anyhow::Context;
 use emplan::link::driver::UploadError;
@@ -53,6 +54,10 @@ fn failure_json(err: &anyhow::Error) -> serde_json::Value {
     let stage = match (upload, err.downcast_ref::<Staged>()) {
         (Some(e), _) => e.stage.to_string(),
         (None, Some(staged)) => staged.stage.to_string(),
+        (None, None) if err.downcast_ref::<FlyError>().is_some() => err
+            .downcast_ref::<FlyError>()
+            .map(FlyError::stage)
+            .unwrap_or_default(),
         (None, None)
             if err
                 .downcast_ref::<emplan::mission::MissionError>()
@@ -82,16 +87,33 @@ fn upload(args: Args) -> anyhow::Result<ExitCode> {
         return upload_through(&args, &client);
     }
     let mission = emplan::mission::load(&args.mission)?;
-    let (model, plan) = args.flight.plan(&mission)?;
-    let flight = args.flight.flight(&plan)?;
-    let planned = upload_document(&plan, &flight);
-    let load = (args.flight).load(&mission, &plan, &flight, &model.vehicle);
+    // From the mission's origin the plan comes first: a refusal needs no vehicle.
+    let (model, planned) = if args.flight.plans_from_vehicle() {
+        (args.flight.model.model()?, None)
+    } else {
+        let (model, plan) = args.flight.plan(&mission)?;
+        args.flight.flight(&plan)?;
+        (model, Some(plan))
+    };
     let runtime = super::runtime()?;
     runtime.block_on(async {
-        let session = args.link.open().await.map_err(|cause| Staged {
+        // The built-in mock stands at the mission's origin.
+        let session = (args.link.open_at(mission.origin.home).await).map_err(|cause| Staged {
             stage: "connect",
             cause,
         })?;
+        let (mission, plan) = match planned {
+            Some(plan) => (mission, plan),
+            None => {
+                let mission = args.flight.rehome(&session, &mission, args.json).await?;
+                let plan = args.flight.plan_with(&mission, &model)?;
+                (mission, plan)
+            }
+        };
+        let flight = args.flight.flight(&plan)?;
+        let planned = upload_document(&plan, &flight);
+        let load = (args.flight).load(&mission, &plan, &flight, &model.vehicle);
+        session.check_home(&load).await?;
         let target = session.target;
         let items = session.items(&load).context("building mission items")?;
         if !args.json {

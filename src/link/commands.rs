@@ -1,6 +1,7 @@
 //! Running the small command machines on a link: starting a mission (`flight::Start`), asking
 //! for telemetry rates (`telemetry::StreamRequests`) and reading parameters by name
-//! (`params::ParamReads`), sending the vehicle home (`home::ReturnHome`). All are sans-IO
+//! (`params::ParamReads`), sending the vehicle home (`home::ReturnHome`), learning where it is
+//! (`locate::Locate`). All are sans-IO
 //! (`start/handle/tick` return the messages to send); this feeds them the target autopilot's
 //! messages and a 50 ms tick. [`heartbeats`] follows the autopilot's heartbeat (who, armed,
 //! when last heard) for a process that holds a link all day.
@@ -14,6 +15,7 @@ use super::connection::{Autopilot, Identity, Link};
 use super::flavour::Flavour;
 use super::flight::Start;
 use super::home::{ReturnConfig, ReturnError, ReturnHome};
+use super::locate::{Locate, LocateConfig, LocateError, Located};
 use super::mav::MavMessage;
 use super::params::{ParamConfig, ParamReads};
 use super::telemetry::{
@@ -53,6 +55,21 @@ impl CommandMachine for ReturnHome {
     }
     fn tick(&mut self, now: Duration) -> Vec<MavMessage> {
         ReturnHome::tick(self, now)
+    }
+    fn done(&self) -> bool {
+        self.finished().is_some()
+    }
+}
+
+impl CommandMachine for Locate {
+    fn start(&mut self, now: Duration) -> Vec<MavMessage> {
+        Locate::start(self, now)
+    }
+    fn handle(&mut self, now: Duration, message: &MavMessage) -> Vec<MavMessage> {
+        Locate::handle(self, now, message)
+    }
+    fn tick(&mut self, now: Duration) -> Vec<MavMessage> {
+        Locate::tick(self, now)
     }
     fn done(&self) -> bool {
         self.finished().is_some()
@@ -139,6 +156,25 @@ pub async fn return_home(
             budget_s: ReturnConfig::default().budget.as_secs_f64(),
             attempts: 0,
             statustext: None,
+        })))
+}
+
+/// Learns where `target` is: its home, else its position (see [`Locate`]); the outer error is
+/// the link's, the inner says that neither came within `cfg`'s budget.
+pub async fn locate(
+    link: &Link,
+    target: &Autopilot,
+    cfg: LocateConfig,
+) -> Result<Result<Located, LocateError>, LinkError> {
+    let mut machine = Locate::new(*target, cfg);
+    drive(link, target, &mut machine).await?;
+    Ok(machine
+        .finished()
+        .cloned()
+        .unwrap_or(Err(LocateError::Timeout {
+            budget_s: cfg.budget.as_secs_f64(),
+            requests: 0,
+            answer: None,
         })))
 }
 

@@ -12,6 +12,7 @@ pub mod flavour;
 pub mod flight;
 pub mod home;
 pub mod items;
+pub mod locate;
 pub mod params;
 pub mod readback;
 pub mod telemetry;

@@ -419,6 +419,8 @@ async fn upload_mission(
             plan: Arc::new(plan),
             choice,
             acceptance_radius_m,
+            origin: request.origin,
+            solver,
             span,
         })
         .await

@@ -46,6 +46,7 @@ use crate::physics::{Vehicle, VehicleModel};
 use crate::planner::json::upload_document;
 use crate::planner::{FlightChoice, Plan};
 use crate::session::upload::UploadJson;
+use crate::session::PlanOrigin;
 use crate::session::{
     self, discard_unflown, plan_from_items, request_streams, spawn_recorder, FlightEvent, FlyError,
     Load, Px4Parameters, RecorderConfig, RecorderHandle,
@@ -77,6 +78,11 @@ pub struct UploadJob {
     pub plan: Arc<Plan>,
     pub choice: FlightChoice,
     pub acceptance_radius_m: f32,
+    /// Where the flight is planned from (None: the mission's origin, the vehicle required
+    /// there).
+    pub origin: Option<PlanOrigin>,
+    /// How `plan` was solved (the same for a re-planning from the vehicle's home).
+    pub solver: crate::tour::solver::Options,
     /// The request's span (`upload`).
     pub span: tracing::Span,
 }
@@ -561,7 +567,7 @@ impl Actor {
         }
     }
 
-    async fn upload(&mut self, job: UploadJob) -> Result<serde_json::Value, Refusal> {
+    async fn upload(&mut self, mut job: UploadJob) -> Result<serde_json::Value, Refusal> {
         let mut target = self.connected()?;
         if self.armed() {
             tracing::warn!("upload refused: the vehicle is armed");
@@ -570,6 +576,11 @@ impl Actor {
                 "vehicle",
                 "the vehicle is armed: missions are not uploaded in flight (land and disarm first)",
             ));
+        }
+        // The built-in mock is moved to each mission's origin below: only a real vehicle is
+        // somewhere else.
+        if job.origin == Some(PlanOrigin::Vehicle) && self.mock.is_none() {
+            self.replan_from_vehicle(&mut job, &target).await?;
         }
         let flight = job
             .choice
@@ -605,6 +616,7 @@ impl Actor {
             acceptance_radius_m: job.acceptance_radius_m,
             vehicle: &self.model.vehicle,
             guard: self.guard,
+            if_home_unknown: session::IfHomeUnknown::asked(job.origin),
         };
         tracing::info!("uploading");
         let loaded = session::load(
@@ -636,7 +648,9 @@ impl Actor {
                 other => (other.stage(), None),
             };
             let status = match e {
-                FlyError::Items | FlyError::Plan(_) => 422,
+                FlyError::Items
+                | FlyError::Plan(_)
+                | FlyError::Preflight(session::PreflightError::FarFromHome { .. }) => 422,
                 _ => 502,
             };
             Refusal {
@@ -675,6 +689,32 @@ impl Actor {
             px4_parameters: loaded.params.as_ref().map(Px4Parameters::from),
         };
         serde_json::to_value(answer).map_err(|e| Refusal::new(500, "service", &e.to_string()))
+    }
+
+    /// `origin: "vehicle"`: `job`'s mission re-planned from `target`'s home, as `job` was
+    /// planned (its choice, its solver).
+    async fn replan_from_vehicle(
+        &self,
+        job: &mut UploadJob,
+        target: &Autopilot,
+    ) -> Result<(), Refusal> {
+        let located = session::vehicle_home(&self.link, target)
+            .await
+            .map_err(|e| Refusal::new(502, e.stage(), &e.to_string()))?;
+        let mission = crate::mission::rehome::rehomed(&job.mission, located.home);
+        tracing::info!(
+            "origin moved to the vehicle's home, {:.0} m from the mission's",
+            HomeOffset::of(&job.mission, located.home).horizontal_m
+        );
+        let (model, choice, solver) = (self.model.clone(), job.choice, job.solver);
+        let planning = mission.clone();
+        let plan = tokio::task::spawn_blocking(move || choice.plan(&planning, &model, solver))
+            .await
+            .map_err(|e| Refusal::new(500, "plan", &format!("planning stopped: {e}")))?
+            .map_err(|e| Refusal::new(422, "plan", &e.to_string()))?;
+        job.mission = Arc::new(mission);
+        job.plan = Arc::new(plan);
+        Ok(())
     }
 
     /// Waits (up to 10 s) for the autopilot's heartbeat after `since`.

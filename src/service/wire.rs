@@ -290,6 +290,9 @@ pub struct UploadRequest {
     pub time_limit_s: Option<f64>,
     pub seed: Option<u64>,
     pub kicks: Option<u64>,
+    /// "mission" (the default: the vehicle must stand at the mission's origin) or "vehicle"
+    /// (the mission re-planned from the vehicle's home).
+    pub origin: Option<crate::session::PlanOrigin>,
 }
 
 impl UploadRequest {
@@ -310,6 +313,7 @@ impl UploadRequest {
             time_limit_s: Some(solver.time_limit.as_secs_f64()),
             seed: Some(solver.seed),
             kicks: solver.kicks,
+            origin: None,
         }
     }
 }

@@ -1,6 +1,8 @@
 //! `fly`: upload the planned flight and prove it arrived, hand the recorder what to measure it
 //! against, start it (arming only when asked: with a real vehicle the pilot may start it), and
 //! wait until the recorder has seen it land and disarm; the recorder's report is the answer.
+//! Before anything is uploaded, the vehicle's home is checked against the mission's origin
+//! ([`super::home`]).
 //! A start the autopilot refuses fails at once (`link::flight::Start` disarms a vehicle it
 //! armed), and the flight folder that arming opened goes with it ([`discard_unflown`]).
 
@@ -9,6 +11,7 @@ use std::time::Duration;
 
 use tokio::sync::broadcast::{self, error::RecvError};
 
+use super::home::{check_home, IfHomeUnknown, PreflightError};
 use super::params::Px4Parameters;
 use super::params::{check_px4_params, ParamCheck};
 use super::predict::{flight_plan, flight_plan_predicted, predicted_by_simulation};
@@ -24,6 +27,7 @@ use crate::link::items::{mission_items, ItemOptions};
 use crate::link::mav::MISSION_ITEM_INT_DATA;
 use crate::link::transfer::TransferConfig;
 use crate::link::{Flavour, LinkError};
+use crate::mission::rehome::HomeOffset;
 use crate::mission::Mission;
 use crate::physics::{Profile, Vehicle};
 use crate::planner::{Flight, Plan};
@@ -61,6 +65,9 @@ pub struct Load<'a> {
     pub vehicle: &'a Vehicle,
     /// What the energy guard may do in flight.
     pub guard: Policy,
+    /// Whether a vehicle that does not say where it is is refused (the default) or flown from
+    /// the mission's origin as planned.
+    pub if_home_unknown: IfHomeUnknown,
 }
 
 /// A flight on the vehicle, verified, and what it will be measured against.
@@ -75,9 +82,13 @@ pub struct Loaded {
     /// for any other autopilot or profile). When they differ, the legs are priced as the
     /// autopilot flies them: simulated with its values.
     pub params: Option<ParamCheck>,
+    /// The vehicle's home against the mission's origin (None: its home is unknown and the
+    /// flight went ahead as [`Load::if_home_unknown`] allowed).
+    pub home: Option<HomeOffset>,
 }
 
-/// Puts a flight onto the vehicle, the one way every command and the service do it: on a PX4
+/// Puts a flight onto the vehicle, the one way every command and the service do it: checks
+/// that the vehicle's home is the mission's origin (within `mission::rehome`'s tolerance), on a PX4
 /// flying the px4 profile, reads its trajectory parameters and prices the legs with them when
 /// they differ from the vehicle file's (`checked` sees the outcome before anything is sent),
 /// builds the items, uploads them and proves they arrived by reading them back, then hands the
@@ -92,6 +103,7 @@ pub async fn load(
     checked: impl FnOnce(Option<&ParamCheck>),
     progress: impl FnMut(usize, usize),
 ) -> Result<Loaded, FlyError> {
+    let home = check_home(link, target, load.mission, load.if_home_unknown).await?;
     let params = if target.flavour == Flavour::Px4 && load.plan.profile == Profile::Px4 {
         Some(check_px4_params(link, target, load.vehicle).await?)
     } else {
@@ -144,6 +156,7 @@ pub async fn load(
         items,
         measured_against,
         params,
+        home,
     })
 }
 
@@ -152,6 +165,10 @@ pub async fn load(
 pub enum FlyError {
     #[error("mission items: the order names a waypoint the mission does not have")]
     Items,
+    /// The vehicle is not where the plan starts, or did not say where it is: found before
+    /// anything was uploaded or armed.
+    #[error(transparent)]
+    Preflight(#[from] PreflightError),
     #[error(transparent)]
     Upload(#[from] UploadError),
     #[error("flight plan: {0}")]
@@ -179,6 +196,7 @@ impl FlyError {
     pub fn stage(&self) -> String {
         match self {
             FlyError::Items | FlyError::Plan(_) => "plan".into(),
+            FlyError::Preflight(e) => e.stage().into(),
             FlyError::Upload(e) => e.stage.to_string(),
             FlyError::Start(_) => "start".into(),
             FlyError::Link(_) => "connect".into(),
@@ -196,7 +214,11 @@ impl FlyError {
             | FlyError::Timeout { .. }
             | FlyError::Recorder(_)
             | FlyError::NotFlown { .. } => true,
-            FlyError::Items | FlyError::Plan(_) | FlyError::Link(_) | FlyError::LogDir(_) => false,
+            FlyError::Items
+            | FlyError::Plan(_)
+            | FlyError::Link(_)
+            | FlyError::LogDir(_)
+            | FlyError::Preflight(_) => false,
         }
     }
 }

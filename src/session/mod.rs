@@ -4,7 +4,8 @@
 //! workflow: `open` (the built-in mock or a connection, the autopilot waited for), `fly`'s
 //! `load` (PX4 parameter check and re-pricing, verified upload, the recorder's plan) and `fly`
 //! (start, record, report, which failures count as accepted), used by `emplan upload`, `emplan
-//! fly` and the service's vehicle actor alike.
+//! fly` and the service's vehicle actor alike; `home`, the check before any upload that the
+//! vehicle stands at the mission's origin.
 //!
 //! This is the async glue above `link` (MAVLink, sans-IO machines), `flightlog` (files,
 //! segmentation, energy; no tokio) and `planner`: what is decided lives in those layers, so a
@@ -13,6 +14,7 @@
 
 pub mod fly;
 pub mod guard;
+pub mod home;
 pub mod open;
 pub mod params;
 pub mod predict;
@@ -24,6 +26,7 @@ pub use crate::link::commands::{keep_streams, request_streams};
 pub use fly::{
     discard_unflown, fly, load, Flown, FlyError, FlyFailure, FlyJson, FlyOptions, Load, Loaded,
 };
+pub use home::{check_home, vehicle_home, IfHomeUnknown, PlanOrigin, PreflightError};
 pub use open::{open, LinkOptions, MockFlight, OpenError, Session, Target, Uploaded};
 pub use params::{check_px4_params, parse_param, ParamCheck, Px4Parameters};
 pub use predict::{

@@ -148,6 +148,18 @@ impl Session {
         mission_items(load.mission, &load.flight.waypoints(), &options).ok_or(FlyError::Items)
     }
 
+    /// Checks that the vehicle stands at `load`'s mission origin (see [`super::home`]), before
+    /// [`Session::upload`].
+    pub async fn check_home(
+        &self,
+        load: &Load<'_>,
+    ) -> Result<Option<crate::mission::rehome::HomeOffset>, FlyError> {
+        Ok(
+            super::home::check_home(&self.link, &self.target, load.mission, load.if_home_unknown)
+                .await?,
+        )
+    }
+
     /// Uploads `items` and proves they arrived by reading them back; `progress` sees the items
     /// sent (done, total).
     pub async fn upload(

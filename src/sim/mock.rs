@@ -4,13 +4,14 @@
 //! direction (`up` is ground to vehicle), duplication, reordering and delay. With a
 //! [`FlightConfig`] it also flies: a [`SimVehicle`] beside the server answers commands, flies the
 //! stored mission in simulated time (`speedup` x wall time) and streams its telemetry (and its
-//! heartbeat) through the same faulty outbox.
+//! heartbeat) through the same faulty outbox. Without one it still answers a request for its
+//! home (MAV_CMD_REQUEST_MESSAGE of HOME_POSITION), as every autopilot with a position does.
 
 use std::net::SocketAddr;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use mavlink::{MavHeader, MavlinkReader, SigningConfig, SigningData};
+use mavlink::{MavHeader, MavlinkReader, MessageData, SigningConfig, SigningData};
 use tokio::net::UdpSocket;
 use tokio::sync::watch;
 use tokio::time::Instant;
@@ -19,8 +20,8 @@ use super::server::{MissionServer, ProtocolFaults, ServerConfig, ServerStats};
 use super::storage::Home;
 use super::vehicle::{FlightConfig, SimVehicle, Snapshot};
 use crate::link::mav::{
-    MavMessage, MavMissionResult, MavModeFlag, MavState, MavType, HEARTBEAT_DATA,
-    MISSION_ITEM_INT_DATA,
+    MavCmd, MavMessage, MavMissionResult, MavModeFlag, MavResult, MavState, MavType,
+    COMMAND_ACK_DATA, HEARTBEAT_DATA, HOME_POSITION_DATA, MISSION_ITEM_INT_DATA,
 };
 use crate::link::Flavour;
 use crate::physics::Vehicle;
@@ -266,6 +267,37 @@ impl Outbox {
     }
 }
 
+/// A mock without a flight answers a request for its home: the ack, then HOME_POSITION at
+/// `config.home` (a flying mock answers it from its flight's home).
+fn home_answer(config: &MockConfig, from: (u8, u8), message: &MavMessage) -> Vec<MavMessage> {
+    let MavMessage::COMMAND_LONG(c) = message else {
+        return Vec::new();
+    };
+    if c.command != MavCmd::MAV_CMD_REQUEST_MESSAGE
+        || c.target_system != config.system_id
+        || c.param1 != HOME_POSITION_DATA::ID as f32
+    {
+        return Vec::new();
+    }
+    let home = config.home;
+    vec![
+        MavMessage::COMMAND_ACK(COMMAND_ACK_DATA {
+            command: c.command,
+            result: MavResult::MAV_RESULT_ACCEPTED,
+            target_system: from.0,
+            target_component: from.1,
+            ..Default::default()
+        }),
+        MavMessage::HOME_POSITION(HOME_POSITION_DATA {
+            latitude: home.lat_e7,
+            longitude: home.lon_e7,
+            altitude: (f64::from(home.alt_m) * 1000.0).round() as i32,
+            q: [1.0, 0.0, 0.0, 0.0],
+            ..Default::default()
+        }),
+    ]
+}
+
 async fn run(
     socket: Arc<UdpSocket>,
     config: MockConfig,
@@ -356,6 +388,9 @@ async fn run(
                 while let Ok((header, message)) = reader.read_any_message_signed::<MavMessage>(signing.as_deref()) {
                     let from = (u8::try_from(header.system_id).unwrap_or(u8::MAX), header.component_id);
                     replies.extend(server.handle(now, from, &message));
+                    if flight.is_none() {
+                        replies.extend(home_answer(&config, from, &message));
+                    }
                     if let Some(vehicle) = flight.as_mut() {
                         // Up to date with the clock and the stored mission before it answers.
                         replies.extend(vehicle.step(now.as_secs_f64() * config.speedup));

@@ -14,6 +14,7 @@ mod install;
 mod mission;
 mod outputs;
 mod physics;
+mod preflight;
 mod service;
 mod snapshots;
 mod solvers;
