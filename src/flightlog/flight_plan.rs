@@ -72,7 +72,7 @@ pub struct FlightPlan {
     pub predicted: Option<Predicted>,
     /// The energy guard's setup (policy, pack, return prices), when the flight is guarded.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub guard: Option<crate::flightlog::watch::GuardSetup>,
+    pub guard: Option<crate::flightlog::guard::GuardSetup>,
 }
 
 /// What a mission sequence number means for the flight.

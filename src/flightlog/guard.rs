@@ -13,7 +13,64 @@
 //! - [`state_of_charge_from_rest`] reads a resting pack voltage through the pack's OCV curve, so
 //!   a pack that was not full at take-off is known.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
+
+/// What the guard may do (`--guard`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Policy {
+    /// No guard.
+    Off,
+    /// Tell the user (terminal, service events, dashboard); never act.
+    #[default]
+    Warn,
+    /// Tell the user, and send the vehicle home when continuing would land below the reserve.
+    Rtl,
+}
+
+impl std::fmt::Display for Policy {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Policy::Off => "off",
+            Policy::Warn => "warn",
+            Policy::Rtl => "rtl",
+        })
+    }
+}
+
+impl std::str::FromStr for Policy {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.to_ascii_lowercase().as_str() {
+            "off" => Ok(Policy::Off),
+            "warn" => Ok(Policy::Warn),
+            "rtl" => Ok(Policy::Rtl),
+            _ => Err(format!(
+                "unknown guard policy {s:?} (allowed: warn, rtl, off)"
+            )),
+        }
+    }
+}
+
+/// What the guard is given with the plan: the policy, the pack as the vehicle file has it, and
+/// the price of the autopilot's return from every point.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GuardSetup {
+    pub policy: Policy,
+    /// The pack's usable energy when full (J).
+    pub usable_j: f64,
+    /// The reserve to land with (% of the usable energy).
+    pub reserve_pct: f64,
+    pub cells: u32,
+    pub capacity_ah: f64,
+    pub internal_resistance_ohm: f64,
+    /// The cell's open-circuit voltage curve: state of charge ascending, volts per cell.
+    pub ocv_soc: Vec<f64>,
+    pub ocv_cell_v: Vec<f64>,
+    /// Per point of the plan (its `points`, in order): the autopilot's return from it, home and
+    /// landed (J).
+    pub home_j: Vec<f64>,
+}
 
 /// The prior's standard deviation of `ln(measured / predicted)`: wide enough that an airframe
 /// costing twice the model (ArduCopter SITL's S1000-like frame against ours) is learned within a

@@ -26,68 +26,12 @@ use serde::{Deserialize, Serialize};
 
 use super::energy::PowerSeries;
 use super::flight_plan::FlightPlan;
+pub use super::guard::{GuardSetup, Policy};
 use super::guard::{
     judge, project, state_of_charge_from_rest, Correction, Observed, Pack, PointAhead, Projection,
     Remaining, Verdict, BAND_SD,
 };
-use super::segment::{Segment, SegmentKind};
-
-/// What the guard may do (`--guard`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Policy {
-    /// No guard.
-    Off,
-    /// Tell the user (terminal, service events, dashboard); never act.
-    #[default]
-    Warn,
-    /// Tell the user, and send the vehicle home when continuing would land below the reserve.
-    Rtl,
-}
-
-impl std::fmt::Display for Policy {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            Policy::Off => "off",
-            Policy::Warn => "warn",
-            Policy::Rtl => "rtl",
-        })
-    }
-}
-
-impl std::str::FromStr for Policy {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s.to_ascii_lowercase().as_str() {
-            "off" => Ok(Policy::Off),
-            "warn" => Ok(Policy::Warn),
-            "rtl" => Ok(Policy::Rtl),
-            _ => Err(format!(
-                "unknown guard policy {s:?} (allowed: warn, rtl, off)"
-            )),
-        }
-    }
-}
-
-/// What the guard is given with the plan: the policy, the pack as the vehicle file has it, and
-/// the price of the autopilot's return from every point.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct GuardSetup {
-    pub policy: Policy,
-    /// The pack's usable energy when full (J).
-    pub usable_j: f64,
-    /// The reserve to land with (% of the usable energy).
-    pub reserve_pct: f64,
-    pub cells: u32,
-    pub capacity_ah: f64,
-    pub internal_resistance_ohm: f64,
-    /// The cell's open-circuit voltage curve: state of charge ascending, volts per cell.
-    pub ocv_soc: Vec<f64>,
-    pub ocv_cell_v: Vec<f64>,
-    /// Per point of the plan (its `points`, in order): the autopilot's return from it, home and
-    /// landed (J).
-    pub home_j: Vec<f64>,
-}
+use super::part::{Segment, SegmentKind};
 
 /// What a note is about.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
