@@ -302,6 +302,7 @@ impl FlightArgs {
             flight,
             acceptance_radius_m: self.acceptance_radius_m,
             vehicle,
+            resumes: None,
         }
     }
 

@@ -15,6 +15,7 @@ pub mod guard;
 pub mod recorder;
 pub mod replay;
 pub mod report;
+pub mod resume;
 pub mod samples;
 pub mod segment;
 pub mod synthetic;

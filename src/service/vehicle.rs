@@ -581,6 +581,7 @@ impl Actor {
             flight: &flight,
             acceptance_radius_m: job.acceptance_radius_m,
             vehicle: &self.model.vehicle,
+            resumes: None,
         };
         tracing::info!("uploading");
         let loaded = session::load(

@@ -58,6 +58,8 @@ pub struct Load<'a> {
     /// Acceptance radius sent with each waypoint (m).
     pub acceptance_radius_m: f32,
     pub vehicle: &'a Vehicle,
+    /// The flight this one resumes (`fly --resume`), recorded in its plan.json.
+    pub resumes: Option<&'a str>,
 }
 
 /// A flight on the vehicle, verified, and what it will be measured against.
@@ -120,6 +122,10 @@ pub async fn load(
         }
     }
     .map_err(|e| FlyError::Plan(e.to_string()))?;
+    let measured_against = FlightPlan {
+        resumes: load.resumes.map(str::to_string),
+        ..measured_against
+    };
     let upload = upload_verified(link, target, &items, transfer, progress).await?;
     recorder.set_plan(measured_against.clone());
     Ok(Loaded {
