@@ -3,6 +3,8 @@
 //! and print the per-leg energy report. Without `--connect` the built-in mock autopilot flies
 //! the mission in simulated time with the vehicle's physics. The flight is the library
 //! session's (`emplan::session`); with `--service` the service's (`emplan::service::remote`).
+//! `--resume FLIGHT_DIR` flies only what an earlier flight of the mission left
+//! (`emplan::flightlog::resume`).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -33,6 +35,11 @@ pub struct Args {
     /// Give up when the flight has not landed this long after the upload (s)
     #[arg(long, default_value_t = 3600.0)]
     timeout_s: f64,
+    /// Resume an earlier flight of this mission cut short (sent home, a battery swap): fly only
+    /// the waypoints it did not visit (a hover cut short is not a visit), planned again from
+    /// the origin; the new flight's plan.json names it (`resumes`)
+    #[arg(long, value_name = "FLIGHT_DIR", conflicts_with = "service")]
+    resume: Option<PathBuf>,
     #[command(flatten)]
     mock: flying::MockArgs,
     /// Print one JSON document (the report) instead of text
@@ -60,11 +67,20 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
     // A flight log that cannot be written ends the command before anything is uploaded.
     emplan::flightlog::recorder::check_log_dir(&args.log_dir).map_err(FlyError::LogDir)?;
     let mission = emplan::mission::load(&args.mission)?;
+    let resumed = args
+        .resume
+        .as_deref()
+        .map(|d| resuming(&mission, d))
+        .transpose()?;
+    let mission = resumed.as_ref().map_or(mission, |(_, left)| left.clone());
     let (model, plan) = args.flight.plan(&mission)?;
     let flight = args.flight.flight(&plan)?;
     let builtin = args.link.connect.is_none();
     let mock = args.mock.mock(&mission, &plan, &model.vehicle, builtin)?;
-    let load = (args.flight).load(&mission, &plan, &flight, &model.vehicle);
+    let load = emplan::session::Load {
+        resumes: resumed.as_ref().map(|(name, _)| name.as_str()),
+        ..(args.flight).load(&mission, &plan, &flight, &model.vehicle)
+    };
     let lines = Lines::new(args.json);
     super::runtime()?.block_on(async {
         let session = args.link.open_with(Some(mock)).await?;
@@ -95,6 +111,34 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
         let doc = FlyJson::new(report.json(), &flown.dir.display().to_string(), params);
         flying::print(&report, &doc, args.json)
     })
+}
+
+/// `fly --resume DIR`: the name of the flight in `dir` and the mission of the waypoints it left
+/// (said on stderr).
+fn resuming(
+    mission: &emplan::mission::Mission,
+    dir: &std::path::Path,
+) -> anyhow::Result<(String, emplan::mission::Mission)> {
+    use emplan::flightlog::resume::Visit;
+    let resumption = emplan::session::resume_flight(dir, mission)
+        .map_err(|e| anyhow::Error::new(e).context(format!("--resume {}", dir.display())))?;
+    let name = emplan::flightlog::recorder::flight_name(&dir.canonicalize()?);
+    let list = |visit| resumption.named(visit).join(", ");
+    let left = resumption.mission.waypoints.iter().map(|w| w.name.as_str());
+    let cut_short = match list(Visit::CutShort) {
+        none if none.is_empty() => String::new(),
+        some => format!("; hover cut short at {some}"),
+    };
+    eprintln!(
+        "resuming {name}: visited {}{cut_short}; flying the {} left: {}",
+        match list(Visit::Visited) {
+            none if none.is_empty() => "none".to_string(),
+            some => some,
+        },
+        resumption.mission.waypoints.len(),
+        left.collect::<Vec<_>>().join(", ")
+    );
+    Ok((name, resumption.mission))
 }
 
 /// `fly --service URL`: upload, start and follow the flight through a running service, once

@@ -21,7 +21,7 @@ use serde::{Deserialize, Serialize};
 
 use super::energy::Flag;
 use super::flight_plan::{FlightPlan, PlannedPoint, ORIGIN_NAME};
-use super::report::{FlightReport, PartReport};
+use super::report::{CombinedJson, FlightReport, PartReport};
 use crate::mission::rehome::{HomeOffset, ORIGIN_TOLERANCE_M};
 use crate::mission::{Enu, Geodetic, Mission};
 
@@ -172,7 +172,10 @@ pub fn check_same_mission(
                 mission: mission.name.clone(),
             });
         };
-        let distance_m = distance(in_mission_frame(mission, plan, point.enu), waypoint.position);
+        let distance_m = distance(
+            in_mission_frame(mission, plan, point.enu),
+            waypoint.position,
+        );
         if distance_m.is_nan() || distance_m > WAYPOINT_TOLERANCE_M {
             return Err(ResumeError::MovedWaypoint {
                 flight: flight.to_string(),
@@ -335,8 +338,8 @@ impl FlownMission {
                     at_point_kj: kj(w.at_point_j),
                 })
                 .collect(),
+            planned_kj: kj(self.flights.first().and_then(|f| f.predicted_j)),
             total: MissionTotalJson {
-                predicted_kj: kj(self.total(|f| f.predicted_j)),
                 measured_kj: kj(self.total(|f| f.measured_j)),
                 duration_s: self.flights.iter().map(|f| f.duration_s).sum(),
             },
@@ -477,6 +480,16 @@ fn flown_mission(chain: &[(&FlightPlan, &FlightReport)]) -> FlownMission {
     }
 }
 
+/// `emplan report --json` of several flights: the combined report and, when some of the
+/// flights resume others, each flight and its resumptions as one mission (absent otherwise).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CombinedMissionsJson {
+    #[serde(flatten)]
+    pub combined: CombinedJson,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub missions: Vec<FlownMissionJson>,
+}
+
 /// A flight of a mission flown over several, in JSON.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MissionFlightJson {
@@ -503,7 +516,6 @@ pub struct MissionWaypointJson {
 /// The flights' sums (a sum only when every flight has the number).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MissionTotalJson {
-    pub predicted_kj: Option<f64>,
     pub measured_kj: Option<f64>,
     pub duration_s: f64,
 }
@@ -514,6 +526,9 @@ pub struct FlownMissionJson {
     pub mission: String,
     pub flights: Vec<MissionFlightJson>,
     pub waypoints: Vec<MissionWaypointJson>,
+    /// The first flight's prediction: the mission as planned in one flight (the flights'
+    /// predictions do not add up: each predicts a whole flight, the first one cut short).
+    pub planned_kj: Option<f64>,
     pub total: MissionTotalJson,
     pub every_waypoint_once: bool,
     pub problems: Vec<String>,
@@ -596,7 +611,10 @@ mod tests {
                 ("C", Visit::NotReached)
             ]
         );
-        assert!(visits[0].leg.as_ref().is_some_and(|l| l.measured_j.is_some()));
+        assert!(visits[0]
+            .leg
+            .as_ref()
+            .is_some_and(|l| l.measured_j.is_some()));
         // The leg to B was begun, not finished.
         assert!(visits[1].leg.is_some() && visits[1].at_point.is_none());
         let resumed = resume(&square(), &plan, &report, "f1").expect("resumable");
@@ -732,11 +750,18 @@ mod tests {
             [("A", vec!["f1"]), ("C", vec!["f2"]), ("B", vec!["f2"])]
         );
         assert_eq!(view.waypoints[2].cut_short_in, ["f1"]);
-        assert!(view.every_waypoint_once() && view.problems.is_empty(), "{view:?}");
-        let (m1, m2) = (f1.measured_j.expect("measured"), f2.measured_j.expect("measured"));
+        assert!(
+            view.every_waypoint_once() && view.problems.is_empty(),
+            "{view:?}"
+        );
+        let (m1, m2) = (
+            f1.measured_j.expect("measured"),
+            f2.measured_j.expect("measured"),
+        );
         let json = view.json();
         assert!((json.total.measured_kj.expect("both measured") - (m1 + m2) / 1000.0).abs() < 1e-9);
         assert_eq!(json.flights[1].resumes.as_deref(), Some("f1"));
+        assert_eq!(json.planned_kj, f1.predicted_j.map(|j| j / 1000.0));
         assert_eq!(json.flights[1].visited, ["C", "B"]);
         assert_eq!(json.flights[0].cut_short, ["B"]);
         // Given in any order, the same mission.

@@ -13,6 +13,7 @@ mod install;
 mod mission;
 mod outputs;
 mod physics;
+mod resume;
 mod service;
 mod snapshots;
 mod solvers;
