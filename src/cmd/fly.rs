@@ -11,8 +11,9 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use super::flying::{self, Flying, Lines};
+use emplan::flightlog::watch::Policy;
 use emplan::service::remote::{self, Starting};
-use emplan::session::{FlyError, FlyJson, FlyOptions, Px4Parameters, RecorderConfig};
+use emplan::session::{FlyError, FlyJson, FlyOptions, Load, Px4Parameters, RecorderConfig};
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -40,6 +41,11 @@ pub struct Args {
     /// the origin; the new flight's plan.json names it (`resumes`)
     #[arg(long, value_name = "FLIGHT_DIR", conflicts_with = "service")]
     resume: Option<PathBuf>,
+    /// The energy guard in flight: warn when the battery is projected to land below its
+    /// reserve and at the point of no return (warn), and also send the vehicle home in time
+    /// to keep the reserve (rtl), or nothing (off)
+    #[arg(long, value_name = "POLICY")]
+    guard: Option<Policy>,
     #[command(flatten)]
     mock: flying::MockArgs,
     /// Print one JSON document (the report) instead of text
@@ -62,6 +68,11 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
         );
     }
     if let Some(client) = service {
+        if args.guard.is_some() {
+            anyhow::bail!(
+                "--guard: a service's flights are guarded as `emplan serve --guard` says"
+            );
+        }
         return fly_through(&args, &client);
     }
     // A flight log that cannot be written ends the command before anything is uploaded.
@@ -77,7 +88,8 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
     let flight = args.flight.flight(&plan)?;
     let builtin = args.link.connect.is_none();
     let mock = args.mock.mock(&mission, &plan, &model.vehicle, builtin)?;
-    let load = emplan::session::Load {
+    let load = Load {
+        guard: args.guard.unwrap_or_default(),
         resumes: resumed.as_ref().map(|(name, _)| name.as_str()),
         ..(args.flight).load(&mission, &plan, &flight, &model.vehicle)
     };

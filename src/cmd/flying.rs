@@ -258,6 +258,7 @@ impl Lines {
             }
             FlightEvent::Part { part, kind, .. } => part_line(clear, *kind, part),
             FlightEvent::Failed { error, .. } => eprintln!("{clear}recording failed: {error}"),
+            FlightEvent::Guard { note, .. } => guard_line(clear, note),
             FlightEvent::Ended { .. } => {}
         }
     }
@@ -277,9 +278,18 @@ impl Lines {
                 }
             }
             Event::RecordingFailed { error, .. } => eprintln!("recording failed: {error}"),
+            Event::Guard { note, .. } => guard_line("", note),
             _ => {}
         }
     }
+}
+
+/// A line for each of the energy guard's notes: what it saw, what it did.
+fn guard_line(clear: &str, note: &emplan::flightlog::watch::GuardNote) {
+    eprintln!(
+        "{clear}  energy guard at {:.0} s: {}",
+        note.t_s, note.message
+    );
 }
 
 /// A live line for the parts `fly` shows as they complete (take-off, legs, landing).
@@ -328,6 +338,26 @@ fn warn_params(params: &Px4Parameters) {
 
 /// Rewrites one terminal line with the part in progress: `leg C -> D: 4.1 s, 2.31 kJ so far of
 /// 3.66 kJ predicted`.
+/// The guard's view on the live line: energy left at landing against the reserve, the
+/// correction learned, the point of no return.
+fn guard_summary(g: &emplan::flightlog::watch::GuardView) -> String {
+    if let Some(reason) = &g.reason {
+        return format!("; guard: cannot judge ({reason})");
+    }
+    format!(
+        "; at landing {:.0} kJ ({:.0}..{:.0}) vs {:.0} kJ reserve, x{:.2}{}{}",
+        g.left_at_landing_kj,
+        g.left_at_landing_band_kj[0],
+        g.left_at_landing_band_kj[1],
+        g.reserve_kj,
+        g.correction,
+        g.point_of_no_return
+            .as_ref()
+            .map_or(String::new(), |p| format!(", no return after {p}")),
+        if g.returning { ", RETURNING" } else { "" }
+    )
+}
+
 async fn progress_line(mut live: tokio::sync::watch::Receiver<Live>) {
     let mut every = tokio::time::interval(std::time::Duration::from_millis(500));
     loop {
@@ -337,8 +367,8 @@ async fn progress_line(mut live: tokio::sync::watch::Receiver<Live>) {
             state
                 .flight
                 .as_ref()
-                .and_then(|f| f.in_progress.as_ref())
-                .map(|(kind, part)| {
+                .and_then(|f| f.in_progress.as_ref().map(|p| (f, p)))
+                .map(|(f, (kind, part))| {
                     let what = match kind {
                         SegmentKind::Takeoff => "take-off".to_string(),
                         SegmentKind::Leg(_) => format!("leg {} -> {}", part.from, part.to),
@@ -352,8 +382,9 @@ async fn progress_line(mut live: tokio::sync::watch::Receiver<Live>) {
                     let predicted = part.predicted_j.map_or(String::new(), |j| {
                         format!(" of {:.2} kJ predicted", j / 1000.0)
                     });
+                    let guard = f.guard.as_ref().map_or(String::new(), guard_summary);
                     format!(
-                        "{what}: {:.1} s, {so_far} kJ so far{predicted}",
+                        "{what}: {:.1} s, {so_far} kJ so far{predicted}{guard}",
                         part.duration_s
                     )
                 })

@@ -303,6 +303,7 @@ impl FlightArgs {
             acceptance_radius_m: self.acceptance_radius_m,
             vehicle,
             resumes: None,
+            guard: emplan::flightlog::watch::Policy::Off,
         }
     }
 

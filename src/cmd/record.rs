@@ -7,6 +7,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use emplan::flightlog::watch::Policy;
 use emplan::session::{
     keep_streams, plan_from_items, request_streams, spawn_recorder, FlightEvent, RecorderConfig,
 };
@@ -23,6 +24,11 @@ pub struct Args {
     mission: Option<PathBuf>,
     #[command(flatten)]
     model: super::VehicleArgs,
+    /// The energy guard: warn when the battery is projected to land below its reserve and at
+    /// the point of no return (warn), or nothing (off); a flight another ground station flies
+    /// is only warned about (no rtl)
+    #[arg(long, value_name = "POLICY", default_value = "warn")]
+    guard: Policy,
     /// Print one JSON document (the report) instead of text
     #[arg(long)]
     json: bool,
@@ -31,6 +37,9 @@ pub struct Args {
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     if args.link.connect.is_none() {
         anyhow::bail!("record needs --connect URL: the vehicle whose flight to record (the built-in mock flies only for `emplan fly`)");
+    }
+    if args.guard == Policy::Rtl {
+        anyhow::bail!("--guard rtl: record watches a flight another ground station flies and only warns (warn or off)");
     }
     let mission = args
         .mission
@@ -47,6 +56,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         // ArduCopter SITL, and a vehicle armed meanwhile must not be missed.
         let mut events = recorder.subscribe();
         request_streams(link, &target).await?;
+        let return_alt_m = match args.guard {
+            Policy::Off => 0.0,
+            _ => emplan::session::guard::return_altitude_m(link, &target).await?,
+        };
         eprintln!(
             "recording flights of {:?} autopilot {} on {} into {}; Ctrl-C stops",
             target.flavour,
@@ -75,7 +88,15 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                                     Some(&model),
                                 )
                             }) {
-                                Ok(plan) => recorder.set_plan(plan),
+                                Ok(mut plan) => {
+                                    if args.guard != Policy::Off {
+                                        match emplan::session::guard::setup(&model.vehicle, model.profile, target.flavour, &plan, args.guard, return_alt_m) {
+                                            Ok(setup) => plan.guard = Some(setup),
+                                            Err(e) => eprintln!("the energy guard cannot price the way home: {e}; not guarding this flight"),
+                                        }
+                                    }
+                                    recorder.set_plan(plan)
+                                }
                                 Err(e) => eprintln!("the vehicle's mission cannot be measured: {e}; recording the telemetry only"),
                             },
                             Err(e) => eprintln!("reading the vehicle's mission failed: {e}; recording the telemetry only"),
@@ -85,6 +106,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                         eprintln!("  {}", super::report::part_line(kind, &part))
                     }
                     Ok(FlightEvent::Failed { error, .. }) => eprintln!("recording failed: {error}"),
+                    Ok(FlightEvent::Guard { note, .. }) => eprintln!("  energy guard at {:.0} s: {}", note.t_s, note.message),
                     Ok(FlightEvent::Ended { dir, report, .. }) => return Some((dir, report.map(|r| *r))),
                     Err(tokio::sync::broadcast::error::RecvError::Lagged(_)) => {}
                     Err(tokio::sync::broadcast::error::RecvError::Closed) => return None,

@@ -51,6 +51,11 @@ pub struct Args {
     /// most this long ago (s)
     #[arg(long, default_value_t = DEFAULT_RESUME_WITHIN.as_secs_f64())]
     resume_within_s: f64,
+    /// The energy guard in the service's flights: warn when the battery is projected to land
+    /// below its reserve and at the point of no return (warn), and also send the vehicle home
+    /// in time to keep the reserve (rtl), or nothing (off)
+    #[arg(long, value_name = "POLICY", default_value = "warn")]
+    guard: emplan::flightlog::watch::Policy,
     /// A mission file is planned once its size and modification time have stayed the same
     /// this long (ms); until then it is listed as changing
     #[arg(long, default_value_t = emplan::service::missions::DEFAULT_SETTLE.as_millis() as u64)]
@@ -168,6 +173,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         solver: args.solver.options()?,
         transfer_budget,
         resume_within,
+        guard: args.guard,
         watch: emplan::service::missions::WatchSettings {
             settle: std::time::Duration::from_millis(args.settle_ms),
             ..Default::default()

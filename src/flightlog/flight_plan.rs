@@ -75,6 +75,9 @@ pub struct FlightPlan {
     /// and from plan.json files written before it was kept.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub resumes: Option<String>,
+    /// The energy guard's setup (policy, pack, return prices), when the flight is guarded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub guard: Option<crate::flightlog::watch::GuardSetup>,
 }
 
 /// What a mission sequence number means for the flight.
@@ -134,6 +137,7 @@ impl FlightPlan {
             land_seq: Some(seq_at(first_seq, order.len() + 2)?),
             predicted,
             resumes: None,
+            guard: None,
         };
         plan.validate()?;
         Ok(plan)

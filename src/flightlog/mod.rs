@@ -21,6 +21,7 @@ pub mod segment;
 pub mod synthetic;
 pub mod telemetry;
 pub mod tlog;
+pub mod watch;
 
 /// Everything that can go wrong reading or writing a flight log; each names its file.
 #[derive(Debug, thiserror::Error)]

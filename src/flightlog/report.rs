@@ -15,6 +15,7 @@ use super::energy::{Flag, Measurement};
 use super::flight_plan::ORIGIN_NAME;
 use super::segment::{Segment, SegmentKind, Segmenter};
 use super::tlog::TlogGap;
+use super::watch::GuardReport;
 
 /// A leg that begins further than this from the point it was planned to leave is flagged
 /// `far_start` (m): five times the acceptance radius PX4 and ArduPilot default to (2 m). PX4 SITL's
@@ -76,6 +77,8 @@ pub struct FlightReport {
     pub flags: Vec<Flag>,
     /// Spans of the replayed .tlog that were not records, skipped (none live).
     pub log_gaps: Vec<TlogGap>,
+    /// What the energy guard saw and decided, when the flight was guarded.
+    pub guard: Option<GuardReport>,
 }
 
 fn part(
@@ -141,6 +144,7 @@ impl FlightReport {
             complete: false,
             flags: Vec::new(),
             log_gaps: Vec::new(),
+            guard: segmenter.watch().map(|w| w.report()),
         };
         for segment in segmenter.segments() {
             match segment.kind {
@@ -276,6 +280,7 @@ impl FlightReport {
             complete: self.complete,
             flags: self.flags.clone(),
             log_gaps: self.log_gaps.clone(),
+            guard: self.guard.clone(),
         }
     }
 
@@ -295,6 +300,7 @@ impl FlightReport {
             complete: json.complete,
             flags: json.flags.clone(),
             log_gaps: json.log_gaps.clone(),
+            guard: json.guard.clone(),
         }
     }
 }
@@ -431,6 +437,9 @@ pub struct ReportJson {
     /// "from_wall_us", "to_wall_us"}` (absent from reports written before they were kept).
     #[serde(default)]
     pub log_gaps: Vec<TlogGap>,
+    /// What the energy guard saw and decided (absent when the flight was not guarded).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub guard: Option<GuardReport>,
 }
 
 /// Statistics of one quantity over repeated flights.
@@ -671,6 +680,7 @@ mod tests {
             complete: true,
             flags: vec![],
             log_gaps: vec![],
+            guard: None,
         }
     }
 

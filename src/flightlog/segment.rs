@@ -35,6 +35,7 @@ use super::energy::{EnergyConfig, Measurement, PowerSeries};
 use super::flight_plan::{FlightPlan, Target};
 use super::samples::{BatteryFeed, FeedConfig};
 use super::telemetry::{FlightMode, LandedState, Reading, Stamped, VehicleState};
+use super::watch::{GuardNote, Watch};
 use super::FlightLogError;
 use crate::mission::Enu;
 
@@ -159,6 +160,12 @@ pub struct Segmenter {
     /// Per hover point (the take-off's origin first, then the plan's points): when the
     /// autopilot made it its target (boot s, if known) and the home it was set from.
     point_homes: Vec<Option<(Option<f64>, f64)>>,
+    /// The energy guard, when the plan carries its setup.
+    watch: Option<Watch>,
+    /// The completed parts with their energy as measured when they completed (the guard's).
+    measured: Vec<(Segment, Option<f64>)>,
+    /// Notes the guard made that the caller has not taken yet.
+    fresh_notes: Vec<GuardNote>,
 }
 
 /// One position of the vehicle in the mission frame.
@@ -242,7 +249,11 @@ impl Segmenter {
     pub fn new(plan: FlightPlan, cfg: SegmentConfig) -> Result<Segmenter, FlightLogError> {
         plan.validate()?;
         let plan_points = plan.points.len();
+        let watch = Watch::new(&plan);
         Ok(Segmenter {
+            watch,
+            measured: Vec::new(),
+            fresh_notes: Vec::new(),
             plan,
             feed: BatteryFeed::new(cfg.feed),
             series: PowerSeries::new(cfg.energy),
@@ -811,8 +822,50 @@ impl Segmenter {
         }
     }
 
+    /// The energy guard, when the plan is guarded.
+    pub fn watch(&self) -> Option<&Watch> {
+        self.watch.as_ref()
+    }
+
+    /// The guard's notes made since the last call.
+    pub fn take_guard_notes(&mut self) -> Vec<GuardNote> {
+        std::mem::take(&mut self.fresh_notes)
+    }
+
+    /// Lets the guard look again at the flight so far.
+    fn guard(&mut self) {
+        let (Some(watch), Some(start_s)) = (self.watch.as_mut(), self.flight_start_s) else {
+            return;
+        };
+        if self.flight_end_s.is_some() {
+            return;
+        }
+        while self.measured.len() < self.segments.len() {
+            let segment = self.segments[self.measured.len()];
+            let energy = self.series.measure(segment.start_s, segment.end_s).energy_j;
+            self.measured.push((segment, energy));
+        }
+        let in_progress = match self.phase {
+            Phase::Active(kind) => Some((kind, self.open_start_s)),
+            _ => None,
+        };
+        let notes = watch.update(
+            self.now_s,
+            start_s,
+            &self.series,
+            &self.measured,
+            in_progress,
+        );
+        self.fresh_notes.extend(notes);
+    }
+
     /// Takes in one stamped reading (in time order).
     pub fn push(&mut self, stamped: &Stamped) {
+        self.push_reading(stamped);
+        self.guard();
+    }
+
+    fn push_reading(&mut self, stamped: &Stamped) {
         let t_s = stamped.t_s.max(self.now_s);
         self.now_s = t_s;
         self.state.update(&stamped.reading);

@@ -60,6 +60,7 @@ pub fn square_plan() -> FlightPlan {
             hover_power_w: 1_900.0,
         }),
         resumes: None,
+        guard: None,
     }
 }
 

@@ -187,6 +187,36 @@ pub fn decode(flavour: Flavour, value: f32, kind: MavParamType) -> f64 {
     }
 }
 
+/// The parameter that sets the height an autopilot's return (RTL) flies home at: it climbs to
+/// it first when lower, then flies home and lands.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReturnAltitude {
+    pub name: &'static str,
+    /// Metres per unit of the parameter.
+    pub metres_per_unit: f64,
+    /// The autopilot's default, for when it does not answer (m).
+    pub default_m: f64,
+}
+
+impl ReturnAltitude {
+    /// PX4: RTL_RETURN_ALT, metres, default 60 (rtl_params.c); ArduCopter: RTL_ALT,
+    /// centimetres, default 1500 (0: home at the current height).
+    pub fn of(flavour: Flavour) -> ReturnAltitude {
+        match flavour {
+            Flavour::ArduPilot => ReturnAltitude {
+                name: "RTL_ALT",
+                metres_per_unit: 0.01,
+                default_m: 15.0,
+            },
+            Flavour::Px4 | Flavour::Generic => ReturnAltitude {
+                name: "RTL_RETURN_ALT",
+                metres_per_unit: 1.0,
+                default_m: 60.0,
+            },
+        }
+    }
+}
+
 /// The PARAM_VALUE an autopilot of `flavour` sends for `name` = `value` of `kind` (the mock's
 /// answer; the inverse of [`decode`]).
 pub fn encode(flavour: Flavour, name: &str, value: f64, kind: MavParamType) -> MavMessage {

@@ -132,6 +132,7 @@ impl Hub {
                         resumed,
                         recording: true,
                         parts: Vec::new(),
+                        guard_notes: Vec::new(),
                     })
                 });
                 Event::FlightStarted {
@@ -139,6 +140,14 @@ impl Hub {
                     dir,
                     resumed,
                 }
+            }
+            FlightEvent::Guard { flight, note } => {
+                self.with(|s| {
+                    if let Some(view) = s.flight.as_mut().filter(|v| v.flight == flight) {
+                        view.guard_notes.push(note.clone());
+                    }
+                });
+                Event::Guard { flight, note }
             }
             FlightEvent::Part { flight, kind, part } => {
                 let part = PartEventJson::new(&flight, kind, &part);
@@ -249,6 +258,12 @@ fn log_flight_event(span: &mut Option<tracing::Span>, event: &FlightEvent) {
                     "part done"
                 )
             });
+        }
+        FlightEvent::Guard { note, .. } => {
+            let s = span.clone().unwrap_or_else(tracing::Span::none);
+            s.in_scope(
+                || tracing::warn!(verdict = %note.verdict, "energy guard: {}", note.message),
+            );
         }
         FlightEvent::Ended { report, dir, .. } => {
             let s = span.take().unwrap_or_else(tracing::Span::none);

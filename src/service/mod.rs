@@ -101,6 +101,8 @@ pub struct ServiceConfig {
     pub transfer_budget: Option<Duration>,
     /// Resume recording a flight cut off this recently (see `RecorderConfig::resume_within`).
     pub resume_within: Duration,
+    /// What the energy guard may do in flight.
+    pub guard: crate::flightlog::watch::Policy,
     /// How the missions folder is watched: the settle time, the plans run at once.
     pub watch: missions::WatchSettings,
     /// Limits of the HTTP side.
@@ -203,6 +205,7 @@ pub async fn run(
                 resume_within: Some(cfg.resume_within),
                 ..RecorderConfig::new(&cfg.log_dir)
             },
+            guard: cfg.guard,
         },
         cfg.model.clone(),
         catalog.clone(),

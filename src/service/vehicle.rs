@@ -31,7 +31,8 @@ use super::wire::{Failure, LinkNumbers, LinkState, LinkStatus, UploadAnswer};
 use super::Refusal;
 use crate::flightlog::flight_plan::FlightPlan;
 use crate::flightlog::recorder::PLAN_FILE;
-use crate::link::commands::{drive, heartbeats, Heard};
+use crate::flightlog::watch::{NoteKind, Policy};
+use crate::link::commands::{drive, heartbeats, return_home, Heard};
 use crate::link::connection::{Autopilot, Identity, Link};
 use crate::link::driver::download;
 use crate::link::flight::{Start, StartConfig, StartError};
@@ -63,6 +64,8 @@ pub struct VehicleConfig {
     /// Time allowed for one transfer (None: the link's default for its item count).
     pub transfer_budget: Option<Duration>,
     pub recorder: RecorderConfig,
+    /// What the energy guard may do in the service's flights.
+    pub guard: Policy,
 }
 
 /// An upload asked of the vehicle: `choice` of `plan` (planned for that choice) of `mission`.
@@ -356,6 +359,7 @@ async fn run(
         heard,
         target: None,
         transfer_budget: cfg.transfer_budget,
+        guard: cfg.guard,
         expected: None,
         mission_verified: false,
         started: None,
@@ -394,6 +398,7 @@ struct Actor {
     /// The autopilot, once heard.
     target: Option<Autopilot>,
     transfer_budget: Option<Duration>,
+    guard: Policy,
     /// The plan the service set for the next flight (its upload).
     expected: Option<FlightPlan>,
     /// The vehicle holds the mission this service last uploaded and read back, as far as the
@@ -436,6 +441,9 @@ impl Actor {
                         self.measure(&dir, resumed).instrument(span).await;
                     }
                     Ok(FlightEvent::Ended { .. }) => self.expected = None,
+                    Ok(FlightEvent::Guard { note, .. }) if note.kind == NoteKind::Return => {
+                        self.send_home().await;
+                    }
                     Ok(_) | Err(broadcast::error::RecvError::Lagged(_)) => {}
                     Err(broadcast::error::RecvError::Closed) => return,
                 },
@@ -454,6 +462,21 @@ impl Actor {
                 }
                 _ = tick.tick() => self.check_link().await,
             }
+        }
+    }
+
+    /// The energy guard decided: home now.
+    async fn send_home(&mut self) {
+        let Some(target) = self.target else {
+            tracing::error!("the energy guard would send the vehicle home: no autopilot heard");
+            return;
+        };
+        match return_home(&self.link, &target).await {
+            Ok(Ok(())) => tracing::warn!("sent home by the energy guard"),
+            Ok(Err(e)) => tracing::error!(
+                "the energy guard sent the vehicle home and the autopilot did not go: {e}"
+            ),
+            Err(e) => tracing::error!("the energy guard could not send the vehicle home: {e}"),
         }
     }
 
@@ -582,6 +605,7 @@ impl Actor {
             acceptance_radius_m: job.acceptance_radius_m,
             vehicle: &self.model.vehicle,
             resumes: None,
+            guard: self.guard,
         };
         tracing::info!("uploading");
         let loaded = session::load(

@@ -16,6 +16,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::flightlog::report::{PartJson, PartReport, ReportJson};
 use crate::flightlog::segment::SegmentKind;
+use crate::flightlog::watch::{GuardNote, GuardView};
 use crate::link::connection::{wall_us, Autopilot};
 use crate::planner::FlownOrder;
 use crate::session::recorder::{BatteryNow, Live};
@@ -74,6 +75,12 @@ pub enum Event {
     RecordingFailed {
         flight: String,
         error: String,
+    },
+    /// The energy guard saw or decided something (`note.kind` `return`: it sent the vehicle
+    /// home).
+    Guard {
+        flight: String,
+        note: GuardNote,
     },
     MissionPlanned(serde_json::Value),
     MissionError(serde_json::Value),
@@ -189,6 +196,9 @@ pub struct LiveFlightJson {
     pub parts: usize,
     /// The part in progress, with its energy so far.
     pub in_progress: Option<PartEventJson>,
+    /// The energy guard's view, when the flight is guarded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub guard: Option<GuardView>,
 }
 
 /// The latest state of link and vehicle.
@@ -234,6 +244,7 @@ impl TelemetryJson {
                     .in_progress
                     .as_ref()
                     .map(|(kind, part)| PartEventJson::new(&f.flight, *kind, part)),
+                guard: f.guard.clone(),
             }),
             frames: live.frames,
         }
@@ -257,6 +268,9 @@ pub struct FlightView {
     pub resumed: bool,
     pub recording: bool,
     pub parts: Vec<PartEventJson>,
+    /// The energy guard's notes so far.
+    #[serde(default)]
+    pub guard_notes: Vec<GuardNote>,
 }
 
 /// The body of `POST /api/missions/{name}/upload` (every field optional): the choice and the

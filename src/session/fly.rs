@@ -15,7 +15,8 @@ use super::predict::{flight_plan, flight_plan_predicted, predicted_by_simulation
 use super::recorder::{FlightEvent, RecorderHandle};
 use crate::flightlog::flight_plan::FlightPlan;
 use crate::flightlog::report::{FlightReport, ReportJson};
-use crate::link::commands::{drive, keep_streams, request_streams};
+use crate::flightlog::watch::{NoteKind, Policy};
+use crate::link::commands::{drive, keep_streams, request_streams, return_home};
 use crate::link::connection::{Autopilot, Link};
 use crate::link::driver::{upload_verified, UploadError, UploadReport};
 use crate::link::flight::{Start, StartConfig, StartError};
@@ -60,6 +61,8 @@ pub struct Load<'a> {
     pub vehicle: &'a Vehicle,
     /// The flight this one resumes (`fly --resume`), recorded in its plan.json.
     pub resumes: Option<&'a str>,
+    /// What the energy guard may do in flight.
+    pub guard: Policy,
 }
 
 /// A flight on the vehicle, verified, and what it will be measured against.
@@ -122,10 +125,23 @@ pub async fn load(
         }
     }
     .map_err(|e| FlyError::Plan(e.to_string()))?;
-    let measured_against = FlightPlan {
+    let mut measured_against = FlightPlan {
         resumes: load.resumes.map(str::to_string),
         ..measured_against
     };
+    if load.guard != Policy::Off {
+        let return_alt_m = super::guard::return_altitude_m(link, target).await?;
+        let setup = super::guard::setup(
+            priced_with.unwrap_or(load.vehicle),
+            plan.profile,
+            target.flavour,
+            &measured_against,
+            load.guard,
+            return_alt_m,
+        )
+        .map_err(|e| FlyError::Plan(format!("the energy guard's return prices: {e}")))?;
+        measured_against.guard = Some(setup);
+    }
     let upload = upload_verified(link, target, &items, transfer, progress).await?;
     recorder.set_plan(measured_against.clone());
     Ok(Loaded {
@@ -256,7 +272,17 @@ pub async fn fly(
                         FlightEvent::Failed { error, .. } => {
                             tracing::error!("recording: {error}");
                         }
-                        FlightEvent::Part { .. } => {}
+                        FlightEvent::Guard { note, .. } if note.kind == NoteKind::Return => {
+                            // The guard decided: home now. A refusal is said; the guard's notes
+                            // go on (and the pilot can still act).
+                            match return_home(link, target).await? {
+                                Ok(()) => tracing::warn!("sent home by the energy guard"),
+                                Err(e) => tracing::error!(
+                                    "the energy guard sent the vehicle home and the autopilot did not go: {e}"
+                                ),
+                            }
+                        }
+                        FlightEvent::Part { .. } | FlightEvent::Guard { .. } => {}
                     }
                 }
                 Err(RecvError::Lagged(n)) => tracing::warn!("{n} flight events missed"),
@@ -466,6 +492,7 @@ mod tests {
                 complete: true,
                 flags: Vec::new(),
                 log_gaps: Vec::new(),
+                guard: None,
             })),
         }
     }

@@ -12,6 +12,7 @@
 //! on a thread of its own (blocking writes and fsyncs never stall the link's tasks).
 
 pub mod fly;
+pub mod guard;
 pub mod open;
 pub mod params;
 pub mod predict;

@@ -167,6 +167,7 @@ pub fn plan_from_items(
         land_seq: read.land_seq,
         predicted,
         resumes: None,
+        guard: None,
     };
     plan.validate()?;
     Ok(plan)

@@ -28,6 +28,7 @@ use crate::flightlog::report::{FlightReport, PartReport};
 use crate::flightlog::segment::{SegmentConfig, SegmentKind, Segmenter};
 use crate::flightlog::telemetry::{Reading, Stamped, VehicleState};
 use crate::flightlog::tlog::read_tlog;
+use crate::flightlog::watch::{GuardNote, GuardView};
 use crate::link::connection::{wall_us, Frame, Link};
 use crate::link::telemetry::Telemetry;
 
@@ -87,6 +88,9 @@ pub enum FlightEvent {
     /// The recorder could not write; the flight's files hold what was written before. Before
     /// any `Started` of its flight: its directory could not be made, nothing of it is recorded.
     Failed { flight: String, error: String },
+    /// The energy guard saw or decided something (a `Return` note: it decided to send the
+    /// vehicle home; the flight's session does).
+    Guard { flight: String, note: GuardNote },
 }
 
 /// The latest battery sample.
@@ -110,6 +114,8 @@ pub struct LiveFlight {
     pub in_progress: Option<(SegmentKind, PartReport)>,
     /// Parts completed so far.
     pub parts: usize,
+    /// The energy guard's view, when the flight is guarded.
+    pub guard: Option<GuardView>,
 }
 
 /// The latest state the recorder knows.
@@ -361,6 +367,11 @@ impl State {
                 t_s,
                 in_progress,
                 parts,
+                guard: open
+                    .segmenter
+                    .as_ref()
+                    .and_then(|s| s.watch())
+                    .and_then(|w| w.view().cloned()),
             }
         });
         let _ = self.live_tx.send(self.live.clone());
@@ -510,9 +521,10 @@ impl State {
                     for s in &open.stamped {
                         seg.push(s);
                     }
-                    // Parts completed before the cut were announced by the run that recorded
-                    // them.
+                    // Parts completed and guard notes made before the cut were announced by
+                    // the run that recorded them.
                     open.announced = seg.completed().len();
+                    seg.take_guard_notes();
                     open.segmenter = Some(seg);
                 }
                 Err(e) => fail(&mut open, &self.events, e.to_string()),
@@ -588,11 +600,17 @@ fn record(open: &mut Open, events: &broadcast::Sender<FlightEvent>, frame: &Fram
     }
 }
 
-/// Sends an event for every part completed since the last call.
+/// Sends an event for every guard note and every part completed since the last call.
 fn announce(open: &mut Open, events: &broadcast::Sender<FlightEvent>) {
-    let Some(seg) = open.segmenter.as_ref() else {
+    let Some(seg) = open.segmenter.as_mut() else {
         return;
     };
+    for note in seg.take_guard_notes() {
+        let _ = events.send(FlightEvent::Guard {
+            flight: open.name.clone(),
+            note,
+        });
+    }
     let completed = seg.completed();
     if completed.len() <= open.announced {
         return;

@@ -8,6 +8,7 @@ mod flightlog;
 mod flowservice;
 mod fly;
 mod fromlogs;
+mod guard;
 mod home;
 mod install;
 mod mission;

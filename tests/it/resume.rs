@@ -67,6 +67,7 @@ async fn flight_sent_home(log_dir: &Path) -> PathBuf {
         flight: &flight,
         acceptance_radius_m: 2.0,
         vehicle: &model.vehicle,
+        guard: emplan::flightlog::watch::Policy::Off,
         resumes: None,
     };
     let options = emplan::session::FlyOptions {

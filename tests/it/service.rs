@@ -107,6 +107,7 @@ pub(crate) async fn serve(vehicle: VehicleLink, files: &[&str]) -> Running {
         solver: Default::default(),
         transfer_budget: None,
         resume_within: emplan::service::DEFAULT_RESUME_WITHIN,
+        guard: Default::default(),
         // The files are copied in whole before the service starts: a short settle keeps the
         // tests quick.
         watch: emplan::service::missions::WatchSettings {

@@ -54,6 +54,7 @@ impl Service {
             solver: Default::default(),
             transfer_budget: None,
             resume_within: emplan::service::DEFAULT_RESUME_WITHIN,
+            guard: Default::default(),
             watch: emplan::service::missions::WatchSettings {
                 settle: std::time::Duration::from_millis(300),
                 ..Default::default()

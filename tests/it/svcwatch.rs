@@ -73,6 +73,7 @@ async fn serve(settings: Settings) -> Running {
         },
         transfer_budget: None,
         resume_within: emplan::service::DEFAULT_RESUME_WITHIN,
+        guard: Default::default(),
         watch: WatchSettings {
             settle: settings.settle,
             plans_at_once: settings.plans_at_once,

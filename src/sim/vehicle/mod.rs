@@ -187,7 +187,8 @@ pub struct SimVehicle<'v> {
     /// When the land detector confirmed a landing (the disarm follows).
     landed_s: Option<f64>,
     heading_rad: f64,
-    /// The trajectory parameters a PX4 holds (the vehicle's [px4] section, by PX4 name).
+    /// The parameters it answers: a PX4's trajectory parameters (the vehicle's [px4] section,
+    /// by PX4 name), and either flavour's return altitude (`link::params::ReturnAltitude`).
     params: Vec<(&'static str, f64)>,
     out: Vec<MavMessage>,
 }
@@ -240,7 +241,7 @@ impl<'v> SimVehicle<'v> {
             arms: 0,
             landed_s: None,
             heading_rad: 0.0,
-            params: vehicle.px4.autopilot_values(),
+            params: params::held(flavour, vehicle),
             out: Vec::new(),
         })
     }

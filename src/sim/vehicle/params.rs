@@ -1,10 +1,23 @@
 //! The parameter server: PX4 answers PARAM_REQUEST_READ with the trajectory parameters it holds
-//! (the vehicle's [px4] section, by PX4 name); the ArduPilot flavour holds none of them.
+//! (the vehicle's [px4] section, by PX4 name); the ArduPilot flavour holds none of them. Both
+//! hold their return altitude, 0: the mock's return flies home at the height it is at (PX4
+//! RTL_RETURN_ALT and ArduCopter RTL_ALT at 0 do the same above a point higher than them).
 
 use super::SimVehicle;
 
 use crate::link::mav::MavMessage;
 use crate::link::Flavour;
+use crate::physics::Vehicle;
+
+/// The parameters a mock of `flavour` flying `vehicle` answers.
+pub(super) fn held(flavour: Flavour, vehicle: &Vehicle) -> Vec<(&'static str, f64)> {
+    let mut params = match flavour {
+        Flavour::ArduPilot => Vec::new(),
+        Flavour::Px4 | Flavour::Generic => vehicle.px4.autopilot_values(),
+    };
+    params.push((crate::link::params::ReturnAltitude::of(flavour).name, 0.0));
+    params
+}
 
 impl<'v> SimVehicle<'v> {
     /// PX4 answers PARAM_REQUEST_READ by name (index -1) or by index with PARAM_VALUE, and an
@@ -17,7 +30,7 @@ impl<'v> SimVehicle<'v> {
     ) -> Vec<MavMessage> {
         let for_us = request.target_system == self.system_id
             && (request.target_component == 0 || request.target_component == self.component_id);
-        if !for_us || self.flavour == Flavour::ArduPilot {
+        if !for_us {
             return Vec::new();
         }
         let index = if request.param_index < 0 {

@@ -1,0 +1,605 @@
+//! The energy guard, live: what the battery holds, what the rest of the plan and the way home
+//! cost as learned from the parts flown, and what to do about it, updated as the flight's
+//! readings arrive.
+//!
+//! The segmenter owns a [`Watch`] when its plan carries a [`GuardSetup`] (`fly`, the service
+//! and `record` put one there; it is written to plan.json with the plan), so the guard's view is
+//! a pure function of the log like everything else measured: a replay of the `.tlog` sees what
+//! the live guard saw and decided, and the report records it.
+//!
+//! - The pack: its state of charge at take-off from the first voltage read (compensated for the
+//!   current drawn through the pack's internal resistance) through its OCV curve, and its real
+//!   capacity, learned in flight from the charge drawn against the fall of that state of charge
+//!   (an aged or smaller pack is noticed once a tenth of it is spent; a pack is never assumed
+//!   larger than its label).
+//! - The rest: the plan's price of every stage still ahead (take-off, each leg, settle and hover,
+//!   the landing; the stage in progress by its share still to fly), and of the autopilot's
+//!   return from each point ([`GuardSetup::home_j`]), times the correction learned from the
+//!   parts flown (`guard::Correction`).
+//! - The decision: `guard::project` and `guard::judge`; a note when the verdict changes, at the
+//!   point of no return, and (policy `rtl`) the one decision to go home: when the plan cannot be
+//!   finished with the reserve and the next point ahead cannot be reached and left for home
+//!   with it at the dear end of the correction's band, or home from here is about to cost the
+//!   reserve. It never decides on a battery it cannot measure.
+
+use serde::{Deserialize, Serialize};
+
+use super::energy::PowerSeries;
+use super::flight_plan::FlightPlan;
+use super::guard::{
+    judge, project, state_of_charge_from_rest, Correction, Observed, Pack, PointAhead, Projection,
+    Remaining, Verdict, BAND_SD,
+};
+use super::segment::{Segment, SegmentKind};
+
+/// What the guard may do (`--guard`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Policy {
+    /// No guard.
+    Off,
+    /// Tell the user (terminal, service events, dashboard); never act.
+    #[default]
+    Warn,
+    /// Tell the user, and send the vehicle home when continuing would land below the reserve.
+    Rtl,
+}
+
+impl std::fmt::Display for Policy {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Policy::Off => "off",
+            Policy::Warn => "warn",
+            Policy::Rtl => "rtl",
+        })
+    }
+}
+
+impl std::str::FromStr for Policy {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.to_ascii_lowercase().as_str() {
+            "off" => Ok(Policy::Off),
+            "warn" => Ok(Policy::Warn),
+            "rtl" => Ok(Policy::Rtl),
+            _ => Err(format!(
+                "unknown guard policy {s:?} (allowed: warn, rtl, off)"
+            )),
+        }
+    }
+}
+
+/// What the guard is given with the plan: the policy, the pack as the vehicle file has it, and
+/// the price of the autopilot's return from every point.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GuardSetup {
+    pub policy: Policy,
+    /// The pack's usable energy when full (J).
+    pub usable_j: f64,
+    /// The reserve to land with (% of the usable energy).
+    pub reserve_pct: f64,
+    pub cells: u32,
+    pub capacity_ah: f64,
+    pub internal_resistance_ohm: f64,
+    /// The cell's open-circuit voltage curve: state of charge ascending, volts per cell.
+    pub ocv_soc: Vec<f64>,
+    pub ocv_cell_v: Vec<f64>,
+    /// Per point of the plan (its `points`, in order): the autopilot's return from it, home and
+    /// landed (J).
+    pub home_j: Vec<f64>,
+}
+
+/// What a note is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NoteKind {
+    /// The verdict changed (to `continue`, `at_risk`, `below_reserve` or `unmeasurable`).
+    Verdict,
+    /// The vehicle is at the point of no return: after it, home is no longer reached with the
+    /// reserve.
+    PointOfNoReturn,
+    /// The guard decided to send the vehicle home (policy `rtl`).
+    Return,
+}
+
+/// Something the guard saw or decided, at vehicle time `t_s`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GuardNote {
+    pub t_s: f64,
+    pub kind: NoteKind,
+    /// The verdict then: `continue`, `at_risk`, `below_reserve`, `unmeasurable`.
+    pub verdict: String,
+    /// What it means, in a sentence for the user.
+    pub message: String,
+    /// Energy left at landing if the plan is flown to the end (kJ), and the reserve (kJ).
+    pub left_at_landing_kj: f64,
+    pub reserve_kj: f64,
+}
+
+/// The guard's view now, for the live displays.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GuardView {
+    pub policy: Policy,
+    pub t_s: f64,
+    pub verdict: String,
+    /// Why the guard cannot judge, when it cannot.
+    pub reason: Option<String>,
+    pub drawn_kj: f64,
+    /// The pack at take-off (kJ of usable energy), its state of charge then, and its capacity as
+    /// learned against the label's.
+    pub pack_kj: f64,
+    pub state_of_charge_at_takeoff: f64,
+    pub capacity_ratio: f64,
+    pub left_at_landing_kj: f64,
+    pub left_at_landing_band_kj: [f64; 2],
+    pub left_if_home_now_kj: f64,
+    pub reserve_kj: f64,
+    /// `measured / predicted` learned so far, and its standard deviation in `ln`.
+    pub correction: f64,
+    pub correction_sd_ln: f64,
+    pub parts_learned: usize,
+    pub point_of_no_return: Option<String>,
+    /// Whether the guard decided to send the vehicle home.
+    pub returning: bool,
+}
+
+/// How often (vehicle time) the guard looks again between parts (s).
+const UPDATE_EVERY_S: f64 = 0.5;
+/// The share of the pack that must be spent before its capacity is learned, and the share at
+/// which the learned value counts fully.
+const CAPACITY_FROM_SOC: f64 = 0.10;
+const CAPACITY_FULL_SOC: f64 = 0.30;
+/// How long a better verdict must hold before it is said (s of vehicle time).
+const BETTER_HOLD_S: f64 = 10.0;
+/// Samples averaged for the state of charge now (voltage noise).
+const SOC_WINDOW: usize = 20;
+
+/// The live guard of one flight.
+#[derive(Debug, Clone)]
+pub struct Watch {
+    setup: GuardSetup,
+    /// The plan's points' names.
+    names: Vec<String>,
+    /// Per stage (take-off, then leg, settle, hover of each point, then the landing): its
+    /// predicted energy (J) and duration (s, 0 when unknown).
+    stages: Vec<(f64, f64)>,
+    /// `after[i]`: the energy of the stages after stage i.
+    after: Vec<f64>,
+    typical_j: f64,
+    /// Valid power samples integrated so far.
+    integrated: usize,
+    last_valid: Option<(f64, f64, f64)>,
+    drawn_j: f64,
+    charge_as: f64,
+    soc0: Option<f64>,
+    recent_soc: std::collections::VecDeque<f64>,
+    capacity_ratio: f64,
+    correction: Correction,
+    learned_parts: usize,
+    last_update_s: f64,
+    verdict: Option<String>,
+    /// A better verdict than the one said, and since when it holds.
+    better_since: Option<(String, f64)>,
+    pnr_noted: bool,
+    returning: bool,
+    current_known: bool,
+    notes: Vec<GuardNote>,
+    view: Option<GuardView>,
+}
+
+/// What the guard made of a flight, for its report.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GuardReport {
+    pub policy: Policy,
+    pub notes: Vec<GuardNote>,
+    /// The correction learned by the end, and the pack's capacity against its label.
+    pub correction: f64,
+    pub capacity_ratio: f64,
+    pub state_of_charge_at_takeoff: Option<f64>,
+    /// Whether the guard decided to send the vehicle home.
+    pub returned: bool,
+}
+
+fn stage_of(kind: SegmentKind) -> usize {
+    match kind {
+        SegmentKind::Takeoff => 0,
+        SegmentKind::Leg(k) => 1 + 3 * k,
+        SegmentKind::Settle(k) => 2 + 3 * k,
+        SegmentKind::Hover(k) => 3 + 3 * k,
+        SegmentKind::Landing => usize::MAX,
+    }
+}
+
+impl Watch {
+    /// The guard of `plan`, when it carries a setup with a policy other than off, a prediction
+    /// and a return price for every point.
+    pub fn new(plan: &FlightPlan) -> Option<Watch> {
+        let setup = plan.guard.clone()?;
+        let predicted = plan.predicted.as_ref()?;
+        if setup.policy == Policy::Off
+            || setup.home_j.len() != plan.points.len()
+            || predicted.legs.len() != plan.points.len()
+            || !(setup.usable_j.is_finite() && setup.usable_j > 0.0)
+        {
+            return None;
+        }
+        let mut stages = vec![(predicted.takeoff_j, 0.0)];
+        for (leg, point) in predicted.legs.iter().zip(&plan.points) {
+            stages.push((leg.energy_j, leg.duration_s));
+            stages.push((leg.settle_energy_j, leg.settle_duration_s));
+            stages.push((point.hold_s * predicted.hover_power_w, point.hold_s));
+        }
+        stages.push((predicted.landing_j, 0.0));
+        let mut after = vec![0.0; stages.len()];
+        for i in (0..stages.len().saturating_sub(1)).rev() {
+            after[i] = after[i + 1] + stages[i + 1].0;
+        }
+        let energies: Vec<f64> = stages.iter().map(|s| s.0).filter(|e| *e > 0.0).collect();
+        let typical_j = if energies.is_empty() {
+            1.0
+        } else {
+            energies.iter().sum::<f64>() / energies.len() as f64
+        };
+        Some(Watch {
+            setup,
+            names: plan.points.iter().map(|p| p.name.clone()).collect(),
+            stages,
+            after,
+            typical_j,
+            integrated: 0,
+            last_valid: None,
+            drawn_j: 0.0,
+            charge_as: 0.0,
+            soc0: None,
+            recent_soc: Default::default(),
+            capacity_ratio: 1.0,
+            correction: Correction::prior(),
+            learned_parts: 0,
+            last_update_s: f64::NEG_INFINITY,
+            verdict: None,
+            better_since: None,
+            pnr_noted: false,
+            returning: false,
+            current_known: false,
+            notes: Vec::new(),
+            view: None,
+        })
+    }
+
+    pub fn policy(&self) -> Policy {
+        self.setup.policy
+    }
+
+    /// Every note so far.
+    pub fn notes(&self) -> &[GuardNote] {
+        &self.notes
+    }
+
+    /// The latest view (None before the flight began).
+    pub fn view(&self) -> Option<&GuardView> {
+        self.view.as_ref()
+    }
+
+    /// Whether the guard decided to send the vehicle home.
+    pub fn returning(&self) -> bool {
+        self.returning
+    }
+
+    /// The report's record.
+    pub fn report(&self) -> GuardReport {
+        GuardReport {
+            policy: self.setup.policy,
+            notes: self.notes.clone(),
+            correction: self.correction.ratio,
+            capacity_ratio: self.capacity_ratio,
+            state_of_charge_at_takeoff: self.soc0,
+            returned: self.returning,
+        }
+    }
+
+    fn soc_of(&self, voltage_v: f64, current_a: f64) -> Option<f64> {
+        let s = &self.setup;
+        let rest_v = voltage_v + current_a.max(0.0) * s.internal_resistance_ohm;
+        state_of_charge_from_rest(rest_v, s.cells, &s.ocv_soc, &s.ocv_cell_v)
+    }
+
+    /// Integrates the valid samples from `flight_start_s` on that arrived since the last call.
+    fn integrate(&mut self, series: &PowerSeries, flight_start_s: f64) {
+        let samples = series.samples();
+        while self.integrated < samples.len() {
+            let i = self.integrated;
+            self.integrated += 1;
+            let s = &samples[i];
+            if s.power_w().is_some() {
+                self.current_known = true;
+            }
+            if !series.is_valid(i) || s.t_s < flight_start_s {
+                continue;
+            }
+            let (Some(v), Some(a)) = (s.battery.voltage_v, s.battery.current_a) else {
+                continue;
+            };
+            if let Some((t0, p0, a0)) = self.last_valid {
+                let dt = (s.t_s - t0).max(0.0);
+                self.drawn_j += 0.5 * (p0 + v * a) * dt;
+                self.charge_as += 0.5 * (a0 + a) * dt;
+            }
+            self.last_valid = Some((s.t_s, v * a, a));
+            if let Some(soc) = self.soc_of(v, a) {
+                self.soc0.get_or_insert(soc);
+                self.recent_soc.push_back(soc);
+                if self.recent_soc.len() > SOC_WINDOW {
+                    self.recent_soc.pop_front();
+                }
+            }
+        }
+    }
+
+    /// The pack's capacity against its label, from the charge drawn and the fall of the state
+    /// of charge; 1 until a tenth of the pack is spent, never above 1.
+    fn learn_capacity(&mut self) {
+        let (Some(soc0), false) = (self.soc0, self.recent_soc.is_empty()) else {
+            return;
+        };
+        let now = self.recent_soc.iter().sum::<f64>() / self.recent_soc.len() as f64;
+        let spent = soc0 - now;
+        if spent < CAPACITY_FROM_SOC || self.setup.capacity_ah <= 0.0 {
+            return;
+        }
+        let measured = self.charge_as / 3600.0 / spent / self.setup.capacity_ah;
+        if !measured.is_finite() || measured <= 0.0 {
+            return;
+        }
+        let w = ((spent - CAPACITY_FROM_SOC) / (CAPACITY_FULL_SOC - CAPACITY_FROM_SOC))
+            .clamp(0.0, 1.0)
+            .max(0.5);
+        self.capacity_ratio = ((1.0 - w) + w * measured).min(1.0);
+    }
+
+    /// Looks again after a reading: `completed` are the parts flown so far with their measured
+    /// energy (J, None when unmeasured), `in_progress` the part being flown. Returns the notes
+    /// it made now (the last a `Return` when it decided to send the vehicle home).
+    pub fn update(
+        &mut self,
+        now_s: f64,
+        flight_start_s: f64,
+        series: &PowerSeries,
+        completed: &[(Segment, Option<f64>)],
+        in_progress: Option<(SegmentKind, f64)>,
+    ) -> Vec<GuardNote> {
+        self.integrate(series, flight_start_s);
+        let new_part = completed.len() != self.learned_parts;
+        if !new_part && now_s - self.last_update_s < UPDATE_EVERY_S {
+            return Vec::new();
+        }
+        self.last_update_s = now_s;
+        if new_part {
+            self.learned_parts = completed.len();
+            let observed: Vec<Observed> = completed
+                .iter()
+                .filter(|(s, _)| s.complete && s.kind != SegmentKind::Landing)
+                .filter_map(|(s, m)| {
+                    let predicted_j = self.stages.get(stage_of(s.kind))?.0;
+                    Some(Observed {
+                        predicted_j,
+                        measured_j: (*m)?,
+                    })
+                })
+                .collect();
+            self.correction = Correction::learn(&observed, self.typical_j);
+        }
+        self.learn_capacity();
+        let Some((kind, started_s)) = in_progress else {
+            return Vec::new();
+        };
+        if kind == SegmentKind::Landing {
+            return Vec::new();
+        }
+        let remaining = self.remaining(kind, now_s - started_s);
+        let scale = self.capacity_ratio;
+        let soc0 = self.soc0.unwrap_or(1.0);
+        let pack = Pack {
+            at_takeoff_j: self.setup.usable_j * scale * soc0,
+            reserve_j: self.setup.usable_j * scale * self.setup.reserve_pct / 100.0,
+        };
+        let projection = project(self.drawn_j, pack, &remaining, &self.correction);
+        // Before the first sample of the flight, the gap runs from its start.
+        let gap_s = (now_s - self.last_valid.map_or(flight_start_s, |(t, _, _)| t)).max(0.0);
+        let verdict = judge(&projection, gap_s, self.current_known);
+        let mut notes = Vec::new();
+        let (name, reason) = match &verdict {
+            Verdict::Continue => ("continue", None),
+            Verdict::AtRisk => ("at_risk", None),
+            Verdict::BelowReserve => ("below_reserve", None),
+            Verdict::Unmeasurable { reason } => ("unmeasurable", Some(reason.clone())),
+        };
+        // A worse verdict is said at once; a better one once it has held for a while, so a
+        // projection near a threshold does not chatter.
+        let rank = |v: &str| match v {
+            "continue" => 0,
+            "at_risk" => 1,
+            "below_reserve" => 2,
+            _ => 3,
+        };
+        if self.verdict.as_deref() == Some(name) {
+            self.better_since = None;
+        } else {
+            let worse = self.verdict.as_deref().is_none_or(|v| rank(name) > rank(v));
+            let since = match &self.better_since {
+                Some((v, t)) if v == name => *t,
+                _ => {
+                    self.better_since = Some((name.to_string(), now_s));
+                    now_s
+                }
+            };
+            if worse || now_s - since >= BETTER_HOLD_S {
+                let first = self.verdict.is_none();
+                self.verdict = Some(name.to_string());
+                self.better_since = None;
+                if !(first && name == "continue") {
+                    notes.push(self.note(
+                        now_s,
+                        NoteKind::Verdict,
+                        name,
+                        &projection,
+                        reason.clone(),
+                    ));
+                }
+            }
+        }
+        let measurable = !matches!(verdict, Verdict::Unmeasurable { .. });
+        let next = remaining.ahead.first();
+        // At the point of no return: the next point is the last from which home is still
+        // reached with the reserve, and the plan goes on past it.
+        let at_pnr = next.is_some_and(|n| {
+            projection.point_of_no_return.as_deref() == Some(n.name.as_str())
+                && remaining.ahead.len() > 1
+        }) && !projection.plan_finishes;
+        if measurable && at_pnr && !self.pnr_noted && !self.returning {
+            self.pnr_noted = true;
+            notes.push(self.note(now_s, NoteKind::PointOfNoReturn, name, &projection, None));
+        }
+        if self.setup.policy == Policy::Rtl
+            && measurable
+            && !self.returning
+            && self.learned_parts > 0
+            && self.should_return(&projection, &remaining, pack)
+        {
+            self.returning = true;
+            notes.push(self.note(now_s, NoteKind::Return, name, &projection, None));
+        }
+        self.view = Some(GuardView {
+            policy: self.setup.policy,
+            t_s: now_s,
+            verdict: name.to_string(),
+            reason,
+            drawn_kj: self.drawn_j / 1e3,
+            pack_kj: pack.at_takeoff_j / 1e3,
+            state_of_charge_at_takeoff: soc0,
+            capacity_ratio: scale,
+            left_at_landing_kj: projection.left_at_landing_j / 1e3,
+            left_at_landing_band_kj: projection.left_at_landing_band_j.map(|j| j / 1e3),
+            left_if_home_now_kj: projection.left_if_home_now_j / 1e3,
+            reserve_kj: pack.reserve_j / 1e3,
+            correction: self.correction.ratio,
+            correction_sd_ln: self.correction.sd_ln,
+            parts_learned: self.correction.parts,
+            point_of_no_return: projection.point_of_no_return.clone(),
+            returning: self.returning,
+        });
+        self.notes.extend(notes.iter().cloned());
+        notes
+    }
+
+    /// Home now: the plan cannot be finished with the reserve and the next point ahead cannot
+    /// be reached and left for home with it at the dear end of the band; or, whatever the plan,
+    /// home from here at the dear end would land within a tenth of the reserve of it.
+    fn should_return(&self, projection: &Projection, remaining: &Remaining, pack: Pack) -> bool {
+        let dear = self.correction.ratio_at(BAND_SD);
+        let left_after = |cost_j: f64| pack.at_takeoff_j - self.drawn_j - cost_j * dear;
+        let home_now = left_after(remaining.home_now_j);
+        if home_now < pack.reserve_j * 1.1 {
+            return true;
+        }
+        if !projection.below_reserve() {
+            return false;
+        }
+        match remaining.ahead.first() {
+            Some(next) => left_after(next.to_reach_j + next.home_from_j) < pack.reserve_j,
+            None => false,
+        }
+    }
+
+    /// What the plan says is left from `kind`, `elapsed_s` into it.
+    fn remaining(&self, kind: SegmentKind, elapsed_s: f64) -> Remaining {
+        let i = stage_of(kind).min(self.stages.len() - 1);
+        let (energy, duration) = self.stages[i];
+        let share_left = if duration > 0.0 {
+            (1.0 - elapsed_s / duration).clamp(0.0, 1.0)
+        } else {
+            1.0
+        };
+        let this_left = energy * share_left;
+        let rest_j = this_left + self.after[i];
+        let points = self.setup.home_j.len();
+        // The point being flown to (or stopped at) and the one before it.
+        let from = match kind {
+            SegmentKind::Takeoff | SegmentKind::Landing | SegmentKind::Leg(0) => None,
+            SegmentKind::Leg(k) => Some(k - 1),
+            SegmentKind::Settle(k) | SegmentKind::Hover(k) => Some(k),
+        };
+        let landing_j = self.stages.last().map_or(0.0, |s| s.0);
+        let home_of = |k: Option<usize>| match k {
+            Some(k) => self.setup.home_j.get(k).copied().unwrap_or(landing_j),
+            None => landing_j,
+        };
+        let home_now_j = match kind {
+            SegmentKind::Leg(k) => {
+                let done = 1.0 - share_left;
+                home_of(from) * (1.0 - done) + home_of(Some(k)) * done
+            }
+            _ => home_of(from),
+        };
+        // The waypoints still ahead (the origin, last, is home itself): reaching each and
+        // stopping there (the end of its hover), then home.
+        let ahead = (0..points.saturating_sub(1))
+            .filter(|&k| stage_of(SegmentKind::Hover(k)) > i)
+            .map(|k| PointAhead {
+                name: self.names[k].clone(),
+                to_reach_j: this_left + self.after[i] - self.after[stage_of(SegmentKind::Hover(k))],
+                home_from_j: self.setup.home_j[k],
+            })
+            .collect();
+        Remaining {
+            rest_j,
+            ahead,
+            home_now_j,
+        }
+    }
+
+    fn note(
+        &self,
+        t_s: f64,
+        kind: NoteKind,
+        verdict: &str,
+        p: &Projection,
+        reason: Option<String>,
+    ) -> GuardNote {
+        let kj = |j: f64| j / 1e3;
+        let message = match (kind, verdict) {
+            (NoteKind::Return, _) => format!(
+                "sending the vehicle home: finishing the plan would land with {:.0} kJ against a {:.0} kJ reserve (correction x{:.2}); home from here lands with {:.0} kJ",
+                kj(p.left_at_landing_j), kj(p.reserve_j), p.correction.ratio, kj(p.left_if_home_now_j)
+            ),
+            (NoteKind::PointOfNoReturn, _) => format!(
+                "point of no return: after {}, home is no longer reached with the {:.0} kJ reserve",
+                p.point_of_no_return.as_deref().unwrap_or("here"),
+                kj(p.reserve_j)
+            ),
+            (NoteKind::Verdict, "unmeasurable") => format!(
+                "the guard cannot judge: {}; it will not act until the battery is measured again",
+                reason.as_deref().unwrap_or("the battery is not measured")
+            ),
+            (NoteKind::Verdict, "below_reserve") => format!(
+                "finishing the plan is projected to land with {:.0} kJ, below the {:.0} kJ reserve (correction x{:.2})",
+                kj(p.left_at_landing_j), kj(p.reserve_j), p.correction.ratio
+            ),
+            (NoteKind::Verdict, "at_risk") => format!(
+                "the plan finishes with {:.0} kJ left but may not keep the {:.0} kJ reserve (band {:.0}..{:.0} kJ, correction x{:.2})",
+                kj(p.left_at_landing_j), kj(p.reserve_j), kj(p.left_at_landing_band_j[0]), kj(p.left_at_landing_band_j[1]), p.correction.ratio
+            ),
+            _ => format!(
+                "the plan finishes with {:.0} kJ left, above the {:.0} kJ reserve",
+                kj(p.left_at_landing_j), kj(p.reserve_j)
+            ),
+        };
+        GuardNote {
+            t_s,
+            kind,
+            verdict: verdict.to_string(),
+            message,
+            left_at_landing_kj: kj(p.left_at_landing_j),
+            reserve_kj: kj(p.reserve_j),
+        }
+    }
+}
