@@ -1,7 +1,8 @@
 //! Resuming a mission after a battery swap on the built-in mock: a flight sent home mid-mission
 //! over the link (`link::commands::return_home`, what the energy guard's `rtl` does) leaves
 //! waypoints unvisited; `fly --resume DIR` flies exactly those, in the energy order from the
-//! origin, verified on upload; `report DIR1 DIR2` lists every waypoint once. A complete
+//! origin, verified on upload; `report DIR1 DIR2` lists every waypoint once. The same after the
+//! energy guard's own return (`--guard rtl`, a vehicle heavier than the plan's). A complete
 //! flight, another mission's flight, and a missing or corrupt flight directory are refused
 //! naming why, before any link is opened.
 
@@ -324,4 +325,45 @@ fn a_missing_or_corrupt_flight_directory_is_refused_naming_the_file() {
     let dir = flight_dir(&work.path().join("bad-log"), &[0x5a; 300]);
     let stderr = refused(MISSION, &dir, &log);
     assert!(stderr.contains(&format!("{dir}/flight.tlog")), "{stderr}");
+}
+
+#[test]
+fn the_guards_return_home_is_finished_by_fly_resume_and_the_two_visit_every_waypoint_once() {
+    let work = tempfile::tempdir().unwrap();
+    let mission = super::guard::mission(work.path());
+    let truth = super::guard::heavier_vehicle(work.path());
+    // A vehicle heavier than the plan's with a smaller pack, sent home by the guard.
+    let guarded = super::guard::fly(&mission, &work.path().join("rtl"), "rtl", Some(&truth));
+    assert_eq!(guarded["guard"]["returned"], true, "{}", guarded["guard"]);
+    let first = guarded["log_dir"].as_str().expect("log_dir").to_string();
+    // After the battery swap, the plan's own vehicle flies the rest.
+    let (ok, stdout, stderr) = emplan(&[
+        "fly",
+        mission.to_str().unwrap(),
+        "--resume",
+        &first,
+        "--log-dir",
+        work.path().join("resumed").to_str().unwrap(),
+        "--speedup",
+        "50",
+        "--json",
+    ]);
+    assert!(ok, "{stderr}");
+    let second: Value = serde_json::from_str(&stdout).expect("JSON");
+    assert_eq!(second["complete"], true);
+    let second = second["log_dir"].as_str().expect("log_dir").to_string();
+    let report = crate::json(&["report", &first, &second, "--json"]);
+    let m = &report["missions"][0];
+    assert_eq!(m["every_waypoint_once"], true, "{m}");
+    let all = emplan::mission::load(&mission)
+        .expect("mission")
+        .waypoints
+        .len();
+    assert_eq!(m["waypoints"].as_array().map(Vec::len), Some(all));
+    assert!(
+        m["flights"][0]["visited"]
+            .as_array()
+            .is_some_and(|v| !v.is_empty() && v.len() < all),
+        "{m}"
+    );
 }
