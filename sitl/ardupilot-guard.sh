@@ -66,6 +66,7 @@ if ! "$venv/bin/python" sitl/ardupilot_params.py "tcp:127.0.0.1:$((5762 + 10 * i
   tail -20 "$sitl_log" >&2
   exit 1
 fi
+mkdir -p "$log_dir"
 report=$log_dir/fly.json
 # shellcheck disable=SC2086 # GUARD_ARGS is a list of arguments, split on purpose
 if ! timeout 600 "$emplan" fly "$mission" --arm --connect "tcpout:127.0.0.1:$((5760 + 10 * inst))" \

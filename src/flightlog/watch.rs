@@ -491,18 +491,17 @@ impl Watch {
         notes
     }
 
-    /// Home now: the plan cannot be finished with the reserve and the next point ahead cannot
-    /// be reached and left for home with it at the dear end of the band; or, whatever the plan,
-    /// home from here at the dear end would land within a tenth of the reserve of it.
+    /// Home now, when the plan cannot be finished with the reserve and either the next point
+    /// ahead cannot be reached and left for home with it at the dear end of the band, or home
+    /// from here at the dear end would land within a tenth of the reserve of it.
     fn should_return(&self, projection: &Projection, remaining: &Remaining, pack: Pack) -> bool {
-        let dear = self.correction.ratio_at(BAND_SD);
-        let left_after = |cost_j: f64| pack.at_takeoff_j - self.drawn_j - cost_j * dear;
-        let home_now = left_after(remaining.home_now_j);
-        if home_now < pack.reserve_j * 1.1 {
-            return true;
-        }
         if !projection.below_reserve() {
             return false;
+        }
+        let dear = self.correction.ratio_at(BAND_SD);
+        let left_after = |cost_j: f64| pack.at_takeoff_j - self.drawn_j - cost_j * dear;
+        if left_after(remaining.home_now_j) < pack.reserve_j * 1.1 {
+            return true;
         }
         match remaining.ahead.first() {
             Some(next) => left_after(next.to_reach_j + next.home_from_j) < pack.reserve_j,
@@ -601,5 +600,188 @@ impl Watch {
             left_at_landing_kj: kj(p.left_at_landing_j),
             reserve_kj: kj(p.reserve_j),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::flightlog::flight_plan::{Predicted, PredictedLeg};
+    use crate::flightlog::segment::{SegmentConfig, Segmenter};
+    use crate::flightlog::synthetic::{square_plan, SyntheticConfig, SyntheticFlight};
+    use crate::flightlog::telemetry::{Reading, Stamped};
+
+    /// The square plan priced exactly as the nominal synthetic flight flies it, guarded with
+    /// `policy` on a pack of `usable_j`.
+    fn plan(usable_j: f64, policy: Policy) -> crate::flightlog::flight_plan::FlightPlan {
+        let mut plan = square_plan();
+        let truth = SyntheticFlight::fly(&plan, &SyntheticConfig::default());
+        let energy = |kind: SegmentKind| {
+            let p = truth.parts.iter().find(|p| p.kind == kind).expect("a part");
+            (p.energy_j(), p.end_s - p.start_s)
+        };
+        let n = plan.points.len();
+        plan.predicted = Some(Predicted {
+            takeoff_j: energy(SegmentKind::Takeoff).0,
+            landing_j: energy(SegmentKind::Landing).0,
+            legs: (0..n)
+                .map(|k| {
+                    let (e, d) = energy(SegmentKind::Leg(k));
+                    let (se, sd) = energy(SegmentKind::Settle(k));
+                    PredictedLeg {
+                        energy_j: e,
+                        duration_s: d,
+                        settle_energy_j: se,
+                        settle_duration_s: sd,
+                    }
+                })
+                .collect(),
+            hover_power_w: SyntheticConfig::default().hover_power_w,
+        });
+        plan.guard = Some(GuardSetup {
+            policy,
+            usable_j,
+            reserve_pct: 20.0,
+            cells: 6,
+            capacity_ah: 10.0,
+            internal_resistance_ohm: 0.0,
+            ocv_soc: vec![0.0, 1.0],
+            ocv_cell_v: vec![3.5, 4.2],
+            // Home from each point: a 60 m leg and the landing.
+            home_j: vec![60_000.0; n],
+        });
+        plan
+    }
+
+    /// Flies `plan` with every power `scale` times the nominal, then `edit` on the readings.
+    fn flown(
+        plan: &crate::flightlog::flight_plan::FlightPlan,
+        scale: f64,
+        edit: impl Fn(&mut Vec<Stamped>, &SyntheticFlight),
+    ) -> Segmenter {
+        let d = SyntheticConfig::default();
+        let cfg = SyntheticConfig {
+            takeoff_power_w: d.takeoff_power_w * scale,
+            leg_power_w: d.leg_power_w * scale,
+            settle_power_w: d.settle_power_w * scale,
+            hover_power_w: d.hover_power_w * scale,
+            landing_power_w: d.landing_power_w * scale,
+            ..d
+        };
+        let flight = SyntheticFlight::fly(plan, &cfg);
+        let mut stamped = flight.stamped();
+        edit(&mut stamped, &flight);
+        Segmenter::run(plan.clone(), SegmentConfig::default(), &stamped).expect("a valid plan")
+    }
+
+    fn notes(s: &Segmenter, kind: NoteKind) -> Vec<GuardNote> {
+        let w = s.watch().expect("guarded");
+        w.notes()
+            .iter()
+            .filter(|n| n.kind == kind)
+            .cloned()
+            .collect()
+    }
+
+    #[test]
+    fn the_correction_learned_in_flight_converges_to_the_truth_ratio() {
+        let plan = plan(2_000_000.0, Policy::Warn);
+        for truth in [1.0, 1.6] {
+            let s = flown(&plan, truth, |_, _| {});
+            let report = s.watch().expect("guarded").report();
+            assert!(
+                (report.correction / truth - 1.0).abs() < 0.03,
+                "truth x{truth}: learned x{:.3}",
+                report.correction
+            );
+        }
+    }
+
+    #[test]
+    fn a_flight_dearer_than_its_plan_on_a_tight_pack_is_sent_home_once_and_warned_of_first() {
+        // The plan lands with about a third of the pack; at 1.6 times its price it cannot.
+        let nominal = flown(&plan(2_000_000.0, Policy::Warn), 1.0, |_, _| {});
+        let total = nominal
+            .series()
+            .measure(0.0, nominal.now_s())
+            .energy_j
+            .unwrap();
+        let tight = plan(total * 1.5, Policy::Rtl);
+        let s = flown(&tight, 1.0, |_, _| {});
+        assert!(notes(&s, NoteKind::Return).is_empty(), "nominal sent home");
+        let s = flown(&tight, 1.6, |_, _| {});
+        let below: Vec<GuardNote> = notes(&s, NoteKind::Verdict)
+            .into_iter()
+            .filter(|n| n.verdict == "below_reserve")
+            .collect();
+        let home = notes(&s, NoteKind::Return);
+        assert_eq!(home.len(), 1, "{:?}", s.watch().unwrap().notes());
+        assert!(!below.is_empty() && below[0].t_s <= home[0].t_s);
+        // The warn policy says the same and never decides.
+        let warned = flown(&plan(total * 1.5, Policy::Warn), 1.6, |_, _| {});
+        assert!(notes(&warned, NoteKind::Return).is_empty());
+        assert!(notes(&warned, NoteKind::Verdict)
+            .iter()
+            .any(|n| n.verdict == "below_reserve"));
+    }
+
+    #[test]
+    fn one_odd_leg_does_not_send_the_vehicle_home() {
+        let nominal = flown(&plan(2_000_000.0, Policy::Warn), 1.0, |_, _| {});
+        let total = nominal
+            .series()
+            .measure(0.0, nominal.now_s())
+            .energy_j
+            .unwrap();
+        // A pack the plan fits with room: one leg at three times its price does not change that.
+        let plan = plan(total * 2.2, Policy::Rtl);
+        let s = flown(&plan, 1.0, |stamped, flight| {
+            let odd = flight
+                .parts
+                .iter()
+                .find(|p| p.kind == SegmentKind::Leg(1))
+                .expect("leg 1");
+            for s in stamped.iter_mut() {
+                if let Reading::Battery(b) = &mut s.reading {
+                    if (odd.start_s..odd.end_s).contains(&s.t_s) {
+                        b.current_a = b.current_a.map(|a| a * 3.0);
+                    }
+                }
+            }
+        });
+        let w = s.watch().expect("guarded");
+        assert!(notes(&s, NoteKind::Return).is_empty(), "{:?}", w.notes());
+        assert!(w.report().correction < 1.2, "{:?}", w.report());
+    }
+
+    #[test]
+    fn a_measurement_gap_suspends_the_guard_with_a_warning_and_it_judges_again_after() {
+        let nominal = flown(&plan(2_000_000.0, Policy::Warn), 1.0, |_, _| {});
+        let total = nominal
+            .series()
+            .measure(0.0, nominal.now_s())
+            .energy_j
+            .unwrap();
+        // A pack too small to finish at 1.6 times the price: without the gap the guard would
+        // act as the take-off ends.
+        let plan = plan(total * 1.5, Policy::Rtl);
+        let s = flown(&plan, 1.6, |stamped, flight| {
+            // No battery reading for 20 s from 6 s before the take-off's end.
+            let from = flight.parts[0].end_s - 6.0;
+            stamped.retain(|s| {
+                !(matches!(s.reading, Reading::Battery(_)) && (from..from + 20.0).contains(&s.t_s))
+            });
+        });
+        let w = s.watch().expect("guarded");
+        let unmeasurable: Vec<GuardNote> = notes(&s, NoteKind::Verdict)
+            .into_iter()
+            .filter(|n| n.verdict == "unmeasurable")
+            .collect();
+        assert!(!unmeasurable.is_empty(), "{:?}", w.notes());
+        assert!(unmeasurable[0].message.contains("cannot judge"));
+        // Not sent home while it could not measure; judged again (and sent home) after.
+        let home = notes(&s, NoteKind::Return);
+        assert_eq!(home.len(), 1, "{:?}", w.notes());
+        assert!(home[0].t_s > unmeasurable[0].t_s + 15.0, "{:?}", w.notes());
     }
 }
