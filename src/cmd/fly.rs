@@ -4,6 +4,8 @@
 //! the mission in simulated time with the vehicle's physics. The flight is the library
 //! session's (`emplan::session`); with `--service` the service's (`emplan::service::remote`).
 //! `--origin vehicle` connects first and plans the mission from the vehicle's home.
+//! `--resume FLIGHT_DIR` flies only what an earlier flight of the mission left
+//! (`emplan::flightlog::resume`).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -35,6 +37,11 @@ pub struct Args {
     /// Give up when the flight has not landed this long after the upload (s)
     #[arg(long, default_value_t = 3600.0)]
     timeout_s: f64,
+    /// Resume an earlier flight of this mission cut short (sent home, a battery swap): fly only
+    /// the waypoints it did not visit (a hover cut short is not a visit), planned again from
+    /// the origin; the new flight's plan.json names it (`resumes`)
+    #[arg(long, value_name = "FLIGHT_DIR", conflicts_with = "service")]
+    resume: Option<PathBuf>,
     /// The energy guard in flight: warn when the battery is projected to land below its
     /// reserve and at the point of no return (warn), and also send the vehicle home in time
     /// to keep the reserve (rtl), or nothing (off)
@@ -72,6 +79,12 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
     // A flight log that cannot be written ends the command before anything is uploaded.
     emplan::flightlog::recorder::check_log_dir(&args.log_dir).map_err(FlyError::LogDir)?;
     let mission = emplan::mission::load(&args.mission)?;
+    let resumed = args
+        .resume
+        .as_deref()
+        .map(|d| resuming(&mission, d))
+        .transpose()?;
+    let mission = resumed.as_ref().map_or(mission, |(_, left)| left.clone());
     // From the mission's origin the plan comes first: a refusal needs no vehicle. From the
     // vehicle's home it waits for the vehicle to say where that is.
     let (model, planned) = if args.flight.plans_from_vehicle() {
@@ -99,6 +112,7 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
         let flight = args.flight.flight(&plan)?;
         let load = Load {
             guard: args.guard.unwrap_or_default(),
+            resumes: resumed.as_ref().map(|(name, _)| name.as_str()),
             ..(args.flight).load(&mission, &plan, &flight, &model.vehicle)
         };
         let recorder = session.recorder(RecorderConfig::new(&args.log_dir));
@@ -128,6 +142,34 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
         let doc = FlyJson::new(report.json(), &flown.dir.display().to_string(), params);
         flying::print(&report, &doc, args.json)
     })
+}
+
+/// `fly --resume DIR`: the name of the flight in `dir` and the mission of the waypoints it left
+/// (said on stderr).
+fn resuming(
+    mission: &emplan::mission::Mission,
+    dir: &std::path::Path,
+) -> anyhow::Result<(String, emplan::mission::Mission)> {
+    use emplan::flightlog::resume::Visit;
+    let resumption = emplan::session::resume_flight(dir, mission)
+        .map_err(|e| anyhow::Error::new(e).context(format!("--resume {}", dir.display())))?;
+    let name = emplan::flightlog::recorder::flight_name(&dir.canonicalize()?);
+    let list = |visit| resumption.named(visit).join(", ");
+    let left = resumption.mission.waypoints.iter().map(|w| w.name.as_str());
+    let cut_short = match list(Visit::CutShort) {
+        none if none.is_empty() => String::new(),
+        some => format!("; hover cut short at {some}"),
+    };
+    eprintln!(
+        "resuming {name}: visited {}{cut_short}; flying the {} left: {}",
+        match list(Visit::Visited) {
+            none if none.is_empty() => "none".to_string(),
+            some => some,
+        },
+        resumption.mission.waypoints.len(),
+        left.collect::<Vec<_>>().join(", ")
+    );
+    Ok((name, resumption.mission))
 }
 
 /// `fly --service URL`: upload, start and follow the flight through a running service, once

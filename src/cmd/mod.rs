@@ -344,6 +344,7 @@ impl FlightArgs {
             flight,
             acceptance_radius_m: self.acceptance_radius_m,
             vehicle,
+            resumes: None,
             guard: emplan::flightlog::watch::Policy::Off,
             if_home_unknown: emplan::session::IfHomeUnknown::asked(self.plan_origin()),
         }

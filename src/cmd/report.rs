@@ -1,14 +1,17 @@
 //! `emplan report LOG_DIR...`: each recorded flight replayed and measured against its plan
 //! (predicted vs measured energy per leg, take-off, settles, hovers, landing, totals, flags);
-//! several flights of the same legs combined (mean and spread per leg). Also the text views of
-//! a report that `fly`, `record` and `replay` print.
+//! several flights of the same legs combined (mean and spread per leg), and a flight with its
+//! resumptions (`fly --resume`) as one mission, every waypoint once. Also the text views of a
+//! report that `fly`, `record` and `replay` print.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::Context;
+use emplan::flightlog::flight_plan::FlightPlan;
 use emplan::flightlog::replay::Analysis;
 use emplan::flightlog::report::{combine, joined, FlightReport, PartReport};
+use emplan::flightlog::resume::{CombinedMissionsJson, FlownMission};
 use emplan::flightlog::segment::{SegmentConfig, SegmentKind};
 use emplan::output::Output;
 
@@ -213,6 +216,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         super::plot::flight_svg(out, &analyses)?;
         eprintln!("wrote {}", out.path.display());
     }
+    let plans: Vec<FlightPlan> = (analyses.iter())
+        .map(|a| a.segmenter.plan().clone())
+        .collect();
     let reports: Vec<FlightReport> = analyses.into_iter().map(|a| a.report).collect();
     if let [report] = reports.as_slice() {
         if args.json {
@@ -223,16 +229,82 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         return Ok(ExitCode::SUCCESS);
     }
     let combined = combine(&reports);
+    let flights: Vec<(&FlightPlan, &FlightReport)> = plans.iter().zip(&reports).collect();
+    let missions = emplan::flightlog::resume::missions(&flights);
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&combined.json())?);
+        let doc = CombinedMissionsJson {
+            combined: combined.json(),
+            missions: missions.iter().map(FlownMission::json).collect(),
+        };
+        println!("{}", serde_json::to_string_pretty(&doc)?);
     } else {
         for report in &reports {
             print(report);
             println!();
         }
         print_combined(&combined);
+        for mission in &missions {
+            println!();
+            print_mission(mission);
+        }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// A flight and its resumptions as one mission: every waypoint and the flight that visited it,
+/// each flight's energy and the total, what went wrong.
+fn print_mission(mission: &FlownMission) {
+    let kj = |j: Option<f64>| j.map_or("-".to_string(), |j| format!("{:.2}", j / 1000.0));
+    let names: Vec<&str> = mission.flights.iter().map(|f| f.flight.as_str()).collect();
+    println!(
+        "mission {} over {} flights ({}): {}",
+        mission.mission,
+        names.len(),
+        names.join(", then "),
+        if mission.every_waypoint_once() {
+            "every waypoint visited once"
+        } else {
+            "NOT every waypoint visited once"
+        }
+    );
+    for w in &mission.waypoints {
+        let by = match w.visited_by.as_slice() {
+            [] => "never visited".to_string(),
+            by => by.join(" and "),
+        };
+        let cut = match w.cut_short_in.as_slice() {
+            [] => String::new(),
+            cut => format!(" (hover cut short in {})", cut.join(", ")),
+        };
+        println!(
+            "  {}: {by}{cut}; leg {} kJ, settle + hover {} kJ",
+            w.name,
+            kj(w.leg_j),
+            kj(w.at_point_j)
+        );
+    }
+    for f in &mission.flights {
+        println!(
+            "  flight {}: {} waypoints visited, {} kJ measured, {} kJ predicted, {:.1} s{}",
+            f.flight,
+            f.visited.len(),
+            kj(f.measured_j),
+            kj(f.predicted_j),
+            f.duration_s,
+            if f.complete { "" } else { " (incomplete)" }
+        );
+    }
+    let json = mission.json();
+    let kj_json = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.2}"));
+    println!(
+        "  total: {} kJ measured, {:.1} s (planned as one flight: {} kJ)",
+        kj_json(json.total.measured_kj),
+        json.total.duration_s,
+        kj_json(json.planned_kj)
+    );
+    for problem in &mission.problems {
+        println!("  problem: {problem}");
+    }
 }
 
 fn print_combined(combined: &emplan::flightlog::report::CombinedReport) {

@@ -70,6 +70,11 @@ pub struct FlightPlan {
     pub takeoff_seq: Option<u16>,
     pub land_seq: Option<u16>,
     pub predicted: Option<Predicted>,
+    /// The flight this one resumes (`emplan fly --resume`: the name of its directory), flying
+    /// the waypoints it did not reach (`flightlog::resume`). Absent from plans of other flights
+    /// and from plan.json files written before it was kept.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub resumes: Option<String>,
     /// The energy guard's setup (policy, pack, return prices), when the flight is guarded.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub guard: Option<crate::flightlog::guard::GuardSetup>,
@@ -131,6 +136,7 @@ impl FlightPlan {
             takeoff_seq: Some(first_seq),
             land_seq: Some(seq_at(first_seq, order.len() + 2)?),
             predicted,
+            resumes: None,
             guard: None,
         };
         plan.validate()?;

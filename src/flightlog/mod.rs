@@ -16,6 +16,7 @@ pub mod part;
 pub mod recorder;
 pub mod replay;
 pub mod report;
+pub mod resume;
 pub mod samples;
 pub mod segment;
 pub mod synthetic;

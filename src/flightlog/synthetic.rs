@@ -59,6 +59,7 @@ pub fn square_plan() -> FlightPlan {
             legs: vec![leg; 4],
             hover_power_w: 1_900.0,
         }),
+        resumes: None,
         guard: None,
     }
 }

@@ -615,6 +615,7 @@ impl Actor {
             flight: &flight,
             acceptance_radius_m: job.acceptance_radius_m,
             vehicle: &self.model.vehicle,
+            resumes: None,
             guard: self.guard,
             if_home_unknown: session::IfHomeUnknown::asked(job.origin),
         };

@@ -63,6 +63,8 @@ pub struct Load<'a> {
     /// Acceptance radius sent with each waypoint (m).
     pub acceptance_radius_m: f32,
     pub vehicle: &'a Vehicle,
+    /// The flight this one resumes (`fly --resume`), recorded in its plan.json.
+    pub resumes: Option<&'a str>,
     /// What the energy guard may do in flight.
     pub guard: Policy,
     /// Whether a vehicle that does not say where it is is refused (the default) or flown from
@@ -135,7 +137,10 @@ pub async fn load(
         }
     }
     .map_err(|e| FlyError::Plan(e.to_string()))?;
-    let mut measured_against = measured_against;
+    let mut measured_against = FlightPlan {
+        resumes: load.resumes.map(str::to_string),
+        ..measured_against
+    };
     if load.guard != Policy::Off {
         let return_alt_m = super::guard::return_altitude_m(link, target).await?;
         let setup = super::guard::setup(

@@ -36,4 +36,4 @@ pub use predict::{
 pub use recorder::{
     flight_dirs, spawn_recorder, FlightEvent, Live, RecorderConfig, RecorderHandle,
 };
-pub use replay::{plan_for_tlog, replay, ReplayError};
+pub use replay::{plan_for_tlog, replay, resume_flight, ReplayError, ResumeFlightError};

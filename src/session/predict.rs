@@ -166,6 +166,7 @@ pub fn plan_from_items(
         takeoff_seq: Some(read.takeoff_seq),
         land_seq: read.land_seq,
         predicted,
+        resumes: None,
         guard: None,
     };
     plan.validate()?;

@@ -2,12 +2,15 @@
 //! live recorder used, measured against the flight's plan. The plan is the flight directory's
 //! plan.json when there is one (what `fly` and the recorder write); otherwise the mission items
 //! found in the log itself (the upload's items, or a read-back of them, are MAVLink frames like
-//! any other), priced with the vehicle model and named after a mission file's waypoints.
+//! any other), priced with the vehicle model and named after a mission file's waypoints. A
+//! flight directory replayed this way also tells what is left of its mission to fly
+//! ([`resume_flight`], `fly --resume`).
 
 use std::path::Path;
 
 use crate::flightlog::flight_plan::FlightPlan;
-use crate::flightlog::recorder::{flight_name, PLAN_FILE};
+use crate::flightlog::recorder::{flight_name, is_flight_dir, PLAN_FILE, TLOG_FILE};
+use crate::flightlog::resume::{check_same_mission, ResumeError, Resumption};
 use crate::flightlog::segment::SegmentConfig;
 use crate::link::items::read_flight;
 use crate::link::telemetry::{analyse_tlog, mission_in_tlog, Analysis, TelemetryError};
@@ -79,4 +82,38 @@ pub fn replay(
             flight_name,
         );
     Ok(analyse_tlog(tlog, plan, &name, cfg)?)
+}
+
+/// Why a flight directory cannot be resumed.
+#[derive(Debug, thiserror::Error)]
+pub enum ResumeFlightError {
+    #[error("{dir}: not a flight directory (no {TLOG_FILE})")]
+    NotAFlight { dir: String },
+    #[error(transparent)]
+    Replay(#[from] ReplayError),
+    #[error(transparent)]
+    Resume(#[from] ResumeError),
+}
+
+/// What is left to fly of `mission` after the flight recorded in `dir`: its plan (plan.json, or
+/// the mission in its log) checked to be of `mission` before anything else, then its log
+/// replayed to find the waypoints it visited (`flightlog::resume`). Errors name `dir` or the
+/// file at fault.
+pub fn resume_flight(dir: &Path, mission: &Mission) -> Result<Resumption, ResumeFlightError> {
+    let shown = dir.display().to_string();
+    if !is_flight_dir(dir) {
+        return Err(ResumeFlightError::NotAFlight { dir: shown });
+    }
+    let tlog = dir.join(TLOG_FILE);
+    let plan = plan_for_tlog(&tlog, Some(mission), None)?;
+    check_same_mission(mission, &plan, &shown)?;
+    let analysis = analyse_tlog(&tlog, plan, &flight_name(dir), SegmentConfig::default())
+        .map_err(ReplayError::from)?;
+    let plan = analysis.segmenter.plan();
+    Ok(crate::flightlog::resume::resume(
+        mission,
+        plan,
+        &analysis.report,
+        &shown,
+    )?)
 }

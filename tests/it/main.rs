@@ -15,6 +15,7 @@ mod mission;
 mod outputs;
 mod physics;
 mod preflight;
+mod resume;
 mod service;
 mod snapshots;
 mod solvers;
