@@ -12,7 +12,7 @@ use super::service::root;
 
 /// The mission: the long survey with a minute's hover at each waypoint, about 369 kJ for the
 /// plan's vehicle against its 576 kJ after the reserve.
-fn mission(dir: &Path) -> std::path::PathBuf {
+pub(crate) fn mission(dir: &Path) -> std::path::PathBuf {
     let text = std::fs::read_to_string(root().join("missions/long-survey.toml")).expect("mission");
     let path = dir.join("long-survey-hover.toml");
     std::fs::write(
@@ -24,7 +24,7 @@ fn mission(dir: &Path) -> std::path::PathBuf {
 }
 
 /// The truth: the shipped S1000 25% heavier, with a 15% smaller pack (8.5 Ah, 170 Wh usable).
-fn heavier_vehicle(dir: &Path) -> std::path::PathBuf {
+pub(crate) fn heavier_vehicle(dir: &Path) -> std::path::PathBuf {
     let text = std::fs::read_to_string(root().join("models/s1000/vehicle.toml")).expect("vehicle");
     let changed: Vec<String> = text
         .lines()

@@ -19,6 +19,7 @@ mod snapshots;
 mod solvers;
 mod sorties;
 mod study;
+mod svcguard;
 mod svchardening;
 mod svcstart;
 mod svcwatch;
