@@ -70,6 +70,11 @@ pub struct Args {
     /// instead of the vehicle file's value, NAME=VALUE (e.g. MPC_XY_CRUISE=8); repeatable
     #[arg(long, value_name = "NAME=VALUE")]
     mock_param: Vec<String>,
+    /// Built-in mock only: a vehicle directory whose physics and battery the mock flies (the
+    /// truth measured against), instead of the planning vehicle's: the plans and the guard's
+    /// projections use the planning vehicle, the mock flies this one
+    #[arg(long, value_name = "DIR")]
+    mock_vehicle: Option<PathBuf>,
 }
 
 /// Resolves on Ctrl-C or SIGTERM.
@@ -119,7 +124,14 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     if !mock_params.is_empty() && args.connect.is_some() {
         anyhow::bail!("--mock-param is for the built-in mock (no --connect)");
     }
-    let mut mock_vehicle = model.vehicle.clone();
+    if args.mock_vehicle.is_some() && args.connect.is_some() {
+        anyhow::bail!("--mock-vehicle is for the built-in mock (no --connect)");
+    }
+    let mut mock_vehicle = match &args.mock_vehicle {
+        Some(dir) => emplan::physics::Vehicle::load(dir)
+            .with_context(|| format!("--mock-vehicle {}", dir.display()))?,
+        None => model.vehicle.clone(),
+    };
     mock_vehicle.px4 = mock_vehicle.px4.with_autopilot_values(&mock_params);
     let vehicle = match &args.connect {
         Some(url) => VehicleLink::Connect {

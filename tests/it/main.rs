@@ -21,6 +21,7 @@ mod snapshots;
 mod solvers;
 mod sorties;
 mod study;
+mod svcguard;
 mod svchardening;
 mod svcstart;
 mod svcwatch;

@@ -12,6 +12,8 @@
     battery: [],
     liveFlight: null,
     legs: new Map(),
+    guard: null,
+    guardNotes: [],
     flights: [],
     report: null,
   };
@@ -338,6 +340,10 @@
     if (t.flight) {
       setText('lv-flight', t.flight.flight + ' ' + fmt(t.flight.t_s, 0) + ' s');
       if (state.liveFlight !== t.flight.flight) startFlight(t.flight.flight);
+      if (t.flight.guard) {
+        state.guard = t.flight.guard;
+        renderGuard();
+      }
       const p = t.flight.in_progress;
       if (p && p.kind === 'leg') {
         const existing = state.legs.get(p.index);
@@ -353,7 +359,83 @@
     state.legs = new Map();
     setText('live-flight-name', name);
     setText('live-note', '');
+    state.guard = null;
+    state.guardNotes = [];
+    renderGuard();
     renderLegs();
+  }
+  // The energy guard: its view (from the telemetry) and its notes (events, or the flight's view).
+  const WARN_VERDICTS = ['at_risk', 'below_reserve'];
+  const WARN_KINDS = ['point_of_no_return', 'return'];
+  function noteWarns(n) {
+    return WARN_KINDS.includes(n.kind) || WARN_VERDICTS.includes(n.verdict);
+  }
+  function applyGuardNote(e) {
+    if (state.liveFlight !== e.flight) startFlight(e.flight);
+    state.guardNotes.push(e.note);
+    renderGuard();
+  }
+  function renderGuard() {
+    const g = state.guard;
+    const notes = state.guardNotes;
+    const box = $('guard');
+    box.hidden = !g && !notes.length;
+    if (box.hidden) return;
+    const returning = (g && g.returning) || notes.some((n) => n.kind === 'return');
+    const verdict = g ? g.verdict : notes[notes.length - 1].verdict;
+    box.dataset.verdict = verdict;
+    box.dataset.returning = returning ? 'yes' : 'no';
+    setText('gd-policy', g ? '(' + g.policy + ')' : '');
+    let text;
+    let kind;
+    if (returning) {
+      text = 'RETURNING: sent home to keep the reserve';
+      kind = 'warn';
+    } else if (verdict === 'unmeasurable') {
+      text = 'cannot judge: ' + ((g && g.reason) || 'no measurement');
+      kind = 'unknown';
+    } else {
+      text = verdict.replace(/_/g, ' ');
+      kind = WARN_VERDICTS.includes(verdict) ? 'warn' : 'ok';
+    }
+    const line = $('gd-verdict');
+    line.textContent = text;
+    line.className = 'gd-verdict ' + kind;
+    box.classList.toggle('warn', kind === 'warn');
+    const facts = [];
+    if (g) {
+      // The bar spans the pack at take-off: the reserve, the band, the projection on it.
+      const full = g.pack_kj > 0 ? g.pack_kj : 1;
+      const at = (kj) => Math.max(0, Math.min(100, (100 * kj) / full)) + '%';
+      const [low, high] = g.left_at_landing_band_kj;
+      const measured = verdict !== 'unmeasurable';
+      $('gd-reserve-zone').style.width = at(g.reserve_kj);
+      $('gd-band').hidden = !measured;
+      $('gd-left').hidden = !measured;
+      $('gd-band').style.left = at(low);
+      $('gd-band').style.width = Math.max(0, parseFloat(at(high)) - parseFloat(at(low))) + '%';
+      $('gd-left').style.left = at(g.left_at_landing_kj);
+      $('gd-bar').setAttribute(
+        'aria-label',
+        'energy left at landing ' + fmt(g.left_at_landing_kj, 1) + ' kJ against the reserve ' + fmt(g.reserve_kj, 1) + ' kJ',
+      );
+      facts.push(
+        ['Left at landing', fmt(g.left_at_landing_kj, 1) + ' kJ (' + fmt(low, 1) + ' to ' + fmt(high, 1) + ')'],
+        ['Reserve', fmt(g.reserve_kj, 1) + ' kJ'],
+        ['Left if home now', fmt(g.left_if_home_now_kj, 1) + ' kJ'],
+        ['Correction', '\u00d7' + fmt(g.correction, 2) + ' \u00b1 ' + fmt(100 * g.correction_sd_ln, 0) + '% (' + g.parts_learned + ' parts learned)'],
+        ['Pack', fmt(g.pack_kj, 1) + ' kJ at take-off, charge ' + fmt(100 * g.state_of_charge_at_takeoff, 0) + '%, capacity \u00d7' + fmt(g.capacity_ratio, 2) + ' of the label'],
+        ['Drawn', fmt(g.drawn_kj, 1) + ' kJ'],
+        ['Point of no return', g.point_of_no_return || '-'],
+      );
+    }
+    $('gd-bar').hidden = !g;
+    $('gd-facts').replaceChildren(...facts.flatMap(([k, v]) => [el('dt', { text: k }), el('dd', { text: v })]));
+    $('gd-notes').replaceChildren(
+      ...notes.map((n) =>
+        el('li', { class: noteWarns(n) ? 'warn' : null, 'data-kind': n.kind, 'data-verdict': n.verdict, text: fmt(n.t_s, 0) + ' s ' + n.kind.replace(/_/g, ' ') + ': ' + n.message }),
+      ),
+    );
   }
   function applyPart(p) {
     if (p.kind !== 'leg') return;
@@ -473,6 +555,8 @@
       if (f) {
         startFlight(f.flight);
         for (const p of f.parts || []) if (p.kind === 'leg') state.legs.set(p.index, { part: p, state: 'done' });
+        state.guardNotes = f.guard_notes || [];
+        renderGuard();
         renderLegs();
         if (!f.recording) setText('live-note', 'Last flight ' + f.flight + ' ended.');
       }
@@ -625,6 +709,9 @@
           break;
         case 'part':
           applyPart(e);
+          break;
+        case 'guard':
+          applyGuardNote(e);
           break;
         case 'flight_started':
           startFlight(e.flight);
