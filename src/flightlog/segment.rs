@@ -29,12 +29,11 @@
 //! begins in flight (armed at its first heartbeat) starts at the leg MISSION_CURRENT names, that
 //! first part marked incomplete.
 
-
 use super::energy::{EnergyConfig, Measurement, PowerSeries};
 use super::flight_plan::{FlightPlan, Target};
+pub use super::part::{Segment, SegmentKind, StartState};
 use super::samples::{BatteryFeed, FeedConfig};
 use super::telemetry::{FlightMode, LandedState, Reading, Stamped, VehicleState};
-pub use super::part::{Segment, SegmentKind, StartState};
 use super::watch::{GuardNote, Watch};
 use super::FlightLogError;
 use crate::mission::Enu;

@@ -26,11 +26,11 @@ use serde::{Deserialize, Serialize};
 
 use super::energy::PowerSeries;
 use super::flight_plan::FlightPlan;
-pub use super::guard::{GuardSetup, Policy};
 use super::guard::{
     judge, project, state_of_charge_from_rest, Correction, Observed, Pack, PointAhead, Projection,
     Remaining, Verdict, BAND_SD,
 };
+pub use super::guard::{GuardSetup, Policy};
 use super::part::{Segment, SegmentKind};
 
 /// What a note is about.
