@@ -46,8 +46,10 @@ def main():
     server.subscribe_incoming_mission(on_mission)
     time.sleep(0.5)
 
+    # MAVSDK's mission server sends no home and no position: the mission's origin is asked for
+    # explicitly (emplan waits its 30 s for a home, then uploads with a warning).
     run = subprocess.run(
-        [emplan, "upload", mission, "--connect", f"udpout:127.0.0.1:{port}", "--order", "energy", "--json", "--discover-s", "15"],
+        [emplan, "upload", mission, "--connect", f"udpout:127.0.0.1:{port}", "--order", "energy", "--json", "--discover-s", "15", "--origin", "mission"],
         capture_output=True,
         text=True,
         timeout=120,

@@ -101,14 +101,9 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
     let lines = Lines::new(args.json);
     super::runtime()?.block_on(async {
         let session = args.link.open_with(Some(mock)).await?;
-        let (mission, plan) = match planned {
-            Some(plan) => (mission, plan),
-            None => {
-                let mission = args.flight.rehome(&session, &mission, args.json).await?;
-                let plan = args.flight.plan_with(&mission, &model)?;
-                (mission, plan)
-            }
-        };
+        let (mission, plan) = (args.flight)
+            .planned_at(&session, mission, planned, &model, args.json)
+            .await?;
         let flight = args.flight.flight(&plan)?;
         let load = Load {
             guard: args.guard.unwrap_or_default(),

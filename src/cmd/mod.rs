@@ -376,6 +376,27 @@ impl FlightArgs {
         Ok(rehomed(mission, located.home))
     }
 
+    /// The mission and plan to fly: `planned`, planned from the mission's origin before
+    /// connecting, or (`--origin vehicle`, `planned` None) the mission re-homed to the vehicle's
+    /// home over `session` and planned now.
+    pub async fn planned_at(
+        &self,
+        session: &emplan::session::Session,
+        mission: emplan::mission::Mission,
+        planned: Option<emplan::planner::Plan>,
+        model: &emplan::physics::VehicleModel,
+        quiet: bool,
+    ) -> anyhow::Result<(emplan::mission::Mission, emplan::planner::Plan)> {
+        match planned {
+            Some(plan) => Ok((mission, plan)),
+            None => {
+                let mission = self.rehome(session, &mission, quiet).await?;
+                let plan = self.plan_with(&mission, model)?;
+                Ok((mission, plan))
+            }
+        }
+    }
+
     /// The upload request a service gets for these options.
     pub fn service_request(&self) -> anyhow::Result<emplan::service::wire::UploadRequest> {
         Ok(emplan::service::wire::UploadRequest {

@@ -102,14 +102,9 @@ fn upload(args: Args) -> anyhow::Result<ExitCode> {
             stage: "connect",
             cause,
         })?;
-        let (mission, plan) = match planned {
-            Some(plan) => (mission, plan),
-            None => {
-                let mission = args.flight.rehome(&session, &mission, args.json).await?;
-                let plan = args.flight.plan_with(&mission, &model)?;
-                (mission, plan)
-            }
-        };
+        let (mission, plan) = (args.flight)
+            .planned_at(&session, mission, planned, &model, args.json)
+            .await?;
         let flight = args.flight.flight(&plan)?;
         let planned = upload_document(&plan, &flight);
         let load = (args.flight).load(&mission, &plan, &flight, &model.vehicle);

@@ -618,6 +618,13 @@ mod tests {
         Segmenter::run(plan.clone(), SegmentConfig::default(), &stamped).expect("a valid plan")
     }
 
+    /// The energy the nominal flight draws, start to end of its log.
+    fn nominal_total_j() -> f64 {
+        let nominal = flown(&plan(2_000_000.0, Policy::Warn), 1.0, |_, _| {});
+        let measured = nominal.series().measure(0.0, nominal.now_s()).energy_j;
+        measured.expect("the nominal flight is measured")
+    }
+
     fn notes(s: &Segmenter, kind: NoteKind) -> Vec<GuardNote> {
         let w = s.watch().expect("guarded");
         w.notes()
@@ -644,12 +651,7 @@ mod tests {
     #[test]
     fn a_flight_dearer_than_its_plan_on_a_tight_pack_is_sent_home_once_and_warned_of_first() {
         // The plan lands with about a third of the pack; at 1.6 times its price it cannot.
-        let nominal = flown(&plan(2_000_000.0, Policy::Warn), 1.0, |_, _| {});
-        let total = nominal
-            .series()
-            .measure(0.0, nominal.now_s())
-            .energy_j
-            .unwrap();
+        let total = nominal_total_j();
         let tight = plan(total * 1.5, Policy::Rtl);
         let s = flown(&tight, 1.0, |_, _| {});
         assert!(notes(&s, NoteKind::Return).is_empty(), "nominal sent home");
@@ -671,12 +673,7 @@ mod tests {
 
     #[test]
     fn one_odd_leg_does_not_send_the_vehicle_home() {
-        let nominal = flown(&plan(2_000_000.0, Policy::Warn), 1.0, |_, _| {});
-        let total = nominal
-            .series()
-            .measure(0.0, nominal.now_s())
-            .energy_j
-            .unwrap();
+        let total = nominal_total_j();
         // A pack the plan fits with room: one leg at three times its price does not change that.
         let plan = plan(total * 2.2, Policy::Rtl);
         let s = flown(&plan, 1.0, |stamped, flight| {
@@ -700,12 +697,7 @@ mod tests {
 
     #[test]
     fn a_measurement_gap_suspends_the_guard_with_a_warning_and_it_judges_again_after() {
-        let nominal = flown(&plan(2_000_000.0, Policy::Warn), 1.0, |_, _| {});
-        let total = nominal
-            .series()
-            .measure(0.0, nominal.now_s())
-            .energy_j
-            .unwrap();
+        let total = nominal_total_j();
         // A pack too small to finish at 1.6 times the price: without the gap the guard would
         // act as the take-off ends.
         let plan = plan(total * 1.5, Policy::Rtl);
