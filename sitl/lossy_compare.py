@@ -305,8 +305,10 @@ class Server:
 def run_client(client, port, mission, items_file, emplan):
     started = time.monotonic()
     if client == "emplan":
+        # MAVSDK's mission server says nothing of where it is: the mission's origin is asked for
+        # explicitly (emplan waits its 30 s for a home, then uploads with a warning).
         cmd = [emplan, "upload", mission, "--connect", f"udpout:127.0.0.1:{port}", "--order", "listed",
-               "--allow-infeasible", "--json", "--time-limit", "2"]
+               "--allow-infeasible", "--json", "--time-limit", "2", "--origin", "mission"]
     else:
         cmd = [sys.executable, __file__, f"{client}-client", str(port), items_file]
     try:
