@@ -85,15 +85,7 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
         .map(|d| resuming(&mission, d))
         .transpose()?;
     let mission = resumed.as_ref().map_or(mission, |(_, left)| left.clone());
-    // From the mission's origin the plan comes first: a refusal needs no vehicle. From the
-    // vehicle's home it waits for the vehicle to say where that is.
-    let (model, planned) = if args.flight.plans_from_vehicle() {
-        (args.flight.model.model()?, None)
-    } else {
-        let (model, plan) = args.flight.plan(&mission)?;
-        args.flight.flight(&plan)?;
-        (model, Some(plan))
-    };
+    let (model, planned) = args.flight.plan_first(&mission)?;
     let builtin = args.link.connect.is_none();
     let mock = args
         .mock

@@ -376,6 +376,21 @@ impl FlightArgs {
         Ok(rehomed(mission, located.home))
     }
 
+    /// The model and, from the mission's origin, the plan, made before connecting (a refusal
+    /// needs no vehicle); with `--origin vehicle` the plan waits for the vehicle to say where
+    /// its home is ([`FlightArgs::planned_at`]).
+    pub fn plan_first(
+        &self,
+        mission: &emplan::mission::Mission,
+    ) -> anyhow::Result<(emplan::physics::VehicleModel, Option<emplan::planner::Plan>)> {
+        if self.plans_from_vehicle() {
+            return Ok((self.model.model()?, None));
+        }
+        let (model, plan) = self.plan(mission)?;
+        self.flight(&plan)?;
+        Ok((model, Some(plan)))
+    }
+
     /// The mission and plan to fly: `planned`, planned from the mission's origin before
     /// connecting, or (`--origin vehicle`, `planned` None) the mission re-homed to the vehicle's
     /// home over `session` and planned now.

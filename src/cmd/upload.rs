@@ -87,14 +87,7 @@ fn upload(args: Args) -> anyhow::Result<ExitCode> {
         return upload_through(&args, &client);
     }
     let mission = emplan::mission::load(&args.mission)?;
-    // From the mission's origin the plan comes first: a refusal needs no vehicle.
-    let (model, planned) = if args.flight.plans_from_vehicle() {
-        (args.flight.model.model()?, None)
-    } else {
-        let (model, plan) = args.flight.plan(&mission)?;
-        args.flight.flight(&plan)?;
-        (model, Some(plan))
-    };
+    let (model, planned) = args.flight.plan_first(&mission)?;
     let runtime = super::runtime()?;
     runtime.block_on(async {
         // The built-in mock stands at the mission's origin.

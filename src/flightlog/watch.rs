@@ -210,10 +210,6 @@ impl Watch {
         })
     }
 
-    pub fn policy(&self) -> Policy {
-        self.setup.policy
-    }
-
     /// Every note so far.
     pub fn notes(&self) -> &[GuardNote] {
         &self.notes
@@ -222,11 +218,6 @@ impl Watch {
     /// The latest view (None before the flight began).
     pub fn view(&self) -> Option<&GuardView> {
         self.view.as_ref()
-    }
-
-    /// Whether the guard decided to send the vehicle home.
-    pub fn returning(&self) -> bool {
-        self.returning
     }
 
     /// The report's record.

@@ -32,7 +32,7 @@ use super::Refusal;
 use crate::flightlog::flight_plan::FlightPlan;
 use crate::flightlog::recorder::PLAN_FILE;
 use crate::flightlog::watch::{NoteKind, Policy};
-use crate::link::commands::{drive, heartbeats, return_home, Heard};
+use crate::link::commands::{drive, heartbeats, Heard};
 use crate::link::connection::{Autopilot, Identity, Link};
 use crate::link::driver::download;
 use crate::link::flight::{Start, StartConfig, StartError};
@@ -477,12 +477,8 @@ impl Actor {
             tracing::error!("the energy guard would send the vehicle home: no autopilot heard");
             return;
         };
-        match return_home(&self.link, &target).await {
-            Ok(Ok(())) => tracing::warn!("sent home by the energy guard"),
-            Ok(Err(e)) => tracing::error!(
-                "the energy guard sent the vehicle home and the autopilot did not go: {e}"
-            ),
-            Err(e) => tracing::error!("the energy guard could not send the vehicle home: {e}"),
+        if let Err(e) = session::guard::send_home(&self.link, &target).await {
+            tracing::error!("the energy guard could not send the vehicle home: {e}");
         }
     }
 

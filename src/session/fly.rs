@@ -19,7 +19,7 @@ use super::recorder::{FlightEvent, RecorderHandle};
 use crate::flightlog::flight_plan::FlightPlan;
 use crate::flightlog::report::{FlightReport, ReportJson};
 use crate::flightlog::watch::{NoteKind, Policy};
-use crate::link::commands::{drive, keep_streams, request_streams, return_home};
+use crate::link::commands::{drive, keep_streams, request_streams};
 use crate::link::connection::{Autopilot, Link};
 use crate::link::driver::{upload_verified, UploadError, UploadReport};
 use crate::link::flight::{Start, StartConfig, StartError};
@@ -295,14 +295,7 @@ pub async fn fly(
                             tracing::error!("recording: {error}");
                         }
                         FlightEvent::Guard { note, .. } if note.kind == NoteKind::Return => {
-                            // The guard decided: home now. A refusal is said; the guard's notes
-                            // go on (and the pilot can still act).
-                            match return_home(link, target).await? {
-                                Ok(()) => tracing::warn!("sent home by the energy guard"),
-                                Err(e) => tracing::error!(
-                                    "the energy guard sent the vehicle home and the autopilot did not go: {e}"
-                                ),
-                            }
+                            super::guard::send_home(link, target).await?;
                         }
                         FlightEvent::Part { .. } | FlightEvent::Guard { .. } => {}
                     }

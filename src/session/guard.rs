@@ -15,7 +15,7 @@
 
 use crate::flightlog::flight_plan::FlightPlan;
 use crate::flightlog::watch::{GuardSetup, Policy};
-use crate::link::commands::read_params;
+use crate::link::commands::{read_params, return_home};
 use crate::link::connection::{Autopilot, Link};
 use crate::link::params::ReturnAltitude;
 use crate::link::{Flavour, LinkError};
@@ -44,6 +44,19 @@ pub async fn return_altitude_m(link: &Link, target: &Autopilot) -> Result<f64, L
             param.default_m
         }
     })
+}
+
+/// Sends the vehicle home because the guard decided so, and says how it went: the autopilot's
+/// refusal is logged (the guard keeps watching; the pilot can still act), a link failure
+/// returned.
+pub async fn send_home(link: &Link, target: &Autopilot) -> Result<(), LinkError> {
+    match return_home(link, target).await? {
+        Ok(()) => tracing::warn!("sent home by the energy guard"),
+        Err(e) => tracing::error!(
+            "the energy guard sent the vehicle home and the autopilot did not go: {e}"
+        ),
+    }
+    Ok(())
 }
 
 /// The guard's setup for `plan` flown by `vehicle` with `profile` on an autopilot of `flavour`
