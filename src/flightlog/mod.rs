@@ -12,6 +12,7 @@ pub mod csv;
 pub mod energy;
 pub mod flight_plan;
 pub mod guard;
+pub mod onboard;
 pub mod part;
 pub mod recorder;
 pub mod replay;

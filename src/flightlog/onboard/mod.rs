@@ -1,0 +1,183 @@
+//! The flight controller's own logs: PX4 ULog (`.ulg`, [`ulog`]) and ArduPilot DataFlash (`.bin`,
+//! [`dataflash`]) read into the same stamped readings a `.tlog` replay gives, so segmentation,
+//! energy, flags and reports are the code that measures a recorded flight. A log is told by its
+//! first bytes, not its name. A torn file (power cut mid-flight) gives what it held up to the tear
+//! and says where it tore; a log without battery current, position or mission progress is refused
+//! naming what is missing.
+
+use std::path::Path;
+
+use super::telemetry::{Reading, Stamped};
+
+pub mod dataflash;
+pub mod ulog;
+
+/// Which onboard format a log is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Format {
+    Ulog,
+    Dataflash,
+}
+
+impl Format {
+    /// The report's `source`: `ulog` or `dataflash` (a `.tlog` is `tlog`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Format::Ulog => "ulog",
+            Format::Dataflash => "dataflash",
+        }
+    }
+
+    /// The format whose magic `head` (the file's first bytes) starts with.
+    pub fn sniff(head: &[u8]) -> Option<Format> {
+        if head.starts_with(ulog::MAGIC) {
+            Some(Format::Ulog)
+        } else if head.starts_with(dataflash::MAGIC) {
+            Some(Format::Dataflash)
+        } else {
+            None
+        }
+    }
+}
+
+/// Where a log tore: the offset of its first incomplete or unreadable record.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Tear {
+    pub offset: u64,
+    /// The log time (seconds, as the readings' `t_s`) of the last reading before it.
+    pub after_s: Option<f64>,
+    /// What was wrong there (`a record cut short`, `an unknown message id 212`, ...).
+    pub reason: String,
+}
+
+/// One mission item as DataFlash's CMD records it (the whole mission is written at log start).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MissionCommand {
+    /// The item's place in the autopilot's mission (ArduPilot: 0 is home).
+    pub seq: u16,
+    /// MAV_CMD.
+    pub command: u16,
+    /// MAV_FRAME.
+    pub frame: u8,
+    pub params: [f32; 4],
+    pub lat_deg: f64,
+    pub lon_deg: f64,
+    pub alt_m: f64,
+}
+
+/// An onboard log read whole.
+#[derive(Debug, Clone)]
+pub struct OnboardLog {
+    pub format: Format,
+    /// The file as the user named it.
+    pub file: String,
+    pub bytes: u64,
+    /// Every reading, in log time: `t_s` is seconds since the log's first timestamp (the
+    /// autopilot's own clock), `wall_us` the same instant in microseconds.
+    pub stamped: Vec<Stamped>,
+    /// The mission the log itself holds (DataFlash's CMD records, in `seq` order); ULog holds
+    /// only the current item: None.
+    pub mission: Option<Vec<MissionCommand>>,
+    /// Where the file tore, when it did: what came before is kept.
+    pub tear: Option<Tear>,
+}
+
+impl OnboardLog {
+    /// Battery readings per second of log (over the span from the first to the last of them).
+    pub fn battery_rate_hz(&self) -> Option<f64> {
+        let times: Vec<f64> = self
+            .stamped
+            .iter()
+            .filter(|s| matches!(s.reading, Reading::Battery(_)))
+            .map(|s| s.t_s)
+            .collect();
+        let (first, last) = (times.first()?, times.last()?);
+        (times.len() > 1 && last > first).then(|| (times.len() - 1) as f64 / (last - first))
+    }
+
+    /// Refuses a log that cannot measure a flight, naming what it lacks: a battery current,
+    /// a position, or the mission's progress.
+    pub fn check_measurable(&self) -> Result<(), OnboardError> {
+        let has = |f: &dyn Fn(&Reading) -> bool| self.stamped.iter().any(|s| f(&s.reading));
+        let missing = if !has(&|r| matches!(r, Reading::Battery(b) if b.current_a.is_some())) {
+            Some("battery current")
+        } else if !has(&|r| matches!(r, Reading::Position(_))) {
+            Some("position")
+        } else if !has(&|r| {
+            matches!(
+                r,
+                Reading::MissionCurrent { .. } | Reading::ItemReached { .. }
+            )
+        }) {
+            Some("mission progress")
+        } else {
+            None
+        };
+        match missing {
+            Some(what) => Err(OnboardError::Missing {
+                file: self.file.clone(),
+                what,
+            }),
+            None => Ok(()),
+        }
+    }
+}
+
+/// Why an onboard log could not be read.
+#[derive(Debug, thiserror::Error)]
+pub enum OnboardError {
+    #[error("{file}: {source}")]
+    Io {
+        file: String,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error(
+        "{file}: neither a PX4 ULog nor an ArduPilot DataFlash log (its first bytes are {head})"
+    )]
+    UnknownFormat { file: String, head: String },
+    #[error("{file}: byte {offset}: {reason}")]
+    Malformed {
+        file: String,
+        offset: u64,
+        reason: String,
+    },
+    #[error("{file}: the log has no {what}: it cannot measure a flight")]
+    Missing { file: String, what: &'static str },
+}
+
+/// Whether `path` starts like an onboard log (for commands that take flight directories too).
+pub fn is_onboard_log(path: &Path) -> bool {
+    use std::io::Read;
+    let mut head = [0u8; 16];
+    std::fs::File::open(path)
+        .and_then(|mut f| f.read(&mut head))
+        .is_ok_and(|n| Format::sniff(&head[..n]).is_some())
+}
+
+/// Reads the onboard log at `path`, of either format, told by its first bytes.
+pub fn read(path: &Path) -> Result<OnboardLog, OnboardError> {
+    let file = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|source| OnboardError::Io {
+        file: file.clone(),
+        source,
+    })?;
+    parse(&file, &bytes)
+}
+
+/// Parses an onboard log held in memory; `file` names it in errors.
+pub fn parse(file: &str, bytes: &[u8]) -> Result<OnboardLog, OnboardError> {
+    match Format::sniff(bytes) {
+        Some(Format::Ulog) => ulog::parse(file, bytes),
+        Some(Format::Dataflash) => dataflash::parse(file, bytes),
+        None => Err(OnboardError::UnknownFormat {
+            file: file.to_string(),
+            head: bytes
+                .iter()
+                .take(8)
+                .map(|b| format!("{b:02x}"))
+                .collect::<Vec<_>>()
+                .join(" "),
+        }),
+    }
+}
