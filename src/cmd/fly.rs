@@ -1,11 +1,8 @@
 //! `emplan fly`: plan, battery check, verified upload, start (arming only with `--arm`; the
-//! built-in mock has no pilot, so without `--connect` emplan starts it), record until landed,
-//! and print the per-leg energy report. Without `--connect` the built-in mock autopilot flies
-//! the mission in simulated time with the vehicle's physics. The flight is the library
-//! session's (`emplan::session`); with `--service` the service's (`emplan::service::remote`).
-//! `--origin vehicle` connects first and plans the mission from the vehicle's home.
-//! `--resume FLIGHT_DIR` flies only what an earlier flight of the mission left
-//! (`emplan::flightlog::resume`).
+//! built-in mock, the default without `--connect`, has no pilot and is always started), record
+//! until landed, and print the per-leg energy report. The flight is the library session's
+//! (`emplan::session`); with `--service` the service's (`emplan::service::remote`).
+//! `--resume FLIGHT_DIR` flies only what an earlier flight left (`emplan::flightlog::resume`).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -14,7 +11,7 @@ use std::time::Duration;
 use super::flying::{self, Flying, Lines};
 use emplan::flightlog::watch::Policy;
 use emplan::service::remote::{self, Starting};
-use emplan::session::{FlyError, FlyJson, FlyOptions, Load, Px4Parameters, RecorderConfig};
+use emplan::session::{FlyError, FlyOptions, Load, Px4Parameters, RecorderConfig};
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -44,8 +41,9 @@ pub struct Args {
     resume: Option<PathBuf>,
     /// The energy guard in flight: warn when the battery is projected to land below its
     /// reserve and at the point of no return (warn), and also send the vehicle home in time
-    /// to keep the reserve (rtl), or nothing (off)
-    #[arg(long, value_name = "POLICY")]
+    /// to keep the reserve (rtl), or nothing (off). A service's flights are guarded as
+    /// `emplan serve --guard` says
+    #[arg(long, value_name = "POLICY", conflicts_with = "service")]
     guard: Option<Policy>,
     #[command(flatten)]
     mock: flying::MockArgs,
@@ -62,28 +60,15 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
 fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
     let service = args.service.client()?;
     args.mock.check(service.is_some())?;
-    if !(args.timeout_s.is_finite() && args.timeout_s > 0.0) {
-        anyhow::bail!(
-            "--timeout-s {}: a positive number of seconds is required",
-            args.timeout_s
-        );
-    }
+    let timeout = super::seconds("timeout-s", args.timeout_s)?;
     if let Some(client) = service {
-        if args.guard.is_some() {
-            anyhow::bail!(
-                "--guard: a service's flights are guarded as `emplan serve --guard` says"
-            );
-        }
-        return fly_through(&args, &client);
+        return fly_through(&args, &client, timeout);
     }
     // A flight log that cannot be written ends the command before anything is uploaded.
     emplan::flightlog::recorder::check_log_dir(&args.log_dir).map_err(FlyError::LogDir)?;
     let mission = emplan::mission::load(&args.mission)?;
-    let resumed = args
-        .resume
-        .as_deref()
-        .map(|d| resuming(&mission, d))
-        .transpose()?;
+    let resumed = (args.resume.as_deref()).map(|d| resuming(&mission, d));
+    let resumed = resumed.transpose()?;
     let mission = resumed.as_ref().map_or(mission, |(_, left)| left.clone());
     let (model, planned) = args.flight.plan_first(&mission)?;
     let builtin = args.link.connect.is_none();
@@ -105,7 +90,7 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
         let recorder = session.recorder(RecorderConfig::new(&args.log_dir));
         let options = FlyOptions {
             arm: args.arm || builtin,
-            timeout: Duration::from_secs_f64(args.timeout_s),
+            timeout,
             ..FlyOptions::default()
         };
         let pilot = !args.arm && !builtin;
@@ -118,15 +103,7 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
             .await;
         lines.stop(ticker);
         recorder.close().await;
-        let flown = result?;
-        let Some(report) = flown.report else {
-            anyhow::bail!(
-                "the flight in {} has no report (no flight plan reached the recorder)",
-                flown.dir.display()
-            );
-        };
-        let params = flown.params.as_ref().map(Px4Parameters::from);
-        let doc = FlyJson::new(report.json(), &flown.dir.display().to_string(), params);
+        let (report, doc) = result?.reported()?;
         flying::print(&report, &doc, args.json)
     })
 }
@@ -137,54 +114,35 @@ fn resuming(
     mission: &emplan::mission::Mission,
     dir: &std::path::Path,
 ) -> anyhow::Result<(String, emplan::mission::Mission)> {
-    use emplan::flightlog::resume::Visit;
     let resumption = emplan::session::resume_flight(dir, mission)
         .map_err(|e| anyhow::Error::new(e).context(format!("--resume {}", dir.display())))?;
-    let name = emplan::flightlog::recorder::flight_name(&dir.canonicalize()?);
-    let list = |visit| resumption.named(visit).join(", ");
-    let left = resumption.mission.waypoints.iter().map(|w| w.name.as_str());
-    let cut_short = match list(Visit::CutShort) {
-        none if none.is_empty() => String::new(),
-        some => format!("; hover cut short at {some}"),
-    };
-    eprintln!(
-        "resuming {name}: visited {}{cut_short}; flying the {} left: {}",
-        match list(Visit::Visited) {
-            none if none.is_empty() => "none".to_string(),
-            some => some,
-        },
-        resumption.mission.waypoints.len(),
-        left.collect::<Vec<_>>().join(", ")
-    );
-    Ok((name, resumption.mission))
+    eprintln!("{}", resumption.summary());
+    Ok((resumption.flight, resumption.mission))
 }
 
 /// `fly --service URL`: upload, start and follow the flight through a running service, once
 /// its vehicle link is up (within `--discover-s`).
-fn fly_through(args: &Args, client: &emplan::service::Client) -> anyhow::Result<ExitCode> {
-    let request = args.flight.service_request()?;
+fn fly_through(
+    args: &Args,
+    client: &emplan::service::Client,
+    timeout: Duration,
+) -> anyhow::Result<ExitCode> {
+    let upload = args.flight.service_request()?;
     let lines = Lines::new(args.json);
-    let discover = Duration::from_secs_f64(args.link.discover_s.clamp(0.0, 3.2e7));
-    let timeout = Duration::from_secs_f64(args.timeout_s);
+    let asked = remote::FlyRequest {
+        mission: &args.mission,
+        upload: &upload,
+        arm: args.arm,
+        discover: Duration::from_secs_f64(args.link.discover_s.clamp(0.0, 3.2e7)),
+        timeout,
+    };
     super::runtime()?.block_on(async {
-        let name = remote::find_mission(client, &args.mission, Duration::from_secs(60)).await?;
-        let link = remote::wait_for_vehicle(client, discover).await?;
-        let starting = match args.arm || link.builtin_mock {
-            true => Starting::Service,
-            false => Starting::Pilot,
-        };
-        let pilot = starting == Starting::Pilot;
-        let uploaded = |answer: &_| {
-            let flying = Flying::uploaded(answer, client.url(), pilot);
+        let uploaded = |answer: &_, starting| {
+            let flying = Flying::uploaded(answer, client.url(), starting == Starting::Pilot);
             lines.flying(answer.px4_parameters.as_ref(), &flying);
         };
-        let on_event = |e: &_| lines.remote_event(e);
-        let flown = remote::fly(
-            client, &name, &request, starting, timeout, uploaded, on_event,
-        )
-        .await?;
-        let report = emplan::flightlog::report::FlightReport::from_json(&flown.report);
-        let doc = FlyJson::new(flown.report, &flown.dir, flown.upload.px4_parameters);
+        let flown = remote::fly(client, asked, uploaded, |e| lines.remote_event(e)).await?;
+        let (report, doc) = flown.reported();
         flying::print(&report, &doc, args.json)
     })
 }

@@ -449,7 +449,7 @@ pub struct LinkArgs {
 }
 
 /// Seconds from the command line as a duration: finite, positive and at most a year.
-fn seconds(flag: &str, value: f64) -> anyhow::Result<std::time::Duration> {
+pub fn seconds(flag: &str, value: f64) -> anyhow::Result<std::time::Duration> {
     if !(value.is_finite() && value > 0.0 && value <= 3.2e7) {
         anyhow::bail!("--{flag} {value}: expected a positive number of seconds");
     }

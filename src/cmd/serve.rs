@@ -101,12 +101,7 @@ async fn stop_signal() {
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let seconds = |flag: &str, value: f64| -> anyhow::Result<std::time::Duration> {
-        if !(value.is_finite() && value > 0.0 && value <= 3.2e7) {
-            anyhow::bail!("--{flag} {value}: expected a positive number of seconds");
-        }
-        Ok(std::time::Duration::from_secs_f64(value))
-    };
+    use super::seconds;
     let transfer_budget = args.budget_s.map(|b| seconds("budget-s", b)).transpose()?;
     let resume_within = seconds("resume-within-s", args.resume_within_s)?;
     let model = args.model.model()?;

@@ -207,6 +207,8 @@ fn distance(a: Enu, b: Enu) -> f64 {
 /// What is left of a flight to fly.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Resumption {
+    /// The flight resumed (its report's name: the flight directory's).
+    pub flight: String,
     /// The mission of the waypoints left: `mission`'s name, origin and settings, its
     /// waypoints (positions and hover times as the mission file gives them) that the flight's
     /// plan held and the flight did not visit, in the mission file's order.
@@ -222,6 +224,27 @@ impl Resumption {
             .filter(|v| v.visit == visit)
             .map(|v| v.name.as_str())
             .collect()
+    }
+
+    /// One line for the user: `resuming FLIGHT: visited A, B; hover cut short at C; flying the
+    /// 2 left: C, D`.
+    pub fn summary(&self) -> String {
+        let list = |visit| match self.named(visit).join(", ") {
+            none if none.is_empty() => None,
+            some => Some(some),
+        };
+        let cut_short =
+            list(Visit::CutShort).map_or(String::new(), |c| format!("; hover cut short at {c}"));
+        let left: Vec<&str> = (self.mission.waypoints.iter())
+            .map(|w| w.name.as_str())
+            .collect();
+        format!(
+            "resuming {}: visited {}{cut_short}; flying the {} left: {}",
+            self.flight,
+            list(Visit::Visited).unwrap_or_else(|| "none".into()),
+            left.len(),
+            left.join(", ")
+        )
     }
 }
 
@@ -252,6 +275,7 @@ pub fn resume(
         });
     }
     Ok(Resumption {
+        flight: report.flight.clone(),
         mission: Mission {
             waypoints,
             ..mission.clone()

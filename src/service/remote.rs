@@ -15,7 +15,8 @@ use super::wire::{
     Event, Failure, LinkState, LinkStatus, MissionStatus, MissionsFolder, UploadAnswer,
     UploadRequest,
 };
-use crate::flightlog::report::ReportJson;
+use crate::flightlog::report::{FlightReport, ReportJson};
+use crate::session::FlyJson;
 
 /// Why an upload or a flight through the service did not succeed.
 #[derive(Debug, thiserror::Error)]
@@ -237,6 +238,16 @@ pub struct RemoteFlight {
     pub report: ReportJson,
 }
 
+impl RemoteFlight {
+    /// Its report and the document `fly --service --json` prints: what `fly` prints of the
+    /// same flight, the service's flight directory and PX4 parameter check included.
+    pub fn reported(self) -> (FlightReport, FlyJson) {
+        let report = FlightReport::from_json(&self.report);
+        let doc = FlyJson::new(self.report, &self.dir, self.upload.px4_parameters);
+        (report, doc)
+    }
+}
+
 /// How a flight through the service starts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Starting {
@@ -246,22 +257,41 @@ pub enum Starting {
     Pilot,
 }
 
-/// Uploads mission `name`, starts it (or waits for the pilot), and waits until its flight has
+/// A flight asked of a service: the mission file (found in the service's folder by its bytes),
+/// the upload request, whether to arm, how long to wait for the service's vehicle link, and
+/// for the flight after the upload.
+#[derive(Debug, Clone, Copy)]
+pub struct FlyRequest<'a> {
+    pub mission: &'a Path,
+    pub upload: &'a UploadRequest,
+    /// Arm and start (always, on the service's built-in mock: it has no pilot).
+    pub arm: bool,
+    pub discover: Duration,
+    pub timeout: Duration,
+}
+
+/// Flies `asked` through the service: finds its mission file, waits for the vehicle link (within
+/// `discover`), uploads it, starts it (or waits for the pilot), and waits until its flight has
 /// landed and been reported, for at most `timeout` after the upload. `uploaded` sees the upload
-/// answer at once; `on_event` sees every event of the stream after it that concerns the flight.
+/// answer at once, and who starts the flight; `on_event` sees every event of the stream after it
+/// that concerns the flight.
 pub async fn fly(
     client: &Client,
-    name: &str,
-    request: &UploadRequest,
-    starting: Starting,
-    timeout: Duration,
-    uploaded: impl FnOnce(&UploadAnswer),
+    asked: FlyRequest<'_>,
+    uploaded: impl FnOnce(&UploadAnswer, Starting),
     mut on_event: impl FnMut(&Event),
 ) -> Result<RemoteFlight, RemoteError> {
+    let name = find_mission(client, asked.mission, Duration::from_secs(60)).await?;
+    let link = wait_for_vehicle(client, asked.discover).await?;
+    let starting = match asked.arm || link.builtin_mock {
+        true => Starting::Service,
+        false => Starting::Pilot,
+    };
+    let timeout = asked.timeout;
     // Following the events from before the start: none of the flight's is missed.
     let mut events: EventStream = client.events().await?;
-    let upload_answer = upload(client, name, request).await?;
-    uploaded(&upload_answer);
+    let upload_answer = upload(client, &name, asked.upload).await?;
+    uploaded(&upload_answer, starting);
     if starting == Starting::Service {
         let answer = client
             .post("/api/vehicle/start", &serde_json::json!({}))

@@ -194,6 +194,8 @@ pub enum FlyError {
     LogDir(crate::flightlog::FlightLogError),
     #[error("the vehicle disarmed after {duration_s:.1} s without flying a leg of the mission (log in {})", .dir.display())]
     NotFlown { duration_s: f64, dir: PathBuf },
+    #[error("the flight in {} has no report (no flight plan reached the recorder)", .dir.display())]
+    NoReport { dir: PathBuf },
 }
 
 impl FlyError {
@@ -206,7 +208,9 @@ impl FlyError {
             FlyError::Start(_) => "start".into(),
             FlyError::Link(_) => "connect".into(),
             FlyError::Timeout { .. } => "flight".into(),
-            FlyError::Recorder(_) | FlyError::LogDir(_) => "record".into(),
+            FlyError::Recorder(_) | FlyError::LogDir(_) | FlyError::NoReport { .. } => {
+                "record".into()
+            }
             FlyError::NotFlown { .. } => "flight".into(),
         }
     }
@@ -218,7 +222,8 @@ impl FlyError {
             FlyError::Start(_)
             | FlyError::Timeout { .. }
             | FlyError::Recorder(_)
-            | FlyError::NotFlown { .. } => true,
+            | FlyError::NotFlown { .. }
+            | FlyError::NoReport { .. } => true,
             FlyError::Items
             | FlyError::Plan(_)
             | FlyError::Link(_)
@@ -236,6 +241,19 @@ pub struct Flown {
     pub params: Option<ParamCheck>,
     pub dir: PathBuf,
     pub report: Option<FlightReport>,
+}
+
+impl Flown {
+    /// Its report and the document `fly --json` prints of it; a flight the recorder could not
+    /// measure (no plan reached it) is an error naming its directory.
+    pub fn reported(self) -> Result<(FlightReport, FlyJson), FlyError> {
+        let Some(report) = self.report else {
+            return Err(FlyError::NoReport { dir: self.dir });
+        };
+        let params = self.params.as_ref().map(Px4Parameters::from);
+        let doc = FlyJson::new(report.json(), &self.dir.display().to_string(), params);
+        Ok((report, doc))
+    }
 }
 
 /// Flies `load` on `target`, recorded by `recorder` (spawned on the same link): the telemetry

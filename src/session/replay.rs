@@ -107,8 +107,9 @@ pub fn resume_flight(dir: &Path, mission: &Mission) -> Result<Resumption, Resume
     let tlog = dir.join(TLOG_FILE);
     let plan = plan_for_tlog(&tlog, Some(mission), None)?;
     check_same_mission(mission, &plan, &shown)?;
-    let analysis = analyse_tlog(&tlog, plan, &flight_name(dir), SegmentConfig::default())
-        .map_err(ReplayError::from)?;
+    let name = flight_name(&dir.canonicalize().unwrap_or_else(|_| dir.to_path_buf()));
+    let analysis =
+        analyse_tlog(&tlog, plan, &name, SegmentConfig::default()).map_err(ReplayError::from)?;
     let plan = analysis.segmenter.plan();
     Ok(crate::flightlog::resume::resume(
         mission,

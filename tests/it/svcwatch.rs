@@ -354,3 +354,43 @@ async fn a_large_mission_deleted_while_planned_leaves_the_list_and_its_plan_stop
     until(&service.client, "small.toml", 20, status_is("planned")).await;
     service.shutdown().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn a_mission_larger_than_the_planner_holds_is_listed_as_an_error_naming_the_limit() {
+    let service = serve(Settings {
+        settle: Duration::from_millis(200),
+        time_limit: Duration::from_secs(60),
+        plans_at_once: 2,
+    })
+    .await;
+    let limit = emplan::mission::MAX_WAYPOINTS;
+    // Home on line 2, waypoint k (1-based) on line k + 2.
+    let mut text =
+        String::from("QGC WPL 110\n0\t1\t0\t16\t0\t0\t0\t0\t38.5362\t-121.7875\t16\t1\n");
+    for k in 1..=limit + 10 {
+        let (row, col) = ((k / 300) as f64, (k % 300) as f64);
+        text.push_str(&format!(
+            "{k}\t0\t3\t16\t0\t0\t0\t0\t{:.7}\t{:.7}\t20\t1\n",
+            38.5362 + row * 1e-5,
+            -121.7875 + col * 1e-5
+        ));
+    }
+    drop_in(&service.missions, "huge.waypoints", text.as_bytes());
+    let huge = until(&service.client, "huge.waypoints", 30, status_is("error"))
+        .await
+        .expect("listed");
+    let message = huge["error"]["message"].as_str().expect("message");
+    assert!(
+        message.contains(&format!(
+            "line {}: waypoint {} of {}: a mission may have at most {limit} waypoints",
+            limit + 3,
+            limit + 1,
+            limit + 10
+        )),
+        "{message}"
+    );
+    // The folder goes on: a mission added after it is planned.
+    drop_in(&service.missions, "small.toml", &sample_8wp());
+    until(&service.client, "small.toml", 30, status_is("planned")).await;
+    service.shutdown().await;
+}
