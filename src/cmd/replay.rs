@@ -1,17 +1,22 @@
-//! `emplan replay FILE.tlog`: the recorded log through the same decoding, clock and
-//! segmentation as the live run, measured against the flight's plan (plan.json beside the log,
-//! or the mission items found in it, priced with the vehicle model), and the report printed.
+//! `emplan replay FILE`: a recorded log through the same decoding, clock and segmentation as the
+//! live run, measured against the flight's plan (plan.json beside the log, or the mission found
+//! in it, priced with the vehicle model), and the report printed. The log is a ground station's
+//! .tlog or the flight controller's own (PX4 .ulg, ArduPilot .bin).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// A flight log (.tlog, QGC/MAVProxy format)
+    /// A flight log: .tlog (QGC/MAVProxy format), PX4 .ulg or ArduPilot .bin
     tlog: PathBuf,
-    /// Mission file naming the waypoints, for logs without plan.json beside them
+    /// Mission file naming the waypoints, for logs without plan.json beside them (a ULog,
+    /// which holds no mission, is measured against it planned as `fly` plans it)
     #[arg(long)]
     mission: Option<PathBuf>,
+    /// The plan.json an onboard log is measured against
+    #[arg(long, value_name = "PLAN_JSON")]
+    plan: Option<PathBuf>,
     #[command(flatten)]
     model: super::VehicleArgs,
     /// Print one JSON document (the report) instead of text
@@ -26,8 +31,12 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         .map(emplan::mission::load)
         .transpose()?;
     let model = args.model.model()?;
-    let analysis = super::report::analyse(&args.tlog, mission.as_ref(), Some(&model))?;
-    super::report::warn_skipped(&args.tlog, &analysis.replay);
+    let from = emplan::session::PlanFrom {
+        plan: args.plan.as_deref(),
+        mission: mission.as_ref(),
+        model: Some(&model),
+    };
+    let analysis = super::report::measure(&args.tlog, from)?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&analysis.report.json())?);
     } else {

@@ -17,12 +17,22 @@ use emplan::output::Output;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Flight directories (with flight.tlog), or directories holding them
+    /// Flight directories (with flight.tlog), directories holding them, or the flight
+    /// controller's own logs (PX4 .ulg, ArduPilot .bin: told by their first bytes)
     #[arg(required = true)]
     log_dirs: Vec<PathBuf>,
-    /// Mission file naming the waypoints, for logs without plan.json
+    /// Mission file naming the waypoints, for logs without plan.json; an onboard log holding no
+    /// mission (a ULog) is measured against it planned as `fly` plans it
     #[arg(long)]
     mission: Option<PathBuf>,
+    /// The plan.json an onboard log is measured against (default: plan.json beside it, else
+    /// the mission in the log, else --mission)
+    #[arg(long, value_name = "PLAN_JSON")]
+    plan: Option<PathBuf>,
+    /// With one flight directory: the flight controller's own log of the same flight, measured
+    /// against the flight's plan and shown leg by leg beside the .tlog's measurement
+    #[arg(long, value_name = "FILE")]
+    onboard: Option<PathBuf>,
     #[command(flatten)]
     model: super::VehicleArgs,
     /// Print one JSON document instead of text (one flight: its report; several: the combined
@@ -72,8 +82,12 @@ pub fn part_line(kind: SegmentKind, p: &PartReport) -> String {
 
 /// The report as a table.
 pub fn print(report: &FlightReport) {
+    let source = report.source.as_ref().map_or(String::new(), |s| {
+        let hz = s.battery_hz.map_or("-".into(), |h| format!("{h:.1}"));
+        format!(", measured from its {} (battery {hz} Hz)", s.format)
+    });
     println!(
-        "flight {}{}",
+        "flight {}{}{source}",
         report.flight,
         if report.complete { "" } else { " (incomplete)" }
     );
@@ -133,12 +147,18 @@ pub fn print(report: &FlightReport) {
     );
 }
 
-/// The flight directories named: each directory with a flight.tlog, or the ones inside it.
+/// The logs named: a .tlog, a flight directory's flight.tlog, the flight.tlog of each flight
+/// directory inside a directory, or an onboard log (any other file: refused by its reader when
+/// it is none).
 fn flights(dirs: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
     let mut out = Vec::new();
     for dir in dirs {
-        if emplan::flightlog::recorder::is_flight_dir(dir) {
+        if dir.is_file() {
             out.push(dir.clone());
+            continue;
+        }
+        if emplan::flightlog::recorder::is_flight_dir(dir) {
+            out.push(dir.join(emplan::flightlog::recorder::TLOG_FILE));
             continue;
         }
         let inside = emplan::session::flight_dirs(dir)
@@ -149,9 +169,18 @@ fn flights(dirs: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
                 dir.display()
             );
         }
-        out.extend(inside);
+        out.extend((inside.into_iter()).map(|d| d.join(emplan::flightlog::recorder::TLOG_FILE)));
     }
     Ok(out)
+}
+
+/// Whether `path` is measured as a .tlog: not an onboard log by its first bytes nor named as one
+/// (.ulg, .bin).
+fn is_tlog(path: &Path) -> bool {
+    let named_onboard = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("ulg") || e.eq_ignore_ascii_case("bin"));
+    !named_onboard && !emplan::flightlog::onboard::is_onboard_log(path)
 }
 
 /// Says on stderr what a replay of `tlog` skipped: a torn last record, each corrupt span.
@@ -175,6 +204,38 @@ pub fn warn_skipped(tlog: &Path, replay: &emplan::flightlog::replay::Replay) {
     }
 }
 
+/// Says on stderr where an onboard log tore.
+fn warn_torn(path: &Path, analysis: &Analysis) {
+    let tear = analysis
+        .report
+        .source
+        .as_ref()
+        .and_then(|s| s.tear.as_ref());
+    if let Some(t) = tear {
+        eprintln!(
+            "warning: {}: the log tore at byte {} ({}){}: measured up to it",
+            path.display(),
+            t.offset,
+            t.reason,
+            t.after_s
+                .map_or(String::new(), |s| format!(", {s:.1} s into it"))
+        );
+    }
+}
+
+/// Measures one log: a .tlog (see [`analyse`]) or the flight controller's own.
+pub fn measure(path: &Path, from: emplan::session::PlanFrom<'_>) -> anyhow::Result<Analysis> {
+    if is_tlog(path) {
+        let analysis = analyse(path, from.mission, from.model)?;
+        warn_skipped(path, &analysis.replay);
+        return Ok(analysis);
+    }
+    let analysis = emplan::session::replay_onboard(path, from, SegmentConfig::default())
+        .with_context(|| format!("measuring {}", path.display()))?;
+    warn_torn(path, &analysis);
+    Ok(analysis)
+}
+
 /// Replays one flight directory or .tlog.
 pub fn analyse(
     tlog: &Path,
@@ -191,12 +252,17 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         .as_deref()
         .map(emplan::mission::load)
         .transpose()?;
-    let dirs = flights(&args.log_dirs)?;
+    let logs = flights(&args.log_dirs)?;
+    if args.onboard.is_some() && logs.len() != 1 {
+        anyhow::bail!("--onboard compares one flight: name one flight directory");
+    }
     // Checked before the replays: never a flight's file, the mission or the vehicle's files.
     let plot = match &args.plot {
         Some(path) => {
             let mut inputs = args.log_dirs.clone();
             inputs.extend(args.mission.iter().cloned());
+            inputs.extend(args.plan.iter().cloned());
+            inputs.extend(args.onboard.iter().cloned());
             inputs.extend(args.model.files());
             let out = Output::new(path, inputs, args.force);
             out.check()?;
@@ -205,12 +271,33 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         None => None,
     };
     let model = args.model.model().ok();
+    let from = emplan::session::PlanFrom {
+        plan: args.plan.as_deref(),
+        mission: mission.as_ref(),
+        model: model.as_ref(),
+    };
     let mut analyses = Vec::new();
-    for dir in dirs {
-        let tlog = dir.join(emplan::flightlog::recorder::TLOG_FILE);
-        let analysis = analyse(&tlog, mission.as_ref(), model.as_ref())?;
-        warn_skipped(&tlog, &analysis.replay);
-        analyses.push(analysis);
+    for log in &logs {
+        analyses.push(measure(log, from)?);
+    }
+    if let (Some(onboard), [tlog]) = (&args.onboard, analyses.as_slice()) {
+        // Measured against the plan the .tlog was: one flight, two logs.
+        let plan_json = logs[0].with_file_name(emplan::flightlog::recorder::PLAN_FILE);
+        let from = emplan::session::PlanFrom {
+            plan: plan_json
+                .is_file()
+                .then_some(plan_json.as_path())
+                .or(from.plan),
+            ..from
+        };
+        let other = measure(onboard, from)?;
+        let sources = emplan::flightlog::report::compare_sources(&tlog.report, &other.report);
+        if args.json {
+            println!("{}", serde_json::to_string_pretty(&sources)?);
+        } else {
+            print_sources(&sources);
+        }
+        return Ok(ExitCode::SUCCESS);
     }
     if let Some(out) = &plot {
         super::plot::flight_svg(out, &analyses)?;
@@ -249,6 +336,38 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// A flight measured from its two logs, leg by leg.
+fn print_sources(sources: &emplan::flightlog::report::SourcesJson) {
+    let rate = |r: &emplan::flightlog::report::ReportJson| {
+        r.source.as_ref().map_or("-".to_string(), |s| {
+            let hz = s.battery_hz.map_or("-".into(), |h| format!("{h:.1}"));
+            format!("{} (battery {hz} Hz)", s.format)
+        })
+    };
+    println!(
+        "flight {}: {} beside {}",
+        sources.tlog.flight,
+        rate(&sources.tlog),
+        rate(&sources.onboard)
+    );
+    println!(
+        "{:<26} {:>12} {:>10} {:>11} {:>8}",
+        "leg", "predicted_kj", "tlog_kj", "onboard_kj", "diff"
+    );
+    let kj = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.3}"));
+    for (k, leg) in sources.legs.iter().enumerate() {
+        println!(
+            "{:<26} {:>12} {:>10} {:>11} {:>8}",
+            format!("leg {}: {} -> {}", k + 1, leg.from, leg.to),
+            kj(leg.predicted_kj),
+            kj(leg.tlog_kj),
+            kj(leg.onboard_kj),
+            leg.difference_pct
+                .map_or("-".into(), |d| format!("{d:+.1}%"))
+        );
+    }
 }
 
 /// A flight and its resumptions as one mission: every waypoint and the flight that visited it,

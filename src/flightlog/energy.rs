@@ -13,6 +13,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::samples::PowerSample;
+use super::telemetry::Battery;
 
 /// Why a measurement should not be trusted as it is (snake_case names in the JSON).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
@@ -71,6 +72,12 @@ pub struct EnergyConfig {
     /// keeps the rounding under 4%).
     pub consumed_min_mah: f64,
     pub consumed_tolerance: f64,
+    /// Cross-check against the autopilot's energy counter instead of its charge counter when
+    /// the readings carry one (an onboard log: ArduPilot's BAT `EnrgTot`). Off for MAVLink,
+    /// whose BATTERY_STATUS counts energy in 100 J steps and is not filled by every autopilot.
+    pub energy_counter: bool,
+    /// Least energy counted for that cross-check (J): 2 kJ keeps a 100 J step under 5%.
+    pub consumed_min_j: f64,
 }
 
 impl Default for EnergyConfig {
@@ -83,6 +90,8 @@ impl Default for EnergyConfig {
             min_coverage: 0.5,
             consumed_min_mah: 50.0,
             consumed_tolerance: 0.1,
+            energy_counter: false,
+            consumed_min_j: 2000.0,
         }
     }
 }
@@ -312,11 +321,18 @@ impl PowerSeries {
         } else {
             Some(integrate(&points, t0, t1))
         };
-        let consumed_j = self.consumed_j(t0, t1, &points);
-        if let (Some(e), Some((c, mah))) = (energy_j, consumed_j) {
-            if mah >= self.cfg.consumed_min_mah
-                && (e - c).abs() > self.cfg.consumed_tolerance * c.abs()
-            {
+        let counted_j = self
+            .cfg
+            .energy_counter
+            .then(|| self.counted(t0, t1, |b| b.energy_consumed_j))
+            .flatten();
+        let consumed_j = match counted_j {
+            Some(j) => Some((j, j >= self.cfg.consumed_min_j)),
+            None => (self.consumed_j(t0, t1, &points))
+                .map(|(j, mah)| (j, mah >= self.cfg.consumed_min_mah)),
+        };
+        if let (Some(e), Some((c, enough))) = (energy_j, consumed_j) {
+            if enough && (e - c).abs() > self.cfg.consumed_tolerance * c.abs() {
                 flags.push(Flag::ConsumedMismatch);
             }
         }
@@ -331,13 +347,14 @@ impl PowerSeries {
         }
     }
 
-    /// The charge counter's energy over [t0, t1]: (J, mAh), when it brackets both ends.
-    fn consumed_j(&self, t0: f64, t1: f64, points: &[(f64, f64)]) -> Option<(f64, f64)> {
+    /// How much a counter of the autopilot's (`count` of a reading) rose over [t0, t1],
+    /// interpolated between its readings, when they bracket both ends.
+    fn counted(&self, t0: f64, t1: f64, count: impl Fn(&Battery) -> Option<f64>) -> Option<f64> {
         let counted: Vec<(f64, f64)> = self
             .samples
             .iter()
             .filter(|s| !s.battery.fake_current)
-            .filter_map(|s| s.battery.consumed_mah.map(|c| (s.t_s, c)))
+            .filter_map(|s| count(&s.battery).map(|c| (s.t_s, c)))
             .collect();
         let at = |t: f64| -> Option<f64> {
             let k = counted.partition_point(|c| c.0 < t);
@@ -348,7 +365,12 @@ impl PowerSeries {
             let lo = counted[k - 1];
             Some(lo.1 + (hi.1 - lo.1) * (t - lo.0) / (hi.0 - lo.0))
         };
-        let mah = at(t1)? - at(t0)?;
+        Some(at(t1)? - at(t0)?)
+    }
+
+    /// The charge counter's energy over [t0, t1]: (J, mAh), when it brackets both ends.
+    fn consumed_j(&self, t0: f64, t1: f64, points: &[(f64, f64)]) -> Option<(f64, f64)> {
+        let mah = self.counted(t0, t1, |b| b.consumed_mah)?;
         let voltages: Vec<f64> = points
             .iter()
             .filter_map(|&(t, _)| {
@@ -635,6 +657,41 @@ mod tests {
         );
         // Too little charge for the counter's resolution: no verdict.
         assert!(!build(13.0)
+            .measure(0.0, 2.0)
+            .flags
+            .contains(&Flag::ConsumedMismatch));
+    }
+
+    #[test]
+    fn the_energy_counter_cross_checks_the_integral_when_asked() {
+        // 20 V, 36 A for 10 s: 7200 J; the counter says `j_per_s` x t, the charge counter
+        // agrees with the integral.
+        let build = |j_per_s: f64, energy_counter: bool| {
+            let mut s = PowerSeries::new(EnergyConfig {
+                energy_counter,
+                ..EnergyConfig::default()
+            });
+            for k in 0..=100 {
+                let t = f64::from(k) * 0.1;
+                let mut x = sample(t, Some(20.0), Some(36.0));
+                x.battery.consumed_mah = Some((t * 10.0).round());
+                x.battery.energy_consumed_j = Some(t * j_per_s);
+                s.push(x);
+            }
+            s
+        };
+        let agree = build(720.0, true).measure(0.0, 10.0);
+        assert!((agree.consumed_j.expect("counted") - 7200.0).abs() < 1e-6);
+        assert!(!agree.flags.contains(&Flag::ConsumedMismatch));
+        let disagree = build(900.0, true).measure(0.0, 10.0);
+        assert!((disagree.consumed_j.expect("counted") - 9000.0).abs() < 1e-6);
+        assert!(disagree.flags.contains(&Flag::ConsumedMismatch));
+        // Not asked (MAVLink): the charge counter, which agrees.
+        let mavlink = build(900.0, false).measure(0.0, 10.0);
+        assert!((mavlink.consumed_j.expect("counted") - 7200.0).abs() < 1.0);
+        assert!(!mavlink.flags.contains(&Flag::ConsumedMismatch));
+        // Under 2 kJ counted: no verdict.
+        assert!(!build(900.0, true)
             .measure(0.0, 2.0)
             .flags
             .contains(&Flag::ConsumedMismatch));

@@ -23,6 +23,44 @@ use super::watch::GuardReport;
 /// mission's origin begins its first leg as far off as it stood.
 pub const FAR_START_M: f64 = 10.0;
 
+/// What a report measured from: the ground station's `.tlog` (live or replayed), or the flight
+/// controller's own log (`ulog`, `dataflash`), with its battery sample rate and where it tore.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LogSource {
+    /// `tlog`, `ulog` or `dataflash`.
+    pub format: String,
+    /// Battery readings per second over the flight (None: fewer than two).
+    pub battery_hz: Option<f64>,
+    /// Where the log tore (a power cut mid-flight): the parts after it are missing.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tear: Option<TearJson>,
+}
+
+/// Where a log tore: its byte offset, the log time of the last reading before it, and why.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TearJson {
+    pub offset: u64,
+    pub after_s: Option<f64>,
+    pub reason: String,
+}
+
+impl LogSource {
+    /// A log of `format` whose battery readings came at `times` (seconds, in order).
+    pub fn of(format: &str, times: &[f64]) -> LogSource {
+        let battery_hz = match (times.first(), times.last()) {
+            (Some(first), Some(last)) if times.len() > 1 && last > first => {
+                Some((times.len() - 1) as f64 / (last - first))
+            }
+            _ => None,
+        };
+        LogSource {
+            format: format.to_string(),
+            battery_hz,
+            tear: None,
+        }
+    }
+}
+
 /// One part of a flight, predicted and measured.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PartReport {
@@ -79,6 +117,8 @@ pub struct FlightReport {
     pub log_gaps: Vec<TlogGap>,
     /// What the energy guard saw and decided, when the flight was guarded.
     pub guard: Option<GuardReport>,
+    /// The log measured (None: a report written before it was said).
+    pub source: Option<LogSource>,
 }
 
 fn part(
@@ -145,6 +185,13 @@ impl FlightReport {
             flags: Vec::new(),
             log_gaps: Vec::new(),
             guard: segmenter.watch().map(|w| w.report()),
+            source: Some(LogSource::of(
+                "tlog",
+                &(segmenter.series().samples().iter())
+                    .filter(|s| s.primary)
+                    .map(|s| s.t_s)
+                    .collect::<Vec<_>>(),
+            )),
         };
         for segment in segmenter.segments() {
             match segment.kind {
@@ -281,6 +328,7 @@ impl FlightReport {
             flags: self.flags.clone(),
             log_gaps: self.log_gaps.clone(),
             guard: self.guard.clone(),
+            source: self.source.clone(),
         }
     }
 
@@ -301,6 +349,7 @@ impl FlightReport {
             flags: json.flags.clone(),
             log_gaps: json.log_gaps.clone(),
             guard: json.guard.clone(),
+            source: json.source.clone(),
         }
     }
 }
@@ -440,6 +489,70 @@ pub struct ReportJson {
     /// What the energy guard saw and decided (absent when the flight was not guarded).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub guard: Option<GuardReport>,
+    /// The log measured: `{"format": "tlog"|"ulog"|"dataflash", "battery_hz", "tear"?}` (absent
+    /// from reports written before it was said).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub source: Option<LogSource>,
+}
+
+/// One leg of a flight measured from two logs of it: the ground station's `.tlog` and the flight
+/// controller's own log.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LegSourcesJson {
+    pub from: String,
+    pub to: String,
+    pub predicted_kj: Option<f64>,
+    pub tlog_kj: Option<f64>,
+    pub onboard_kj: Option<f64>,
+    /// (onboard - tlog) / tlog in percent, when both measured it.
+    pub difference_pct: Option<f64>,
+    /// The leg's time in each log: the two segment the flight on their own.
+    pub tlog_duration_s: Option<f64>,
+    pub onboard_duration_s: Option<f64>,
+}
+
+/// `emplan report FLIGHT_DIR --onboard FILE --json`: both reports and their legs side by side.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SourcesJson {
+    pub tlog: ReportJson,
+    pub onboard: ReportJson,
+    pub legs: Vec<LegSourcesJson>,
+}
+
+/// The legs of two reports of one flight side by side, matched in flying order by their points
+/// (a leg one log has and the other does not has only one side).
+pub fn compare_sources(tlog: &FlightReport, onboard: &FlightReport) -> SourcesJson {
+    let mut legs: Vec<LegSourcesJson> = Vec::new();
+    let mut next = 0;
+    let side = |p: &PartReport| (p.measured_j.map(kj), Some(p.duration_s));
+    for a in &tlog.legs {
+        let found = (next..onboard.legs.len())
+            .find(|&k| onboard.legs[k].from == a.from && onboard.legs[k].to == a.to);
+        let b = found.map(|k| &onboard.legs[k]);
+        if let Some(k) = found {
+            next = k + 1;
+        }
+        let (tlog_kj, tlog_duration_s) = side(a);
+        let (onboard_kj, onboard_duration_s) = b.map_or((None, None), side);
+        legs.push(LegSourcesJson {
+            from: a.from.clone(),
+            to: a.to.clone(),
+            predicted_kj: a.predicted_j.map(kj),
+            tlog_kj,
+            onboard_kj,
+            difference_pct: match (tlog_kj, onboard_kj) {
+                (Some(t), Some(o)) if t > 0.0 => Some((o - t) / t * 100.0),
+                _ => None,
+            },
+            tlog_duration_s,
+            onboard_duration_s,
+        });
+    }
+    SourcesJson {
+        tlog: tlog.json(),
+        onboard: onboard.json(),
+        legs,
+    }
 }
 
 /// Statistics of one quantity over repeated flights.
@@ -681,6 +794,7 @@ mod tests {
             flags: vec![],
             log_gaps: vec![],
             guard: None,
+            source: None,
         }
     }
 

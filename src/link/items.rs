@@ -77,6 +77,36 @@ pub fn item(
     }
 }
 
+/// A mission item from the numbers a flight controller logs of it (ArduPilot's CMD records:
+/// MAV_CMD, MAV_FRAME, the four parameters, degrees and metres as the frame gives them); None for
+/// a command or frame this MAVLink dialect does not know.
+pub fn item_from_numbers(
+    seq: u16,
+    command: u16,
+    frame: u8,
+    params: [f32; 4],
+    lat_deg: f64,
+    lon_deg: f64,
+    alt_m: f64,
+) -> Option<MISSION_ITEM_INT_DATA> {
+    use num_traits::FromPrimitive;
+    let e7 = |deg: f64| {
+        let v = (deg * 1e7).round();
+        (v.is_finite() && v.abs() <= f64::from(i32::MAX)).then_some(v as i32)
+    };
+    Some(MISSION_ITEM_INT_DATA {
+        seq,
+        ..item(
+            MavCmd::from_u16(command)?,
+            MavFrame::from_u8(frame)?,
+            params,
+            e7(lat_deg)?,
+            e7(lon_deg)?,
+            alt_m as f32,
+        )
+    })
+}
+
 /// The items that fly `mission` in `order` (indices into `mission.waypoints`), numbered from 0.
 /// Returns None when `order` names a waypoint the mission does not have.
 pub fn mission_items(

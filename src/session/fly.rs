@@ -526,6 +526,7 @@ mod tests {
                 flags: Vec::new(),
                 log_gaps: Vec::new(),
                 guard: None,
+                source: None,
             })),
         }
     }

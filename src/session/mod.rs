@@ -15,6 +15,7 @@
 pub mod fly;
 pub mod guard;
 pub mod home;
+pub mod onboard;
 pub mod open;
 pub mod params;
 pub mod predict;
@@ -27,6 +28,7 @@ pub use fly::{
     discard_unflown, fly, load, Flown, FlyError, FlyFailure, FlyJson, FlyOptions, Load, Loaded,
 };
 pub use home::{check_home, vehicle_home, IfHomeUnknown, PlanOrigin, PreflightError};
+pub use onboard::{replay_onboard, OnboardReplayError, PlanFrom};
 pub use open::{open, LinkOptions, MockFlight, OpenError, Session, Target, Uploaded};
 pub use params::{check_px4_params, parse_param, ParamCheck, Px4Parameters};
 pub use predict::{
