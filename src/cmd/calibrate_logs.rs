@@ -14,7 +14,8 @@ use emplan::physics::{Profile, Vehicle};
 #[derive(Debug, Clone, clap::Args)]
 pub struct LogArgs {
     /// Fit to the legs of logged flights instead of the paper: flight directories (as `fly`
-    /// and `record` write them: plan.json, report.json) or folders of them
+    /// and `record` write them: plan.json, report.json), the flight controller's own logs
+    /// (PX4 .ulg beside a plan.json, ArduPilot .bin), or folders of them
     #[arg(long, value_name = "LOG_DIR", num_args = 1.., conflicts_with = "fit")]
     from_logs: Vec<PathBuf>,
     /// With --from-logs: the profile the flights flew (default: the vehicle's)
@@ -72,7 +73,14 @@ pub fn run(
     if let Some(out) = &out {
         out.check_dir()?;
     }
-    let flights = logfit::read_flights(&args.from_logs)?;
+    // An onboard log is measured against the plan beside it or the mission it holds (what
+    // `emplan report FILE` does); the fit needs only its legs' geometry and energies.
+    let onboard = |path: &Path| {
+        emplan::session::replay_onboard(path, Default::default(), Default::default())
+            .map(|a| (a.segmenter.plan().clone(), a.report))
+            .map_err(|e| format!("{e:#}"))
+    };
+    let flights = logfit::read_flights_with(&args.from_logs, &onboard)?;
     for skipped in &flights.skipped {
         eprintln!(
             "warning: flight {} left out: {}",

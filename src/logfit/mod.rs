@@ -35,6 +35,7 @@ use serde::Serialize;
 
 use crate::flightlog::flight_plan::FlightPlan;
 use crate::flightlog::recorder::{read_report, PLAN_FILE, REPORT_FILE};
+use crate::flightlog::report::FlightReport;
 use crate::flightlog::FlightLogError;
 use crate::mission::Enu;
 use crate::physics::minimise::nelder_mead;
@@ -130,13 +131,19 @@ fn is_flight_dir(dir: &Path) -> bool {
     dir.join(PLAN_FILE).is_file() || crate::flightlog::recorder::is_flight_dir(dir)
 }
 
+/// Whether `path` is a flight controller's own log (PX4 ULog, ArduPilot DataFlash): a flight
+/// of its own, measured by the caller ([`read_flights_with`]).
+fn is_onboard(path: &Path) -> bool {
+    path.is_file() && crate::flightlog::onboard::is_onboard_log(path)
+}
+
 /// The flight directories under `paths`: a directory holding plan.json (or flight.tlog) is a
 /// flight; any other directory is searched one level down for flights (the `--log-dir` that
 /// `fly` makes them in).
 pub fn flight_dirs(paths: &[PathBuf]) -> Result<Vec<PathBuf>, LogFitError> {
     let mut dirs = Vec::new();
     for path in paths {
-        if is_flight_dir(path) {
+        if is_flight_dir(path) || is_onboard(path) {
             dirs.push(path.clone());
             continue;
         }
@@ -148,7 +155,7 @@ pub fn flight_dirs(paths: &[PathBuf]) -> Result<Vec<PathBuf>, LogFitError> {
         })?;
         let mut found: Vec<PathBuf> = entries
             .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| is_flight_dir(p))
+            .filter(|p| is_flight_dir(p) || is_onboard(p))
             .collect();
         if found.is_empty() {
             return Err(LogFitError::Flight {
@@ -169,6 +176,25 @@ pub fn flight_dirs(paths: &[PathBuf]) -> Result<Vec<PathBuf>, LogFitError> {
 /// is left out, named with its reason in [`Flights::skipped`] ([`calibrate`] refuses flights
 /// of which none was read).
 pub fn read_flights(paths: &[PathBuf]) -> Result<Flights, LogFitError> {
+    read_flights_with(paths, &|path| {
+        Err(format!(
+            "{}: an onboard log, and this reader measures only flight directories",
+            path.display()
+        ))
+    })
+}
+
+/// A flight controller's own log measured against its plan: the plan and the report, or why
+/// not (naming the file).
+pub type MeasureOnboard<'a> = dyn Fn(&Path) -> Result<(FlightPlan, FlightReport), String> + 'a;
+
+/// As [`read_flights`], with the flight controllers' own logs among `paths` (PX4 .ulg,
+/// ArduPilot .bin, told by their first bytes) measured by `onboard` (the session's replay: it
+/// reads the log and its plan). Their pack is not fitted (no samples.csv).
+pub fn read_flights_with(
+    paths: &[PathBuf],
+    onboard: &MeasureOnboard<'_>,
+) -> Result<Flights, LogFitError> {
     let mut flights = Flights {
         flights: Vec::new(),
         legs: Vec::new(),
@@ -177,6 +203,19 @@ pub fn read_flights(paths: &[PathBuf]) -> Result<Flights, LogFitError> {
     };
     for dir in flight_dirs(paths)? {
         let index = flights.flights.len();
+        if is_onboard(&dir) {
+            let read = onboard(&dir).and_then(|(plan, report)| {
+                legs_of((&dir, &dir), &plan, &report, index).map_err(|e| e.to_string())
+            });
+            match read {
+                Ok((flight, legs)) => {
+                    flights.flights.push(flight);
+                    flights.legs.extend(legs);
+                }
+                Err(reason) => flights.skipped.push(SkippedFlight { dir, reason }),
+            }
+            continue;
+        }
         let read = read_flight(&dir, index)
             .and_then(|(flight, legs)| Ok((flight, legs, battery::read_pack(&dir, index)?)));
         match read {
@@ -229,6 +268,18 @@ pub fn read_flight(
     };
     let plan = FlightPlan::read_json(&dir.join(PLAN_FILE)).map_err(log)?;
     let report = read_report(dir).map_err(log)?;
+    legs_of((dir, &dir.join(REPORT_FILE)), &plan, &report, index)
+}
+
+/// The clean legs of flight `at.0` measured in `report` (`at.1` names it in errors) against
+/// `plan`; `index` numbers them.
+pub fn legs_of(
+    at: (&Path, &Path),
+    plan: &FlightPlan,
+    report: &FlightReport,
+    index: usize,
+) -> Result<(LoggedFlight, Vec<LoggedLeg>), LogFitError> {
+    let (dir, file) = at;
     let mut legs = Vec::new();
     let mut skipped = 0;
     // Report legs come in flying order; each is matched to the next plan leg of its names.
@@ -237,7 +288,7 @@ pub fn read_flight(
         let k = (next..plan.points.len())
             .find(|&k| plan.leg_names(k) == (part.from.clone(), part.to.clone()))
             .ok_or_else(|| LogFitError::Flight {
-                dir: dir.join(REPORT_FILE).display().to_string(),
+                dir: file.display().to_string(),
                 reason: format!(
                     "leg {} -> {} is not a leg of {PLAN_FILE} after leg {next}",
                     part.from, part.to
