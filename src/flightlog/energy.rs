@@ -686,10 +686,10 @@ mod tests {
         let disagree = build(900.0, true).measure(0.0, 10.0);
         assert!((disagree.consumed_j.expect("counted") - 9000.0).abs() < 1e-6);
         assert!(disagree.flags.contains(&Flag::ConsumedMismatch));
-        // Not asked (MAVLink): the charge counter, which agrees.
-        let mavlink = build(900.0, false).measure(0.0, 10.0);
-        assert!((mavlink.consumed_j.expect("counted") - 7200.0).abs() < 1.0);
-        assert!(!mavlink.flags.contains(&Flag::ConsumedMismatch));
+        // Not asked (a .tlog): the charge counter, which agrees.
+        let unasked = build(900.0, false).measure(0.0, 10.0);
+        assert!((unasked.consumed_j.expect("counted") - 7200.0).abs() < 1.0);
+        assert!(!unasked.flags.contains(&Flag::ConsumedMismatch));
         // Under 2 kJ counted: no verdict.
         assert!(!build(900.0, true)
             .measure(0.0, 2.0)
