@@ -343,9 +343,9 @@ fn walk(bytes: &[u8], mut on_record: impl FnMut(&Message, &[u8])) -> Scan {
                     // it counts only when a record or the end follows.
                     Some(_)
                         if bad.is_some()
-                            && rest
-                                .get(message.len..)
-                                .is_some_and(|after| !after.is_empty() && !after.starts_with(&HEAD[..after.len().min(2)])) =>
+                            && rest.get(message.len..).is_some_and(|after| {
+                                !after.is_empty() && !after.starts_with(&HEAD[..after.len().min(2)])
+                            }) =>
                     {
                         Some(format!("a {} record not followed by another", message.name))
                     }
@@ -618,7 +618,13 @@ impl Builder {
     }
 
     fn message(&mut self, text: String) {
-        let vehicles = ["ArduPlane", "ArduRover", "ArduSub", "Blimp", "AntennaTracker"];
+        let vehicles = [
+            "ArduPlane",
+            "ArduRover",
+            "ArduSub",
+            "Blimp",
+            "AntennaTracker",
+        ];
         if vehicles.iter().any(|v| text.starts_with(v)) {
             self.other_vehicle = true;
         }
@@ -664,7 +670,10 @@ impl Builder {
             }
         }
         self.current_nav = Some((seq, false));
-        let total = self.mission.as_ref().and_then(|m| u16::try_from(m.len()).ok());
+        let total = self
+            .mission
+            .as_ref()
+            .and_then(|m| u16::try_from(m.len()).ok());
         self.push(Reading::MissionCurrent {
             seq,
             total,
@@ -729,24 +738,22 @@ impl Builder {
                 .and_then(|v| u16::try_from(v).ok())
         };
         let float = |label: &str| m.number(r, label).unwrap_or(f64::NAN);
-        let (Some(seq), Some(command), Some(total)) = (int("CNum"), int("CId"), int("CTot"))
-        else {
+        let (Some(seq), Some(command), Some(total)) = (int("CNum"), int("CId"), int("CTot")) else {
             return;
         };
         let c = MissionCommand {
             seq,
             command,
-            frame: int("Frame")
-                .and_then(|f| u8::try_from(f).ok())
-                .unwrap_or(0),
+            frame: int("Frame").and_then(|f| u8::try_from(f).ok()).unwrap_or(0),
             params: ["Prm1", "Prm2", "Prm3", "Prm4"].map(|p| float(p) as f32),
             lat_deg: float("Lat"),
             lon_deg: float("Lng"),
             alt_m: float("Alt"),
         };
-        let continues = self.dump.last().is_some_and(|last| {
-            last.seq.checked_add(1) == Some(seq) && total == self.dump_total
-        });
+        let continues = self
+            .dump
+            .last()
+            .is_some_and(|last| last.seq.checked_add(1) == Some(seq) && total == self.dump_total);
         if seq == 0 {
             self.dump = vec![c];
             self.dump_total = total;
@@ -783,9 +790,8 @@ impl Builder {
     /// The readings stamped in log time, of one battery instance: the lowest that logs a
     /// current, else the lowest.
     fn stamped(self) -> (Vec<Stamped>, Option<Vec<MissionCommand>>) {
-        let with_current = |e: &&Event| {
-            matches!(&e.reading, Reading::Battery(b) if b.current_a.is_some())
-        };
+        let with_current =
+            |e: &&Event| matches!(&e.reading, Reading::Battery(b) if b.current_a.is_some());
         let battery = self
             .events
             .iter()
