@@ -638,3 +638,31 @@ fn a_file_of_another_format_is_refused_naming_it() {
     // A ULog is not read as DataFlash.
     assert!(dataflash::parse("x.ulg", b"ULog\x01\x12\x35\x01").is_err());
 }
+
+#[test]
+fn a_log_torn_mid_flight_gives_the_legs_flown_before_the_tear() {
+    let bytes = fixture_bytes();
+    // Halfway through the file: in leg G -> B (the fifth) by the .tlog's times.
+    let cut = bytes.len() / 2 + 11;
+    let log = dataflash::parse("torn.bin", &bytes[..cut]).expect("reads");
+    let tear = log.tear.as_ref().expect("torn");
+    assert!(tear.offset <= cut as u64);
+    log.check_measurable().expect("measurable up to the tear");
+    let segmenter =
+        Segmenter::run(plan(), SegmentConfig::default(), &log.stamped).expect("a valid plan");
+    let report = FlightReport::build("torn", &segmenter);
+    assert!(!report.complete);
+    let tlog = tlog_legs();
+    let whole: Vec<_> = report
+        .legs
+        .iter()
+        .take_while(|l| l.end_s < tear.after_s.unwrap_or_default())
+        .filter(|l| l.flags.is_empty())
+        .collect();
+    assert!(whole.len() >= 3, "{} legs before the tear", whole.len());
+    for (leg, (from, to, .., tlog_j)) in whole.iter().zip(&tlog) {
+        assert_eq!((&leg.from, &leg.to), (from, to));
+        let j = leg.measured_j.expect("measured");
+        assert!((j - tlog_j).abs() < 0.03 * tlog_j, "{from} -> {to}");
+    }
+}
