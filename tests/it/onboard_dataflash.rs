@@ -666,3 +666,44 @@ fn a_log_torn_mid_flight_gives_the_legs_flown_before_the_tear() {
         assert!((j - tlog_j).abs() < 0.03 * tlog_j, "{from} -> {to}");
     }
 }
+
+#[test]
+fn mode_numbers_are_arducopters_unless_the_log_names_another_vehicle() {
+    let mut file = start();
+    file.extend(fmt(212, "MODE", "QMBB", "TimeUS,Mode,ModeNum,Rsn"));
+    file.extend(fmt(213, "MSG", "QZ", "TimeUS,Message"));
+    file.extend(fmt(
+        211,
+        "ARM",
+        "QBIBB",
+        "TimeUS,ArmState,ArmChecks,Forced,Method",
+    ));
+    let mut mode = 10u64.to_le_bytes().to_vec();
+    mode.extend([3, 3, 1]);
+    let modes = |log: &OnboardLog| -> Vec<FlightMode> {
+        readings(log, |r| match r {
+            Reading::Heartbeat { mode, .. } => Some(mode.clone()),
+            _ => None,
+        })
+        .map(|(_, m)| m)
+        .collect()
+    };
+    // The version's MSG comes after the log's first MODE, as ArduPilot writes them.
+    let with = |version: &str| {
+        let mut f = file.clone();
+        f.extend(record(212, &mode));
+        let mut msg = 11u64.to_le_bytes().to_vec();
+        msg.extend(padded(version, 64));
+        f.extend(record(213, &msg));
+        f.extend(arm(12, true));
+        dataflash::parse("modes.bin", &f).expect("reads")
+    };
+    let copter = with("ArduCopter V4.8.0-dev (14ff23ec)");
+    assert!(!modes(&copter).is_empty());
+    assert!(modes(&copter).iter().all(|m| *m == FlightMode::Mission));
+    let plane = with("ArduPlane V4.6.0 (abcdef01)");
+    assert!(!modes(&plane).is_empty());
+    assert!(modes(&plane)
+        .iter()
+        .all(|m| *m == FlightMode::Other("custom 3".into())));
+}

@@ -452,12 +452,14 @@ fn is_nav_command(id: u16) -> bool {
     id <= 95 || matches!(id, 213 | 42702 | 42703)
 }
 
-/// A reading and its raw time; battery readings keep their instance for the choice of one, and
-/// heartbeats from before anything said whether the vehicle was armed are marked so.
+/// A reading and its raw time; battery readings keep their instance for the choice of one,
+/// heartbeats their mode's number (named once the vehicle is known) and whether anything had
+/// said yet if the vehicle was armed.
 struct Event {
     time_us: u64,
     battery_instance: Option<u64>,
     armed_unknown: bool,
+    mode_number: Option<u64>,
     reading: Reading,
 }
 
@@ -471,11 +473,13 @@ struct Builder {
     armed: Option<bool>,
     /// The first arming record's word.
     first_armed: Option<bool>,
-    mode: Option<FlightMode>,
+    /// The flight mode's number (MODE's `Mode`).
+    mode: Option<u64>,
     last_heartbeat_us: Option<u64>,
     /// The `LOG_DISARMED` parameter, when logged.
     log_disarmed: Option<f64>,
-    /// A MSG named a vehicle other than ArduCopter: its mode numbers are not ArduCopter's.
+    /// A MSG named a vehicle other than ArduCopter (anywhere in the log: the first MODE comes
+    /// before the version's MSG): its mode numbers are not ArduCopter's.
     other_vehicle: bool,
     /// EKF core 0's latest velocity: north, east, down.
     velocity: Option<[f64; 3]>,
@@ -502,22 +506,20 @@ impl Builder {
             time_us: self.now_us,
             battery_instance: None,
             armed_unknown: false,
+            mode_number: None,
             reading,
         });
     }
 
     fn heartbeat(&mut self) {
-        let mode = self
-            .mode
-            .clone()
-            .unwrap_or_else(|| FlightMode::Other("unknown".into()));
         self.events.push(Event {
             time_us: self.now_us,
             battery_instance: None,
             armed_unknown: self.armed.is_none(),
+            mode_number: self.mode,
             reading: Reading::Heartbeat {
                 armed: self.armed.unwrap_or(false),
-                mode,
+                mode: FlightMode::Other("unknown".into()),
             },
         });
         self.last_heartbeat_us = Some(self.now_us);
@@ -531,8 +533,8 @@ impl Builder {
         }
     }
 
-    fn set_mode(&mut self, mode: FlightMode) {
-        if self.mode.as_ref() != Some(&mode) {
+    fn set_mode(&mut self, mode: u64) {
+        if self.mode != Some(mode) {
             self.mode = Some(mode);
             self.heartbeat();
         }
@@ -583,12 +585,7 @@ impl Builder {
             Kind::Cmd => self.command(m, r),
             Kind::Mode => {
                 if let Some(n) = m.get(r, "Mode").and_then(|v| v.as_i64()) {
-                    let mode = if self.other_vehicle {
-                        FlightMode::Other(format!("custom {n}"))
-                    } else {
-                        arducopter_mode(n.unsigned_abs())
-                    };
-                    self.set_mode(mode);
+                    self.set_mode(n.unsigned_abs());
                 }
             }
             Kind::Arm => {
@@ -699,6 +696,7 @@ impl Builder {
             time_us: self.now_us,
             battery_instance: Some(instance.unsigned_abs()),
             armed_unknown: false,
+            mode_number: None,
             reading: Reading::Battery(battery),
         });
     }
@@ -806,20 +804,24 @@ impl Builder {
             wall_us: time_us.saturating_sub(first),
             reading,
         };
+        let other_vehicle = self.other_vehicle;
+        let mode = |number: Option<u64>| match number {
+            Some(n) if other_vehicle => FlightMode::Other(format!("custom {n}")),
+            Some(n) => arducopter_mode(n),
+            None => FlightMode::Other("unknown".into()),
+        };
         let mut stamped = Vec::with_capacity(self.events.len() + 1);
         if let Some((true, true)) = before {
+            let first_mode = self
+                .events
+                .iter()
+                .find(|e| matches!(e.reading, Reading::Heartbeat { .. }))
+                .and_then(|e| e.mode_number);
             stamped.push(stamp(
                 first,
                 Reading::Heartbeat {
                     armed: false,
-                    mode: self
-                        .events
-                        .iter()
-                        .find_map(|e| match &e.reading {
-                            Reading::Heartbeat { mode, .. } => Some(mode.clone()),
-                            _ => None,
-                        })
-                        .unwrap_or_else(|| FlightMode::Other("unknown".into())),
+                    mode: mode(first_mode),
                 },
             ));
         }
@@ -828,9 +830,16 @@ impl Builder {
                 continue;
             }
             let reading = match (e.reading, e.armed_unknown) {
-                (Reading::Heartbeat { mode, .. }, true) => match before {
-                    Some((armed, _)) => Reading::Heartbeat { armed, mode },
+                (Reading::Heartbeat { .. }, true) => match before {
+                    Some((armed, _)) => Reading::Heartbeat {
+                        armed,
+                        mode: mode(e.mode_number),
+                    },
                     None => continue,
+                },
+                (Reading::Heartbeat { armed, .. }, false) => Reading::Heartbeat {
+                    armed,
+                    mode: mode(e.mode_number),
                 },
                 (reading, _) => reading,
             };
