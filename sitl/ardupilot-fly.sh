@@ -6,6 +6,7 @@
 # (sitl/check_report.py; pymavlink reads the .tlog: sitl/tlog_check.sh), and prints the per-leg
 # comparison: ArduPilot's physics is not emplan's, so measured differs from predicted (its climbs
 # cost far less, its hover power is higher) -- that is information, not a failure.
+# ArduCopter's own DataFlash log of the flight (logged while armed) is kept as LOG_DIR/ardupilot.bin.
 # Usage: sitl/ardupilot-fly.sh [EMPLAN_BINARY] [MISSION] [LOG_DIR]; SITL_INSTANCE picks the
 # instance (TCP 5760 + 10 x instance, default 0).
 set -euo pipefail
@@ -17,9 +18,16 @@ shared=${SHARED_SITL:-../shared/sitl}
 [ -d "$shared" ] || shared=/work/shared/sitl
 inst=${SITL_INSTANCE:-0}
 sitl_log=$(mktemp -t emplan-sitl.XXXXXX)
-"$shared/ardupilot/run.sh" "$inst" 10 >"$sitl_log" 2>&1 &
+# run.sh makes its working directory (where ArduCopter writes logs/*.BIN) with mktemp under
+# TMPDIR: a TMPDIR of our own tells us where it is.
+sitl_tmp=$(mktemp -d -t emplan-sitl-work.XXXXXX)
+TMPDIR=$sitl_tmp "$shared/ardupilot/run.sh" "$inst" 10 >"$sitl_log" 2>&1 &
 sitl=$!
-trap 'kill $sitl 2>/dev/null || true; wait $sitl 2>/dev/null || true' EXIT
+stop_sitl() {
+  kill $sitl 2>/dev/null || true
+  wait $sitl 2>/dev/null || true
+}
+trap 'stop_sitl; rm -rf "$sitl_tmp"' EXIT
 report=$log_dir/fly.json
 if ! timeout 300 "$emplan" fly "$mission" --arm --connect "tcpout:127.0.0.1:$((5760 + 10 * inst))" \
     --log-dir "$log_dir" --json >"$report"; then
@@ -28,6 +36,17 @@ if ! timeout 300 "$emplan" fly "$mission" --arm --connect "tcpout:127.0.0.1:$((5
   tail -20 "$sitl_log" >&2
   exit 1
 fi
+# ArduCopter writes its log from a thread of its own: let it write the disarm and its buffer
+# (2 s at 10x is 20 s of its time), then stop it so the file is whole.
+sleep 2
+stop_sitl
+bin=$(ls -t "$sitl_tmp"/arducopter-sitl.*/logs/*.BIN 2>/dev/null | head -1 || true)
+if [ -z "$bin" ]; then
+  echo "FAIL: ArduCopter SITL wrote no DataFlash log under $sitl_tmp" >&2
+  exit 1
+fi
+cp "$bin" "$log_dir/ardupilot.bin"
+echo "ArduCopter's DataFlash log: $log_dir/ardupilot.bin ($(stat -c %s "$log_dir/ardupilot.bin") bytes)"
 python3 sitl/check_report.py "$report"
 flight=$(python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["log_dir"])' "$report")
 bash sitl/tlog_check.sh "$flight"

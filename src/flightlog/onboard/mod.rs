@@ -50,18 +50,25 @@ pub struct Tear {
     pub reason: String,
 }
 
-/// One mission item as DataFlash's CMD records it (the whole mission is written at log start).
+/// One mission item as DataFlash's CMD records it (the whole mission is written at log start):
+/// ArduPilot's stored item as MAVLink would send it back (`AP_Mission::mission_cmd_to_mavlink_int`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MissionCommand {
     /// The item's place in the autopilot's mission (ArduPilot: 0 is home).
     pub seq: u16,
-    /// MAV_CMD.
+    /// MAV_CMD (`CId`).
     pub command: u16,
-    /// MAV_FRAME.
+    /// MAV_FRAME (`Frame`) that `alt_m` is in: 0 GLOBAL, 3 GLOBAL_RELATIVE_ALT, 10
+    /// GLOBAL_TERRAIN_ALT (ArduPilot stores no other).
     pub frame: u8,
+    /// `Prm1`..`Prm4` as stored (ArduPilot keeps only what it uses: e.g. a waypoint's
+    /// acceptance radius and yaw read 0).
     pub params: [f32; 4],
+    /// Degrees (`Lat`, `Lng`, degE7 in the file); 0 for commands without a place.
     pub lat_deg: f64,
     pub lon_deg: f64,
+    /// Metres in `frame`: above mean sea level for GLOBAL (item 0, home, is always this),
+    /// above home for GLOBAL_RELATIVE_ALT, above terrain for GLOBAL_TERRAIN_ALT.
     pub alt_m: f64,
 }
 
