@@ -266,8 +266,11 @@ fn random_and_foreign_bytes_are_refused_naming_the_file_or_the_byte() {
     }
 }
 
-/// A ULog header, flag bits, then `records` (kind, payload).
-fn crafted(records: &[(u8, Vec<u8>)]) -> Vec<u8> {
+/// A record: its kind and payload.
+type RawRecord = (u8, Vec<u8>);
+
+/// A ULog header, flag bits, then `records`.
+fn crafted(records: &[RawRecord]) -> Vec<u8> {
     let mut out = ulog::MAGIC.to_vec();
     out.push(1);
     out.extend_from_slice(&0u64.to_le_bytes());
@@ -283,7 +286,7 @@ fn crafted(records: &[(u8, Vec<u8>)]) -> Vec<u8> {
 #[test]
 fn records_the_crate_would_index_past_or_loop_on_are_refused_at_their_byte() {
     // The header is 16 bytes, the flag bits record 43: the record under test is at byte 59.
-    let cases: Vec<(Vec<(u8, Vec<u8>)>, &str)> = vec![
+    let cases: Vec<(Vec<RawRecord>, &str)> = vec![
         (vec![(b'F', b"empty:".to_vec())], "empty has no fields"),
         (
             vec![(b'F', b"a:uint64_t timestamp;uint8_t[0] x".to_vec())],

@@ -190,7 +190,7 @@ fn check_record(kind: u8, payload: &[u8]) -> Result<(), String> {
     match kind {
         b'A' if payload.len() < 3 => Err(format!("{} bytes, fewer than 3", payload.len())),
         b'P' => match payload.first() {
-            Some(&key_len) if 1 + usize::from(key_len) <= payload.len() => Ok(()),
+            Some(&key_len) if usize::from(key_len) < payload.len() => Ok(()),
             _ => Err("its key runs past its end".into()),
         },
         b'F' => check_format(payload),
