@@ -334,3 +334,57 @@ fn a_long_log_made_from_the_fixture_reads_as_its_flights_one_after_another() {
     let rate = log.battery_rate_hz().expect("battery");
     assert!((4.0..5.5).contains(&rate), "{rate} Hz");
 }
+
+#[test]
+fn formats_nested_as_deep_as_allowed_are_read_in_bounded_time() {
+    // 1024 formats, each a field of the next: the deepest nesting the reader lets the crate
+    // flatten (a 1025th format is refused).
+    let n = 1024;
+    let mut records: Vec<RawRecord> = (0..n)
+        .map(|i| {
+            let ty = if i + 1 == n {
+                "uint8_t".to_string()
+            } else {
+                format!("n{}", i + 1)
+            };
+            (b'F', format!("n{i}:{ty} x").into_bytes())
+        })
+        .collect();
+    records.push((b'A', b"\x00\x00\x00n0".to_vec()));
+    let bytes = crafted(&records);
+    assert_located(&ulog::parse("deep.ulg", &bytes), bytes.len());
+    records.insert(0, (b'F', b"extra:uint8_t x".to_vec()));
+    let bytes = crafted(&records);
+    let err = ulog::parse("deep.ulg", &bytes).map(|_| ()).unwrap_err();
+    assert!(err.to_string().contains("more than 1024 formats"), "{err}");
+}
+
+#[test]
+fn the_ulog_measures_every_leg_within_3_percent_of_the_tlog_of_the_same_flight() {
+    // The .tlog's report of the same flight, made by `emplan fly` while it flew (its
+    // report.json, copied beside the fixture): the ground station's view at 10 Hz battery.
+    let text = std::fs::read_to_string(fixture_dir().join("px4-sih-8wp.tlog-report.json"))
+        .expect("the .tlog's report");
+    let tlog: serde_json::Value = serde_json::from_str(&text).expect("json");
+    let log = parse(&fixture()).expect("the fixture parses");
+    let plan = FlightPlan::read_json(&fixture_dir().join("px4-sih-8wp.plan.json")).expect("plan");
+    let segmenter =
+        Segmenter::run(plan, SegmentConfig::default(), &log.stamped).expect("segmented");
+    let report = FlightReport::build("px4-sih-8wp", &segmenter);
+    let tlog_legs = tlog["legs"].as_array().expect("legs");
+    assert_eq!(report.legs.len(), tlog_legs.len());
+    for (ulog_leg, tlog_leg) in report.legs.iter().zip(tlog_legs) {
+        let u = ulog_leg.measured_j.expect("measured from the ULog");
+        let t = tlog_leg["measured_kj"]
+            .as_f64()
+            .expect("measured from the .tlog")
+            * 1e3;
+        let error_pct = 100.0 * (u - t) / t;
+        assert!(
+            error_pct.abs() < 3.0,
+            "{} -> {}: ULog {u:.0} J, .tlog {t:.0} J ({error_pct:+.1}%)",
+            ulog_leg.from,
+            ulog_leg.to
+        );
+    }
+}
