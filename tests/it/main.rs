@@ -13,6 +13,7 @@ mod home;
 mod install;
 mod mission;
 mod onboard_dataflash;
+mod onboard_ulog;
 mod outputs;
 mod physics;
 mod preflight;
