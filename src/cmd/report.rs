@@ -230,8 +230,8 @@ pub fn measure(path: &Path, from: emplan::session::PlanFrom<'_>) -> anyhow::Resu
         warn_skipped(path, &analysis.replay);
         return Ok(analysis);
     }
-    let analysis = emplan::session::replay_onboard(path, from, SegmentConfig::default())
-        .with_context(|| format!("measuring {}", path.display()))?;
+    // Its errors name the file.
+    let analysis = emplan::session::replay_onboard(path, from, SegmentConfig::default())?;
     warn_torn(path, &analysis);
     Ok(analysis)
 }

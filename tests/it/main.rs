@@ -12,6 +12,7 @@ mod guard;
 mod home;
 mod install;
 mod mission;
+mod onboard;
 mod onboard_dataflash;
 mod onboard_ulog;
 mod outputs;

@@ -98,8 +98,7 @@ impl OnboardLog {
             .filter(|s| matches!(s.reading, Reading::Battery(_)))
             .map(|s| s.t_s)
             .collect();
-        let (first, last) = (times.first()?, times.last()?);
-        (times.len() > 1 && last > first).then(|| (times.len() - 1) as f64 / (last - first))
+        super::report::LogSource::of(self.format.name(), &times).battery_hz
     }
 
     /// Refuses a log that cannot measure a flight, naming what it lacks: a battery current,
@@ -186,5 +185,104 @@ pub fn parse(file: &str, bytes: &[u8]) -> Result<OnboardLog, OnboardError> {
                 .collect::<Vec<_>>()
                 .join(" "),
         }),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::flightlog::telemetry::{Battery, BatterySource, MissionState, Position};
+
+    fn log(readings: Vec<Reading>) -> OnboardLog {
+        OnboardLog {
+            format: Format::Dataflash,
+            file: "f.bin".into(),
+            bytes: 0,
+            stamped: (readings.into_iter().enumerate())
+                .map(|(k, reading)| Stamped {
+                    t_s: k as f64,
+                    wall_us: 0,
+                    reading,
+                })
+                .collect(),
+            mission: None,
+            tear: None,
+        }
+    }
+
+    fn battery(current_a: Option<f64>) -> Reading {
+        Reading::Battery(Battery {
+            source: BatterySource::BatteryStatus {
+                id: 0,
+                component: 1,
+            },
+            voltage_v: Some(24.0),
+            current_a,
+            consumed_mah: None,
+            energy_consumed_j: None,
+            remaining_pct: None,
+            fake_current: false,
+        })
+    }
+
+    fn position() -> Reading {
+        Reading::Position(Position {
+            time_boot_ms: 0,
+            lat_deg: 38.5,
+            lon_deg: -121.7,
+            alt_amsl_m: 40.0,
+            relative_alt_m: 24.0,
+            vn_m_s: 0.0,
+            ve_m_s: 0.0,
+            vd_m_s: 0.0,
+        })
+    }
+
+    fn progress() -> Reading {
+        Reading::MissionCurrent {
+            seq: 1,
+            total: Some(4),
+            state: MissionState::Active,
+        }
+    }
+
+    #[test]
+    fn a_log_that_cannot_measure_a_flight_is_refused_naming_what_it_lacks() {
+        let missing = |readings| match log(readings).check_measurable() {
+            Err(OnboardError::Missing { file, what }) => {
+                assert_eq!(file, "f.bin");
+                Some(what)
+            }
+            Err(other) => panic!("{other}"),
+            Ok(()) => None,
+        };
+        let full = || vec![battery(Some(20.0)), position(), progress()];
+        assert_eq!(missing(full()), None);
+        let mut no_current = full();
+        no_current[0] = battery(None);
+        assert_eq!(missing(no_current), Some("battery current"));
+        assert_eq!(
+            missing(vec![battery(Some(20.0)), progress()]),
+            Some("position")
+        );
+        assert_eq!(
+            missing(vec![battery(Some(20.0)), position()]),
+            Some("mission progress")
+        );
+        let message = log(vec![position()])
+            .check_measurable()
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            message,
+            "f.bin: the log has no battery current: it cannot measure a flight"
+        );
+    }
+
+    #[test]
+    fn the_battery_rate_is_readings_per_second_of_log() {
+        let l = log(vec![battery(Some(1.0)), position(), battery(Some(1.0))]);
+        assert_eq!(l.battery_rate_hz(), Some(0.5));
+        assert_eq!(log(vec![battery(Some(1.0))]).battery_rate_hz(), None);
     }
 }
