@@ -15,7 +15,11 @@ origin -> ... -> origin) and measured (a number, no fake_current or unmeasurable
 flight is complete and the source is the flight controller's log (of --format when given).
 """
 import json
+import os
 import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from check_report import flight_problems  # noqa: E402
 
 ONBOARD = ("ulog", "dataflash")
 
@@ -43,13 +47,7 @@ def check_report(doc, fmt):
               f"{(f'{err:+.1f}%' if err is not None else '-'):>8}  {','.join(leg['flags'])}")
         if leg.get("measured_kj") is None or {"fake_current", "unmeasurable"} & set(leg["flags"]):
             problems.append(f"leg {name} not measured: {leg['flags']}")
-    names = [(l["from"], l["to"]) for l in legs]
-    if not names or names[0][0] != "origin" or names[-1][1] != "origin":
-        problems.append(f"the legs do not run from the origin back to it: {names}")
-    if any(a[1] != b[0] for a, b in zip(names, names[1:])):
-        problems.append(f"the legs do not chain: {names}")
-    if not doc.get("complete"):
-        problems.append("the flight is not complete (no landing seen)")
+    problems.extend(flight_problems(doc))
     got = source_format(doc)
     if got not in ONBOARD or (fmt is not None and got != fmt):
         problems.append(f"source.format is {got!r}, not {fmt or ' or '.join(ONBOARD)}")

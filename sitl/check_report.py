@@ -17,6 +17,20 @@ import os
 import sys
 
 
+def flight_problems(doc):
+    """What is wrong with a report's flight as a whole: its legs must run from the origin back
+    to it, each starting where the one before ended, and the flight must have landed."""
+    problems = []
+    names = [(l["from"], l["to"]) for l in doc["legs"]]
+    if not names or names[0][0] != "origin" or names[-1][1] != "origin":
+        problems.append(f"the legs do not run from the origin back to it: {names}")
+    if any(a[1] != b[0] for a, b in zip(names, names[1:])):
+        problems.append(f"the legs do not chain: {names}")
+    if not doc.get("complete"):
+        problems.append("the flight is not complete (no landing seen)")
+    return problems
+
+
 def fmt_error(error):
     return f"{error:+.1f}%" if error is not None else "-"
 
@@ -52,13 +66,7 @@ def main():
     print(f"{'total':<22} {total['predicted_kj'] or 0:>12.3f} "
           f"{total['measured_kj'] if total['measured_kj'] is not None else float('nan'):>12.3f} "
           f"{fmt_error(total.get('error_pct')):>8}")
-    names = [(l["from"], l["to"]) for l in legs]
-    if not names or names[0][0] != "origin" or names[-1][1] != "origin":
-        problems.append(f"the legs do not run from the origin back to it: {names}")
-    if any(a[1] != b[0] for a, b in zip(names, names[1:])):
-        problems.append(f"the legs do not chain: {names}")
-    if not doc.get("complete"):
-        problems.append("the flight is not complete (no landing seen)")
+    problems.extend(flight_problems(doc))
     if mission_pct is not None:
         e = total.get("error_pct")
         if e is None or abs(e) > mission_pct:

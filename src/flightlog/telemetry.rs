@@ -136,6 +136,21 @@ pub enum FlightMode {
 }
 
 impl FlightMode {
+    /// ArduCopter's mode `number` (ArduCopter `mode.h`, `enum class Number`: HEARTBEAT's
+    /// `custom_mode`, DataFlash's MODE `ModeNum`).
+    pub fn arducopter(number: u64) -> FlightMode {
+        match number {
+            0 | 1 | 2 | 11 | 13 | 16 | 22 => FlightMode::Manual,
+            3 => FlightMode::Mission,
+            4 | 20 => FlightMode::Guided,
+            5 | 17 => FlightMode::Hold,
+            6 | 21 | 27 => FlightMode::Rtl,
+            9 => FlightMode::Land,
+            7 => FlightMode::Other("circle".into()),
+            n => FlightMode::Other(format!("arducopter {n}")),
+        }
+    }
+
     /// A short lowercase name (samples.csv's `mode` column).
     pub fn name(&self) -> &str {
         match self {

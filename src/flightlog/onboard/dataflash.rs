@@ -431,21 +431,6 @@ pub fn records(bytes: &[u8]) -> (Vec<Record>, Scan) {
     (out, scan)
 }
 
-/// ArduCopter's mode numbers (ArduCopter `mode.h`, `enum class Number`), normalised as
-/// `link::telemetry::decode` normalises HEARTBEAT's `custom_mode`.
-fn arducopter_mode(number: u64) -> FlightMode {
-    match number {
-        0 | 1 | 2 | 11 | 13 | 16 | 22 => FlightMode::Manual,
-        3 => FlightMode::Mission,
-        4 | 20 => FlightMode::Guided,
-        5 | 17 => FlightMode::Hold,
-        6 | 21 | 27 => FlightMode::Rtl,
-        9 => FlightMode::Land,
-        7 => FlightMode::Other("circle".into()),
-        n => FlightMode::Other(format!("arducopter {n}")),
-    }
-}
-
 /// Whether a MAV_CMD is a navigation command (ArduPilot `AP_Mission::is_nav_cmd`: up to
 /// MAV_CMD_NAV_LAST, and NAV_SET_YAW_SPEED, NAV_SCRIPT_TIME, NAV_ATTITUDE_TIME).
 fn is_nav_command(id: u16) -> bool {
@@ -807,7 +792,7 @@ impl Builder {
         let other_vehicle = self.other_vehicle;
         let mode = |number: Option<u64>| match number {
             Some(n) if other_vehicle => FlightMode::Other(format!("custom {n}")),
-            Some(n) => arducopter_mode(n),
+            Some(n) => FlightMode::arducopter(n),
             None => FlightMode::Other("unknown".into()),
         };
         let mut stamped = Vec::with_capacity(self.events.len() + 1);

@@ -114,25 +114,11 @@ fn is_copter(t: MavType) -> bool {
     )
 }
 
-/// ArduCopter's mode numbers (ArduCopter `mode.h`, `enum class Number`).
-fn arducopter_mode(custom_mode: u32) -> FlightMode {
-    match custom_mode {
-        0 | 1 | 2 | 11 | 13 | 16 | 22 => FlightMode::Manual,
-        3 => FlightMode::Mission,
-        4 | 20 => FlightMode::Guided,
-        5 | 17 => FlightMode::Hold,
-        6 | 21 | 27 => FlightMode::Rtl,
-        9 => FlightMode::Land,
-        7 => FlightMode::Other("circle".into()),
-        n => FlightMode::Other(format!("arducopter {n}")),
-    }
-}
-
 fn mode(hb: &mav::HEARTBEAT_DATA) -> FlightMode {
     match hb.autopilot {
         MavAutopilot::MAV_AUTOPILOT_PX4 => px4_mode(hb.custom_mode),
         MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA if is_copter(hb.mavtype) => {
-            arducopter_mode(hb.custom_mode)
+            FlightMode::arducopter(u64::from(hb.custom_mode))
         }
         _ => FlightMode::Other(format!("custom {}", hb.custom_mode)),
     }
