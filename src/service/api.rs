@@ -658,7 +658,13 @@ async fn events(State(s): State<AppState>) -> Response {
         };
         Some((Ok::<_, Infallible>(event), (rx, stop)))
     });
-    Sse::new(stream)
+    // A subscriber learns the link's state at once, not only at its next change.
+    let now = serde_json::to_string(&Event::Link(s.vehicle.status())).unwrap_or_default();
+    let now =
+        futures_util::stream::once(
+            async move { Ok::<_, Infallible>(SseEvent::default().data(now)) },
+        );
+    Sse::new(futures_util::StreamExt::chain(now, stream))
         .keep_alive(KeepAlive::default())
         .into_response()
 }
