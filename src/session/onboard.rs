@@ -9,7 +9,6 @@ use std::path::Path;
 
 use crate::flightlog::flight_plan::FlightPlan;
 use crate::flightlog::onboard::{self, Format, OnboardError, OnboardLog};
-use crate::flightlog::recorder::{flight_name, PLAN_FILE};
 use crate::flightlog::replay::{analyse, Analysis, Replay};
 use crate::flightlog::report::TearJson;
 use crate::flightlog::segment::SegmentConfig;
@@ -22,6 +21,7 @@ use crate::planner::FlightChoice;
 use crate::tour::solver;
 
 use super::predict::{flight_plan, plan_from_items, FlightItemsError};
+use super::replay::{log_name, plan_beside};
 
 /// Why an onboard log could not be measured; each names the file.
 #[derive(Debug, thiserror::Error)]
@@ -83,13 +83,13 @@ pub fn plan_for_onboard(
     if let Some(plan) = from.plan {
         return Ok(FlightPlan::read_json(plan)?);
     }
-    if let Some(beside) = path.parent().map(|d| d.join(PLAN_FILE)) {
-        if beside.is_file() {
-            return Ok(FlightPlan::read_json(&beside)?);
-        }
+    if let Some(plan) = plan_beside(path) {
+        return Ok(plan?);
     }
     let flavour = flavour_of(log.format);
-    let name = from.mission.map_or_else(|| stem(path), |m| m.name.clone());
+    let name = from
+        .mission
+        .map_or_else(|| log_name(path), |m| m.name.clone());
     if let Some(commands) = &log.mission {
         let items = (commands.iter())
             .map(|c| {
@@ -132,13 +132,6 @@ pub fn plan_for_onboard(
     Ok(flight_plan(mission, &plan, &flight, flavour)?)
 }
 
-fn stem(path: &Path) -> String {
-    path.file_stem().map_or_else(
-        || "flight".to_string(),
-        |s| s.to_string_lossy().into_owned(),
-    )
-}
-
 /// Reads the onboard log at `path` and measures it against its plan ([`plan_for_onboard`]).
 /// A log without battery current, position or mission progress is refused naming what it
 /// lacks; a torn log is measured up to the tear (its parts after it incomplete or missing).
@@ -150,10 +143,7 @@ pub fn replay_onboard(
     let log = onboard::read(path)?;
     log.check_measurable()?;
     let plan = plan_for_onboard(path, &log, from)?;
-    let name = match path.parent() {
-        Some(dir) if dir.join(PLAN_FILE).is_file() && from.plan.is_none() => flight_name(dir),
-        _ => stem(path),
-    };
+    let name = log_name(path);
     let replay = Replay {
         frames: log.stamped.len() as u64,
         undecodable: 0,

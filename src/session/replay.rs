@@ -12,6 +12,7 @@ use crate::flightlog::flight_plan::FlightPlan;
 use crate::flightlog::recorder::{flight_name, is_flight_dir, PLAN_FILE, TLOG_FILE};
 use crate::flightlog::resume::{check_same_mission, ResumeError, Resumption};
 use crate::flightlog::segment::SegmentConfig;
+use crate::flightlog::FlightLogError;
 use crate::link::items::read_flight;
 use crate::link::telemetry::{analyse_tlog, mission_in_tlog, Analysis, TelemetryError};
 use crate::mission::Mission;
@@ -42,11 +43,8 @@ pub fn plan_for_tlog(
     model: Option<&VehicleModel>,
 ) -> Result<FlightPlan, ReplayError> {
     let file = tlog.display().to_string();
-    if let Some(dir) = tlog.parent() {
-        let beside = dir.join(PLAN_FILE);
-        if beside.is_file() {
-            return Ok(FlightPlan::read_json(&beside).map_err(TelemetryError::from)?);
-        }
+    if let Some(plan) = plan_beside(tlog) {
+        return Ok(plan.map_err(TelemetryError::from)?);
     }
     let (items, flavour) = mission_in_tlog(tlog)?;
     let items = items.ok_or_else(|| ReplayError::NoPlan { file: file.clone() })?;
@@ -69,19 +67,25 @@ pub fn replay(
     cfg: SegmentConfig,
 ) -> Result<Analysis, ReplayError> {
     let plan = plan_for_tlog(tlog, mission, model)?;
-    let name = tlog
-        .parent()
-        .filter(|d| d.join(PLAN_FILE).is_file())
-        .map_or_else(
-            || {
-                tlog.file_stem().map_or_else(
-                    || "flight".to_string(),
-                    |s| s.to_string_lossy().into_owned(),
-                )
-            },
-            flight_name,
-        );
-    Ok(analyse_tlog(tlog, plan, &name, cfg)?)
+    Ok(analyse_tlog(tlog, plan, &log_name(tlog), cfg)?)
+}
+
+/// The plan.json beside a log (a flight directory's), read, when there is one.
+pub(super) fn plan_beside(log: &Path) -> Option<Result<FlightPlan, FlightLogError>> {
+    let beside = log.parent()?.join(PLAN_FILE);
+    beside.is_file().then(|| FlightPlan::read_json(&beside))
+}
+
+/// A log's flight name: its flight directory's when plan.json is beside it, else its file's
+/// stem.
+pub(super) fn log_name(log: &Path) -> String {
+    match log.parent() {
+        Some(dir) if dir.join(PLAN_FILE).is_file() => flight_name(dir),
+        _ => log.file_stem().map_or_else(
+            || "flight".to_string(),
+            |s| s.to_string_lossy().into_owned(),
+        ),
+    }
 }
 
 /// Why a flight directory cannot be resumed.
