@@ -8,7 +8,7 @@
 # cost far less, its hover power is higher) -- that is information, not a failure.
 # ArduCopter's own DataFlash log of the flight (logged while armed) is kept as LOG_DIR/ardupilot.bin.
 # Usage: sitl/ardupilot-fly.sh [EMPLAN_BINARY] [MISSION] [LOG_DIR]; SITL_INSTANCE picks the
-# instance (TCP 5760 + 10 x instance, default 0).
+# instance (TCP 5760 + 10 x instance, default 0); FLY_ARGS adds arguments to emplan fly.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 emplan=${1:-target/debug/emplan}
@@ -29,8 +29,10 @@ stop_sitl() {
 }
 trap 'stop_sitl; rm -rf "$sitl_tmp"' EXIT
 report=$log_dir/fly.json
+# FLY_ARGS: more arguments for emplan fly (e.g. "--order distance"), split on spaces.
+# shellcheck disable=SC2086
 if ! timeout 300 "$emplan" fly "$mission" --arm --connect "tcpout:127.0.0.1:$((5760 + 10 * inst))" \
-    --log-dir "$log_dir" --json >"$report"; then
+    --log-dir "$log_dir" --json ${FLY_ARGS:-} >"$report"; then
   echo "FAIL: emplan fly on ArduCopter SITL did not end in a report:" >&2
   cat "$report" >&2
   tail -20 "$sitl_log" >&2

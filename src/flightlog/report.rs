@@ -622,6 +622,9 @@ pub struct CombinedReport {
     pub hovers: Vec<CombinedPart>,
     pub takeoff: Option<CombinedPart>,
     pub landing: Option<CombinedPart>,
+    /// The whole mission (take-off to landing) over the complete flights: from `ground` to
+    /// `ground`.
+    pub mission: Option<CombinedPart>,
 }
 
 fn combine_parts<'a>(parts: impl IntoIterator<Item = &'a PartReport>) -> Vec<CombinedPart> {
@@ -675,6 +678,32 @@ pub fn combine(reports: &[FlightReport]) -> CombinedReport {
         landing: combine_parts(reports.iter().filter_map(|r| r.landing.as_ref()))
             .into_iter()
             .next(),
+        mission: combine_parts(&reports.iter().map(mission_part).collect::<Vec<_>>())
+            .into_iter()
+            .next(),
+    }
+}
+
+/// A whole flight as one part (an incomplete flight flagged so, which combining leaves out).
+fn mission_part(r: &FlightReport) -> PartReport {
+    let mut flags = r.flags.clone();
+    if !r.complete {
+        flags.push(Flag::Incomplete);
+    }
+    PartReport {
+        from: "ground".into(),
+        to: "ground".into(),
+        predicted_j: r.predicted_j,
+        measured_j: r.measured_j,
+        consumed_j: None,
+        duration_s: r.duration_s,
+        predicted_duration_s: None,
+        start_s: 0.0,
+        end_s: r.duration_s,
+        coverage: 1.0,
+        flags,
+        start_offset_m: None,
+        start_speed_m_s: None,
     }
 }
 
@@ -737,6 +766,9 @@ pub struct CombinedJson {
     pub hovers: Vec<CombinedPartJson>,
     pub takeoff: Option<CombinedPartJson>,
     pub landing: Option<CombinedPartJson>,
+    /// The whole mission over the complete flights.
+    #[serde(default)]
+    pub mission: Option<CombinedPartJson>,
 }
 
 impl CombinedReport {
@@ -747,6 +779,7 @@ impl CombinedReport {
             hovers: self.hovers.iter().map(CombinedPartJson::from).collect(),
             takeoff: self.takeoff.as_ref().map(CombinedPartJson::from),
             landing: self.landing.as_ref().map(CombinedPartJson::from),
+            mission: self.mission.as_ref().map(CombinedPartJson::from),
         }
     }
 }
@@ -848,8 +881,17 @@ mod tests {
                 leg("B", "origin", 25_000.0, None, vec![Flag::Unmeasurable]),
             ],
         );
+        let mut c = c;
+        c.complete = false;
+        c.measured_j = Some(40_000.0);
+        let mut b = b;
+        b.measured_j = Some(63_000.0);
         let combined = combine(&[a, b, c]);
         assert_eq!(combined.flights, ["f1", "f2", "f3"]);
+        // The mission over the complete flights: 61 and 63 of 60 kJ predicted.
+        let mission = combined.mission.as_ref().expect("the mission");
+        assert_eq!((mission.flights, mission.measured.map(|m| m.n)), (3, Some(2)));
+        assert!((mission.error_pct().expect("both") - 100.0 / 30.0).abs() < 1e-9);
         let oa = &combined.legs[0];
         assert_eq!(
             (oa.from.as_str(), oa.to.as_str(), oa.flights),

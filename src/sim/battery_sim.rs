@@ -49,6 +49,15 @@ const MAX_STEP_S: f64 = 0.5;
 /// Landing within this height of the ground the vehicle stood on is touchdown.
 const TOUCHDOWN_M: f64 = 0.1;
 
+/// Landing, the vehicle has touched down once it has descended faster than
+/// [`DESCENDING_M_S`] and then stayed slower than [`STOPPED_M_S`] vertically for
+/// [`STOPPED_S`]: PX4 descends at MPC_LAND_SPEED or its crawl until the ground stops it, and its
+/// height estimate drifts (PX4 SITL: the ground 0.5-1.9 m off where it took off), so the height
+/// alone misses some touchdowns.
+const DESCENDING_M_S: f64 = 0.2;
+const STOPPED_M_S: f64 = 0.1;
+const STOPPED_S: f64 = 0.3;
+
 /// Below this horizontal speed the leg's plane follows the horizontal acceleration instead.
 const STILL_M_S: f64 = 0.05;
 
@@ -124,6 +133,11 @@ pub struct BatterySim<'v> {
     ground_z_m: Option<f64>,
     /// The latest height (NED z).
     z_m: f64,
+    /// Landing: seen descending, and since when stopped (vehicle time).
+    landing_descended: bool,
+    stopped_since_s: Option<f64>,
+    /// The latest vehicle time.
+    t_s: f64,
     /// PX4's take-off ramp: px4 parameters, and when it began (vehicle time).
     px4: crate::physics::vehicle::Px4Params,
     ramp_start_s: Option<f64>,
@@ -166,6 +180,9 @@ impl<'v> BatterySim<'v> {
             landed: None,
             ground_z_m: None,
             z_m: 0.0,
+            landing_descended: false,
+            stopped_since_s: None,
+            t_s: 0.0,
             px4: vehicle.px4.clone(),
             ramp_start_s: None,
             last: None,
@@ -207,7 +224,10 @@ impl<'v> BatterySim<'v> {
             // Touched down: the land detector confirms it a second or so later (PX4 SITL
             // 1.1-1.3 s), while the motors already idle.
             (true, Some(MavLandedState::MAV_LANDED_STATE_LANDING))
-                if self.ground_z_m.is_some_and(|g| self.z_m >= g - TOUCHDOWN_M) =>
+                if self.ground_z_m.is_some_and(|g| self.z_m >= g - TOUCHDOWN_M)
+                    || self
+                        .stopped_since_s
+                        .is_some_and(|since| self.t_s - since >= STOPPED_S) =>
             {
                 PowerState::Ground
             }
@@ -253,6 +273,21 @@ impl<'v> BatterySim<'v> {
             return None;
         }
         self.z_m = z_m;
+        self.t_s = t_s;
+        if self.landed == Some(MavLandedState::MAV_LANDED_STATE_LANDING) {
+            let down_m_s = v_ned[2];
+            if down_m_s > DESCENDING_M_S {
+                self.landing_descended = true;
+                self.stopped_since_s = None;
+            } else if self.landing_descended && down_m_s.abs() < STOPPED_M_S {
+                self.stopped_since_s.get_or_insert(t_s);
+            } else {
+                self.stopped_since_s = None;
+            }
+        } else {
+            self.landing_descended = false;
+            self.stopped_since_s = None;
+        }
         if matches!(self.state(), PowerState::Disarmed | PowerState::Ground) {
             self.ground_z_m = Some(z_m);
             self.ramp_start_s = None;
@@ -518,6 +553,46 @@ mod tests {
         sim.handle(2, 1, &heartbeat(false));
         sim.handle(1, 1, &position(0.04, [0.0; 3]));
         assert_eq!(sim.now().state, PowerState::Ground);
+    }
+
+    #[test]
+    fn landing_it_idles_once_the_ground_stops_the_descent_wherever_the_height_estimate_puts_it() {
+        let v = shipped();
+        let hover = Model::new(&v).hover_power_w().unwrap();
+        let idle = v.body.avionics_power_w + IDLE_SPIN_POWER_W;
+        let mut sim = BatterySim::new(&v, BatterySimConfig::default()).unwrap();
+        sim.handle(1, 1, &heartbeat(true));
+        sim.handle(1, 1, &landed(MavLandedState::MAV_LANDED_STATE_ON_GROUND));
+        sim.motion(0.0, 0.0, [0.0; 3]);
+        sim.handle(1, 1, &landed(MavLandedState::MAV_LANDED_STATE_IN_AIR));
+        sim.motion(1.0, -10.0, [0.0; 3]);
+        // Landing: hovering first, then down at 0.7 m/s; the estimate puts the ground 1 m
+        // above where the vehicle took off, so the height never comes back to it.
+        sim.handle(1, 1, &landed(MavLandedState::MAV_LANDED_STATE_LANDING));
+        let mut t = 1.0;
+        for _ in 0..25 {
+            t += 0.02;
+            sim.motion(t, -10.0, [0.0; 3]);
+        }
+        assert_eq!(sim.now().state, PowerState::Air, "hovering before the descent");
+        let mut z = -10.0;
+        while z < -1.0 {
+            t += 0.02;
+            z += 0.7 * 0.02;
+            sim.motion(t, z, [0.0, 0.0, 0.7]);
+        }
+        assert_eq!(sim.now().state, PowerState::Air);
+        assert!((sim.now().power_w - hover).abs() < 0.2 * hover);
+        // Stopped by the ground: 0.3 s later the motors idle.
+        for k in 1..=10 {
+            sim.motion(t + 0.02 * f64::from(k), -1.0, [0.0, 0.0, 0.01]);
+        }
+        assert_eq!(sim.now().state, PowerState::Air, "0.2 s stopped");
+        for k in 11..=20 {
+            sim.motion(t + 0.02 * f64::from(k), -1.0, [0.0, 0.0, 0.01]);
+        }
+        assert_eq!(sim.now().state, PowerState::Ground);
+        assert_eq!(sim.now().power_w, idle);
     }
 
     #[test]

@@ -43,9 +43,7 @@ pub type Local = [f64; 3];
 /// WPNAV_RADIUS default: 2 m).
 pub const DEFAULT_ACCEPTANCE_RADIUS_M: f64 = 2.0;
 
-/// Power the spinning motors draw armed on the ground at idle, on top of the avionics: eight
-/// motors at about 5 W each ([assumed]: PX4 idle throttle a few percent of hover thrust).
-pub const IDLE_SPIN_POWER_W: f64 = 40.0;
+pub use crate::physics::power::IDLE_SPIN_POWER_W;
 
 /// Below this horizontal distance the vehicle counts as above a point (no horizontal leg).
 const ABOVE_POINT_M: f64 = 0.05;
