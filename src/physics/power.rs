@@ -409,16 +409,14 @@ impl<'a> Model<'a> {
 
     /// The landing from `height_m` priced: the descent to touchdown (its last 4 m as the
     /// settle), then (PX4) the motors idling on the ground, added to the settle, until PX4
-    /// disarms: the land detector's three phases
-    /// (ground contact, maybe landed, landed: LNDMC_TRIG_TIME in all,
-    /// `MulticopterLandDetector::_set_hysteresis_factor`) and COM_DISARM_LAND after it
-    /// (commander's auto-disarm).
+    /// disarms: the land detector's three phases (ground contact, maybe landed, landed:
+    /// `land_detector_s`) and COM_DISARM_LAND after them (commander's auto-disarm).
     pub fn landing(&self, profile: Profile, height_m: f64) -> Result<Operation, PhysicsError> {
         let t = self.landing_trajectory(profile, height_m)?;
         let mut op = self.priced(&t, 0.0, -height_m, profile)?;
         if profile == Profile::Px4 && height_m > 0.0 {
             let x = &self.vehicle.px4;
-            let on_ground_s = x.lndmc_trig_time_s + x.com_disarm_land_s;
+            let on_ground_s = x.land_detector_s + x.com_disarm_land_s;
             op.settle_duration_s += on_ground_s;
             op.settle_energy_j +=
                 (self.vehicle.body.avionics_power_w + IDLE_SPIN_POWER_W) * on_ground_s;
@@ -678,12 +676,12 @@ mod tests {
     fn a_px4_landing_ends_when_px4_disarms_the_motors_idling_through_the_land_detector() {
         let v = crate::physics::vehicle::shipped();
         let mut none = v.clone();
-        none.px4.lndmc_trig_time_s = 0.0;
+        none.px4.land_detector_s = 0.0;
         none.px4.com_disarm_land_s = 0.0;
         let with = Model::new(&v).landing(Profile::Px4, 30.0).unwrap();
         let without = Model::new(&none).landing(Profile::Px4, 30.0).unwrap();
-        let on_ground_s = v.px4.lndmc_trig_time_s + v.px4.com_disarm_land_s;
-        assert!((on_ground_s - 3.0).abs() < 1e-12, "PX4's defaults: 1 s and 2 s");
+        let on_ground_s = v.px4.land_detector_s + v.px4.com_disarm_land_s;
+        assert!((on_ground_s - 3.2).abs() < 1e-12, "1.2 s measured, PX4's default 2 s");
         assert_eq!(with.energy_j, without.energy_j);
         assert!((with.total_duration_s() - without.total_duration_s() - on_ground_s).abs() < 1e-9);
         let idle_j = (v.body.avionics_power_w + IDLE_SPIN_POWER_W) * on_ground_s;

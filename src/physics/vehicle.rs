@@ -160,11 +160,12 @@ pub struct Px4Params {
     /// Waypoint acceptance radius (NAV_ACC_RAD; what emplan sends as each item's param2).
     pub nav_acc_rad_m: f64,
     pub nav_mc_alt_rad_m: f64,
-    /// The land detector's trigger time (LNDMC_TRIG_TIME): after touchdown PX4 holds ground
-    /// contact, maybe-landed and landed a third of it each before it confirms the landing
-    /// (`MulticopterLandDetector::_set_hysteresis_factor`), the motors near idle meanwhile.
-    #[serde(default = "default_lndmc_trig_time_s")]
-    pub lndmc_trig_time_s: f64,
+    /// The land detector's time from touchdown to a confirmed landing: PX4's
+    /// MulticopterLandDetector holds ground contact, maybe-landed and landed in turn, each for
+    /// its trigger time (constants in PX4's main branch, LNDMC_TRIG_TIME in some releases), the
+    /// motors near idle meanwhile. Not read from the autopilot.
+    #[serde(default = "default_land_detector_s")]
+    pub land_detector_s: f64,
     /// How long PX4 stays armed on the ground once the landing is confirmed (COM_DISARM_LAND,
     /// commander's auto-disarm), the motors idling.
     #[serde(default = "default_com_disarm_land_s")]
@@ -177,10 +178,10 @@ pub struct Px4Params {
     pub steps: u32,
 }
 
-/// PX4's default LNDMC_TRIG_TIME (land_detector_params_mc.c), for vehicle files written before
-/// the landing counted the land detector.
-fn default_lndmc_trig_time_s() -> f64 {
-    1.0
+/// The land detector's time measured on PX4 SITL (1.1-1.3 s from ground contact to ON_GROUND),
+/// for vehicle files written before the landing counted it.
+fn default_land_detector_s() -> f64 {
+    1.2
 }
 
 /// PX4's default COM_DISARM_LAND (commander_params.c).
@@ -246,7 +247,6 @@ impl Px4Params {
             ("MPC_Z_VEL_MAX_DN", self.mpc_z_vel_max_dn_m_s),
             ("NAV_ACC_RAD", self.nav_acc_rad_m),
             ("NAV_MC_ALT_RAD", self.nav_mc_alt_rad_m),
-            ("LNDMC_TRIG_TIME", self.lndmc_trig_time_s),
             ("COM_DISARM_LAND", self.com_disarm_land_s),
         ]
     }
@@ -278,7 +278,6 @@ impl Px4Params {
                 "MPC_Z_VEL_MAX_DN" => &mut p.mpc_z_vel_max_dn_m_s,
                 "NAV_ACC_RAD" => &mut p.nav_acc_rad_m,
                 "NAV_MC_ALT_RAD" => &mut p.nav_mc_alt_rad_m,
-                "LNDMC_TRIG_TIME" => &mut p.lndmc_trig_time_s,
                 "COM_DISARM_LAND" => &mut p.com_disarm_land_s,
                 _ => continue,
             };
@@ -523,7 +522,7 @@ impl Vehicle {
         check("px4.mpc_land_crwl_m_s", x.mpc_land_crwl_m_s, 0.05, 20.0)?;
         check("px4.nav_acc_rad_m", x.nav_acc_rad_m, 0.05, 200.0)?;
         check("px4.nav_mc_alt_rad_m", x.nav_mc_alt_rad_m, 0.05, 200.0)?;
-        check("px4.lndmc_trig_time_s", x.lndmc_trig_time_s, 0.0, 60.0)?;
+        check("px4.land_detector_s", x.land_detector_s, 0.0, 60.0)?;
         check("px4.com_disarm_land_s", x.com_disarm_land_s, 0.0, 600.0)?;
         check("px4.departure_error_m", x.departure_error_m, 0.0, 100.0)?;
         check(
@@ -623,7 +622,7 @@ mod tests {
     fn px4_parameters_map_to_the_px4_section_by_their_px4_names_both_ways() {
         let v = shipped();
         let named = v.px4.autopilot_values();
-        assert_eq!(named.len(), 22);
+        assert_eq!(named.len(), 21);
         // Read back unchanged, every name lands on its own key.
         let same: Vec<(String, f64)> = named.iter().map(|(n, x)| (n.to_string(), *x)).collect();
         assert_eq!(v.px4.with_autopilot_values(&same), v.px4);
