@@ -18,7 +18,8 @@ use crate::link::telemetry::{analyse_tlog, mission_in_tlog, Analysis, TelemetryE
 use crate::mission::Mission;
 use crate::physics::VehicleModel;
 
-use super::predict::{plan_from_items, FlightItemsError};
+use super::onboard::PlanFrom;
+use super::predict::{plan_from_items, repriced, FlightItemsError};
 
 /// Why a log could not be replayed.
 #[derive(Debug, thiserror::Error)]
@@ -32,6 +33,12 @@ pub enum ReplayError {
     #[error("{file}: the mission in the log: {cause}")]
     Items {
         file: String,
+        cause: FlightItemsError,
+    },
+    #[error("{file}: re-pricing its plan with the vehicle {vehicle}: {cause}")]
+    Repricing {
+        file: String,
+        vehicle: String,
         cause: FlightItemsError,
     },
 }
@@ -66,7 +73,35 @@ pub fn replay(
     model: Option<&VehicleModel>,
     cfg: SegmentConfig,
 ) -> Result<Analysis, ReplayError> {
-    let plan = plan_for_tlog(tlog, mission, model)?;
+    replay_from(
+        tlog,
+        PlanFrom {
+            mission,
+            model,
+            ..PlanFrom::default()
+        },
+        cfg,
+    )
+}
+
+/// Replays a .tlog against its plan ([`plan_for_tlog`], `from.plan` unused), priced anew with
+/// `from.price_with` when given (`report --vehicle`: every leg, settle, take-off, landing and
+/// hover as that vehicle prices them).
+pub fn replay_from(
+    tlog: &Path,
+    from: PlanFrom<'_>,
+    cfg: SegmentConfig,
+) -> Result<Analysis, ReplayError> {
+    let mut plan = plan_for_tlog(tlog, from.mission, from.model)?;
+    if let Some(model) = from.price_with {
+        plan.predicted = Some(
+            repriced(&plan, model).map_err(|cause| ReplayError::Repricing {
+                file: tlog.display().to_string(),
+                vehicle: model.vehicle.name.clone(),
+                cause,
+            })?,
+        );
+    }
     Ok(analyse_tlog(tlog, plan, &log_name(tlog), cfg)?)
 }
 
