@@ -226,8 +226,13 @@ fn warn_torn(path: &Path, analysis: &Analysis) {
 /// Measures one log: a .tlog (see [`analyse`]) or the flight controller's own.
 pub fn measure(path: &Path, from: emplan::session::PlanFrom<'_>) -> anyhow::Result<Analysis> {
     if is_tlog(path) {
-        let analysis = emplan::session::replay_from(path, from, SegmentConfig::default())
-            .with_context(|| format!("replaying {}", path.display()))?;
+        let analysis = emplan::session::replay_priced(
+            path,
+            (from.mission, from.model),
+            from.price_with,
+            SegmentConfig::default(),
+        )
+        .with_context(|| format!("replaying {}", path.display()))?;
         warn_skipped(path, &analysis.replay);
         return Ok(analysis);
     }

@@ -39,5 +39,5 @@ pub use recorder::{
     flight_dirs, spawn_recorder, FlightEvent, Live, RecorderConfig, RecorderHandle,
 };
 pub use replay::{
-    plan_for_tlog, replay, replay_from, resume_flight, ReplayError, ResumeFlightError,
+    plan_for_tlog, replay, replay_priced, resume_flight, ReplayError, ResumeFlightError,
 };

@@ -18,7 +18,6 @@ use crate::link::telemetry::{analyse_tlog, mission_in_tlog, Analysis, TelemetryE
 use crate::mission::Mission;
 use crate::physics::VehicleModel;
 
-use super::onboard::PlanFrom;
 use super::predict::{plan_from_items, repriced, FlightItemsError};
 
 /// Why a log could not be replayed.
@@ -73,27 +72,20 @@ pub fn replay(
     model: Option<&VehicleModel>,
     cfg: SegmentConfig,
 ) -> Result<Analysis, ReplayError> {
-    replay_from(
-        tlog,
-        PlanFrom {
-            mission,
-            model,
-            ..PlanFrom::default()
-        },
-        cfg,
-    )
+    replay_priced(tlog, (mission, model), None, cfg)
 }
 
-/// Replays a .tlog against its plan ([`plan_for_tlog`], `from.plan` unused), priced anew with
-/// `from.price_with` when given (`report --vehicle`: every leg, settle, take-off, landing and
-/// hover as that vehicle prices them).
-pub fn replay_from(
+/// Replays a .tlog against its plan ([`plan_for_tlog`] of `plan_from`: the mission and model),
+/// priced anew with `price_with` when given (`report --vehicle`: every leg, settle, take-off,
+/// landing and hover as that vehicle prices them).
+pub fn replay_priced(
     tlog: &Path,
-    from: PlanFrom<'_>,
+    plan_from: (Option<&Mission>, Option<&VehicleModel>),
+    price_with: Option<&VehicleModel>,
     cfg: SegmentConfig,
 ) -> Result<Analysis, ReplayError> {
-    let mut plan = plan_for_tlog(tlog, from.mission, from.model)?;
-    if let Some(model) = from.price_with {
+    let mut plan = plan_for_tlog(tlog, plan_from.0, plan_from.1)?;
+    if let Some(model) = price_with {
         plan.predicted = Some(
             repriced(&plan, model).map_err(|cause| ReplayError::Repricing {
                 file: tlog.display().to_string(),
