@@ -25,8 +25,9 @@ pub struct LogArgs {
     /// directory
     #[arg(long, value_name = "DIR", requires = "from_logs")]
     out: Option<PathBuf>,
-    /// With --out: the tables to rebuild, comma-separated, `all` or `none` (default: the
-    /// profile flown; the px4 and ptf tables take tens of seconds each, hvb a few)
+    /// With --out: the tables to rebuild, comma-separated, `all` or `none` (default: all, so
+    /// every profile of the next flight is priced with the fit; the px4 and ptf tables take
+    /// tens of seconds each, hvb a few)
     #[arg(long, value_name = "PROFILES", requires = "out")]
     tables: Option<String>,
     /// With --out: write into a directory that holds files already, replacing them (never the
@@ -51,8 +52,7 @@ pub fn run(
     });
     let profile = args.profile.unwrap_or(vehicle.default_profile());
     let tables: Vec<Profile> = match args.tables.as_deref() {
-        None => vec![profile],
-        Some("all") => Profile::ALL.to_vec(),
+        None | Some("all") => Profile::ALL.to_vec(),
         Some("none") => Vec::new(),
         Some(list) => list
             .split(',')
@@ -93,14 +93,13 @@ pub fn run(
     })?;
     let mut written = Vec::new();
     if let Some(out) = &out {
-        let v = vehicle_dir::write_vehicle(
-            vehicle_dir,
-            out,
-            &c.values(),
-            c.flights.len(),
-            c.legs.len(),
-            c.held_out_errors(),
-        )?;
+        let to = vehicle_dir::FittedTo {
+            flights: c.flights.iter().map(|f| f.name.clone()).collect(),
+            legs: c.legs.len(),
+            hovers: flights.hovers.len(),
+            held_out: c.held_out_errors(),
+        };
+        let v = vehicle_dir::write_vehicle(vehicle_dir, out, &c.values(), &to)?;
         written.push(out.path.join("vehicle.toml"));
         for p in tables {
             let bar = super::progress::bar(0, "{prefix} [{bar:40}] {pos}/{len} cells, {eta} left");
@@ -144,8 +143,13 @@ pub fn run(
 }
 
 fn stats_line(what: &str, e: &ErrorStats) -> String {
+    parts_line(what, e, "legs")
+}
+
+/// A line of error statistics over `e.legs` parts called `parts`.
+fn parts_line(what: &str, e: &ErrorStats, parts: &str) -> String {
     format!(
-        "{what:<34} rms {:>5.1}%, mean {:>+6.1}%, worst {:>5.1}% ({} legs)",
+        "{what:<34} rms {:>5.1}%, mean {:>+6.1}%, worst {:>5.1}% ({} {parts})",
         e.rms_pct, e.mean_pct, e.worst_pct, e.legs
     )
 }
@@ -193,6 +197,20 @@ fn print(c: &LogCalibration, vehicle: &str) {
         Some(e) => println!("  {}", stats_line("leave-one-flight-out", &e)),
         None => println!("  leave-one-flight-out: needs two flights or more"),
     }
+    match &c.hovers {
+        Some((before, after)) => {
+            println!("holds at the waypoints (hover power x measured time vs measured):");
+            println!(
+                "  {}",
+                parts_line("before (the vehicle file)", before, "holds")
+            );
+            println!(
+                "  {}",
+                parts_line("after (fitted to every flight)", after, "holds")
+            );
+        }
+        None => println!("holds at the waypoints: none measured cleanly; not fitted to"),
+    }
     for h in &c.held_out {
         let name = c.flights.get(h.flight).map_or("?", |f| f.name.as_str());
         let values: Vec<String> = h
@@ -232,9 +250,24 @@ fn print(c: &LogCalibration, vehicle: &str) {
             );
         } else {
             println!(
-                "  {} = {:.4}   (was {}, searched {:.4} to {:.4})",
-                f.key, f.value, f.before, f.low, f.high
+                "  {} = {:.4}   (was {}, searched {:.4} to {:.4}){}",
+                f.key,
+                f.value,
+                f.before,
+                f.low,
+                f.high,
+                f.at_bound.map_or(String::new(), |b| format!(
+                    "  AT ITS {} BOUND",
+                    b.to_uppercase()
+                ))
             );
         }
+    }
+    if !c.at_bound().is_empty() {
+        println!(
+            "warning: {} at a bound: the flights ask for more than {} can physically give; the rest stays in the errors",
+            c.at_bound().iter().map(|f| f.key).collect::<Vec<_>>().join(", "),
+            if c.at_bound().len() == 1 { "it" } else { "they" }
+        );
     }
 }

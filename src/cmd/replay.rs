@@ -35,6 +35,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         plan: args.plan.as_deref(),
         mission: mission.as_ref(),
         model: Some(&model),
+        price_with: None,
     };
     let analysis = super::report::measure(&args.tlog, from)?;
     if args.json {

@@ -226,7 +226,13 @@ fn warn_torn(path: &Path, analysis: &Analysis) {
 /// Measures one log: a .tlog (see [`analyse`]) or the flight controller's own.
 pub fn measure(path: &Path, from: emplan::session::PlanFrom<'_>) -> anyhow::Result<Analysis> {
     if is_tlog(path) {
-        let analysis = analyse(path, from.mission, from.model)?;
+        let analysis = emplan::session::replay_priced(
+            path,
+            (from.mission, from.model),
+            from.price_with,
+            SegmentConfig::default(),
+        )
+        .with_context(|| format!("replaying {}", path.display()))?;
         warn_skipped(path, &analysis.replay);
         return Ok(analysis);
     }
@@ -236,14 +242,51 @@ pub fn measure(path: &Path, from: emplan::session::PlanFrom<'_>) -> anyhow::Resu
     Ok(analysis)
 }
 
-/// Replays one flight directory or .tlog.
-pub fn analyse(
-    tlog: &Path,
-    mission: Option<&emplan::mission::Mission>,
-    model: Option<&emplan::physics::VehicleModel>,
-) -> anyhow::Result<Analysis> {
-    emplan::session::replay(tlog, mission, model, SegmentConfig::default())
-        .with_context(|| format!("replaying {}", tlog.display()))
+/// The vehicle a report's predictions were priced with when `--vehicle` re-priced them, in the
+/// JSON (`"priced_with"` at the report's top level, docs/json.md).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct PricedWith {
+    /// The vehicle file's `name`.
+    pub vehicle: String,
+    /// The vehicle directory given.
+    pub dir: String,
+    pub profile: emplan::physics::Profile,
+}
+
+impl PricedWith {
+    fn of(model: &emplan::physics::VehicleModel, dir: &Path) -> PricedWith {
+        PricedWith {
+            vehicle: model.vehicle.name.clone(),
+            dir: dir.display().to_string(),
+            profile: model.profile,
+        }
+    }
+
+    fn line(&self) -> String {
+        format!(
+            "re-priced with the vehicle {} ({}, {} profile): every prediction below is its own, not the flight plan's",
+            self.vehicle, self.dir, self.profile
+        )
+    }
+}
+
+/// A report document with the vehicle that re-priced it beside its own fields.
+#[derive(serde::Serialize)]
+struct Priced<'a, T: serde::Serialize> {
+    #[serde(flatten)]
+    doc: &'a T,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    priced_with: Option<&'a PricedWith>,
+}
+
+/// Prints `doc` as JSON with `"priced_with"` when re-priced.
+fn print_json<T: serde::Serialize>(doc: &T, priced: Option<&PricedWith>) -> anyhow::Result<()> {
+    let doc = Priced {
+        doc,
+        priced_with: priced,
+    };
+    println!("{}", serde_json::to_string_pretty(&doc)?);
+    Ok(())
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
@@ -270,11 +313,21 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
         None => None,
     };
-    let model = args.model.model().ok();
+    // With --vehicle every flight is priced anew with it (plan.json keeps the prices of the
+    // vehicle it was flown with); without, a plan found carries its own prices.
+    let (model, priced) = match &args.model.vehicle {
+        Some(dir) => {
+            let model = args.model.model()?;
+            let priced = PricedWith::of(&model, dir);
+            (Some(model), Some(priced))
+        }
+        None => (args.model.model().ok(), None),
+    };
     let from = emplan::session::PlanFrom {
         plan: args.plan.as_deref(),
         mission: mission.as_ref(),
         model: model.as_ref(),
+        price_with: priced.is_some().then_some(model.as_ref()).flatten(),
     };
     let mut analyses = Vec::new();
     for log in &logs {
@@ -293,8 +346,11 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         let other = measure(onboard, from)?;
         let sources = emplan::flightlog::report::compare_sources(&tlog.report, &other.report);
         if args.json {
-            println!("{}", serde_json::to_string_pretty(&sources)?);
+            print_json(&sources, priced.as_ref())?;
         } else {
+            if let Some(p) = &priced {
+                println!("{}", p.line());
+            }
             print_sources(&sources);
         }
         return Ok(ExitCode::SUCCESS);
@@ -309,8 +365,11 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let reports: Vec<FlightReport> = analyses.into_iter().map(|a| a.report).collect();
     if let [report] = reports.as_slice() {
         if args.json {
-            println!("{}", serde_json::to_string_pretty(&report.json())?);
+            print_json(&report.json(), priced.as_ref())?;
         } else {
+            if let Some(p) = &priced {
+                println!("{}", p.line());
+            }
             print(report);
         }
         return Ok(ExitCode::SUCCESS);
@@ -323,8 +382,11 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             combined: combined.json(),
             missions: missions.iter().map(FlownMission::json).collect(),
         };
-        println!("{}", serde_json::to_string_pretty(&doc)?);
+        print_json(&doc, priced.as_ref())?;
     } else {
+        if let Some(p) = &priced {
+            println!("{}", p.line());
+        }
         for report in &reports {
             print(report);
             println!();

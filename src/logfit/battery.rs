@@ -143,20 +143,14 @@ pub fn fit_battery(vehicle: &Vehicle, packs: &[PackSeries]) -> Option<BatteryFit
     let rms = |sum: f64| (sum / samples.max(1) as f64).sqrt();
     Some(BatteryFit {
         fitted: vec![
-            Fitted {
-                key: "battery.internal_resistance_ohm",
-                before: r0,
-                value: r,
-                low: ranges[0].1,
-                high: ranges[0].2,
-            },
-            Fitted {
-                key: "battery.capacity_ah",
-                before: c0,
-                value: c,
-                low: ranges[1].1,
-                high: ranges[1].2,
-            },
+            Fitted::new(
+                "battery.internal_resistance_ohm",
+                r0,
+                r,
+                ranges[0].1,
+                ranges[0].2,
+            ),
+            Fitted::new("battery.capacity_ah", c0, c, ranges[1].1, ranges[1].2),
         ],
         flights: packs.len(),
         samples,

@@ -1,8 +1,9 @@
 //! The vehicle directory `calibrate --from-logs --out DIR` writes: the source vehicle.toml with
 //! the fitted values put in place (every other line and comment kept; each fitted line's comment
-//! says where its value came from and what it was), read back and checked, and the energy
-//! tables rebuilt for it with `physics::table`'s build; every file written through
-//! `crate::output`.
+//! says it was calibrated, against which logged flights, and what it was; the old comment's
+//! continuation lines dropped), read back and checked, and the energy tables rebuilt for it with
+//! `physics::table`'s build (every profile by default, so whatever the next flight flies is
+//! priced with the fit); every file written through `crate::output`.
 
 use std::path::Path;
 
@@ -54,6 +55,15 @@ pub fn edit_vehicle_toml(
         let assignment = format!("{key} = {value:.decimals$}");
         let pad = column.saturating_sub(assignment.len()).max(1);
         lines[line] = format!("{assignment}{:pad$}# {note}", "");
+        // The old comment's continuation: comment-only lines indented under it.
+        let continued = lines[line + 1..]
+            .iter()
+            .take_while(|l| {
+                let indent = l.len() - l.trim_start().len();
+                l.trim_start().starts_with('#') && column > 0 && indent + 4 >= column
+            })
+            .count();
+        lines.drain(line + 1..line + 1 + continued);
     }
     let mut out = lines.join("\n");
     out.push('\n');
@@ -66,6 +76,8 @@ pub fn value_of(v: &Vehicle, key: &str) -> f64 {
     match key {
         "body.mass_kg" => v.body.mass_kg,
         "body.drag_coefficient_n_s2_m2" => v.body.drag_coefficient_n_s2_m2,
+        "motor.esc_efficiency" => v.motor.esc_efficiency,
+        "rotor.induced_power_factor" => v.rotor.induced_power_factor,
         "battery.internal_resistance_ohm" => v.battery.internal_resistance_ohm,
         "battery.capacity_ah" => v.battery.capacity_ah,
         "planning.usable_energy_wh" => v.planning.usable_energy_wh,
@@ -78,6 +90,8 @@ pub fn set_value(v: &mut Vehicle, key: &str, value: f64) {
     match key {
         "body.mass_kg" => v.body.mass_kg = value,
         "body.drag_coefficient_n_s2_m2" => v.body.drag_coefficient_n_s2_m2 = value,
+        "motor.esc_efficiency" => v.motor.esc_efficiency = value,
+        "rotor.induced_power_factor" => v.rotor.induced_power_factor = value,
         "battery.internal_resistance_ohm" => v.battery.internal_resistance_ohm = value,
         "battery.capacity_ah" => v.battery.capacity_ah = value,
         "planning.usable_energy_wh" => v.planning.usable_energy_wh = value,
@@ -85,24 +99,74 @@ pub fn set_value(v: &mut Vehicle, key: &str, value: f64) {
     }
 }
 
+/// The logged flights a calibration was fitted to, and how much of them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FittedTo {
+    /// The flights' names (their reports').
+    pub flights: Vec<String>,
+    pub legs: usize,
+    pub hovers: usize,
+    /// Leave-one-flight-out per-leg errors.
+    pub held_out: Option<ErrorStats>,
+}
+
+/// `text` (a vehicle.toml) with its top-level `name` saying it was calibrated from logs, so a
+/// report priced with it names it apart from its source (`report --vehicle`).
+fn renamed(text: &str) -> String {
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let top = lines
+        .iter()
+        .position(|l| l.trim_start().starts_with('['))
+        .unwrap_or(lines.len());
+    let name = lines[..top].iter().position(|l| {
+        l.strip_prefix("name")
+            .is_some_and(|r| r.trim_start().starts_with('='))
+    });
+    if let Some(k) = name {
+        let old = (lines[k].split_once('=').map(|(_, v)| v.trim())).and_then(|v| {
+            v.strip_prefix('"')?
+                .split_once('"')
+                .map(|(n, _)| n.to_string())
+        });
+        if let Some(old) = old {
+            lines[k] = format!("name = \"{old}, calibrated from logged flights\"");
+        }
+    }
+    let mut out = lines.join("\n");
+    out.push('\n');
+    out
+}
+
 /// The header comment of a written vehicle file.
-fn header(fitted: &[Fitted], flights: usize, legs: usize, held_out: Option<ErrorStats>) -> String {
+fn header(fitted: &[Fitted], to: &FittedTo) -> String {
     let keys: Vec<&str> = fitted
         .iter()
         .map(|f| f.key)
-        .filter(|k| k.starts_with("body."))
+        .filter(|k| !k.starts_with("battery.") && !k.starts_with("planning."))
         .collect();
+    let (flights, legs, held_out) = (to.flights.len(), to.legs, to.held_out);
     let validation = held_out.map_or(String::new(), |e| {
         format!(
             "; leave-one-flight-out per-leg error rms {:.1}%, worst {:.1}%",
             e.rms_pct, e.worst_pct
         )
     });
+    let at_bound: Vec<String> = (fitted.iter())
+        .filter_map(|f| f.at_bound.map(|b| format!("{} at its {b} bound", f.key)))
+        .collect();
+    let at_bound = if at_bound.is_empty() {
+        String::new()
+    } else {
+        format!("# Fitted at a bound: {}.\n", at_bound.join(", "))
+    };
     format!(
         "# Calibrated from flight logs: `emplan calibrate --from-logs` fitted {} to {legs} legs\n\
-         # of {flights} flights{validation}; the battery's values, where changed, to their pack\n\
-         # voltage and current. Everything else is the source vehicle's.\n",
-        keys.join(" and ")
+         # and {} holds of {flights} flights ({}){validation}; the battery's values, where\n\
+         # changed, to their pack voltage and current. Everything else is the source vehicle's.\n\
+         {at_bound}",
+        keys.join(", "),
+        to.hovers,
+        to.flights.join(", ")
     )
 }
 
@@ -114,9 +178,7 @@ pub fn write_vehicle(
     source_dir: Option<&Path>,
     out: &Output,
     fitted: &[Fitted],
-    flights: usize,
-    legs: usize,
-    held_out: Option<ErrorStats>,
+    to: &FittedTo,
 ) -> Result<Vehicle, LogFitError> {
     // The vehicle file edited: the directory's, or the built-in S1000's own text.
     let (text, source_file) = match source_dir {
@@ -155,7 +217,9 @@ pub fn write_vehicle(
                         f.before
                     ),
                     _ => format!(
-                        "calibrated against the leg energies of {flights} logged flights (`emplan calibrate --from-logs`); was {}",
+                        "calibrated against the leg and hold energies of logged flights {} (`emplan calibrate --from-logs`){}; was {}",
+                        to.flights.join(", "),
+                        f.at_bound.map_or(String::new(), |b| format!(", at its {b} bound")),
                         f.before
                     ),
                 },
@@ -163,7 +227,7 @@ pub fn write_vehicle(
         })
         .collect();
     let edited = edit_vehicle_toml(&text, &source_file, &values)?;
-    let edited = header(fitted, flights, legs, held_out) + &edited;
+    let edited = header(fitted, to) + &renamed(&edited);
     let vehicle = Vehicle::from_toml(&edited, &out_file)?;
     for f in fitted {
         let written = value_of(&vehicle, f.key);
@@ -222,15 +286,24 @@ mod tests {
         let before = Vehicle::from_toml(&text, "v.toml").expect("valid");
         assert_eq!(v.body.mass_kg, 7.6543);
         assert_eq!(v.body.drag_coefficient_n_s2_m2, 0.41);
-        // Only those two lines differ; the rotor's drag_coefficient is another key.
+        // Only those two lines differ, and their old comments' continuation lines are gone;
+        // the rotor's drag_coefficient is another key.
         assert_eq!(v.rotor, before.rotor);
-        let changed = text
-            .lines()
-            .zip(edited.lines())
-            .filter(|(a, b)| a != b)
-            .count();
-        assert_eq!(changed, 2);
+        let kept: Vec<&str> = text.lines().filter(|l| edited.contains(*l)).collect();
+        let removed: Vec<&str> = text.lines().filter(|l| !edited.contains(*l)).collect();
+        assert_eq!(kept.len() + removed.len(), text.lines().count());
+        assert_eq!(removed.len(), 4, "{removed:?}");
+        assert!(
+            removed
+                .iter()
+                .filter(|l| l.trim_start().starts_with('#'))
+                .count()
+                == 2,
+            "{removed:?}"
+        );
+        assert_eq!(edited.lines().count(), text.lines().count() - 2);
         assert!(edited.contains("mass_kg = 7.6543"), "{edited}");
+        assert!(!edited.contains("window 6-11 kg"), "{edited}");
     }
 
     #[test]

@@ -33,9 +33,11 @@ pub use open::{open, LinkOptions, MockFlight, OpenError, Session, Target, Upload
 pub use params::{check_px4_params, parse_param, ParamCheck, Px4Parameters};
 pub use predict::{
     flight_plan, flight_plan_predicted, plan_from_items, predicted, predicted_by_simulation,
-    FlightItemsError,
+    repriced, FlightItemsError,
 };
 pub use recorder::{
     flight_dirs, spawn_recorder, FlightEvent, Live, RecorderConfig, RecorderHandle,
 };
-pub use replay::{plan_for_tlog, replay, resume_flight, ReplayError, ResumeFlightError};
+pub use replay::{
+    plan_for_tlog, replay, replay_priced, resume_flight, ReplayError, ResumeFlightError,
+};

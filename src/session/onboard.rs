@@ -20,7 +20,7 @@ use crate::physics::VehicleModel;
 use crate::planner::FlightChoice;
 use crate::tour::solver;
 
-use super::predict::{flight_plan, plan_from_items, FlightItemsError};
+use super::predict::{flight_plan, plan_from_items, repriced, FlightItemsError};
 use super::replay::{log_name, plan_beside};
 
 /// Why an onboard log could not be measured; each names the file.
@@ -37,6 +37,12 @@ pub enum OnboardReplayError {
     #[error("{file}: the mission in the log: {cause}")]
     Items {
         file: String,
+        cause: FlightItemsError,
+    },
+    #[error("{file}: re-pricing its plan with the vehicle {vehicle}: {cause}")]
+    Repricing {
+        file: String,
+        vehicle: String,
         cause: FlightItemsError,
     },
     #[error("{file}: item {seq} of the mission in the log: command {command} or frame {frame} is not MAVLink's")]
@@ -63,6 +69,9 @@ pub struct PlanFrom<'a> {
     /// `fly` plans it when the log holds no mission.
     pub mission: Option<&'a Mission>,
     pub model: Option<&'a VehicleModel>,
+    /// Price the plan found anew with this vehicle (`report --vehicle`), whatever prices it
+    /// carries ([`super::predict::repriced`]).
+    pub price_with: Option<&'a VehicleModel>,
 }
 
 /// The autopilot that writes logs of `format`.
@@ -142,7 +151,17 @@ pub fn replay_onboard(
 ) -> Result<Analysis, OnboardReplayError> {
     let log = onboard::read(path)?;
     log.check_measurable()?;
-    let plan = plan_for_onboard(path, &log, from)?;
+    let mut plan = plan_for_onboard(path, &log, from)?;
+    if let Some(model) = from.price_with {
+        plan.predicted =
+            Some(
+                repriced(&plan, model).map_err(|cause| OnboardReplayError::Repricing {
+                    file: path.display().to_string(),
+                    vehicle: model.vehicle.name.clone(),
+                    cause,
+                })?,
+            );
+    }
     let name = log_name(path);
     let replay = Replay {
         frames: log.stamped.len() as u64,

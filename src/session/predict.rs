@@ -173,6 +173,13 @@ pub fn plan_from_items(
     Ok(plan)
 }
 
+/// `plan` priced anew with `model` (its vehicle, profile and table): every leg from the point
+/// before it, its settle, the take-off, the landing and hover power, as [`plan_from_items`]
+/// prices a mission read from a log; `report --vehicle` shows recorded flights this way.
+pub fn repriced(plan: &FlightPlan, model: &VehicleModel) -> Result<Predicted, FlightItemsError> {
+    price_points(model, plan.origin_height_m, &plan.points)
+}
+
 /// Prices the legs origin -> points[0] -> ... with the vehicle's table, and the take-off and
 /// landing at the origin height.
 fn price_points(

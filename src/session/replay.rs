@@ -18,7 +18,7 @@ use crate::link::telemetry::{analyse_tlog, mission_in_tlog, Analysis, TelemetryE
 use crate::mission::Mission;
 use crate::physics::VehicleModel;
 
-use super::predict::{plan_from_items, FlightItemsError};
+use super::predict::{plan_from_items, repriced, FlightItemsError};
 
 /// Why a log could not be replayed.
 #[derive(Debug, thiserror::Error)]
@@ -32,6 +32,12 @@ pub enum ReplayError {
     #[error("{file}: the mission in the log: {cause}")]
     Items {
         file: String,
+        cause: FlightItemsError,
+    },
+    #[error("{file}: re-pricing its plan with the vehicle {vehicle}: {cause}")]
+    Repricing {
+        file: String,
+        vehicle: String,
         cause: FlightItemsError,
     },
 }
@@ -66,7 +72,28 @@ pub fn replay(
     model: Option<&VehicleModel>,
     cfg: SegmentConfig,
 ) -> Result<Analysis, ReplayError> {
-    let plan = plan_for_tlog(tlog, mission, model)?;
+    replay_priced(tlog, (mission, model), None, cfg)
+}
+
+/// Replays a .tlog against its plan ([`plan_for_tlog`] of `plan_from`: the mission and model),
+/// priced anew with `price_with` when given (`report --vehicle`: every leg, settle, take-off,
+/// landing and hover as that vehicle prices them).
+pub fn replay_priced(
+    tlog: &Path,
+    plan_from: (Option<&Mission>, Option<&VehicleModel>),
+    price_with: Option<&VehicleModel>,
+    cfg: SegmentConfig,
+) -> Result<Analysis, ReplayError> {
+    let mut plan = plan_for_tlog(tlog, plan_from.0, plan_from.1)?;
+    if let Some(model) = price_with {
+        plan.predicted = Some(
+            repriced(&plan, model).map_err(|cause| ReplayError::Repricing {
+                file: tlog.display().to_string(),
+                vehicle: model.vehicle.name.clone(),
+                cause,
+            })?,
+        );
+    }
     Ok(analyse_tlog(tlog, plan, &log_name(tlog), cfg)?)
 }
 

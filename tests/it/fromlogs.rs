@@ -123,6 +123,8 @@ fn calibration_from_logs_of_a_perturbed_vehicle_brings_held_out_leg_error_under_
         "hvb",
         "--out",
         out.to_str().unwrap(),
+        "--tables",
+        "hvb",
         "--json",
     ]);
     assert_eq!(c["profile"], "hvb");
@@ -140,12 +142,15 @@ fn calibration_from_logs_of_a_perturbed_vehicle_brings_held_out_leg_error_under_
             "{left_out}"
         );
     }
-    // The parameters found are the truth's, near enough.
+    // The parameters found are the truth's, near enough: the mass within 5% (the holds pin the
+    // hover power, which the powertrain's efficiency and the rotor's induced power also move;
+    // the climbs pin the mass).
     let mass = fitted_value(&c["fitted"], "body.mass_kg");
     let drag = fitted_value(&c["fitted"], "body.drag_coefficient_n_s2_m2");
     assert!(
-        (mass / true_mass - 1.0).abs() < 0.02,
-        "{mass} vs {true_mass}"
+        (mass / true_mass - 1.0).abs() < 0.05,
+        "{mass} vs {true_mass}: {}",
+        c["fitted"]
     );
     // The body drag is not held to the truth: the refitted S1000's horizontal drag is small
     // (0.05 N s^2/m^2) beside the rotors' own losses, so these legs pin it loosely and the fit

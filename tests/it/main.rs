@@ -18,6 +18,7 @@ mod onboard_ulog;
 mod outputs;
 mod physics;
 mod preflight;
+mod reprice;
 mod resume;
 mod service;
 mod snapshots;
