@@ -78,8 +78,7 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
     let lines = Lines::new(args.json);
     super::runtime()?.block_on(async {
         let session = args.link.open_with(Some(mock)).await?;
-        let (model, planned) =
-            autopilot_profile(&args.flight, &session, &mission, model, planned, args.json)?;
+        let (model, planned) = autopilot_profile(&args.flight, &session, &mission, model, planned)?;
         let (mission, plan) = (args.flight)
             .planned_at(&session, mission, planned, &model, args.json)
             .await?;
@@ -122,7 +121,6 @@ fn autopilot_profile(
     mission: &emplan::mission::Mission,
     model: emplan::physics::VehicleModel,
     planned: Option<emplan::planner::Plan>,
-    quiet: bool,
 ) -> anyhow::Result<(emplan::physics::VehicleModel, Option<emplan::planner::Plan>)> {
     use emplan::link::Flavour;
     use emplan::physics::Profile;
@@ -145,12 +143,10 @@ fn autopilot_profile(
             return Ok((model, planned));
         }
     };
-    if !quiet {
-        eprintln!(
-            "pricing with the {wanted} profile: the vehicle is {:?} (--profile chooses another)",
-            session.target.flavour
-        );
-    }
+    eprintln!(
+        "pricing with the {wanted} profile: the vehicle is {:?} (--profile chooses another)",
+        session.target.flavour
+    );
     let planned = match planned {
         Some(_) => {
             let plan = flight.plan_with(mission, &reopened)?;

@@ -244,9 +244,8 @@ impl SCurve {
                 end_pos: 0.0,
             }],
         };
-        if !(length_m > 0.0 && speed_m_s > 0.0 && accel_m_s2 > 0.0 && jerk_m_s3 > 0.0)
-            || !(snap_m_s4 > 0.0)
-        {
+        let limits = [length_m, speed_m_s, accel_m_s2, jerk_m_s3, snap_m_s4];
+        if !limits.iter().all(|x| *x > 0.0) {
             return c;
         }
         let (jm, tj, t2, t4, t6) = calculate_path(
