@@ -769,6 +769,44 @@ mod tests {
     }
 
     #[test]
+    fn ardupilot_parameters_map_to_the_ardupilot_section_by_their_names_and_are_validated() {
+        let v = shipped();
+        assert_eq!(v.ardupilot, ArdupilotParams::default());
+        let named = v.ardupilot.autopilot_values();
+        assert_eq!(named.len(), 17);
+        let same: Vec<(String, f64)> = named.iter().map(|(n, x)| (n.to_string(), *x)).collect();
+        assert_eq!(v.ardupilot.with_autopilot_values(&same), v.ardupilot);
+        let read = vec![
+            ("WP_SPD".to_string(), Some(5.0)),
+            ("LAND_SPD_MS".to_string(), Some(0.5)),
+            ("WP_JERK".to_string(), None),
+        ];
+        let diff = v.ardupilot.differences(&read);
+        assert_eq!(diff.len(), 1);
+        assert_eq!(
+            (diff[0].name, diff[0].file_value, diff[0].autopilot_value),
+            ("WP_SPD", 10.0, 5.0)
+        );
+        let slower = v.ardupilot.with_autopilot_values(&[
+            ("WP_SPD".to_string(), 5.0),
+            ("MPC_XY_CRUISE".to_string(), 1.0),
+        ]);
+        assert_eq!(slower.wp_spd_m_s, 5.0);
+        // A vehicle file without [ardupilot] gets ArduCopter's defaults; a bad value is refused
+        // naming its key.
+        let text = std::fs::read_to_string(
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("models/s1000/vehicle.toml"),
+        )
+        .unwrap();
+        let cut = text.find("[ardupilot]").unwrap();
+        let without = Vehicle::from_toml(&text[..cut], "v.toml").unwrap();
+        assert_eq!(without.ardupilot, ArdupilotParams::default());
+        let bad = text.replace("wp_acc_z_m_s2 = 1.0", "wp_acc_z_m_s2 = 0.0");
+        let err = Vehicle::from_toml(&bad, "v.toml").unwrap_err().to_string();
+        assert!(err.contains("ardupilot.wp_acc_z_m_s2"), "{err}");
+    }
+
+    #[test]
     fn px4_parameters_map_to_the_px4_section_by_their_px4_names_both_ways() {
         let v = shipped();
         let named = v.px4.autopilot_values();
