@@ -11,7 +11,7 @@ use std::time::Duration;
 use super::flying::{self, Flying, Lines};
 use emplan::flightlog::watch::Policy;
 use emplan::service::remote::{self, Starting};
-use emplan::session::{FlyError, FlyOptions, Load, Px4Parameters, RecorderConfig};
+use emplan::session::{FlyError, FlyOptions, Load, ParamSection, Px4Parameters, RecorderConfig};
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -78,6 +78,7 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
     let lines = Lines::new(args.json);
     super::runtime()?.block_on(async {
         let session = args.link.open_with(Some(mock)).await?;
+        let (model, planned) = autopilot_profile(&args.flight, &session, &mission, model, planned)?;
         let (mission, plan) = (args.flight)
             .planned_at(&session, mission, planned, &model, args.json)
             .await?;
@@ -95,8 +96,10 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
         };
         let pilot = !args.arm && !builtin;
         let flying = Flying::of(&session, &mission, &flight, &args.log_dir, pilot);
-        let checked =
-            |check: Option<&_>| lines.flying(check.map(Px4Parameters::from).as_ref(), &flying);
+        let checked = |check: Option<&emplan::session::ParamCheck>| {
+            let params = check.map(|c| (Px4Parameters::from(c), c.section));
+            lines.flying(params.as_ref().map(|(p, s)| (p, *s)), &flying)
+        };
         let ticker = lines.ticker(recorder.live());
         let result = session
             .fly(&recorder, &load, &options, checked, |e| lines.event(e))
@@ -106,6 +109,53 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
         let (report, doc) = result?.reported()?;
         flying::print(&report, &doc, args.json)
     })
+}
+
+/// The profile of the autopilot found (PX4: px4, ArduPilot: ardupilot), unless `--profile`
+/// chose one: the model re-opened with it and the mission planned again (`planned` None stays
+/// None: it is planned from the vehicle's home later). A vehicle directory without that
+/// profile's table keeps the profile it had, with a warning.
+fn autopilot_profile(
+    flight: &super::FlightArgs,
+    session: &emplan::session::Session,
+    mission: &emplan::mission::Mission,
+    model: emplan::physics::VehicleModel,
+    planned: Option<emplan::planner::Plan>,
+) -> anyhow::Result<(emplan::physics::VehicleModel, Option<emplan::planner::Plan>)> {
+    use emplan::link::Flavour;
+    use emplan::physics::Profile;
+    let wanted = match session.target.flavour {
+        Flavour::Px4 => Profile::Px4,
+        Flavour::ArduPilot => Profile::Ardupilot,
+        Flavour::Generic => return Ok((model, planned)),
+    };
+    if flight.model.profile.is_some() || model.profile == wanted {
+        return Ok((model, planned));
+    }
+    let (source, _) = flight.model.source();
+    let reopened = match emplan::physics::VehicleModel::open(&source, Some(wanted)) {
+        Ok(m) => m,
+        Err(e) => {
+            eprintln!(
+                "warning: the autopilot flies the {wanted} profile but {e}: pricing with {} (--profile chooses)",
+                model.profile
+            );
+            return Ok((model, planned));
+        }
+    };
+    eprintln!(
+        "pricing with the {wanted} profile: the vehicle is {:?} (--profile chooses another)",
+        session.target.flavour
+    );
+    let planned = match planned {
+        Some(_) => {
+            let plan = flight.plan_with(mission, &reopened)?;
+            flight.flight(&plan)?;
+            Some(plan)
+        }
+        None => None,
+    };
+    Ok((reopened, planned))
 }
 
 /// `fly --resume DIR`: the name of the flight in `dir` and the mission of the waypoints it left
@@ -139,7 +189,8 @@ fn fly_through(
     super::runtime()?.block_on(async {
         let uploaded = |answer: &_, starting| {
             let flying = Flying::uploaded(answer, client.url(), starting == Starting::Pilot);
-            lines.flying(answer.px4_parameters.as_ref(), &flying);
+            let params = answer.px4_parameters.as_ref();
+            lines.flying(params.map(|p| (p, ParamSection::Px4)), &flying);
         };
         let flown = remote::fly(client, asked, uploaded, |e| lines.remote_event(e)).await?;
         let (report, doc) = flown.reported();

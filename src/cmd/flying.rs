@@ -15,7 +15,7 @@ use emplan::service::wire::UploadAnswer;
 use emplan::service::wire::{segment_kind, Event};
 use emplan::session::{
     parse_param, FlightEvent, FlyError, FlyFailure, FlyJson, Live, MockFlight, OpenError,
-    Px4Parameters, Session,
+    ParamSection, Px4Parameters, Session,
 };
 
 /// How `fly` runs the built-in mock autopilot (no `--connect`).
@@ -196,9 +196,9 @@ impl Lines {
     }
 
     /// Before the upload: the parameter warnings, then what is flown where.
-    pub fn flying(&self, params: Option<&Px4Parameters>, f: &Flying<'_>) {
-        if let Some(params) = params {
-            warn_params(params);
+    pub fn flying(&self, params: Option<(&Px4Parameters, ParamSection)>, f: &Flying<'_>) {
+        if let Some((params, section)) = params {
+            warn_params(params, section);
         }
         if self.quiet {
             return;
@@ -316,11 +316,15 @@ pub fn print(report: &FlightReport, doc: &FlyJson, json: bool) -> anyhow::Result
 
 /// Warns (stderr) of every parameter the autopilot holds at another value than the vehicle
 /// file, and of the ones it did not answer.
-fn warn_params(params: &Px4Parameters) {
+fn warn_params(params: &Px4Parameters, section: ParamSection) {
+    let autopilot = section.autopilot();
     for d in &params.differing {
         eprintln!(
-            "warning: PX4 parameter {} is {} on the vehicle, {} in the vehicle file's [px4] section",
-            d.name, d.autopilot, d.vehicle_file
+            "warning: {autopilot} parameter {} is {} on the vehicle, {} in the vehicle file's [{}] section",
+            d.name,
+            d.autopilot,
+            d.vehicle_file,
+            section.section()
         );
     }
     if !params.differing.is_empty() {
@@ -330,7 +334,7 @@ fn warn_params(params: &Px4Parameters) {
     }
     if !params.unanswered.is_empty() {
         eprintln!(
-            "warning: PX4 did not answer for {}: the vehicle file's values are assumed",
+            "warning: {autopilot} did not answer for {}: the vehicle file's values are assumed",
             params.unanswered.join(", ")
         );
     }

@@ -66,8 +66,9 @@ pub struct VehicleArgs {
     /// else the S1000 built into emplan)
     #[arg(long, value_name = "DIR")]
     pub vehicle: Option<std::path::PathBuf>,
-    /// Flight profile pricing the legs: ptf, hvb or px4 (default: the vehicle's, px4 for the
-    /// shipped S1000 since that is what an uploaded mission flies)
+    /// Flight profile pricing the legs: ptf, hvb, px4 or ardupilot (default: the vehicle's, px4
+    /// for the shipped S1000; `fly` on a connected autopilot: its own, px4 on PX4 and ardupilot
+    /// on ArduPilot)
     #[arg(long)]
     pub profile: Option<emplan::physics::Profile>,
 }

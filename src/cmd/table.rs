@@ -22,7 +22,7 @@ enum TableCommand {
         /// Vehicle directory holding vehicle.toml
         #[arg(long, default_value = "models/s1000")]
         vehicle: PathBuf,
-        /// ptf, hvb, px4 or all (default: all)
+        /// ptf, hvb, px4, ardupilot or all (default: all)
         #[arg(long, default_value = "all")]
         profile: String,
     },

@@ -23,6 +23,7 @@ pub fn table(profile: Profile, vehicle: &Vehicle) -> Result<EnergyTable, Physics
         Profile::Ptf => include_str!("../../models/s1000/ptf.table"),
         Profile::Hvb => include_str!("../../models/s1000/hvb.table"),
         Profile::Px4 => include_str!("../../models/s1000/px4.table"),
+        Profile::Ardupilot => include_str!("../../models/s1000/ardupilot.table"),
     };
     let file = format!("models/s1000/{profile}.table (built in)");
     EnergyTable::from_text(text, &file)?.checked(profile, vehicle, file)

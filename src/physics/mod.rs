@@ -9,6 +9,7 @@
 //!
 //! Invariant: pure; no IO beyond loading a vehicle or table file, no tokio, no MAVLink.
 
+pub mod ardupilot;
 pub mod body;
 pub mod budget;
 pub mod builtin;

@@ -6,6 +6,7 @@
 //! trajectory plus the profile's settle time in hover is recorded separately so mission totals
 //! include everything. The PTF's trajectory is the one of least energy, so it is chosen here.
 
+use super::ardupilot;
 use super::body::demand;
 use super::minimise::golden_section;
 use super::powertrain::Powertrain;
@@ -13,7 +14,8 @@ use super::profile::line_limit;
 use super::px4;
 use super::rotor::Rotor;
 use super::trajectory::{
-    path_peak_speed, px4_trajectory, quintic_line, Path, Trajectory, ARRIVAL_RADIUS_M,
+    ardupilot_trajectory, path_peak_speed, px4_trajectory, quintic_line, Acceptance, Path,
+    Trajectory, ARRIVAL_RADIUS_M,
 };
 use super::vehicle::Vehicle;
 use super::{PhysicsError, Profile};
@@ -359,6 +361,12 @@ impl<'a> Model<'a> {
                 let samples = px4::leg(x, xf_m, zf_m).map_err(|e| no_trajectory(e.to_string()))?;
                 Ok(px4_trajectory(x, samples, xf_m, zf_m))
             }
+            Profile::Ardupilot => {
+                let a = &v.ardupilot;
+                let samples =
+                    ardupilot::leg(a, xf_m, zf_m).map_err(|e| no_trajectory(e.to_string()))?;
+                Ok(ardupilot_trajectory(a, samples, xf_m, zf_m, None))
+            }
         }
     }
 
@@ -374,6 +382,22 @@ impl<'a> Model<'a> {
                 let x = &self.vehicle.px4;
                 let samples = px4::takeoff(x, height_m)?;
                 Ok(px4_trajectory(x, samples, 0.0, height_m))
+            }
+            Profile::Ardupilot if height_m > 0.0 => {
+                let a = &self.vehicle.ardupilot;
+                let samples = ardupilot::takeoff(a, height_m)?;
+                // Complete a stopping distance below the altitude (takeoff.cpp).
+                let complete = Acceptance {
+                    horizontal_m: a.wp_radius_m,
+                    vertical_m: ardupilot::takeoff_complete_below_m(a),
+                };
+                Ok(ardupilot_trajectory(
+                    a,
+                    samples,
+                    0.0,
+                    height_m,
+                    Some(complete),
+                ))
             }
             _ => self.trajectory(profile, 0.0, height_m),
         }
@@ -395,6 +419,11 @@ impl<'a> Model<'a> {
                     acceptance: None,
                     ..px4_trajectory(x, samples, 0.0, -height_m)
                 })
+            }
+            Profile::Ardupilot if height_m > 0.0 => {
+                let a = &self.vehicle.ardupilot;
+                let samples = ardupilot::landing(a, height_m)?;
+                Ok(ardupilot_trajectory(a, samples, 0.0, -height_m, None))
             }
             _ => self.trajectory(profile, 0.0, -height_m),
         }

@@ -8,7 +8,10 @@
 //!   acceleration limits, then a settle in hover;
 //! - `px4`: PX4 mission mode, PX4's own trajectory generator run in time steps (`physics::px4`:
 //!   jerk-limited velocity smoothing, the braking law near the waypoint, the trajectory slowed
-//!   while the vehicle trails it), ending where PX4 accepts the point and starts its hold.
+//!   while the vehicle trails it), ending where PX4 accepts the point and starts its hold;
+//! - `ardupilot`: ArduCopter AUTO mode (`physics::ardupilot`: ArduPilot's S-curve along the
+//!   line, its jerk phases raised cosines, its limits WP_SPD, WP_SPD_UP/DN, WP_ACC, WP_ACC_Z and
+//!   WP_JERK), ending at rest on the waypoint where ArduCopter counts it reached.
 //!
 //! [`s_curve`] (the seven constant-jerk phases of a rest-to-rest move) is kept as the textbook
 //! jerk-limited schedule.
@@ -25,11 +28,12 @@ pub enum Profile {
     Ptf,
     Hvb,
     Px4,
+    Ardupilot,
 }
 
 impl Profile {
     /// Every profile.
-    pub const ALL: [Profile; 3] = [Profile::Ptf, Profile::Hvb, Profile::Px4];
+    pub const ALL: [Profile; 4] = [Profile::Ptf, Profile::Hvb, Profile::Px4, Profile::Ardupilot];
 }
 
 impl fmt::Display for Profile {
@@ -38,6 +42,7 @@ impl fmt::Display for Profile {
             Profile::Ptf => "ptf",
             Profile::Hvb => "hvb",
             Profile::Px4 => "px4",
+            Profile::Ardupilot => "ardupilot",
         })
     }
 }
@@ -49,7 +54,10 @@ impl FromStr for Profile {
             "ptf" => Ok(Profile::Ptf),
             "hvb" => Ok(Profile::Hvb),
             "px4" => Ok(Profile::Px4),
-            _ => Err(format!("unknown profile {s:?} (allowed: ptf, hvb, px4)")),
+            "ardupilot" => Ok(Profile::Ardupilot),
+            _ => Err(format!(
+                "unknown profile {s:?} (allowed: ptf, hvb, px4, ardupilot)"
+            )),
         }
     }
 }

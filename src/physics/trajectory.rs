@@ -6,7 +6,7 @@
 
 use super::profile::{trapezoid, Schedule};
 use super::px4;
-use super::vehicle::{HvbParams, Px4Params};
+use super::vehicle::{ArdupilotParams, HvbParams, Px4Params};
 
 /// The paper's operation-end rule: energy counts until within this distance of the end point.
 pub const ARRIVAL_RADIUS_M: f64 = 4.0;
@@ -357,6 +357,29 @@ pub(super) fn px4_trajectory(
             horizontal_m: x.nav_acc_rad_m,
             vertical_m: x.nav_mc_alt_rad_m,
         }),
+        delay_s: 0.0,
+    }
+}
+
+/// An ArduCopter motion as a trajectory: sampled, no settle hover (a leg ends at rest on the
+/// waypoint, where ArduCopter counts it reached); a take-off with the point where ArduCopter
+/// counts it complete.
+pub(super) fn ardupilot_trajectory(
+    a: &ArdupilotParams,
+    samples: px4::Samples,
+    xf_m: f64,
+    zf_m: f64,
+    acceptance: Option<Acceptance>,
+) -> Trajectory {
+    Trajectory {
+        path: Path::Sampled {
+            samples,
+            xf_m,
+            zf_m,
+        },
+        settle_s: 0.0,
+        steps: a.steps as usize,
+        acceptance,
         delay_s: 0.0,
     }
 }

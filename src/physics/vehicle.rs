@@ -192,9 +192,9 @@ fn default_com_disarm_land_s() -> f64 {
 /// A trajectory parameter the autopilot holds at another value than the vehicle file says.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ParamDifference {
-    /// PX4's name.
+    /// The autopilot's name for it.
     pub name: &'static str,
-    /// The vehicle file's [px4] value.
+    /// The vehicle file's value ([px4] or [ardupilot]).
     pub file_value: f64,
     /// The autopilot's.
     pub autopilot_value: f64,
@@ -205,22 +205,7 @@ impl Px4Params {
     /// this set by more than float32 round-off (PARAM_VALUE carries a float32), in
     /// [`Px4Params::autopilot_values`]' order.
     pub fn differences(&self, read: &[(String, Option<f64>)]) -> Vec<ParamDifference> {
-        self.autopilot_values()
-            .into_iter()
-            .filter_map(|(name, file_value)| {
-                let autopilot_value = read
-                    .iter()
-                    .find(|(n, _)| n == name)
-                    .and_then(|(_, v)| *v)
-                    .filter(|v| v.is_finite())?;
-                let tolerance = 1e-5 * file_value.abs().max(1.0);
-                ((autopilot_value - file_value).abs() > tolerance).then_some(ParamDifference {
-                    name,
-                    file_value,
-                    autopilot_value,
-                })
-            })
-            .collect()
+        differences(self.autopilot_values(), read)
     }
 
     /// The parameters the autopilot holds, by PX4 name (PX4's main branch as CI builds it; MPC_Z_V_AUTO_UP/DN
@@ -287,6 +272,150 @@ impl Px4Params {
     }
 }
 
+/// ArduCopter's AUTO-mode navigation, take-off and landing parameters (ArduCopter's names, in
+/// the SI units its current build uses; the unit in each key): what `physics::ardupilot` flies
+/// with. A vehicle file without an `[ardupilot]` section gets ArduCopter's defaults.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ArdupilotParams {
+    pub wp_spd_m_s: f64,
+    pub wp_spd_up_m_s: f64,
+    pub wp_spd_dn_m_s: f64,
+    pub wp_acc_m_s2: f64,
+    pub wp_acc_z_m_s2: f64,
+    pub wp_jerk_m_s3: f64,
+    pub wp_radius_m: f64,
+    /// The attitude controller's input time constant and rate and angular-acceleration limits
+    /// (0: none), which bound the waypoint S-curve's jerk and snap.
+    pub atc_input_tc_s: f64,
+    pub atc_rate_r_max_deg_s: f64,
+    pub atc_rate_p_max_deg_s: f64,
+    pub atc_acc_r_max_deg_s2: f64,
+    pub atc_acc_p_max_deg_s2: f64,
+    /// The vertical position controller's jerk (shaping take-off and landing) and position
+    /// gain (the landing's approach to LAND_ALT_LOW_M).
+    pub psc_jerk_d_m_s3: f64,
+    pub psc_d_pos_p: f64,
+    pub land_spd_m_s: f64,
+    /// 0: WP_SPD_DN.
+    pub land_spd_high_m_s: f64,
+    pub land_alt_low_m: f64,
+    pub steps: u32,
+}
+
+impl Default for ArdupilotParams {
+    /// ArduCopter's defaults (libraries/AC_WPNav/AC_WPNav.cpp, AC_AttitudeControl_Multi.cpp,
+    /// AC_PosControl.cpp, ArduCopter/Parameters.cpp), as ArduCopter SITL reads them back.
+    fn default() -> Self {
+        ArdupilotParams {
+            wp_spd_m_s: 10.0,
+            wp_spd_up_m_s: 2.5,
+            wp_spd_dn_m_s: 1.5,
+            wp_acc_m_s2: 2.5,
+            wp_acc_z_m_s2: 1.0,
+            wp_jerk_m_s3: 1.0,
+            wp_radius_m: 2.0,
+            atc_input_tc_s: 0.15,
+            atc_rate_r_max_deg_s: 0.0,
+            atc_rate_p_max_deg_s: 0.0,
+            atc_acc_r_max_deg_s2: 1100.0,
+            atc_acc_p_max_deg_s2: 1100.0,
+            psc_jerk_d_m_s3: 5.0,
+            psc_d_pos_p: 1.0,
+            land_spd_m_s: 0.5,
+            land_spd_high_m_s: 0.0,
+            land_alt_low_m: 10.0,
+            steps: 200,
+        }
+    }
+}
+
+impl ArdupilotParams {
+    /// The parameters the autopilot holds, by ArduCopter's name (its build of 2026-04, where
+    /// WPNAV_SPEED became WP_SPD in m/s and LAND_SPEED LAND_SPD_MS), with this set's values.
+    pub fn autopilot_values(&self) -> Vec<(&'static str, f64)> {
+        vec![
+            ("WP_SPD", self.wp_spd_m_s),
+            ("WP_SPD_UP", self.wp_spd_up_m_s),
+            ("WP_SPD_DN", self.wp_spd_dn_m_s),
+            ("WP_ACC", self.wp_acc_m_s2),
+            ("WP_ACC_Z", self.wp_acc_z_m_s2),
+            ("WP_JERK", self.wp_jerk_m_s3),
+            ("WP_RADIUS_M", self.wp_radius_m),
+            ("ATC_INPUT_TC", self.atc_input_tc_s),
+            ("ATC_RATE_R_MAX", self.atc_rate_r_max_deg_s),
+            ("ATC_RATE_P_MAX", self.atc_rate_p_max_deg_s),
+            ("ATC_ACC_R_MAX", self.atc_acc_r_max_deg_s2),
+            ("ATC_ACC_P_MAX", self.atc_acc_p_max_deg_s2),
+            ("PSC_JERK_D", self.psc_jerk_d_m_s3),
+            ("PSC_D_POS_P", self.psc_d_pos_p),
+            ("LAND_SPD_MS", self.land_spd_m_s),
+            ("LAND_SPD_HIGH_MS", self.land_spd_high_m_s),
+            ("LAND_ALT_LOW_M", self.land_alt_low_m),
+        ]
+    }
+
+    /// The parameters read from an autopilot that differ from this set (as
+    /// [`Px4Params::differences`]).
+    pub fn differences(&self, read: &[(String, Option<f64>)]) -> Vec<ParamDifference> {
+        differences(self.autopilot_values(), read)
+    }
+
+    /// This set with the autopilot's values of the parameters named in `values` (ArduCopter
+    /// names; other names and non-finite values are ignored).
+    pub fn with_autopilot_values(&self, values: &[(String, f64)]) -> ArdupilotParams {
+        let mut p = self.clone();
+        for (name, value) in values.iter().filter(|(_, v)| v.is_finite()) {
+            let slot = match name.as_str() {
+                "WP_SPD" => &mut p.wp_spd_m_s,
+                "WP_SPD_UP" => &mut p.wp_spd_up_m_s,
+                "WP_SPD_DN" => &mut p.wp_spd_dn_m_s,
+                "WP_ACC" => &mut p.wp_acc_m_s2,
+                "WP_ACC_Z" => &mut p.wp_acc_z_m_s2,
+                "WP_JERK" => &mut p.wp_jerk_m_s3,
+                "WP_RADIUS_M" => &mut p.wp_radius_m,
+                "ATC_INPUT_TC" => &mut p.atc_input_tc_s,
+                "ATC_RATE_R_MAX" => &mut p.atc_rate_r_max_deg_s,
+                "ATC_RATE_P_MAX" => &mut p.atc_rate_p_max_deg_s,
+                "ATC_ACC_R_MAX" => &mut p.atc_acc_r_max_deg_s2,
+                "ATC_ACC_P_MAX" => &mut p.atc_acc_p_max_deg_s2,
+                "PSC_JERK_D" => &mut p.psc_jerk_d_m_s3,
+                "PSC_D_POS_P" => &mut p.psc_d_pos_p,
+                "LAND_SPD_MS" => &mut p.land_spd_m_s,
+                "LAND_SPD_HIGH_MS" => &mut p.land_spd_high_m_s,
+                "LAND_ALT_LOW_M" => &mut p.land_alt_low_m,
+                _ => continue,
+            };
+            *slot = *value;
+        }
+        p
+    }
+}
+
+/// The parameters read (None: not answered) that differ from `values` by more than float32
+/// round-off (PARAM_VALUE carries a float32), in `values`' order.
+fn differences(
+    values: Vec<(&'static str, f64)>,
+    read: &[(String, Option<f64>)],
+) -> Vec<ParamDifference> {
+    values
+        .into_iter()
+        .filter_map(|(name, file_value)| {
+            let autopilot_value = read
+                .iter()
+                .find(|(n, _)| n == name)
+                .and_then(|(_, v)| *v)
+                .filter(|v| v.is_finite())?;
+            let tolerance = 1e-5 * file_value.abs().max(1.0);
+            ((autopilot_value - file_value).abs() > tolerance).then_some(ParamDifference {
+                name,
+                file_value,
+                autopilot_value,
+            })
+        })
+        .collect()
+}
+
 /// A vehicle: everything the energy model needs.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -300,6 +429,8 @@ pub struct Vehicle {
     pub ptf: PtfParams,
     pub hvb: HvbParams,
     pub px4: Px4Params,
+    #[serde(default)]
+    pub ardupilot: ArdupilotParams,
 }
 
 impl Vehicle {
@@ -532,6 +663,49 @@ impl Vehicle {
             600.0,
         )?;
         check("px4.steps", f64::from(x.steps), 20.0, 100_000.0)?;
+        let a = &self.ardupilot;
+        for (key, value, lo, hi) in [
+            ("ardupilot.wp_spd_m_s", a.wp_spd_m_s, 0.2, 20.0),
+            ("ardupilot.wp_spd_up_m_s", a.wp_spd_up_m_s, 0.1, 10.0),
+            ("ardupilot.wp_spd_dn_m_s", a.wp_spd_dn_m_s, 0.1, 5.0),
+            ("ardupilot.wp_acc_m_s2", a.wp_acc_m_s2, 0.5, 5.0),
+            ("ardupilot.wp_acc_z_m_s2", a.wp_acc_z_m_s2, 0.5, 5.0),
+            ("ardupilot.wp_jerk_m_s3", a.wp_jerk_m_s3, 0.5, 20.0),
+            ("ardupilot.wp_radius_m", a.wp_radius_m, 0.05, 10.0),
+            ("ardupilot.atc_input_tc_s", a.atc_input_tc_s, 0.0, 1.0),
+            (
+                "ardupilot.atc_rate_r_max_deg_s",
+                a.atc_rate_r_max_deg_s,
+                0.0,
+                1080.0,
+            ),
+            (
+                "ardupilot.atc_rate_p_max_deg_s",
+                a.atc_rate_p_max_deg_s,
+                0.0,
+                1080.0,
+            ),
+            (
+                "ardupilot.atc_acc_r_max_deg_s2",
+                a.atc_acc_r_max_deg_s2,
+                0.0,
+                1800.0,
+            ),
+            (
+                "ardupilot.atc_acc_p_max_deg_s2",
+                a.atc_acc_p_max_deg_s2,
+                0.0,
+                1800.0,
+            ),
+            ("ardupilot.psc_jerk_d_m_s3", a.psc_jerk_d_m_s3, 0.5, 50.0),
+            ("ardupilot.psc_d_pos_p", a.psc_d_pos_p, 0.1, 10.0),
+            ("ardupilot.land_spd_m_s", a.land_spd_m_s, 0.3, 2.0),
+            ("ardupilot.land_spd_high_m_s", a.land_spd_high_m_s, 0.0, 5.0),
+            ("ardupilot.land_alt_low_m", a.land_alt_low_m, 1.0, 100.0),
+            ("ardupilot.steps", f64::from(a.steps), 20.0, 100_000.0),
+        ] {
+            check(key, value, lo, hi)?;
+        }
         Ok(())
     }
 
@@ -566,6 +740,7 @@ impl Vehicle {
             Profile::Ptf => serde_json::to_string(&self.ptf),
             Profile::Hvb => serde_json::to_string(&self.hvb),
             Profile::Px4 => serde_json::to_string(&self.px4),
+            Profile::Ardupilot => serde_json::to_string(&self.ardupilot),
         };
         let canonical =
             serde_json::to_string(&(&self.body, &self.rotor, &self.motor, &self.battery))
@@ -616,6 +791,44 @@ mod tests {
             err.contains("v.toml") && err.contains("unknown field"),
             "{err}"
         );
+    }
+
+    #[test]
+    fn ardupilot_parameters_map_to_the_ardupilot_section_by_their_names_and_are_validated() {
+        let v = shipped();
+        assert_eq!(v.ardupilot, ArdupilotParams::default());
+        let named = v.ardupilot.autopilot_values();
+        assert_eq!(named.len(), 17);
+        let same: Vec<(String, f64)> = named.iter().map(|(n, x)| (n.to_string(), *x)).collect();
+        assert_eq!(v.ardupilot.with_autopilot_values(&same), v.ardupilot);
+        let read = vec![
+            ("WP_SPD".to_string(), Some(5.0)),
+            ("LAND_SPD_MS".to_string(), Some(0.5)),
+            ("WP_JERK".to_string(), None),
+        ];
+        let diff = v.ardupilot.differences(&read);
+        assert_eq!(diff.len(), 1);
+        assert_eq!(
+            (diff[0].name, diff[0].file_value, diff[0].autopilot_value),
+            ("WP_SPD", 10.0, 5.0)
+        );
+        let slower = v.ardupilot.with_autopilot_values(&[
+            ("WP_SPD".to_string(), 5.0),
+            ("MPC_XY_CRUISE".to_string(), 1.0),
+        ]);
+        assert_eq!(slower.wp_spd_m_s, 5.0);
+        // A vehicle file without [ardupilot] gets ArduCopter's defaults; a bad value is refused
+        // naming its key.
+        let text = std::fs::read_to_string(
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("models/s1000/vehicle.toml"),
+        )
+        .unwrap();
+        let cut = text.find("[ardupilot]").unwrap();
+        let without = Vehicle::from_toml(&text[..cut], "v.toml").unwrap();
+        assert_eq!(without.ardupilot, ArdupilotParams::default());
+        let bad = text.replace("wp_acc_z_m_s2 = 1.0", "wp_acc_z_m_s2 = 0.0");
+        let err = Vehicle::from_toml(&bad, "v.toml").unwrap_err().to_string();
+        assert!(err.contains("ardupilot.wp_acc_z_m_s2"), "{err}");
     }
 
     #[test]

@@ -683,7 +683,9 @@ impl Actor {
                 items: loaded.items.iter().map(item_json).collect(),
             },
             link,
-            px4_parameters: loaded.params.as_ref().map(Px4Parameters::from),
+            px4_parameters: (loaded.params.as_ref())
+                .filter(|c| c.section == crate::session::ParamSection::Px4)
+                .map(Px4Parameters::from),
         };
         serde_json::to_value(answer).map_err(|e| Refusal::new(500, "service", &e.to_string()))
     }

@@ -13,7 +13,7 @@ use tokio::sync::broadcast::{self, error::RecvError};
 
 use super::home::{check_home, IfHomeUnknown, PreflightError};
 use super::params::Px4Parameters;
-use super::params::{check_px4_params, ParamCheck};
+use super::params::{check_ardupilot_params, check_px4_params, ParamCheck, ParamSection};
 use super::predict::{flight_plan, flight_plan_predicted, predicted_by_simulation};
 use super::recorder::{FlightEvent, RecorderHandle};
 use crate::flightlog::flight_plan::FlightPlan;
@@ -80,8 +80,9 @@ pub struct Loaded {
     pub items: Vec<MISSION_ITEM_INT_DATA>,
     /// The flight plan handed to the recorder.
     pub measured_against: FlightPlan,
-    /// What a PX4 flying the px4 profile holds of the vehicle file's `[px4]` parameters (None
-    /// for any other autopilot or profile). When they differ, the legs are priced as the
+    /// What a PX4 flying the px4 profile holds of the vehicle file's `[px4]` parameters, or an
+    /// ArduPilot flying the ardupilot profile of its `[ardupilot]` ones (None for any other
+    /// autopilot or profile). When they differ, the legs are priced as the
     /// autopilot flies them: simulated with its values.
     pub params: Option<ParamCheck>,
     /// The vehicle's home against the mission's origin (None: its home is unknown and the
@@ -106,10 +107,12 @@ pub async fn load(
     progress: impl FnMut(usize, usize),
 ) -> Result<Loaded, FlyError> {
     let home = check_home(link, target, load.mission, load.if_home_unknown).await?;
-    let params = if target.flavour == Flavour::Px4 && load.plan.profile == Profile::Px4 {
-        Some(check_px4_params(link, target, load.vehicle).await?)
-    } else {
-        None
+    let params = match (target.flavour, load.plan.profile) {
+        (Flavour::Px4, Profile::Px4) => Some(check_px4_params(link, target, load.vehicle).await?),
+        (Flavour::ArduPilot, Profile::Ardupilot) => {
+            Some(check_ardupilot_params(link, target, load.vehicle).await?)
+        }
+        _ => None,
     };
     checked(params.as_ref());
     let (mission, plan, flight) = (load.mission, load.plan, load.flight);
@@ -250,8 +253,14 @@ impl Flown {
         let Some(report) = self.report else {
             return Err(FlyError::NoReport { dir: self.dir });
         };
-        let params = self.params.as_ref().map(Px4Parameters::from);
-        let doc = FlyJson::new(report.json(), &self.dir.display().to_string(), params);
+        let dir = self.dir.display().to_string();
+        let doc = match self.params.as_ref() {
+            Some(check) if check.section == ParamSection::Ardupilot => FlyJson {
+                ardupilot_parameters: Some(Px4Parameters::from(check)),
+                ..FlyJson::new(report.json(), &dir, None)
+            },
+            params => FlyJson::new(report.json(), &dir, params.map(Px4Parameters::from)),
+        };
         Ok((report, doc))
     }
 }
@@ -368,6 +377,9 @@ pub struct FlyJson {
     pub log_dir: String,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub px4_parameters: Option<Px4Parameters>,
+    /// As `px4_parameters`, on an ArduPilot flying the ardupilot profile.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ardupilot_parameters: Option<Px4Parameters>,
 }
 
 impl FlyJson {
@@ -377,6 +389,7 @@ impl FlyJson {
             ok: true,
             log_dir: log_dir.to_string(),
             px4_parameters,
+            ardupilot_parameters: None,
         }
     }
 

@@ -30,7 +30,9 @@ pub use fly::{
 pub use home::{check_home, vehicle_home, IfHomeUnknown, PlanOrigin, PreflightError};
 pub use onboard::{replay_onboard, OnboardReplayError, PlanFrom};
 pub use open::{open, LinkOptions, MockFlight, OpenError, Session, Target, Uploaded};
-pub use params::{check_px4_params, parse_param, ParamCheck, Px4Parameters};
+pub use params::{
+    check_ardupilot_params, check_px4_params, parse_param, ParamCheck, ParamSection, Px4Parameters,
+};
 pub use predict::{
     flight_plan, flight_plan_predicted, plan_from_items, predicted, predicted_by_simulation,
     repriced, FlightItemsError,

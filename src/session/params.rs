@@ -1,7 +1,7 @@
-//! The trajectory parameters a PX4 really flies with: read from the autopilot by name when
-//! connected, compared with the vehicle file's `[px4]` section (a real octorotor's PX4 is rarely
-//! at defaults), and the vehicle as the autopilot will fly it, for pricing the flight with the
-//! autopilot's values.
+//! The trajectory parameters a PX4 or an ArduPilot really flies with: read from the autopilot by
+//! name when connected, compared with the vehicle file's `[px4]` or `[ardupilot]` section (a real
+//! octorotor's autopilot is rarely at defaults), and the vehicle as the autopilot will fly it, for
+//! pricing the flight with the autopilot's values.
 
 use crate::link::commands::read_params;
 use crate::link::connection::{Autopilot, Link};
@@ -9,14 +9,43 @@ use crate::link::LinkError;
 use crate::physics::vehicle::ParamDifference;
 use crate::physics::Vehicle;
 
+/// Which vehicle-file section the parameters checked are: the autopilot's.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ParamSection {
+    /// `[px4]`, read from a PX4.
+    Px4,
+    /// `[ardupilot]`, read from an ArduPilot.
+    Ardupilot,
+}
+
+impl ParamSection {
+    /// The autopilot's name, as warnings say it.
+    pub fn autopilot(self) -> &'static str {
+        match self {
+            ParamSection::Px4 => "PX4",
+            ParamSection::Ardupilot => "ArduPilot",
+        }
+    }
+
+    /// The vehicle file's section name.
+    pub fn section(self) -> &'static str {
+        match self {
+            ParamSection::Px4 => "px4",
+            ParamSection::Ardupilot => "ardupilot",
+        }
+    }
+}
+
 /// What the autopilot holds against what the vehicle file says.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ParamCheck {
+    /// Whose parameters these are.
+    pub section: ParamSection,
     /// Every parameter asked for, with its value (None: not answered).
     pub read: Vec<(String, Option<f64>)>,
     /// The ones that differ from the vehicle file.
     pub differences: Vec<ParamDifference>,
-    /// The vehicle with the autopilot's values in its `[px4]` section.
+    /// The vehicle with the autopilot's values in its `[px4]` or `[ardupilot]` section.
     pub vehicle: Vehicle,
 }
 
@@ -39,8 +68,9 @@ pub struct DifferingJson {
     pub autopilot: f64,
 }
 
-/// `px4_parameters` of `fly --json` and of the service's upload answer: how many parameters
-/// PX4 answered, the ones it did not, and the ones that differ from the vehicle file.
+/// `px4_parameters` (and `ardupilot_parameters`) of `fly --json` and of the service's upload
+/// answer: how many parameters the autopilot answered, the ones it did not, and the ones that
+/// differ from the vehicle file.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Px4Parameters {
     pub read: usize,
@@ -108,6 +138,36 @@ pub async fn check_px4_params(
     let mut flown = vehicle.clone();
     flown.px4 = vehicle.px4.with_autopilot_values(&answered);
     Ok(ParamCheck {
+        section: ParamSection::Px4,
+        read,
+        differences,
+        vehicle: flown,
+    })
+}
+
+/// Reads the `[ardupilot]` navigation parameters from `target` (ArduCopter's names) and compares
+/// them with `vehicle`'s.
+pub async fn check_ardupilot_params(
+    link: &Link,
+    target: &Autopilot,
+    vehicle: &Vehicle,
+) -> Result<ParamCheck, LinkError> {
+    let names: Vec<&str> = vehicle
+        .ardupilot
+        .autopilot_values()
+        .into_iter()
+        .map(|(n, _)| n)
+        .collect();
+    let read = read_params(link, target, &names).await?;
+    let differences = vehicle.ardupilot.differences(&read);
+    let answered: Vec<(String, f64)> = read
+        .iter()
+        .filter_map(|(n, v)| v.map(|v| (n.clone(), v)))
+        .collect();
+    let mut flown = vehicle.clone();
+    flown.ardupilot = vehicle.ardupilot.with_autopilot_values(&answered);
+    Ok(ParamCheck {
+        section: ParamSection::Ardupilot,
         read,
         differences,
         vehicle: flown,

@@ -779,6 +779,7 @@ impl<'v> Flight<'v> {
             Some(speed) => {
                 let mut v = self.vehicle.clone();
                 v.px4.mpc_xy_cruise_m_s = speed;
+                v.ardupilot.wp_spd_m_s = speed;
                 v.hvb.speed_xy_m_s = speed;
                 v.ptf.max_speed_xy_m_s = speed;
                 Model::new(&v).trajectory(self.profile, xf_m, zf_m)

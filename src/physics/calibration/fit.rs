@@ -76,7 +76,7 @@ fn knobs(profile: Profile) -> Vec<(&'static str, f64, f64, Setter)> {
                 v.hvb.acceleration_m_s2 = x
             }),
         ],
-        Profile::Px4 => Vec::new(),
+        Profile::Px4 | Profile::Ardupilot => Vec::new(),
     }
 }
 

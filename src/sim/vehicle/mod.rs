@@ -188,7 +188,8 @@ pub struct SimVehicle<'v> {
     landed_s: Option<f64>,
     heading_rad: f64,
     /// The parameters it answers: a PX4's trajectory parameters (the vehicle's [px4] section,
-    /// by PX4 name), and either flavour's return altitude (`link::params::ReturnAltitude`).
+    /// by PX4 name) or an ArduPilot's navigation parameters ([ardupilot], by ArduCopter name),
+    /// and either flavour's return altitude (`link::params::ReturnAltitude`).
     params: Vec<(&'static str, f64)>,
     out: Vec<MavMessage>,
 }
@@ -202,7 +203,11 @@ impl<'v> SimVehicle<'v> {
         config: FlightConfig,
         ids: (u8, u8),
     ) -> Result<SimVehicle<'v>, FlightError> {
-        let profile = config.profile.unwrap_or(vehicle.default_profile());
+        // Each flavour flies as its autopilot does unless told otherwise.
+        let profile = config.profile.unwrap_or(match flavour {
+            Flavour::ArduPilot => crate::physics::Profile::Ardupilot,
+            Flavour::Px4 | Flavour::Generic => vehicle.default_profile(),
+        });
         let filter_s = config.current_filter_s.unwrap_or(0.0);
         Ok(SimVehicle {
             flavour,

@@ -1,5 +1,6 @@
 //! The parameter server: PX4 answers PARAM_REQUEST_READ with the trajectory parameters it holds
-//! (the vehicle's [px4] section, by PX4 name); the ArduPilot flavour holds none of them. Both
+//! (the vehicle's [px4] section, by PX4 name), the ArduPilot flavour with its navigation
+//! parameters (the vehicle's [ardupilot] section, by ArduCopter name). Both
 //! hold their return altitude, 0: the mock's return flies home at the height it is at (PX4
 //! RTL_RETURN_ALT and ArduCopter RTL_ALT at 0 do the same above a point higher than them).
 
@@ -12,7 +13,7 @@ use crate::physics::Vehicle;
 /// The parameters a mock of `flavour` flying `vehicle` answers.
 pub(super) fn held(flavour: Flavour, vehicle: &Vehicle) -> Vec<(&'static str, f64)> {
     let mut params = match flavour {
-        Flavour::ArduPilot => Vec::new(),
+        Flavour::ArduPilot => vehicle.ardupilot.autopilot_values(),
         Flavour::Px4 | Flavour::Generic => vehicle.px4.autopilot_values(),
     };
     params.push((crate::link::params::ReturnAltitude::of(flavour).name, 0.0));
@@ -21,8 +22,8 @@ pub(super) fn held(flavour: Flavour, vehicle: &Vehicle) -> Vec<(&'static str, f6
 
 impl<'v> SimVehicle<'v> {
     /// PX4 answers PARAM_REQUEST_READ by name (index -1) or by index with PARAM_VALUE, and an
-    /// unknown name with nothing (mavlink_parameters.cpp); the ArduPilot flavour holds none of
-    /// these names.
+    /// unknown name with nothing (mavlink_parameters.cpp); the ArduPilot flavour the same with
+    /// its own names.
     pub(super) fn param_value(
         &mut self,
         _from: (u8, u8),

@@ -671,9 +671,10 @@ fn ardupilot_refuses_to_arm_in_auto_and_flies_after_guided_arm_auto_mission_star
         _ => None,
     });
     let battery = battery.unwrap();
-    // ArduPilot reports the energy consumed (hJ); about 27 Wh for the whole flight.
+    // ArduPilot reports the energy consumed (hJ); about 26 Wh for the whole flight flown with
+    // the ardupilot profile (948 hJ; 27 Wh and more with the px4 profile's slower legs).
     assert!(
-        battery.energy_consumed > 27 * 36 && battery.energy_consumed < 40 * 36,
+        battery.energy_consumed > 24 * 36 && battery.energy_consumed < 40 * 36,
         "{}",
         battery.energy_consumed
     );
