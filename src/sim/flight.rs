@@ -34,7 +34,7 @@ use crate::link::mav::{MavCmd, MavFrame, MISSION_ITEM_INT_DATA};
 use crate::mission::{Geodetic, Origin};
 use crate::physics::power::Model;
 use crate::physics::trajectory::{Acceptance, Trajectory};
-use crate::physics::{PhysicsError, Profile, Vehicle};
+use crate::physics::{start_case, PhysicsError, Profile, Start, Vehicle};
 
 /// A point in the home-centred local frame: metres east, north and up from home.
 pub type Local = [f64; 3];
@@ -255,6 +255,12 @@ struct Line {
     /// `catch_up_s`.
     offset: Local,
     catch_up_s: f64,
+    /// Where the vehicle runs past the end point (PX4 SITL leaves a hold past its waypoint
+    /// along the way it came), reached as the leg's horizontal progress `s` grows (`s^4`:
+    /// only near the end).
+    overshoot: Local,
+    /// The leg's horizontal length (m).
+    across_m: f64,
 }
 
 impl Line {
@@ -270,16 +276,23 @@ impl Line {
         let left = (-tau / self.catch_up_s.max(1e-3)).exp();
         let closing = -left / self.catch_up_s.max(1e-3);
         let o = self.offset;
+        let (run, run_rate) = if self.across_m > 1e-9 {
+            let s = (x / self.across_m).clamp(0.0, 1.0);
+            (s.powi(4), 4.0 * s.powi(3) * vx / self.across_m)
+        } else {
+            (0.0, 0.0)
+        };
+        let past = self.overshoot;
         (
             [
-                self.from[0] + ex * x + o[0] * left,
-                self.from[1] + ny * x + o[1] * left,
-                self.from[2] + z + o[2] * left,
+                self.from[0] + ex * x + o[0] * left + past[0] * run,
+                self.from[1] + ny * x + o[1] * left + past[1] * run,
+                self.from[2] + z + o[2] * left + past[2] * run,
             ],
             [
-                ex * vx + o[0] * closing,
-                ny * vx + o[1] * closing,
-                vz + o[2] * closing,
+                ex * vx + o[0] * closing + past[0] * run_rate,
+                ny * vx + o[1] * closing + past[1] * run_rate,
+                vz + o[2] * closing + past[2] * run_rate,
             ],
         )
     }
@@ -356,6 +369,10 @@ pub struct Flight<'v> {
     /// where its next line starts (PX4's trajectory continues from its own position, not the
     /// vehicle's); `None` once it holds or lands where it is.
     setpoint: Option<Local>,
+    /// The horizontal displacement (east, north) of the last leg flown (None after a take-off
+    /// or landing): with the px4 profile the next leg starts behind or ahead of PX4's
+    /// trajectory by the turn between them (`physics::start_case`).
+    last_leg_xy: Option<(f64, f64)>,
 }
 
 /// Most items started without time passing before the flight stops and hovers.
@@ -387,6 +404,7 @@ impl<'v> Flight<'v> {
             in_mission: false,
             chain: 0,
             setpoint: None,
+            last_leg_xy: None,
         })
     }
 
@@ -734,15 +752,25 @@ impl<'v> Flight<'v> {
         };
         let zf_m = to[2] - from[2];
         self.setpoint = Some(to);
+        let start = start_case(self.last_leg_xy, (dx, dy));
+        self.last_leg_xy = (purpose == Purpose::Leg).then_some((dx, dy));
+        // PX4 runs past a waypoint along the way it came and holds there: the next leg starts
+        // that far off its line.
+        let overshoot = if self.profile == Profile::Px4 && purpose == Purpose::Leg && xf_m > 0.1 {
+            let e = self.vehicle.px4.departure_error_m;
+            [e * heading[0], e * heading[1], 0.0]
+        } else {
+            [0.0; 3]
+        };
         let trajectory = match purpose {
-            Purpose::Leg => self.trajectory(xf_m, zf_m),
+            Purpose::Leg => self.trajectory(xf_m, zf_m, start),
             Purpose::Climb if xf_m < ABOVE_POINT_M => {
                 self.model.takeoff_trajectory(self.profile, zf_m)
             }
             Purpose::Descent if xf_m < ABOVE_POINT_M => {
                 self.model.landing_trajectory(self.profile, -zf_m)
             }
-            Purpose::Climb | Purpose::Descent => self.trajectory(xf_m, zf_m),
+            Purpose::Climb | Purpose::Descent => self.trajectory(xf_m, zf_m, start),
         };
         let trajectory = match trajectory {
             Ok(t) => t,
@@ -765,6 +793,8 @@ impl<'v> Flight<'v> {
             start_s: self.now_s,
             offset,
             catch_up_s: self.vehicle.px4.departure_error_decay_s,
+            overshoot,
+            across_m: xf_m,
         };
         if line.trajectory.duration_s() <= 0.0 {
             self.motion = Motion::Hover;
@@ -775,15 +805,15 @@ impl<'v> Flight<'v> {
     }
 
     /// The profile's trajectory, at the cruise speed a DO_CHANGE_SPEED set.
-    fn trajectory(&self, xf_m: f64, zf_m: f64) -> Result<Trajectory, PhysicsError> {
+    fn trajectory(&self, xf_m: f64, zf_m: f64, start: Start) -> Result<Trajectory, PhysicsError> {
         match self.cruise_m_s {
-            None => self.model.trajectory(self.profile, xf_m, zf_m),
+            None => self.model.trajectory_from(self.profile, xf_m, zf_m, start),
             Some(speed) => {
                 let mut v = self.vehicle.clone();
                 v.px4.mpc_xy_cruise_m_s = speed;
                 v.hvb.speed_xy_m_s = speed;
                 v.ptf.max_speed_xy_m_s = speed;
-                Model::new(&v).trajectory(self.profile, xf_m, zf_m)
+                Model::new(&v).trajectory_from(self.profile, xf_m, zf_m, start)
             }
         }
     }
