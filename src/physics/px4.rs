@@ -727,6 +727,36 @@ mod tests {
     }
 
     #[test]
+    fn a_leg_turning_less_than_90_degrees_starts_ahead_and_px4_slows_it_less() {
+        // East then north-east: acute, ahead; east then north-west or back west: behind.
+        assert_eq!(start_case(Some((10.0, 0.0)), (5.0, 5.0)), Start::Ahead);
+        assert_eq!(start_case(Some((10.0, 0.0)), (-5.0, 5.0)), Start::Behind);
+        assert_eq!(start_case(Some((10.0, 0.0)), (0.0, 5.0)), Start::Behind);
+        assert_eq!(start_case(Some((10.0, 0.0)), (-10.0, 0.0)), Start::Behind);
+        // After the take-off or a vertical leg: behind.
+        assert_eq!(start_case(None, (5.0, 5.0)), Start::Behind);
+        assert_eq!(start_case(Some((0.01, 0.0)), (5.0, 0.0)), Start::Behind);
+        let p = params();
+        let behind = leg_from(&p, 33.0, 8.0, Start::Behind).unwrap();
+        let ahead = leg_from(&p, 33.0, 8.0, Start::Ahead).unwrap();
+        assert!(ahead.duration_s() < behind.duration_s() - 0.1);
+        assert_eq!(leg(&p, 33.0, 8.0).unwrap(), behind);
+        // Without a head start an ahead leg is priced as behind; a head start of the whole
+        // error is PX4 never slowing it.
+        let mut none = p.clone();
+        none.departure_head_start_m = 0.0;
+        assert_eq!(leg_from(&none, 33.0, 8.0, Start::Ahead).unwrap(), behind);
+        let mut all = p.clone();
+        all.departure_head_start_m = all.departure_error_m;
+        let mut unslowed = p.clone();
+        unslowed.departure_error_m = 0.0;
+        assert_eq!(
+            leg_from(&all, 33.0, 8.0, Start::Ahead).unwrap(),
+            leg(&unslowed, 33.0, 8.0).unwrap()
+        );
+    }
+
+    #[test]
     fn a_take_off_climbs_at_mpc_tko_speed_near_the_ground_and_faster_above_mpc_land_alt1() {
         let p = params();
         let s = takeoff(&p, 30.0).unwrap();

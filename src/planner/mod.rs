@@ -709,7 +709,7 @@ fn plan_uncancelled(
                 cause,
             },
         })?;
-        let sorties = split
+        let sorties: Vec<Sortie> = split
             .sorties
             .into_iter()
             .map(|s| {
@@ -725,10 +725,12 @@ fn plan_uncancelled(
                 })
             })
             .collect::<Result<_, PlannerError>>()?;
+        // Each sortie's legs priced after the one before (what its battery pays).
+        let total_j = sorties.iter().map(|s: &Sortie| s.battery.total_j).sum();
         Some(Sorties {
             method: split.method,
             optimal: split.optimal,
-            total_j: split.total_j,
+            total_j,
             sorties,
         })
     } else {

@@ -47,6 +47,9 @@ pub const DEFAULT_ACCEPTANCE_RADIUS_M: f64 = 2.0;
 /// motors at about 5 W each ([assumed]: PX4 idle throttle a few percent of hover thrust).
 pub const IDLE_SPIN_POWER_W: f64 = 40.0;
 
+/// The last horizontal metres of a px4 leg over which the vehicle runs past its waypoint.
+const OVERSHOOT_OVER_M: f64 = 1.0;
+
 /// Below this horizontal distance the vehicle counts as above a point (no horizontal leg).
 const ABOVE_POINT_M: f64 = 0.05;
 
@@ -256,8 +259,8 @@ struct Line {
     offset: Local,
     catch_up_s: f64,
     /// Where the vehicle runs past the end point (PX4 SITL leaves a hold past its waypoint
-    /// along the way it came), reached as the leg's horizontal progress `s` grows (`s^4`:
-    /// only near the end).
+    /// along the way it came), reached over the last [`OVERSHOOT_OVER_M`] of the leg (after
+    /// the 4 m rule and PX4's acceptance).
     overshoot: Local,
     /// The leg's horizontal length (m).
     across_m: f64,
@@ -276,9 +279,10 @@ impl Line {
         let left = (-tau / self.catch_up_s.max(1e-3)).exp();
         let closing = -left / self.catch_up_s.max(1e-3);
         let o = self.offset;
-        let (run, run_rate) = if self.across_m > 1e-9 {
-            let s = (x / self.across_m).clamp(0.0, 1.0);
-            (s.powi(4), 4.0 * s.powi(3) * vx / self.across_m)
+        let left_m = self.across_m - x;
+        let (run, run_rate) = if self.across_m > 1e-9 && left_m < OVERSHOOT_OVER_M {
+            let f = (1.0 - left_m / OVERSHOOT_OVER_M).clamp(0.0, 1.0);
+            (f * f, 2.0 * f * vx / OVERSHOOT_OVER_M)
         } else {
             (0.0, 0.0)
         };
@@ -756,12 +760,15 @@ impl<'v> Flight<'v> {
         self.last_leg_xy = (purpose == Purpose::Leg).then_some((dx, dy));
         // PX4 runs past a waypoint along the way it came and holds there: the next leg starts
         // that far off its line.
-        let overshoot = if self.profile == Profile::Px4 && purpose == Purpose::Leg && xf_m > 0.1 {
-            let e = self.vehicle.px4.departure_error_m;
-            [e * heading[0], e * heading[1], 0.0]
-        } else {
-            [0.0; 3]
-        };
+        let to_waypoint = matches!(self.current_command(), Some(Command::Waypoint { .. }));
+        let overshoot =
+            if self.profile == Profile::Px4 && purpose == Purpose::Leg && to_waypoint && xf_m > 0.1
+            {
+                let e = self.vehicle.px4.departure_error_m;
+                [e * heading[0], e * heading[1], 0.0]
+            } else {
+                [0.0; 3]
+            };
         let trajectory = match purpose {
             Purpose::Leg => self.trajectory(xf_m, zf_m, start),
             Purpose::Climb if xf_m < ABOVE_POINT_M => {
@@ -1176,6 +1183,46 @@ mod tests {
         );
         assert!(f.on_ground() && f.position()[2] == 0.0);
         assert_eq!(f.physics_errors(), 0);
+    }
+
+    #[test]
+    fn px4_holds_a_waypoint_past_it_along_the_way_it_came() {
+        let v = shipped();
+        // Where the vehicle is when it leaves the waypoint 40 m east (its hold done).
+        let leaves = |profile: Profile| {
+            let (x, y) = at(40.0, 0.0);
+            let items = [
+                item(
+                    0,
+                    MavCmd::MAV_CMD_NAV_TAKEOFF,
+                    MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                    [0.0; 4],
+                    (0, 0, 20.0),
+                ),
+                item(
+                    1,
+                    MavCmd::MAV_CMD_NAV_WAYPOINT,
+                    MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                    [4.0, 2.0, 0.0, 0.0],
+                    (x, y, 20.0),
+                ),
+            ];
+            let mut f = Flight::new(&v, profile).unwrap();
+            f.arm();
+            f.start(commands(&items, HOME, false).unwrap(), 0, 1.0);
+            let events = run(&mut f, 300.0, |f| f.complete());
+            assert!(events.iter().any(|(_, e)| *e == Event::Reached(1)));
+            f.position()
+        };
+        let p = leaves(Profile::Px4);
+        // Past it (still creeping on when the hold ends), by at most the offset.
+        assert!(
+            p[0] > 40.3 && p[0] <= 40.0 + v.px4.departure_error_m + 1e-9 && p[1].abs() < 0.02,
+            "{p:?}"
+        );
+        // The other profiles hold on the waypoint.
+        let p = leaves(Profile::Hvb);
+        assert!((p[0] - 40.0).abs() < 0.02, "{p:?}");
     }
 
     #[test]

@@ -360,7 +360,7 @@ mod tests {
             let pts = points(seed, m);
             let cost = turning(&pts);
             let minima = arc_minima(m + 1, &cost);
-            let (order, value) = exact(m + 1, &cost).unwrap();
+            let (_, value) = exact(m + 1, &cost).unwrap();
             // The tour problem on the arc minima, brute force: a lower bound of every order.
             let bound = permutations(m)
                 .into_iter()
