@@ -8,7 +8,10 @@
 //!   acceleration limits, then a settle in hover;
 //! - `px4`: PX4 mission mode, PX4's own trajectory generator run in time steps (`physics::px4`:
 //!   jerk-limited velocity smoothing, the braking law near the waypoint, the trajectory slowed
-//!   while the vehicle trails it), ending where PX4 accepts the point and starts its hold.
+//!   while the vehicle trails it), ending where PX4 accepts the point and starts its hold. Its
+//!   price depends on the leg before: PX4 leaves a hold past its waypoint, so a leg turning
+//!   less than 90 degrees starts ahead of its trajectory and is slowed less
+//!   (`physics::px4::Start`, one table block per case). `ptf` and `hvb` do not depend on it.
 //!
 //! [`s_curve`] (the seven constant-jerk phases of a rest-to-rest move) is kept as the textbook
 //! jerk-limited schedule.
