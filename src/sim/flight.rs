@@ -760,7 +760,19 @@ impl<'v> Flight<'v> {
         self.last_leg_xy = (purpose == Purpose::Leg).then_some((dx, dy));
         // PX4 runs past a waypoint along the way it came and holds there: the next leg starts
         // that far off its line.
-        let to_waypoint = matches!(self.current_command(), Some(Command::Waypoint { .. }));
+        // Only before a leg that moves across (a vertical leg after it stays vertical in the
+        // mock, as the planner prices it).
+        let next_across = self
+            .progress
+            .and_then(|p| self.commands.get(usize::from(p.seq) + 1))
+            .is_some_and(|c| match c {
+                Command::Waypoint { at, .. } | Command::Loiter { at, .. } => {
+                    (at[0] - to[0]).hypot(at[1] - to[1]) > 0.1
+                }
+                _ => false,
+            });
+        let to_waypoint =
+            next_across && matches!(self.current_command(), Some(Command::Waypoint { .. }));
         let overshoot =
             if self.profile == Profile::Px4 && purpose == Purpose::Leg && to_waypoint && xf_m > 0.1
             {
@@ -1206,11 +1218,19 @@ mod tests {
                     [4.0, 2.0, 0.0, 0.0],
                     (x, y, 20.0),
                 ),
+                item(
+                    2,
+                    MavCmd::MAV_CMD_NAV_WAYPOINT,
+                    MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                    [4.0, 2.0, 0.0, 0.0],
+                    (x, at(0.0, 40.0).1, 20.0),
+                ),
             ];
             let mut f = Flight::new(&v, profile).unwrap();
             f.arm();
             f.start(commands(&items, HOME, false).unwrap(), 0, 1.0);
-            let events = run(&mut f, 300.0, |f| f.complete());
+            // Until the next leg starts.
+            let events = run(&mut f, 300.0, |f| f.current() == Some(2));
             assert!(events.iter().any(|(_, e)| *e == Event::Reached(1)));
             f.position()
         };
