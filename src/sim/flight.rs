@@ -312,7 +312,7 @@ enum Motion {
     /// Armed on the ground, motors spooling up until `until_s`, then taking off.
     SpoolUp { until_s: f64 },
     /// Flying a line; `purpose` says what comes at its end.
-    Flying { line: Line, purpose: Purpose },
+    Flying { line: Box<Line>, purpose: Purpose },
     /// Hovering in place.
     Hover,
 }
@@ -820,7 +820,10 @@ impl<'v> Flight<'v> {
             self.line_done(purpose, self.now_s, 0.0, events);
             return;
         }
-        self.motion = Motion::Flying { line, purpose };
+        self.motion = Motion::Flying {
+            line: Box::new(line),
+            purpose,
+        };
     }
 
     /// The profile's trajectory, at the cruise speed a DO_CHANGE_SPEED set.

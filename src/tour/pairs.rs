@@ -185,7 +185,7 @@ pub fn improve(
     let mut best = seed;
     let mut best_cost = tour_cost(&best, cost);
     let m = best.len();
-    if m < 2 || m > IMPROVE_MAX_WAYPOINTS {
+    if !(2..=IMPROVE_MAX_WAYPOINTS).contains(&m) {
         return (best, best_cost);
     }
     let saves = |c: f64, best: f64| c < best - 1e-9 * best.abs().max(1.0);
