@@ -40,6 +40,11 @@ pub struct Args {
     /// battery check always counts everything
     #[arg(long, default_value = "settled")]
     pricing: emplan::physics::Pricing,
+    /// Only this order: energy, distance (both directions) or listed (the mission file's own,
+    /// nothing solved; each leg priced after the one before). Default: the energy order and
+    /// every distance baseline both ways
+    #[arg(long, value_enum)]
+    order: Option<super::OrderArg>,
     #[command(flatten)]
     solver: super::SolverArgs,
 }
@@ -71,7 +76,12 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         .transpose()?;
     let model = args.model.model()?;
     let options = PlanOptions {
-        orders: Orders::All,
+        orders: match args.order {
+            None => Orders::All,
+            Some(super::OrderArg::Energy) => Orders::Energy,
+            Some(super::OrderArg::Distance) => Orders::Distance,
+            Some(super::OrderArg::Listed) => Orders::Listed,
+        },
         solver: args.solver.options()?,
         sorties: args.sorties,
         pricing: args.pricing,

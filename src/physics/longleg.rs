@@ -19,6 +19,7 @@
 //! steady cruise is too short to bring it inside the table. The table is never extrapolated.
 
 use super::power::Model;
+use super::px4::Start;
 use super::table::{EnergyTable, LegEnergy};
 use super::trajectory::Trajectory;
 use super::{PhysicsError, Profile};
@@ -86,13 +87,25 @@ pub fn price_outside(
     xf_m: f64,
     zf_m: f64,
 ) -> Result<LegEnergy, PhysicsError> {
+    price_outside_from(model, table, xf_m, zf_m, Start::Behind)
+}
+
+/// [`price_outside`] for a leg starting `start` of PX4's trajectory: the long leg flown from
+/// that start, composed from the table block of the same start.
+pub fn price_outside_from(
+    model: &Model,
+    table: &EnergyTable,
+    xf_m: f64,
+    zf_m: f64,
+    start: Start,
+) -> Result<LegEnergy, PhysicsError> {
     if !(xf_m.is_finite() && zf_m.is_finite() && xf_m >= 0.0) {
-        return table.lookup(xf_m, zf_m);
+        return table.lookup_from(xf_m, zf_m, start);
     }
-    match compose(model, table, xf_m, zf_m) {
+    match compose_from(model, table, xf_m, zf_m, start) {
         Ok(long) => Ok(long.leg),
         Err(PhysicsError::LongLeg { .. }) => model
-            .operation(table.profile, xf_m, zf_m)
+            .operation_from(table.profile, xf_m, zf_m, start)
             .map(|op| LegEnergy::from(&op)),
         Err(e) => Err(e),
     }
@@ -104,6 +117,17 @@ pub fn compose(
     table: &EnergyTable,
     xf_m: f64,
     zf_m: f64,
+) -> Result<LongLeg, PhysicsError> {
+    compose_from(model, table, xf_m, zf_m, Start::Behind)
+}
+
+/// [`compose`] for a leg starting `start` of PX4's trajectory.
+pub fn compose_from(
+    model: &Model,
+    table: &EnergyTable,
+    xf_m: f64,
+    zf_m: f64,
+    start: Start,
 ) -> Result<LongLeg, PhysicsError> {
     let profile = table.profile;
     let refuse = |reason: String| PhysicsError::LongLeg {
@@ -126,7 +150,7 @@ pub fn compose(
         ));
     }
     let trajectory = model
-        .trajectory(profile, xf_m, zf_m)
+        .trajectory_from(profile, xf_m, zf_m, start)
         .map_err(|e| refuse(e.to_string()))?;
     // How far the leg must shrink along each axis to fit inside the table.
     let mut need_x = (xf_m - (table.xf.end_m - INSIDE_M)).max(0.0);
@@ -210,7 +234,7 @@ pub fn compose(
     let table_xf_m = xf_m - cuts.iter().map(|c| c.xf_m).sum::<f64>();
     let table_zf_m = zf_m - cuts.iter().map(|c| c.zf_m).sum::<f64>();
     let base = table
-        .lookup(table_xf_m, table_zf_m)
+        .lookup_from(table_xf_m, table_zf_m, start)
         .map_err(|e| refuse(e.to_string()))?;
     let leg = LegEnergy {
         energy_j: base.energy_j + cuts.iter().map(|c| c.energy_j).sum::<f64>(),

@@ -30,6 +30,7 @@ pub use budget::{BatteryCheck, Budget};
 pub use model::{VehicleModel, VehicleSource};
 pub use power::{hover_power_w, level_flight_power_w, simulate_operation, Operation};
 pub use profile::Profile;
+pub use px4::{start_case, Start};
 pub use table::{EnergyTable, LegEnergy, Pricing};
 pub use vehicle::Vehicle;
 

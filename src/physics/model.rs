@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use super::budget::Budget;
 use super::longleg;
 use super::power::Model;
+use super::px4::{start_case, Start};
 use super::{builtin, EnergyTable, LegEnergy, PhysicsError, Profile, Vehicle};
 
 /// Where a vehicle and its tables come from.
@@ -79,12 +80,35 @@ impl VehicleModel {
     /// as is a leg whose cruise is too short to bring it inside the table; a leg that is none
     /// of these is an error naming it.
     pub fn leg(&self, xf_m: f64, zf_m: f64) -> Result<LegEnergy, PhysicsError> {
-        match self.table.lookup(xf_m, zf_m) {
-            Err(PhysicsError::OutsideTable { .. }) => {
-                longleg::price_outside(&Model::new(&self.vehicle), &self.table, xf_m, zf_m)
-            }
+        self.leg_from(xf_m, zf_m, Start::Behind)
+    }
+
+    /// [`VehicleModel::leg`] for a leg starting `start` of PX4's trajectory (the `px4`
+    /// profile's price depends on the leg before: [`super::px4::start_case`]).
+    pub fn leg_from(&self, xf_m: f64, zf_m: f64, start: Start) -> Result<LegEnergy, PhysicsError> {
+        match self.table.lookup_from(xf_m, zf_m, start) {
+            Err(PhysicsError::OutsideTable { .. }) => longleg::price_outside_from(
+                &Model::new(&self.vehicle),
+                &self.table,
+                xf_m,
+                zf_m,
+                start,
+            ),
             other => other,
         }
+    }
+
+    /// The leg from `from` to `to` (east, north, up; m) flown after the leg `previous` (None
+    /// after the take-off), priced with the start case PX4 gives it.
+    pub fn leg_after(
+        &self,
+        previous: Option<[f64; 3]>,
+        from: [f64; 3],
+        to: [f64; 3],
+    ) -> Result<LegEnergy, PhysicsError> {
+        let (dx, dy, dz) = (to[0] - from[0], to[1] - from[1], to[2] - from[2]);
+        let start = start_case(previous.map(|p| (p[0], p[1])), (dx, dy));
+        self.leg_from(dx.hypot(dy), dz, start)
     }
 
     /// Take-off, landing and hover for an origin `height_above_home_m` up, and the battery.

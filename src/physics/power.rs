@@ -11,7 +11,7 @@ use super::body::demand;
 use super::minimise::golden_section;
 use super::powertrain::Powertrain;
 use super::profile::line_limit;
-use super::px4;
+use super::px4::{self, Start};
 use super::rotor::Rotor;
 use super::trajectory::{
     ardupilot_trajectory, path_peak_speed, px4_trajectory, quintic_line, Acceptance, Path,
@@ -269,7 +269,19 @@ impl<'a> Model<'a> {
         xf_m: f64,
         zf_m: f64,
     ) -> Result<Operation, PhysicsError> {
-        let trajectory = self.trajectory(profile, xf_m, zf_m)?;
+        self.operation_from(profile, xf_m, zf_m, Start::Behind)
+    }
+
+    /// [`Model::operation`] for a leg starting `start` of PX4's trajectory (only the `px4`
+    /// profile depends on it).
+    pub fn operation_from(
+        &self,
+        profile: Profile,
+        xf_m: f64,
+        zf_m: f64,
+        start: Start,
+    ) -> Result<Operation, PhysicsError> {
+        let trajectory = self.trajectory_from(profile, xf_m, zf_m, start)?;
         self.priced(&trajectory, xf_m, zf_m, profile)
     }
 
@@ -280,6 +292,17 @@ impl<'a> Model<'a> {
         profile: Profile,
         xf_m: f64,
         zf_m: f64,
+    ) -> Result<Trajectory, PhysicsError> {
+        self.trajectory_from(profile, xf_m, zf_m, Start::Behind)
+    }
+
+    /// [`Model::trajectory`] for a leg starting `start` of PX4's trajectory.
+    pub fn trajectory_from(
+        &self,
+        profile: Profile,
+        xf_m: f64,
+        zf_m: f64,
+        start: Start,
     ) -> Result<Trajectory, PhysicsError> {
         for (what, value) in [("xf_m", xf_m), ("zf_m", zf_m)] {
             if !value.is_finite() {
@@ -358,7 +381,8 @@ impl<'a> Model<'a> {
             Profile::Hvb => Ok(Trajectory::hvb(&v.hvb, xf_m, zf_m)),
             Profile::Px4 => {
                 let x = &v.px4;
-                let samples = px4::leg(x, xf_m, zf_m).map_err(|e| no_trajectory(e.to_string()))?;
+                let samples = px4::leg_from(x, xf_m, zf_m, start)
+                    .map_err(|e| no_trajectory(e.to_string()))?;
                 Ok(px4_trajectory(x, samples, xf_m, zf_m))
             }
             Profile::Ardupilot => {

@@ -8,7 +8,10 @@
 //!   acceleration limits, then a settle in hover;
 //! - `px4`: PX4 mission mode, PX4's own trajectory generator run in time steps (`physics::px4`:
 //!   jerk-limited velocity smoothing, the braking law near the waypoint, the trajectory slowed
-//!   while the vehicle trails it), ending where PX4 accepts the point and starts its hold;
+//!   while the vehicle trails it), ending where PX4 accepts the point and starts its hold. Its
+//!   price depends on the leg before: PX4 leaves a hold past its waypoint, so a leg turning
+//!   less than 90 degrees starts ahead of its trajectory and is slowed less
+//!   (`physics::px4::Start`, one table block per case). The other profiles do not depend on it;
 //! - `ardupilot`: ArduCopter AUTO mode (`physics::ardupilot`: ArduPilot's S-curve along the
 //!   line, its jerk phases raised cosines, its limits WP_SPD, WP_SPD_UP/DN, WP_ACC, WP_ACC_Z and
 //!   WP_JERK), ending at rest on the waypoint where ArduCopter counts it reached.

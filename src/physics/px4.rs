@@ -12,12 +12,22 @@
 //!   with the square root of the distance, and linearly in the last metres, so PX4 brakes early
 //!   and creeps up to the waypoint) and by MPC_XY_CRUISE and MPC_Z_V_AUTO_UP/DN;
 //! - `_generateTrajectory`: the trajectory's clock is slowed by 1 - e / MPC_XY_ERR_MAX while
-//!   the vehicle trails it horizontally by e: PX4 waits for a vehicle that cannot keep up. The
-//!   vehicle's horizontal error is modelled as the error it leaves a waypoint with
-//!   (`departure_error_m`: it is still creeping towards the last one) closed exponentially
-//!   (`departure_error_decay_s`), both calibrated on PX4 SITL's SIH quadrotor, which leaves a
-//!   waypoint 0.7-0.9 m from its setpoint and flies the sample's 33 m legs at about 4 m/s of
-//!   the 5 m/s cruise setpoint; the motion priced is the trajectory as slowed;
+//!   the vehicle trails it horizontally by e (the whole length of the error vector), and not at
+//!   all while the vehicle is ahead of it (`drone_to_trajectory_xy . vel_traj_xy < 0`): PX4
+//!   waits for a vehicle that cannot keep up. The vehicle's horizontal error is modelled as the
+//!   error it leaves a hold with (`departure_error_m`) closed exponentially
+//!   (`departure_error_decay_s`), both calibrated on PX4 SITL's SIH quadrotor. PX4 SITL leaves a
+//!   hold past its waypoint along the way it came (it overshoots while braking and creeps back
+//!   through the hold), so whether the next leg starts behind or ahead ([`Start`], decided by
+//!   [`start_case`]) follows from the angle between the two legs' horizontal directions: a turn
+//!   of less than 90 degrees puts the vehicle ahead of the new trajectory and PX4 does not slow
+//!   it until the trajectory, accelerating away, has the vehicle trailing again: modelled as
+//!   the departure error less a head start (`departure_head_start_m`, calibrated on the legs of
+//!   PX4 SITL flights that start ahead); 90 degrees or more puts it behind and the whole error
+//!   slows it. After a vertical move
+//!   (the take-off, a vertical leg) the offset has no horizontal direction: the vehicle trails
+//!   the trajectory as soon as it moves, which PX4's test (`>= 0`) counts as behind; the motion
+//!   priced is the trajectory as slowed;
 //! - `src/modules/flight_mode_manager/tasks/Auto/FlightTaskAuto.cpp`: a climb uses
 //!   MPC_ACC_UP_MAX and MPC_Z_V_AUTO_UP, a descent MPC_ACC_DOWN_MAX and MPC_Z_V_AUTO_DN; a
 //!   take-off climbs at MPC_TKO_SPEED with acceleration MPC_TKO_SPEED / MPC_TKO_RAMP_T below
@@ -33,6 +43,8 @@
 //!   brakes; a take-off is reached NAV_MC_ALT_RAD below its altitude.
 //!
 //! Pure: parameters in, sampled motion out.
+
+use serde::{Deserialize, Serialize};
 
 use super::vehicle::Px4Params;
 use super::PhysicsError;
@@ -60,6 +72,58 @@ const ARRIVED_M_S: f64 = 0.01;
 /// zero, and must not switch the slowing on; the bound is below the table's 1 m grid step, so the
 /// table is unchanged.
 const VERTICAL_LEG_M: f64 = 0.1;
+
+/// Where a leg starts relative to PX4's new trajectory: the vehicle leaves a hold
+/// `departure_error_m` past its waypoint along the previous leg's horizontal direction, so the
+/// new trajectory (which starts on the waypoint) has the vehicle behind it or ahead of it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Start {
+    /// The vehicle trails the trajectory: PX4 slows its clock by the whole error (a turn of
+    /// 90 degrees or more, the first leg after the take-off, a leg after a vertical one).
+    #[default]
+    Behind,
+    /// The vehicle is ahead of the trajectory: PX4 does not slow it until it trails again (a
+    /// turn of less than 90 degrees; priced with the departure error less
+    /// `departure_head_start_m`).
+    Ahead,
+}
+
+impl Start {
+    /// Both cases, in the order a table stores them.
+    pub const ALL: [Start; 2] = [Start::Behind, Start::Ahead];
+}
+
+impl std::fmt::Display for Start {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Start::Behind => "behind",
+            Start::Ahead => "ahead",
+        })
+    }
+}
+
+/// How a leg with horizontal displacement `next_xy` (east, north; m) starts after one with
+/// `previous_xy` (None after the take-off). PX4 `_generateTrajectory` slows the clock when
+/// `drone_to_trajectory_xy . vel_traj_xy >= 0`; the vehicle sits `departure_error_m` along
+/// the previous direction u past the waypoint where the trajectory starts, so that product is
+/// `-e u . v` and the vehicle is ahead exactly when the legs' horizontal directions make an
+/// acute angle. A previous leg (or this one) moving less than [`VERTICAL_LEG_M`] horizontally
+/// has no direction: behind.
+pub fn start_case(previous_xy: Option<(f64, f64)>, next_xy: (f64, f64)) -> Start {
+    let Some(prev) = previous_xy else {
+        return Start::Behind;
+    };
+    let (lp, ln) = (prev.0.hypot(prev.1), next_xy.0.hypot(next_xy.1));
+    if !(lp >= VERTICAL_LEG_M && ln >= VERTICAL_LEG_M) {
+        return Start::Behind;
+    }
+    if prev.0 * next_xy.0 + prev.1 * next_xy.1 > 0.0 {
+        Start::Ahead
+    } else {
+        Start::Behind
+    }
+}
 
 /// One axis of PX4's VelocitySmoothing.
 #[derive(Debug, Clone, Copy, Default)]
@@ -335,7 +399,7 @@ impl Samples {
 /// What the vertical axis is doing.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Kind {
-    Leg,
+    Leg(Start),
     Takeoff,
     Landing,
 }
@@ -404,7 +468,7 @@ fn run(p: &Px4Params, xf: f64, zf: f64, kind: Kind) -> Result<Samples, PhysicsEr
     let mut climbing = zf >= 0.0;
     let mut points: Vec<[f64; 6]> = match kind {
         Kind::Takeoff => thrust_ramp(p, dt),
-        Kind::Leg | Kind::Landing => vec![[0.0; 6]],
+        Kind::Leg(_) | Kind::Landing => vec![[0.0; 6]],
     };
     let (mut px, mut pz, mut pvx, mut pvz): (f64, f64, f64, f64) = (0.0, 0.0, 0.0, 0.0);
     let max_steps = (MAX_DURATION_S / dt) as usize;
@@ -441,7 +505,7 @@ fn run(p: &Px4Params, xf: f64, zf: f64, kind: Kind) -> Result<Samples, PhysicsEr
                 };
                 (0.0, -speed)
             }
-            Kind::Leg | Kind::Takeoff => {
+            Kind::Leg(_) | Kind::Takeoff => {
                 let (dx, dz) = (xf - x.x, zf - z.x);
                 let dist = dx.hypot(dz);
                 let (ux, uz) = if dist > 1e-9 {
@@ -472,14 +536,22 @@ fn run(p: &Px4Params, xf: f64, zf: f64, kind: Kind) -> Result<Samples, PhysicsEr
             }
         };
         climbing = vz_sp > 0.0;
-        // _generateTrajectory: the clock slows while the vehicle trails horizontally.
-        let stretch = if p.mpc_xy_err_max_m > 0.0 && kind == Kind::Leg && xf > VERTICAL_LEG_M {
-            let t = (points.len() - 1) as f64 * dt;
-            let error_m = p.departure_error_m * (-t / p.departure_error_decay_s.max(1e-3)).exp();
-            1.0 - (error_m / p.mpc_xy_err_max_m).clamp(0.0, 1.0)
-        } else {
-            1.0
-        };
+        // _generateTrajectory: the clock slows while the vehicle trails horizontally, not
+        // while it is ahead.
+        let stretch =
+            if p.mpc_xy_err_max_m > 0.0 && matches!(kind, Kind::Leg(_)) && xf > VERTICAL_LEG_M {
+                let t = (points.len() - 1) as f64 * dt;
+                let start_error_m = match kind {
+                    Kind::Leg(Start::Ahead) => {
+                        (p.departure_error_m - p.departure_head_start_m).max(0.0)
+                    }
+                    _ => p.departure_error_m,
+                };
+                let error_m = start_error_m * (-t / p.departure_error_decay_s.max(1e-3)).exp();
+                1.0 - (error_m / p.mpc_xy_err_max_m).clamp(0.0, 1.0)
+            } else {
+                1.0
+            };
         x.update_traj(dt, stretch);
         z.update_traj(dt, stretch);
         x.update_durations(vx_sp);
@@ -494,7 +566,7 @@ fn run(p: &Px4Params, xf: f64, zf: f64, kind: Kind) -> Result<Samples, PhysicsEr
         points.push([x.x, z.x, vx, vz, ax, az]);
         let arrived = match kind {
             Kind::Landing => z.x <= zf,
-            Kind::Leg | Kind::Takeoff => {
+            Kind::Leg(_) | Kind::Takeoff => {
                 (xf - x.x).hypot(zf - z.x) <= ARRIVED_M && vx.hypot(vz) <= ARRIVED_M_S
             }
         };
@@ -507,15 +579,27 @@ fn run(p: &Px4Params, xf: f64, zf: f64, kind: Kind) -> Result<Samples, PhysicsEr
         }
     }
     Err(no_arrival(match kind {
-        Kind::Leg => "leg",
+        Kind::Leg(_) => "leg",
         Kind::Takeoff => "take-off",
         Kind::Landing => "landing",
     }))
 }
 
-/// A mission leg from hover to hover over `xf_m` horizontally and `zf_m` up.
+/// A mission leg from hover to hover over `xf_m` horizontally and `zf_m` up, the vehicle
+/// starting behind PX4's trajectory (the first leg; see [`leg_from`]).
 pub fn leg(p: &Px4Params, xf_m: f64, zf_m: f64) -> Result<Samples, PhysicsError> {
-    run(p, xf_m, zf_m, Kind::Leg)
+    leg_from(p, xf_m, zf_m, Start::Behind)
+}
+
+/// A mission leg from hover to hover over `xf_m` horizontally and `zf_m` up, the vehicle
+/// starting `start` of PX4's trajectory.
+pub fn leg_from(
+    p: &Px4Params,
+    xf_m: f64,
+    zf_m: f64,
+    start: Start,
+) -> Result<Samples, PhysicsError> {
+    run(p, xf_m, zf_m, Kind::Leg(start))
 }
 
 /// NAV_TAKEOFF from the ground to `height_m`: the thrust ramp to lift-off, then the climb to
@@ -640,6 +724,36 @@ mod tests {
         // A vehicle that leaves 1 m off its setpoint slows the trajectory: the leg takes longer.
         let slowed = leg(&params(), 150.0, 0.0).unwrap();
         assert!(slowed.first_within(150.0, 0.0, 4.0) > s.first_within(150.0, 0.0, 4.0));
+    }
+
+    #[test]
+    fn a_leg_turning_less_than_90_degrees_starts_ahead_and_px4_slows_it_less() {
+        // East then north-east: acute, ahead; east then north-west or back west: behind.
+        assert_eq!(start_case(Some((10.0, 0.0)), (5.0, 5.0)), Start::Ahead);
+        assert_eq!(start_case(Some((10.0, 0.0)), (-5.0, 5.0)), Start::Behind);
+        assert_eq!(start_case(Some((10.0, 0.0)), (0.0, 5.0)), Start::Behind);
+        assert_eq!(start_case(Some((10.0, 0.0)), (-10.0, 0.0)), Start::Behind);
+        // After the take-off or a vertical leg: behind.
+        assert_eq!(start_case(None, (5.0, 5.0)), Start::Behind);
+        assert_eq!(start_case(Some((0.01, 0.0)), (5.0, 0.0)), Start::Behind);
+        let p = params();
+        let behind = leg_from(&p, 33.0, 8.0, Start::Behind).unwrap();
+        let ahead = leg_from(&p, 33.0, 8.0, Start::Ahead).unwrap();
+        assert!(ahead.duration_s() < behind.duration_s() - 0.1);
+        assert_eq!(leg(&p, 33.0, 8.0).unwrap(), behind);
+        // Without a head start an ahead leg is priced as behind; a head start of the whole
+        // error is PX4 never slowing it.
+        let mut none = p.clone();
+        none.departure_head_start_m = 0.0;
+        assert_eq!(leg_from(&none, 33.0, 8.0, Start::Ahead).unwrap(), behind);
+        let mut all = p.clone();
+        all.departure_head_start_m = all.departure_error_m;
+        let mut unslowed = p.clone();
+        unslowed.departure_error_m = 0.0;
+        assert_eq!(
+            leg_from(&all, 33.0, 8.0, Start::Ahead).unwrap(),
+            leg(&unslowed, 33.0, 8.0).unwrap()
+        );
     }
 
     #[test]

@@ -18,6 +18,14 @@
 //! Grid lines are `start end count`; rows run over Xf then Zf (Zf fastest). `vehicle_hash` is
 //! [`Vehicle::parameter_hash`] of the parameters the table was built from: a table whose hash
 //! differs from the vehicle file's is stale and refused.
+//!
+//! A `px4` leg's price depends on the leg before it (PX4 slows its trajectory for a vehicle
+//! that starts behind it, not for one that starts ahead: [`Start`], `physics::px4`), so the px4
+//! table holds one block of rows per start case, named by a `starts behind ahead` line after
+//! the grid lines, the blocks in that order; a lookup picks its block and interpolates inside
+//! it only. A table without that line holds one block, priced as starting behind: the other
+//! profiles do not depend on the leg before, and a px4 table without the `ahead` block is
+//! refused (rebuild it).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -25,6 +33,7 @@ use std::path::{Path, PathBuf};
 use rayon::prelude::*;
 
 use super::power::{Model, Operation};
+use super::px4::Start;
 use super::vehicle::Vehicle;
 use super::{PhysicsError, Profile};
 
@@ -166,8 +175,19 @@ pub struct EnergyTable {
     pub vehicle_hash: String,
     pub xf: Axis,
     pub zf: Axis,
-    /// Row-major over (xf, zf), zf fastest.
+    /// The start cases held, one block of cells each ([`Start::Behind`] alone for a profile
+    /// that does not depend on the leg before).
+    pub starts: Vec<Start>,
+    /// Row-major over (start, xf, zf), zf fastest.
     cells: Vec<LegEnergy>,
+}
+
+/// The start cases a table of `profile` holds.
+pub fn starts_of(profile: Profile) -> Vec<Start> {
+    match profile {
+        Profile::Px4 => Start::ALL.to_vec(),
+        Profile::Ptf | Profile::Hvb => vec![Start::Behind],
+    }
 }
 
 impl EnergyTable {
@@ -186,13 +206,20 @@ impl EnergyTable {
         progress: impl Fn(usize, usize) + Sync,
     ) -> Result<EnergyTable, PhysicsError> {
         let model = Model::new(vehicle);
-        let total = xf.count * zf.count;
+        let starts = starts_of(profile);
+        let block = xf.count * zf.count;
+        let total = block * starts.len();
         let done = std::sync::atomic::AtomicUsize::new(0);
         let cells = (0..total)
             .into_par_iter()
             .map(|k| {
-                let op =
-                    model.operation(profile, xf.value(k / zf.count), zf.value(k % zf.count))?;
+                let (start, k) = (starts[k / block], k % block);
+                let op = model.operation_from(
+                    profile,
+                    xf.value(k / zf.count),
+                    zf.value(k % zf.count),
+                    start,
+                )?;
                 let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
                 if n.is_multiple_of(256) || n == total {
                     progress(n, total);
@@ -205,17 +232,45 @@ impl EnergyTable {
             vehicle_hash: vehicle.parameter_hash(profile),
             xf,
             zf,
+            starts,
             cells,
         })
     }
 
-    /// The cell at grid indices (i over Xf, j over Zf).
+    /// The cell at grid indices (i over Xf, j over Zf) of the first block (starting behind).
     pub fn cell(&self, i: usize, j: usize) -> Option<&LegEnergy> {
-        self.cells.get(i * self.zf.count + j)
+        self.cell_from(i, j, Start::Behind)
     }
 
-    /// Bilinear interpolation at (xf_m, zf_m); outside the grid is an error naming the leg.
+    /// The cell at grid indices (i over Xf, j over Zf) for a leg starting `start`.
+    pub fn cell_from(&self, i: usize, j: usize, start: Start) -> Option<&LegEnergy> {
+        if i >= self.xf.count || j >= self.zf.count {
+            return None;
+        }
+        self.cells
+            .get(self.block_of(start) * self.xf.count * self.zf.count + i * self.zf.count + j)
+    }
+
+    /// The block holding `start` (the only one when the table does not depend on the start).
+    fn block_of(&self, start: Start) -> usize {
+        self.starts.iter().position(|&s| s == start).unwrap_or(0)
+    }
+
+    /// Bilinear interpolation at (xf_m, zf_m) for a leg starting behind PX4's trajectory (the
+    /// first leg; every leg of the profiles that do not depend on the leg before); outside the
+    /// grid is an error naming the leg.
     pub fn lookup(&self, xf_m: f64, zf_m: f64) -> Result<LegEnergy, PhysicsError> {
+        self.lookup_from(xf_m, zf_m, Start::Behind)
+    }
+
+    /// Bilinear interpolation at (xf_m, zf_m) inside the block of `start`; outside the grid
+    /// is an error naming the leg.
+    pub fn lookup_from(
+        &self,
+        xf_m: f64,
+        zf_m: f64,
+        start: Start,
+    ) -> Result<LegEnergy, PhysicsError> {
         let outside = PhysicsError::OutsideTable {
             xf_m,
             zf_m,
@@ -228,7 +283,8 @@ impl EnergyTable {
             return Err(outside);
         };
         let n = self.zf.count;
-        let c = |di: usize, dj: usize| self.cells[(i + di) * n + j + dj];
+        let base = self.block_of(start) * self.xf.count * n;
+        let c = |di: usize, dj: usize| self.cells[base + (i + di) * n + j + dj];
         let (c00, c01, c10, c11) = (c(0, 0), c(0, 1), c(1, 0), c(1, 1));
         let mix = |f: fn(&LegEnergy) -> f64| {
             (1.0 - fx) * ((1.0 - fz) * f(&c00) + fz * f(&c01))
@@ -257,7 +313,17 @@ impl EnergyTable {
             self.zf.end_m,
             self.zf.count
         );
+        if self.starts != [Start::Behind] {
+            let names: Vec<String> = self.starts.iter().map(Start::to_string).collect();
+            out = out.replacen(
+                "\ncolumns ",
+                &format!("\nstarts {}\ncolumns ", names.join(" ")),
+                1,
+            );
+        }
+        let block = self.xf.count * self.zf.count;
         for (k, c) in self.cells.iter().enumerate() {
+            let k = k % block;
             let _ = writeln!(
                 out,
                 "{} {} {:.3} {:.4} {:.3} {:.4}",
@@ -283,16 +349,26 @@ impl EnergyTable {
             .lines()
             .enumerate()
             .map(|(i, l)| (i + 1, l.trim()))
-            .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
+            .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'))
+            .peekable();
+        // The next line if it is the `key` line (None when it is not and `optional`).
+        let mut header_or =
+            |key: &str, optional: bool| -> Result<Option<(usize, Vec<String>)>, PhysicsError> {
+                let &(n, line) = lines
+                    .peek()
+                    .ok_or_else(|| bad(0, format!("the file ends before the {key:?} line")))?;
+                let mut words = line.split_whitespace();
+                if words.next() != Some(key) {
+                    if optional {
+                        return Ok(None);
+                    }
+                    return Err(bad(n, format!("expected the {key:?} line, found {line:?}")));
+                }
+                lines.next();
+                Ok(Some((n, words.map(String::from).collect())))
+            };
         let mut header = |key: &str| -> Result<(usize, Vec<String>), PhysicsError> {
-            let (n, line) = lines
-                .next()
-                .ok_or_else(|| bad(0, format!("the file ends before the {key:?} line")))?;
-            let mut words = line.split_whitespace();
-            if words.next() != Some(key) {
-                return Err(bad(n, format!("expected the {key:?} line, found {line:?}")));
-            }
-            Ok((n, words.map(String::from).collect()))
+            header_or(key, false)?.ok_or_else(|| bad(0, format!("no {key:?} line")))
         };
         let (n, format) = header("format")?;
         if format.first().map(String::as_str) != Some("1") {
@@ -331,8 +407,33 @@ impl EnergyTable {
         };
         let xf = axis("xf_m")?;
         let zf = axis("zf_m")?;
-        header("columns")?;
-        let mut cells = Vec::with_capacity(xf.count * zf.count);
+        let starts = match header_or("starts", true)? {
+            None => vec![Start::Behind],
+            Some((n, words)) => {
+                let starts = words
+                    .iter()
+                    .map(|w| match w.as_str() {
+                        "behind" => Ok(Start::Behind),
+                        "ahead" => Ok(Start::Ahead),
+                        _ => Err(bad(
+                            n,
+                            format!("unknown start {w:?} (allowed: behind, ahead)"),
+                        )),
+                    })
+                    .collect::<Result<Vec<_>, _>>()?;
+                if starts.is_empty() || (1..starts.len()).any(|k| starts[..k].contains(&starts[k]))
+                {
+                    return Err(bad(
+                        n,
+                        format!("starts: expected distinct start cases, found {words:?}"),
+                    ));
+                }
+                starts
+            }
+        };
+        header_or("columns", false)?;
+        let block = xf.count * zf.count;
+        let mut cells = Vec::with_capacity(block * starts.len());
         for (n, line) in lines {
             let values: Vec<f64> = line
                 .split_whitespace()
@@ -345,7 +446,7 @@ impl EnergyTable {
                     format!("expected six finite numbers, found {line:?}"),
                 ));
             }
-            let k = cells.len();
+            let k = cells.len() % block;
             let (x, z) = (xf.value(k / zf.count), zf.value(k % zf.count));
             if (values[0] - x).abs() > 1e-6 || (values[1] - z).abs() > 1e-6 {
                 return Err(bad(
@@ -363,10 +464,10 @@ impl EnergyTable {
                 settle_duration_s: values[5],
             });
         }
-        if cells.len() != xf.count * zf.count {
+        if cells.len() != block * starts.len() {
             return Err(bad(
                 text.lines().count(),
-                format!("{} rows, {} expected", cells.len(), xf.count * zf.count),
+                format!("{} rows, {} expected", cells.len(), block * starts.len()),
             ));
         }
         Ok(EnergyTable {
@@ -374,6 +475,7 @@ impl EnergyTable {
             vehicle_hash,
             xf,
             zf,
+            starts,
             cells,
         })
     }
@@ -406,6 +508,19 @@ impl EnergyTable {
                 file,
                 line: 3,
                 problem: format!("holds the {} profile, not {profile}", self.profile),
+            });
+        }
+        if let Some(missing) = starts_of(profile)
+            .into_iter()
+            .find(|s| !self.starts.contains(s))
+        {
+            return Err(PhysicsError::TableFormat {
+                file,
+                line: 6,
+                problem: format!(
+                    "holds no {missing:?} start block (a {profile} leg's price depends on the \
+                     leg before it): rebuild it with `emplan table build --profile {profile}`"
+                ),
             });
         }
         if self.vehicle_hash != expected {

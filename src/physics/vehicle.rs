@@ -175,6 +175,12 @@ pub struct Px4Params {
     /// tracking, which slows PX4's trajectory through MPC_XY_ERR_MAX).
     pub departure_error_m: f64,
     pub departure_error_decay_s: f64,
+    /// How much of `departure_error_m` a leg starting ahead of PX4's trajectory does not trail
+    /// by (m; `physics::px4::Start::Ahead`: the vehicle left the last hold past its waypoint
+    /// and the new leg turns less than 90 degrees, so it trails only once the trajectory has
+    /// caught up with it). 0 (a vehicle file without it): priced as starting behind.
+    #[serde(default)]
+    pub departure_head_start_m: f64,
     pub steps: u32,
 }
 
@@ -656,6 +662,12 @@ impl Vehicle {
         check("px4.land_detector_s", x.land_detector_s, 0.0, 60.0)?;
         check("px4.com_disarm_land_s", x.com_disarm_land_s, 0.0, 600.0)?;
         check("px4.departure_error_m", x.departure_error_m, 0.0, 100.0)?;
+        check(
+            "px4.departure_head_start_m",
+            x.departure_head_start_m,
+            0.0,
+            x.departure_error_m.max(0.0),
+        )?;
         check(
             "px4.departure_error_decay_s",
             x.departure_error_decay_s,

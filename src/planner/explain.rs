@@ -160,6 +160,7 @@ mod tests {
                         settle_duration_s: 0.0,
                     },
                     pricing: crate::physics::Pricing::Settled,
+                    start: crate::physics::Start::Behind,
                 }
             })
             .collect();

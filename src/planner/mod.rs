@@ -27,11 +27,15 @@ pub mod study;
 use serde::Serialize;
 
 use crate::mission::Mission;
-use crate::physics::{BatteryCheck, Budget, LegEnergy, PhysicsError, Pricing, Profile};
+use crate::physics::{
+    start_case, BatteryCheck, Budget, LegEnergy, PhysicsError, Pricing, Profile, Start,
+};
 use crate::tour::energy::energy_matrix;
-use crate::tour::orders::{baseline, energy_order, plan_orders};
+use crate::tour::orders::{baseline, energy_order, plan_orders, SolvedOrder};
 use crate::tour::sorties::{self, Method, SortieError, SortieOptions, SortieProblem};
-use crate::tour::{cancel, solver, CostMatrix, Direction, Geometry, Objective, PlanError, Proof};
+use crate::tour::{
+    cancel, pairs, solver, CostMatrix, Direction, Geometry, Objective, PlanError, Proof,
+};
 
 pub use crate::physics::VehicleModel;
 pub use explain::{Explanation, Saving};
@@ -92,6 +96,9 @@ pub struct Leg {
     pub predicted: LegEnergy,
     /// What [`Leg::energy_j`] counts.
     pub pricing: Pricing,
+    /// Where the leg starts relative to PX4's trajectory, from the turn out of the leg before
+    /// (`physics::start_case`; only the `px4` profile's price depends on it).
+    pub start: Start,
 }
 
 impl Leg {
@@ -523,10 +530,50 @@ fn plan_uncancelled(
             .map(|leg| leg.priced_energy_j(options.pricing))
     })
     .map_err(pricing)?;
+    // A leg's price after a turn of less than 90 degrees (the px4 profile's vehicle starts it
+    // ahead of PX4's trajectory); the same matrix for the profiles that do not depend on it.
+    let ahead = if model.table.starts.contains(&Start::Ahead) {
+        Some(
+            energy_matrix(&geometry, &names, |x, z| {
+                model
+                    .leg_from(x, z, Start::Ahead)
+                    .map(|leg| leg.priced_energy_j(options.pricing))
+            })
+            .map_err(pricing)?,
+        )
+    } else {
+        None
+    };
+    let start_of = |previous: Option<usize>, from: usize, to: usize| -> Start {
+        let points = geometry.points();
+        let across = |a: usize, b: usize| {
+            (
+                points[b].x_east_m - points[a].x_east_m,
+                points[b].y_north_m - points[a].y_north_m,
+            )
+        };
+        start_case(previous.map(|p| across(p, from)), across(from, to))
+    };
     let solver = &options.solver;
+    let pair_aware = |mut order: SolvedOrder| -> Result<SolvedOrder, PlannerError> {
+        match (&ahead, order.objective) {
+            (Some(ahead), Objective::Energy) => {
+                order = pair_energy_order(&energy, ahead, &start_of, order, &geometry, solver)
+                    .map_err(planning)?;
+                Ok(order)
+            }
+            _ => Ok(order),
+        }
+    };
     let solved = match options.orders {
-        Orders::All => plan_orders(&geometry, Some(&energy), solver).map_err(planning)?,
-        Orders::Energy => vec![energy_order(&geometry, &energy, solver).map_err(planning)?],
+        Orders::All => plan_orders(&geometry, Some(&energy), solver)
+            .map_err(planning)?
+            .into_iter()
+            .map(pair_aware)
+            .collect::<Result<_, _>>()?,
+        Orders::Energy => vec![pair_aware(
+            energy_order(&geometry, &energy, solver).map_err(planning)?,
+        )?],
         Orders::Distance => baseline(&geometry, Objective::Distance, solver)
             .map_err(planning)?
             .to_vec(),
@@ -535,20 +582,23 @@ fn plan_uncancelled(
     if cancel::requested() {
         return Err(stopped());
     }
-    let leg = |from: usize, to: usize| -> Result<Leg, PlannerError> {
+    let leg = |previous: Option<usize>, from: usize, to: usize| -> Result<Leg, PlannerError> {
         let (horizontal_m, vertical_m) = (
             geometry.horizontal_m(from, to),
             geometry.vertical_m(from, to),
         );
-        let predicted = model.leg(horizontal_m, vertical_m).map_err(|e| {
-            pricing(PlanError::LegEnergy {
-                from: names[from].clone(),
-                to: names[to].clone(),
-                xf_m: horizontal_m,
-                zf_m: vertical_m,
-                reason: e.to_string(),
-            })
-        })?;
+        let start = start_of(previous, from, to);
+        let predicted = model
+            .leg_from(horizontal_m, vertical_m, start)
+            .map_err(|e| {
+                pricing(PlanError::LegEnergy {
+                    from: names[from].clone(),
+                    to: names[to].clone(),
+                    xf_m: horizontal_m,
+                    zf_m: vertical_m,
+                    reason: e.to_string(),
+                })
+            })?;
         Ok(Leg {
             from,
             to,
@@ -557,6 +607,7 @@ fn plan_uncancelled(
             distance_m: geometry.distance_m(from, to),
             predicted,
             pricing: options.pricing,
+            start,
         })
     };
     let legs = |nodes: &[usize]| -> Result<Vec<Leg>, PlannerError> {
@@ -564,7 +615,11 @@ fn plan_uncancelled(
             .chain(nodes.iter().copied())
             .chain(std::iter::once(0))
             .collect();
-        stops.windows(2).map(|w| leg(w[0], w[1])).collect()
+        stops
+            .windows(2)
+            .enumerate()
+            .map(|(k, w)| leg(k.checked_sub(1).map(|p| stops[p]), w[0], w[1]))
+            .collect()
     };
     let priced = |objective, direction, nodes: Vec<usize>, proof| -> Result<Order, PlannerError> {
         let legs = legs(&nodes)?;
@@ -654,23 +709,28 @@ fn plan_uncancelled(
                 cause,
             },
         })?;
-        let sorties = split
+        let sorties: Vec<Sortie> = split
             .sorties
             .into_iter()
             .map(|s| {
                 let legs = legs(&s.order)?;
                 within_leg_limit(&legs, &names, &model.vehicle.planning)?;
+                // The split chose on pair-independent costs; its battery check pays the legs
+                // as flown, each after the one before.
+                let legs_j = legs.iter().map(Leg::settled_energy_j).sum();
                 Ok(Sortie {
                     legs,
-                    battery: budget.check(s.legs_j, s.hover_j),
+                    battery: budget.check(legs_j, s.hover_j),
                     nodes: s.order,
                 })
             })
             .collect::<Result<_, PlannerError>>()?;
+        // Each sortie's legs priced after the one before (what its battery pays).
+        let total_j = sorties.iter().map(|s: &Sortie| s.battery.total_j).sum();
         Some(Sorties {
             method: split.method,
             optimal: split.optimal,
-            total_j: split.total_j,
+            total_j,
             sorties,
         })
     } else {
@@ -697,6 +757,55 @@ fn plan_uncancelled(
         sorties,
         explanation,
         energy,
+    })
+}
+
+/// The energy order on the pair costs (a `px4` leg priced `behind` or `ahead` by the turn out
+/// of the leg before, `start_of`), from the order `seed` chosen on the pair-independent
+/// `behind` costs: exact for small missions, else local search with the proven bound of the
+/// tour problem on each arc's cheapest cost ([`pairs`]).
+fn pair_energy_order(
+    behind: &CostMatrix,
+    ahead: &CostMatrix,
+    start_of: &impl Fn(Option<usize>, usize, usize) -> Start,
+    seed: SolvedOrder,
+    geometry: &Geometry,
+    options: &solver::Options,
+) -> Result<SolvedOrder, PlanError> {
+    let started = std::time::Instant::now();
+    let n = behind.len();
+    let cost = |previous: Option<usize>, from: usize, to: usize| match start_of(previous, from, to)
+    {
+        Start::Behind => behind.cost(from, to),
+        Start::Ahead => ahead.cost(from, to),
+    };
+    let bound = if n.saturating_sub(1) <= pairs::EXACT_MAX_WAYPOINTS {
+        0.0
+    } else {
+        let minima = pairs::arc_minima(n, &cost);
+        energy_order(geometry, &minima, options)?
+            .proof
+            .map_or(0.0, |p| p.lower_bound)
+    };
+    let solved = pairs::solve(n, &cost, seed.nodes.clone(), bound)?;
+    let seed_proof = seed.proof.clone();
+    let lower_bound = solved.lower_bound;
+    Ok(SolvedOrder {
+        nodes: solved.order,
+        proof: Some(Proof {
+            solver: seed_proof
+                .as_ref()
+                .map_or(solver::Solver::Auto, |p| p.solver),
+            optimal: solved.optimal,
+            lower_bound,
+            gap_pct: if solved.cost > 0.0 {
+                100.0 * (solved.cost - lower_bound).max(0.0) / solved.cost
+            } else {
+                0.0
+            },
+            seconds: seed_proof.map_or(0.0, |p| p.seconds) + started.elapsed().as_secs_f64(),
+        }),
+        ..seed
     })
 }
 

@@ -40,13 +40,23 @@ fn every_leg_of_every_order_is_priced_from_the_table_in_two_parts_that_add_up_to
         assert_eq!(order.legs.len(), order.nodes.len() + 1);
         assert_eq!(order.legs[0].from, 0);
         assert_eq!(order.legs[order.legs.len() - 1].to, 0);
-        for leg in &order.legs {
-            let table = m.leg(leg.horizontal_m, leg.vertical_m).unwrap();
+        for (k, leg) in order.legs.iter().enumerate() {
+            // Each leg after the one before (the px4 profile: ahead or behind PX4's
+            // trajectory); the first one behind, as the matrix prices every leg.
+            let table = m
+                .leg_from(leg.horizontal_m, leg.vertical_m, leg.start)
+                .unwrap();
             assert_eq!(leg.predicted, table);
             assert!(leg.predicted.energy_j > 0.0 && leg.predicted.settle_energy_j >= 0.0);
-            assert_eq!(leg.energy_j(), plan.energy.cost(leg.from, leg.to));
+            if leg.start == crate::physics::Start::Behind {
+                assert_eq!(leg.energy_j(), plan.energy.cost(leg.from, leg.to));
+            }
+            if k == 0 {
+                assert_eq!(leg.start, crate::physics::Start::Behind);
+            }
         }
-        assert_eq!(order.energy_j, plan.energy.tour_cost(&order.nodes));
+        let pair_priced: f64 = order.legs.iter().map(Leg::energy_j).sum();
+        assert_eq!(order.energy_j, pair_priced);
         let duration: f64 = order.legs.iter().map(|l| l.duration_s()).sum();
         assert_eq!(order.duration_s, duration);
     }
@@ -146,7 +156,8 @@ fn a_small_battery_splits_the_sample_into_sorties_each_uploadable_by_number() {
     let mut flown: Vec<usize> = Vec::new();
     for (k, s) in sorties.sorties.iter().enumerate() {
         assert!(s.battery.feasible && s.battery.total_j <= 72_000.0);
-        assert_eq!(s.battery.legs_j, plan.energy.tour_cost(&s.nodes));
+        let legs_j: f64 = s.legs.iter().map(Leg::settled_energy_j).sum();
+        assert_eq!(s.battery.legs_j, legs_j);
         let flight = plan.flight(Some(k + 1)).unwrap();
         assert_eq!(flight.nodes, &s.nodes[..]);
         assert!(flight.require_feasible().is_ok());

@@ -13,7 +13,7 @@ use crate::link::items::{FlightItems, ReadItemsError};
 use crate::link::Flavour;
 use crate::mission::{Enu, Mission};
 use crate::physics::power::Model;
-use crate::physics::{Budget, Profile, Vehicle, VehicleModel};
+use crate::physics::{start_case, Budget, Profile, Vehicle, VehicleModel};
 use crate::planner::{Flight, Plan};
 
 /// The prediction of `flight` (the flown order or a sortie of `plan`): each leg to the 4 m rule
@@ -53,7 +53,7 @@ pub fn predicted_by_simulation(
         .iter()
         .map(|leg| {
             let op = model
-                .operation(profile, leg.horizontal_m, leg.vertical_m)
+                .operation_from(profile, leg.horizontal_m, leg.vertical_m, leg.start)
                 .map_err(|e| {
                     FlightItemsError::Pricing(format!(
                         "leg {} (Xf {:.1} m, Zf {:.1} m): {e}",
@@ -173,15 +173,15 @@ pub fn plan_from_items(
     Ok(plan)
 }
 
-/// `plan` priced anew with `model` (its vehicle, profile and table): every leg from the point
+/// `plan` priced anew with `model` (its vehicle, profile and table): every leg after the leg
 /// before it, its settle, the take-off, the landing and hover power, as [`plan_from_items`]
 /// prices a mission read from a log; `report --vehicle` shows recorded flights this way.
 pub fn repriced(plan: &FlightPlan, model: &VehicleModel) -> Result<Predicted, FlightItemsError> {
     price_points(model, plan.origin_height_m, &plan.points)
 }
 
-/// Prices the legs origin -> points[0] -> ... with the vehicle's table, and the take-off and
-/// landing at the origin height.
+/// Prices the legs origin -> points[0] -> ... with the vehicle's table, each after the leg
+/// before it (`physics::start_case`), and the take-off and landing at the origin height.
 fn price_points(
     model: &VehicleModel,
     origin_height_m: f64,
@@ -190,12 +190,17 @@ fn price_points(
     let pricing = |e: crate::physics::PhysicsError| FlightItemsError::Pricing(e.to_string());
     let budget = model.budget(origin_height_m).map_err(pricing)?;
     let mut from = Enu::default();
+    let mut previous: Option<(f64, f64)> = None;
     let mut legs = Vec::with_capacity(points.len());
     for point in points {
         let to = point.enu;
-        let xf = (to.x_east_m - from.x_east_m).hypot(to.y_north_m - from.y_north_m);
+        let (dx, dy) = (to.x_east_m - from.x_east_m, to.y_north_m - from.y_north_m);
+        let xf = dx.hypot(dy);
         let zf = to.z_up_m - from.z_up_m;
-        let leg = model.leg(xf, zf).map_err(|e| {
+        // PX4 leaves the previous hold past its waypoint: this leg's start depends on it.
+        let start = start_case(previous, (dx, dy));
+        previous = Some((dx, dy));
+        let leg = model.leg_from(xf, zf, start).map_err(|e| {
             FlightItemsError::Pricing(format!(
                 "leg to {} (Xf {xf:.1} m, Zf {zf:.1} m): {e}",
                 point.name

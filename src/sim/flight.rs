@@ -34,7 +34,7 @@ use crate::link::mav::{MavCmd, MavFrame, MISSION_ITEM_INT_DATA};
 use crate::mission::{Geodetic, Origin};
 use crate::physics::power::Model;
 use crate::physics::trajectory::{Acceptance, Trajectory};
-use crate::physics::{PhysicsError, Profile, Vehicle};
+use crate::physics::{start_case, PhysicsError, Profile, Start, Vehicle};
 
 /// A point in the home-centred local frame: metres east, north and up from home.
 pub type Local = [f64; 3];
@@ -44,6 +44,9 @@ pub type Local = [f64; 3];
 pub const DEFAULT_ACCEPTANCE_RADIUS_M: f64 = 2.0;
 
 pub use crate::physics::power::IDLE_SPIN_POWER_W;
+
+/// The last horizontal metres of a px4 leg over which the vehicle runs past its waypoint.
+const OVERSHOOT_OVER_M: f64 = 1.0;
 
 /// Below this horizontal distance the vehicle counts as above a point (no horizontal leg).
 const ABOVE_POINT_M: f64 = 0.05;
@@ -253,6 +256,12 @@ struct Line {
     /// `catch_up_s`.
     offset: Local,
     catch_up_s: f64,
+    /// Where the vehicle runs past the end point (PX4 SITL leaves a hold past its waypoint
+    /// along the way it came), reached over the last [`OVERSHOOT_OVER_M`] of the leg (after
+    /// the 4 m rule and PX4's acceptance).
+    overshoot: Local,
+    /// The leg's horizontal length (m).
+    across_m: f64,
 }
 
 impl Line {
@@ -268,16 +277,24 @@ impl Line {
         let left = (-tau / self.catch_up_s.max(1e-3)).exp();
         let closing = -left / self.catch_up_s.max(1e-3);
         let o = self.offset;
+        let left_m = self.across_m - x;
+        let (run, run_rate) = if self.across_m > 1e-9 && left_m < OVERSHOOT_OVER_M {
+            let f = (1.0 - left_m / OVERSHOOT_OVER_M).clamp(0.0, 1.0);
+            (f * f, 2.0 * f * vx / OVERSHOOT_OVER_M)
+        } else {
+            (0.0, 0.0)
+        };
+        let past = self.overshoot;
         (
             [
-                self.from[0] + ex * x + o[0] * left,
-                self.from[1] + ny * x + o[1] * left,
-                self.from[2] + z + o[2] * left,
+                self.from[0] + ex * x + o[0] * left + past[0] * run,
+                self.from[1] + ny * x + o[1] * left + past[1] * run,
+                self.from[2] + z + o[2] * left + past[2] * run,
             ],
             [
-                ex * vx + o[0] * closing,
-                ny * vx + o[1] * closing,
-                vz + o[2] * closing,
+                ex * vx + o[0] * closing + past[0] * run_rate,
+                ny * vx + o[1] * closing + past[1] * run_rate,
+                vz + o[2] * closing + past[2] * run_rate,
             ],
         )
     }
@@ -293,7 +310,7 @@ enum Motion {
     /// Armed on the ground, motors spooling up until `until_s`, then taking off.
     SpoolUp { until_s: f64 },
     /// Flying a line; `purpose` says what comes at its end.
-    Flying { line: Line, purpose: Purpose },
+    Flying { line: Box<Line>, purpose: Purpose },
     /// Hovering in place.
     Hover,
 }
@@ -354,6 +371,10 @@ pub struct Flight<'v> {
     /// where its next line starts (PX4's trajectory continues from its own position, not the
     /// vehicle's); `None` once it holds or lands where it is.
     setpoint: Option<Local>,
+    /// The horizontal displacement (east, north) of the last leg flown (None after a take-off
+    /// or landing): with the px4 profile the next leg starts behind or ahead of PX4's
+    /// trajectory by the turn between them (`physics::start_case`).
+    last_leg_xy: Option<(f64, f64)>,
 }
 
 /// Most items started without time passing before the flight stops and hovers.
@@ -385,6 +406,7 @@ impl<'v> Flight<'v> {
             in_mission: false,
             chain: 0,
             setpoint: None,
+            last_leg_xy: None,
         })
     }
 
@@ -732,15 +754,40 @@ impl<'v> Flight<'v> {
         };
         let zf_m = to[2] - from[2];
         self.setpoint = Some(to);
+        let start = start_case(self.last_leg_xy, (dx, dy));
+        self.last_leg_xy = (purpose == Purpose::Leg).then_some((dx, dy));
+        // PX4 runs past a waypoint along the way it came and holds there: the next leg starts
+        // that far off its line.
+        // Only before a leg that moves across (a vertical leg after it stays vertical in the
+        // mock, as the planner prices it).
+        let next_across = self
+            .progress
+            .and_then(|p| self.commands.get(usize::from(p.seq) + 1))
+            .is_some_and(|c| match c {
+                Command::Waypoint { at, .. } | Command::Loiter { at, .. } => {
+                    (at[0] - to[0]).hypot(at[1] - to[1]) > 0.1
+                }
+                _ => false,
+            });
+        let to_waypoint =
+            next_across && matches!(self.current_command(), Some(Command::Waypoint { .. }));
+        let overshoot =
+            if self.profile == Profile::Px4 && purpose == Purpose::Leg && to_waypoint && xf_m > 0.1
+            {
+                let e = self.vehicle.px4.departure_error_m;
+                [e * heading[0], e * heading[1], 0.0]
+            } else {
+                [0.0; 3]
+            };
         let trajectory = match purpose {
-            Purpose::Leg => self.trajectory(xf_m, zf_m),
+            Purpose::Leg => self.trajectory(xf_m, zf_m, start),
             Purpose::Climb if xf_m < ABOVE_POINT_M => {
                 self.model.takeoff_trajectory(self.profile, zf_m)
             }
             Purpose::Descent if xf_m < ABOVE_POINT_M => {
                 self.model.landing_trajectory(self.profile, -zf_m)
             }
-            Purpose::Climb | Purpose::Descent => self.trajectory(xf_m, zf_m),
+            Purpose::Climb | Purpose::Descent => self.trajectory(xf_m, zf_m, start),
         };
         let trajectory = match trajectory {
             Ok(t) => t,
@@ -763,26 +810,31 @@ impl<'v> Flight<'v> {
             start_s: self.now_s,
             offset,
             catch_up_s: self.vehicle.px4.departure_error_decay_s,
+            overshoot,
+            across_m: xf_m,
         };
         if line.trajectory.duration_s() <= 0.0 {
             self.motion = Motion::Hover;
             self.line_done(purpose, self.now_s, 0.0, events);
             return;
         }
-        self.motion = Motion::Flying { line, purpose };
+        self.motion = Motion::Flying {
+            line: Box::new(line),
+            purpose,
+        };
     }
 
     /// The profile's trajectory, at the cruise speed a DO_CHANGE_SPEED set.
-    fn trajectory(&self, xf_m: f64, zf_m: f64) -> Result<Trajectory, PhysicsError> {
+    fn trajectory(&self, xf_m: f64, zf_m: f64, start: Start) -> Result<Trajectory, PhysicsError> {
         match self.cruise_m_s {
-            None => self.model.trajectory(self.profile, xf_m, zf_m),
+            None => self.model.trajectory_from(self.profile, xf_m, zf_m, start),
             Some(speed) => {
                 let mut v = self.vehicle.clone();
                 v.px4.mpc_xy_cruise_m_s = speed;
                 v.ardupilot.wp_spd_m_s = speed;
                 v.hvb.speed_xy_m_s = speed;
                 v.ptf.max_speed_xy_m_s = speed;
-                Model::new(&v).trajectory(self.profile, xf_m, zf_m)
+                Model::new(&v).trajectory_from(self.profile, xf_m, zf_m, start)
             }
         }
     }
@@ -1145,6 +1197,54 @@ mod tests {
         );
         assert!(f.on_ground() && f.position()[2] == 0.0);
         assert_eq!(f.physics_errors(), 0);
+    }
+
+    #[test]
+    fn px4_holds_a_waypoint_past_it_along_the_way_it_came() {
+        let v = shipped();
+        // Where the vehicle is when it leaves the waypoint 40 m east (its hold done).
+        let leaves = |profile: Profile| {
+            let (x, y) = at(40.0, 0.0);
+            let items = [
+                item(
+                    0,
+                    MavCmd::MAV_CMD_NAV_TAKEOFF,
+                    MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                    [0.0; 4],
+                    (0, 0, 20.0),
+                ),
+                item(
+                    1,
+                    MavCmd::MAV_CMD_NAV_WAYPOINT,
+                    MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                    [4.0, 2.0, 0.0, 0.0],
+                    (x, y, 20.0),
+                ),
+                item(
+                    2,
+                    MavCmd::MAV_CMD_NAV_WAYPOINT,
+                    MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                    [4.0, 2.0, 0.0, 0.0],
+                    (x, at(0.0, 40.0).1, 20.0),
+                ),
+            ];
+            let mut f = Flight::new(&v, profile).unwrap();
+            f.arm();
+            f.start(commands(&items, HOME, false).unwrap(), 0, 1.0);
+            // Until the next leg starts.
+            let events = run(&mut f, 300.0, |f| f.current() == Some(2));
+            assert!(events.iter().any(|(_, e)| *e == Event::Reached(1)));
+            f.position()
+        };
+        let p = leaves(Profile::Px4);
+        // Past it (still creeping on when the hold ends), by at most the offset.
+        assert!(
+            p[0] > 40.3 && p[0] <= 40.0 + v.px4.departure_error_m + 1e-9 && p[1].abs() < 0.02,
+            "{p:?}"
+        );
+        // The other profiles hold on the waypoint.
+        let p = leaves(Profile::Hvb);
+        assert!((p[0] - 40.0).abs() < 0.02, "{p:?}");
     }
 
     #[test]

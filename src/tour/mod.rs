@@ -14,6 +14,7 @@ pub mod geometry;
 pub mod held_karp;
 pub mod heuristic;
 pub mod orders;
+pub mod pairs;
 pub mod progress;
 pub mod solver;
 pub mod sorties;
@@ -138,6 +139,8 @@ pub enum PlanError {
     TooManyForHeldKarp { n: usize, max: usize },
     #[error("brute force enumerates at most {max} waypoints ({n} given)")]
     TooManyForBruteForce { n: usize, max: usize },
+    #[error("the pair-cost dynamic programme solves at most {max} waypoints exactly ({n} given)")]
+    TooManyForPairs { n: usize, max: usize },
     #[error("cost of leg {from} -> {to} is not finite")]
     NonFiniteCost { from: usize, to: usize },
     #[error("no tour exists: {0}")]

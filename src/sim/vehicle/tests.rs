@@ -247,8 +247,15 @@ fn leg_energies(mission: &Mission, starts: &Log, log: &Log) -> Vec<(f64, f64)> {
             let (da, db) = (dist(w[0].1), dist(w[1].1));
             let t1 = w[0].0 + (w[1].0 - w[0].0) * (da - ARRIVAL_RADIUS_M) / (da - db);
             let xf = (q[0] - p[0]).hypot(q[1] - p[1]);
+            // Each leg after the one before: PX4 (and the mock) left the last hold past its
+            // waypoint, so the leg starts ahead of or behind its trajectory.
+            let previous = (k >= 2).then(|| {
+                let o = points[k - 2];
+                (p[0] - o[0], p[1] - o[1])
+            });
+            let start = crate::physics::start_case(previous, (q[0] - p[0], q[1] - p[1]));
             let predicted = model
-                .operation(Profile::Px4, xf, q[2] - p[2])
+                .operation_from(Profile::Px4, xf, q[2] - p[2], start)
                 .unwrap()
                 .energy_j;
             (energy_j(&power, t0, t1), predicted)
