@@ -186,7 +186,7 @@ pub struct EnergyTable {
 pub fn starts_of(profile: Profile) -> Vec<Start> {
     match profile {
         Profile::Px4 => Start::ALL.to_vec(),
-        Profile::Ptf | Profile::Hvb => vec![Start::Behind],
+        Profile::Ptf | Profile::Hvb | Profile::Ardupilot => vec![Start::Behind],
     }
 }
 
