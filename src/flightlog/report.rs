@@ -890,7 +890,10 @@ mod tests {
         assert_eq!(combined.flights, ["f1", "f2", "f3"]);
         // The mission over the complete flights: 61 and 63 of 60 kJ predicted.
         let mission = combined.mission.as_ref().expect("the mission");
-        assert_eq!((mission.flights, mission.measured.map(|m| m.n)), (3, Some(2)));
+        assert_eq!(
+            (mission.flights, mission.measured.map(|m| m.n)),
+            (3, Some(2))
+        );
         assert!((mission.error_pct().expect("both") - 100.0 / 30.0).abs() < 1e-9);
         let oa = &combined.legs[0];
         assert_eq!(

@@ -734,7 +734,10 @@ mod tests {
         let with = Model::new(&v).landing(Profile::Px4, 30.0).unwrap();
         let without = Model::new(&none).landing(Profile::Px4, 30.0).unwrap();
         let on_ground_s = v.px4.land_detector_s + v.px4.com_disarm_land_s;
-        assert!((on_ground_s - 3.2).abs() < 1e-12, "1.2 s measured, PX4's default 2 s");
+        assert!(
+            (on_ground_s - 3.2).abs() < 1e-12,
+            "1.2 s measured, PX4's default 2 s"
+        );
         assert_eq!(with.energy_j, without.energy_j);
         assert!((with.total_duration_s() - without.total_duration_s() - on_ground_s).abs() < 1e-9);
         let idle_j = (v.body.avionics_power_w + IDLE_SPIN_POWER_W) * on_ground_s;

@@ -574,7 +574,11 @@ mod tests {
             t += 0.02;
             sim.motion(t, -10.0, [0.0; 3]);
         }
-        assert_eq!(sim.now().state, PowerState::Air, "hovering before the descent");
+        assert_eq!(
+            sim.now().state,
+            PowerState::Air,
+            "hovering before the descent"
+        );
         let mut z = -10.0;
         while z < -1.0 {
             t += 0.02;
