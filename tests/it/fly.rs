@@ -68,8 +68,8 @@ fn fly_on_the_built_in_mock_measures_every_leg_within_three_percent_of_its_predi
     let report = fly(dir.path(), &[]);
     assert_eq!(report["ok"], true);
     assert_legs_within(&report, 3.0);
-    // The mock is a PX4 at the vehicle file's trajectory parameters: all 20 read, none differ.
-    assert_eq!(report["px4_parameters"]["read"], 20);
+    // The mock is a PX4 at the vehicle file's trajectory parameters: all 21 read, none differ.
+    assert_eq!(report["px4_parameters"]["read"], 21);
     assert_eq!(report["px4_parameters"]["differing"], serde_json::json!([]));
     // The flight's directory holds its log, samples, plan and report.
     let flight = PathBuf::from(report["log_dir"].as_str().unwrap());
