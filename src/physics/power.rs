@@ -14,7 +14,7 @@ use super::profile::line_limit;
 use super::px4::{self, Start};
 use super::rotor::Rotor;
 use super::trajectory::{
-    ardupilot_trajectory, path_peak_speed, px4_trajectory, quintic_line, Acceptance, Path,
+    path_peak_speed, px4_trajectory, quintic_line, sampled_trajectory, Acceptance, Path,
     Trajectory, ARRIVAL_RADIUS_M,
 };
 use super::vehicle::Vehicle;
@@ -389,7 +389,7 @@ impl<'a> Model<'a> {
                 let a = &v.ardupilot;
                 let samples =
                     ardupilot::leg(a, xf_m, zf_m).map_err(|e| no_trajectory(e.to_string()))?;
-                Ok(ardupilot_trajectory(a, samples, xf_m, zf_m, None))
+                Ok(sampled_trajectory(samples, xf_m, zf_m, a.steps, None))
             }
         }
     }
@@ -415,11 +415,11 @@ impl<'a> Model<'a> {
                     horizontal_m: a.wp_radius_m,
                     vertical_m: ardupilot::takeoff_complete_below_m(a),
                 };
-                Ok(ardupilot_trajectory(
-                    a,
+                Ok(sampled_trajectory(
                     samples,
                     0.0,
                     height_m,
+                    a.steps,
                     Some(complete),
                 ))
             }
@@ -447,7 +447,7 @@ impl<'a> Model<'a> {
             Profile::Ardupilot if height_m > 0.0 => {
                 let a = &self.vehicle.ardupilot;
                 let samples = ardupilot::landing(a, height_m)?;
-                Ok(ardupilot_trajectory(a, samples, 0.0, -height_m, None))
+                Ok(sampled_trajectory(samples, 0.0, -height_m, a.steps, None))
             }
             _ => self.trajectory(profile, 0.0, -height_m),
         }

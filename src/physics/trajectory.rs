@@ -6,7 +6,7 @@
 
 use super::profile::{trapezoid, Schedule};
 use super::px4;
-use super::vehicle::{ArdupilotParams, HvbParams, Px4Params};
+use super::vehicle::{HvbParams, Px4Params};
 
 /// The paper's operation-end rule: energy counts until within this distance of the end point.
 pub const ARRIVAL_RADIUS_M: f64 = 4.0;
@@ -345,30 +345,22 @@ pub(super) fn px4_trajectory(
     xf_m: f64,
     zf_m: f64,
 ) -> Trajectory {
-    Trajectory {
-        path: Path::Sampled {
-            samples,
-            xf_m,
-            zf_m,
-        },
-        settle_s: 0.0,
-        steps: x.steps as usize,
-        acceptance: Some(Acceptance {
-            horizontal_m: x.nav_acc_rad_m,
-            vertical_m: x.nav_mc_alt_rad_m,
-        }),
-        delay_s: 0.0,
-    }
+    let acceptance = Acceptance {
+        horizontal_m: x.nav_acc_rad_m,
+        vertical_m: x.nav_mc_alt_rad_m,
+    };
+    sampled_trajectory(samples, xf_m, zf_m, x.steps, Some(acceptance))
 }
 
-/// An ArduCopter motion as a trajectory: sampled, no settle hover (a leg ends at rest on the
-/// waypoint, where ArduCopter counts it reached); a take-off with the point where ArduCopter
-/// counts it complete.
-pub(super) fn ardupilot_trajectory(
-    a: &ArdupilotParams,
+/// An autopilot's sampled motion as a trajectory: no settle hover (a PX4 leg ends where PX4
+/// accepts the point; an ArduCopter leg at rest on the waypoint, where ArduCopter counts it
+/// reached), priced in `steps` steps, with the acceptance of its end point if it has one (an
+/// ArduCopter take-off: where ArduCopter counts it complete).
+pub(super) fn sampled_trajectory(
     samples: px4::Samples,
     xf_m: f64,
     zf_m: f64,
+    steps: u32,
     acceptance: Option<Acceptance>,
 ) -> Trajectory {
     Trajectory {
@@ -378,7 +370,7 @@ pub(super) fn ardupilot_trajectory(
             zf_m,
         },
         settle_s: 0.0,
-        steps: a.steps as usize,
+        steps: steps as usize,
         acceptance,
         delay_s: 0.0,
     }
