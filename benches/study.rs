@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use emplan::physics::{EnergyTable, Vehicle};
-use emplan::planner::study::{run_study, StudySettings};
+use emplan::planner::study::{run_study, BaselineDirection, StudySettings};
 
 fn study_bench(c: &mut Criterion) {
     let dir = Path::new("models/s1000");
@@ -27,6 +27,7 @@ fn study_bench(c: &mut Criterion) {
         b.iter(|| {
             run_study(
                 &settings,
+                BaselineDirection::Better,
                 |x, z| table.lookup(x, z).map(|leg| leg.total_energy_j()),
                 &|| {},
             )

@@ -75,7 +75,8 @@ enum Command {
     /// Each mission has N waypoints uniform in [-XY, XY] m east and north and [-Z, Z] m up around
     /// the origin. For each, the minimum-energy order (exact) is compared with the min-distance
     /// (D), min-horizontal (X) and min-vertical (Z, ties by X) orders, each in its better
-    /// direction. Reported per baseline: the energy increase over the minimum-energy order, mean,
+    /// direction (or, with --baseline-direction solver, in the direction a solver returns).
+    /// Reported per baseline: the energy increase over the minimum-energy order, mean,
     /// 90th percentile (nearest rank: the ceil(0.9 K)-th smallest of K missions) and maximum; and
     /// the shares of missions where the min-D order differs from the energy order and where min-Z
     /// or min-X beats min-D. Mission K of a study is

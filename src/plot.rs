@@ -12,7 +12,7 @@ use crate::mission::{Enu, Mission};
 use crate::physics::Profile;
 use crate::planner::explain::saving_words;
 use crate::planner::json::energy_kj;
-use crate::planner::study::{Study, BASELINES};
+use crate::planner::study::{BaselineDirection, Study, BASELINES};
 use crate::planner::{Order, Plan};
 use crate::tour::Objective;
 use plotters::coord::types::RangedCoordf64;
@@ -294,7 +294,8 @@ fn baseline_label(baseline: Objective) -> &'static str {
 }
 
 /// Histograms of the energy ratio baseline / minimum energy over the study's missions, one
-/// panel per baseline (its better direction), sharing the ratio axis.
+/// panel per baseline (in the study's direction: its better one or the solver's), sharing the
+/// ratio axis.
 pub fn study_histogram_svg(study: &Study, profile: Profile) -> Result<String, PlotError> {
     const BINS: usize = 40;
     let s = &study.settings;
@@ -314,8 +315,12 @@ pub fn study_histogram_svg(study: &Study, profile: Profile) -> Result<String, Pl
         let root = root
             .titled(
                 &format!(
-                    "baseline energy (better direction) / minimum energy: {} missions, {} \
+                    "baseline energy ({} direction) / minimum energy: {} missions, {} \
                      waypoints in ±{} x ±{} x ±{} m, seed {}, {profile}",
+                    match study.direction {
+                        BaselineDirection::Better => "better",
+                        BaselineDirection::Solver => "solver's",
+                    },
                     study.outcomes.len(),
                     s.waypoints,
                     s.xy_m,

@@ -56,6 +56,7 @@ fn study_json_has_the_design_keys_and_ordered_statistics() {
     }
     assert_eq!(doc["profile"], "ptf");
     assert_eq!(doc["waypoints"], 7);
+    assert_eq!(doc["baseline_direction"], "better");
 }
 
 #[test]
@@ -267,4 +268,85 @@ fn a_thousand_waypoint_mission_is_generated_above_the_minimum_height() {
         "25",
     ]);
     assert!(!ok && stderr.contains("--waypoints"), "{stderr}");
+}
+
+/// The energies `emplan plan --json` gives a generated mission: the energy order's, and the
+/// min-distance tour's forward (first waypoint earlier in the file) and reverse directions, kJ.
+fn planned_directions(path: &std::path::Path) -> (f64, f64, f64) {
+    let plan = json(&["plan", path.to_str().unwrap(), "--json", "--profile=ptf"]);
+    let energy_of = |objective: &str, direction: &str| {
+        plan["orders"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|o| o["objective"] == objective && o["direction"] == direction)
+            .and_then(|o| o["energy_kj"].as_f64())
+            .unwrap_or_else(|| panic!("no {objective} {direction} order in {plan}"))
+    };
+    (
+        energy_of("energy", "forward"),
+        energy_of("distance", "forward"),
+        energy_of("distance", "reverse"),
+    )
+}
+
+#[test]
+fn the_solver_direction_reports_the_file_order_tour_and_the_better_one_its_cheaper_reverse() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("random.toml");
+    // The first of the study's one-mission seeds whose min-distance tour is cheaper reversed.
+    let found = (1..=30).find_map(|seed: u64| {
+        let seed_arg = seed.to_string();
+        let (ok, _, stderr) = emplan(&[
+            "generate",
+            path.to_str().unwrap(),
+            "--force",
+            "--waypoints=6",
+            "--xy=30",
+            "--z=25",
+            "--seed",
+            &seed_arg,
+            "--mission=0",
+        ]);
+        assert!(ok, "{stderr}");
+        let (energy, forward, reverse) = planned_directions(&path);
+        (reverse < forward).then_some((seed_arg, energy, forward, reverse))
+    });
+    let (seed, energy, forward, reverse) = found.expect("a tour cheaper reversed in 30 seeds");
+    let study = |direction: &str| {
+        json(&[
+            "study",
+            "--waypoints=6",
+            "--xy=30",
+            "--z=25",
+            "--missions=1",
+            "--seed",
+            &seed,
+            "--profile=ptf",
+            "--baseline-direction",
+            direction,
+            "--json",
+        ])
+    };
+    let solver = study("solver");
+    let better = study("better");
+    assert_eq!(solver["baseline_direction"], "solver");
+    assert_eq!(better["baseline_direction"], "better");
+    let increase = |kj: f64| 100.0 * (kj - energy) / energy;
+    let mean = |doc: &Value| pct(&doc["distance"], "mean_pct");
+    assert!(
+        (mean(&solver) - increase(forward)).abs() < 1e-6,
+        "seed {seed}: solver {} against the forward tour's {}",
+        mean(&solver),
+        increase(forward)
+    );
+    assert!(
+        (mean(&better) - increase(reverse).max(0.0)).abs() < 1e-6,
+        "seed {seed}: better {} against the reverse tour's {}",
+        mean(&better),
+        increase(reverse)
+    );
+    assert!(mean(&solver) > mean(&better));
+    // Flown the dearer way round, the min-distance tour is never the energy order.
+    assert_eq!(pct(&solver, "distance_differs_pct"), 100.0);
 }

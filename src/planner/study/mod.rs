@@ -2,7 +2,8 @@
 //! generate` compute: many random missions of N waypoints drawn uniformly in a box around the
 //! origin (`random`); for each, the minimum-energy order and the three distance baselines (min 3D
 //! distance, min horizontal, min vertical with ties broken by horizontal), each baseline flown in
-//! its better direction; then the energy increase of every baseline over the minimum-energy
+//! its better direction or in the direction a solver returns without looking at energy
+//! ([`BaselineDirection`]); then the energy increase of every baseline over the minimum-energy
 //! order, summarised as mean, 90th percentile and maximum, and the share of missions whose
 //! min-distance order differs from the energy order (`summary`, with the JSON view). `vehicle`
 //! runs it with a vehicle's energy table.
@@ -42,6 +43,29 @@ pub const BASELINES: [Objective; 3] = [
     Objective::Horizontal,
     Objective::Vertical,
 ];
+
+/// Which direction of each baseline tour the study flies. A distance baseline is a symmetric
+/// tour: a solver returns it in one direction, and the same tour flown backwards costs a
+/// different energy (climbs become descents).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum BaselineDirection {
+    /// The cheaper of the tour and its reverse: the fair comparison for a user.
+    #[default]
+    Better,
+    /// The direction an energy-blind solver returns, made reproducible: the one whose first
+    /// waypoint comes earlier in the mission file than its last (`emplan plan`'s "forward").
+    Solver,
+}
+
+impl std::fmt::Display for BaselineDirection {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            BaselineDirection::Better => "better",
+            BaselineDirection::Solver => "solver",
+        })
+    }
+}
 
 /// One study setting: `waypoints` per mission, uniform in [-xy_m, xy_m]^2 horizontally and
 /// [-z_m, z_m] vertically around the origin (0, 0, 0); `missions` missions from `seed`.
@@ -128,10 +152,12 @@ impl StudySettings {
     }
 }
 
-/// A finished study: its settings, every mission's outcome (in mission order) and the summary.
+/// A finished study: its settings, the baselines' direction, every mission's outcome (in mission
+/// order) and the summary.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Study {
     pub settings: StudySettings,
+    pub direction: BaselineDirection,
     pub outcomes: Vec<MissionOutcome>,
     pub summary: Summary,
 }
@@ -188,10 +214,11 @@ fn node_name(node: usize) -> String {
 
 /// Runs mission `mission` of a study: draws its waypoints, prices every leg with
 /// `leg_energy_j(xf_m, zf_m)` (joules, take-off hover to settled hover), solves the energy order
-/// and the three baselines, and prices both directions of each baseline.
+/// and the three baselines, and prices each baseline in `direction`.
 pub fn run_mission<E: Display>(
     settings: &StudySettings,
     mission: u64,
+    direction: BaselineDirection,
     leg_energy_j: &(impl Fn(f64, f64) -> Result<f64, E> + ?Sized),
 ) -> Result<MissionOutcome, StudyError> {
     let geometry = mission_geometry(settings, mission);
@@ -216,21 +243,29 @@ pub fn run_mission<E: Display>(
     let plan_err = |source| StudyError::Plan { mission, source };
     let energy_order =
         solve_order(&geometry, Objective::Energy, Some(&energy)).map_err(plan_err)?;
-    let mut better = [0.0; 3];
+    let mut flown = [0.0; 3];
     let mut distance_differs = true;
-    for (slot, baseline) in better.iter_mut().zip(BASELINES) {
+    for (slot, baseline) in flown.iter_mut().zip(BASELINES) {
+        // The baselines come back in their forward direction (the solver's, made reproducible).
         let forward = solve_order(&geometry, baseline, None).map_err(plan_err)?;
         let reverse: Vec<usize> = forward.iter().rev().copied().collect();
-        *slot = energy.tour_cost(&forward).min(energy.tour_cost(&reverse));
+        let (cost, differs) = match direction {
+            BaselineDirection::Better => (
+                energy.tour_cost(&forward).min(energy.tour_cost(&reverse)),
+                energy_order != forward && energy_order != reverse,
+            ),
+            BaselineDirection::Solver => (energy.tour_cost(&forward), energy_order != forward),
+        };
+        *slot = cost;
         if baseline == Objective::Distance {
-            distance_differs = energy_order != forward && energy_order != reverse;
+            distance_differs = differs;
         }
     }
     Ok(MissionOutcome {
         energy_j: energy.tour_cost(&energy_order),
-        distance_j: better[0],
-        horizontal_j: better[1],
-        vertical_j: better[2],
+        distance_j: flown[0],
+        horizontal_j: flown[1],
+        vertical_j: flown[2],
         distance_differs,
     })
 }
@@ -240,6 +275,7 @@ pub fn run_mission<E: Display>(
 /// failing mission, so errors reproduce too.
 pub fn run_study<E: Display>(
     settings: &StudySettings,
+    direction: BaselineDirection,
     leg_energy_j: impl Fn(f64, f64) -> Result<f64, E> + Sync,
     progress: &(dyn Fn() + Sync),
 ) -> Result<Study, StudyError> {
@@ -247,7 +283,7 @@ pub fn run_study<E: Display>(
     let results: Vec<Result<MissionOutcome, StudyError>> = (0..settings.missions as u64)
         .into_par_iter()
         .map(|k| {
-            let outcome = run_mission(settings, k, &leg_energy_j);
+            let outcome = run_mission(settings, k, direction, &leg_energy_j);
             progress();
             outcome
         })
@@ -256,6 +292,7 @@ pub fn run_study<E: Display>(
     let summary = Summary::of(&outcomes);
     Ok(Study {
         settings: *settings,
+        direction,
         outcomes,
         summary,
     })
@@ -282,6 +319,12 @@ mod tests {
 
     fn no_progress() {}
 
+    /// Climbs priced by the square of their height: a closed tour climbs as much as it descends,
+    /// so a cost linear in the climb would price a tour and its reverse alike.
+    fn steep_climbs_dear(xf_m: f64, zf_m: f64) -> Result<f64, String> {
+        Ok(100.0 * (xf_m + 0.5 * zf_m.max(0.0).powi(2) + 0.5 * (-zf_m).max(0.0)))
+    }
+
     #[test]
     fn the_study_reproduces_from_its_seed_whatever_the_thread_count() {
         let s = settings(7, 60, 42);
@@ -289,16 +332,26 @@ mod tests {
             .num_threads(1)
             .build()
             .unwrap()
-            .install(|| run_study(&s, climb_averse, &no_progress).unwrap());
-        let default = run_study(&s, climb_averse, &no_progress).unwrap();
+            .install(|| {
+                run_study(&s, BaselineDirection::Better, climb_averse, &no_progress).unwrap()
+            });
+        let default = run_study(&s, BaselineDirection::Better, climb_averse, &no_progress).unwrap();
         let three_threads = rayon::ThreadPoolBuilder::new()
             .num_threads(3)
             .build()
             .unwrap()
-            .install(|| run_study(&s, climb_averse, &no_progress).unwrap());
+            .install(|| {
+                run_study(&s, BaselineDirection::Better, climb_averse, &no_progress).unwrap()
+            });
         assert_eq!(one_thread, default);
         assert_eq!(one_thread, three_threads);
-        let other_seed = run_study(&settings(7, 60, 43), climb_averse, &no_progress).unwrap();
+        let other_seed = run_study(
+            &settings(7, 60, 43),
+            BaselineDirection::Better,
+            climb_averse,
+            &no_progress,
+        )
+        .unwrap();
         assert_ne!(other_seed.summary, default.summary);
     }
 
@@ -307,6 +360,7 @@ mod tests {
         let s = settings(8, 80, 5);
         let study = run_study(
             &s,
+            BaselineDirection::Better,
             |x: f64, z: f64| Ok::<f64, String>(250.0 * x.hypot(z)),
             &no_progress,
         )
@@ -323,7 +377,13 @@ mod tests {
 
     #[test]
     fn with_a_climb_averse_cost_the_increases_are_positive_and_ordered() {
-        let study = run_study(&settings(8, 200, 9), climb_averse, &no_progress).unwrap();
+        let study = run_study(
+            &settings(8, 200, 9),
+            BaselineDirection::Better,
+            climb_averse,
+            &no_progress,
+        )
+        .unwrap();
         let sum = study.summary;
         for stats in [sum.distance, sum.horizontal, sum.vertical] {
             assert!(stats.mean_pct > 0.0, "{sum:?}");
@@ -344,18 +404,67 @@ mod tests {
     }
 
     #[test]
+    fn the_solver_direction_flies_the_forward_tour_and_the_better_one_the_cheaper_direction() {
+        let s = settings(7, 120, 17);
+        let run = |direction| run_study(&s, direction, steep_climbs_dear, &no_progress).unwrap();
+        let (better, solver) = (
+            run(BaselineDirection::Better),
+            run(BaselineDirection::Solver),
+        );
+        assert_eq!(solver.direction, BaselineDirection::Solver);
+        let mut dearer = 0;
+        for (k, (b, f)) in better.outcomes.iter().zip(&solver.outcomes).enumerate() {
+            assert_eq!(
+                b.energy_j, f.energy_j,
+                "mission {k}: the energy order is the same"
+            );
+            // Priced here from the mission's own geometry: the forward min-distance tour.
+            let geometry = mission_geometry(&s, k as u64);
+            let names: Vec<String> = (0..geometry.len()).map(node_name).collect();
+            let energy = energy_matrix(&geometry, &names, steep_climbs_dear).unwrap();
+            let forward = solve_order(&geometry, Objective::Distance, None).unwrap();
+            let reverse: Vec<usize> = forward.iter().rev().copied().collect();
+            assert!(forward.first() < forward.last(), "mission {k}: {forward:?}");
+            assert_eq!(f.distance_j, energy.tour_cost(&forward), "mission {k}");
+            assert_eq!(
+                b.distance_j,
+                energy.tour_cost(&forward).min(energy.tour_cost(&reverse)),
+                "mission {k}"
+            );
+            if f.distance_j > b.distance_j * (1.0 + 1e-9) {
+                dearer += 1;
+                // Flown the dearer way round, the tour cannot be the energy order.
+                assert!(f.distance_differs, "mission {k}");
+            }
+            assert!(f.distance_differs || !b.distance_differs, "mission {k}");
+        }
+        // The file order is blind to energy: about half the tours are the dearer way round.
+        assert!((20..=100).contains(&dearer), "{dearer} of 120 dearer");
+        assert!(solver.summary.distance.mean_pct > better.summary.distance.mean_pct);
+        assert!(solver.summary.distance_differs_pct > better.summary.distance_differs_pct);
+    }
+
+    #[test]
     fn progress_is_reported_once_per_mission() {
         let done = std::sync::atomic::AtomicUsize::new(0);
         let count = || {
             done.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         };
-        run_study(&settings(5, 37, 2), climb_averse, &count).unwrap();
+        run_study(
+            &settings(5, 37, 2),
+            BaselineDirection::Better,
+            climb_averse,
+            &count,
+        )
+        .unwrap();
         assert_eq!(done.into_inner(), 37);
     }
 
     #[test]
     fn bad_settings_are_errors_naming_the_setting() {
-        let err = |s: StudySettings| run_study(&s, climb_averse, &no_progress).unwrap_err();
+        let err = |s: StudySettings| {
+            run_study(&s, BaselineDirection::Better, climb_averse, &no_progress).unwrap_err()
+        };
         let zero = err(settings(0, 10, 1));
         assert!(
             matches!(
@@ -389,15 +498,15 @@ mod tests {
                 Ok(x + z.abs())
             }
         };
-        let e = run_study(&s, capped, &no_progress).unwrap_err();
+        let e = run_study(&s, BaselineDirection::Better, capped, &no_progress).unwrap_err();
         let StudyError::LegEnergy { mission, zf_m, .. } = &e else {
             panic!("unexpected error {e}");
         };
         assert!(*zf_m > 45.0);
         // The lowest-numbered failing mission is reported, and it really fails.
-        assert!(run_mission(&s, *mission, &capped).is_err());
+        assert!(run_mission(&s, *mission, BaselineDirection::Better, &capped).is_err());
         for k in 0..*mission {
-            assert!(run_mission(&s, k, &capped).is_ok());
+            assert!(run_mission(&s, k, BaselineDirection::Better, &capped).is_ok());
         }
         assert!(e
             .to_string()

@@ -4,23 +4,25 @@
 use serde::Serialize;
 
 use super::vehicle::StudyRun;
+use super::BaselineDirection;
 use crate::physics::{Pricing, Profile};
 use crate::tour::Objective;
 
 /// What one mission of the study found. Energies are whole tours (origin to origin), each
-/// baseline in its better direction.
+/// baseline in the study's direction (its better one, or the solver's).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MissionOutcome {
     pub energy_j: f64,
     pub distance_j: f64,
     pub horizontal_j: f64,
     pub vertical_j: f64,
-    /// The min-distance tour, in neither direction, is the minimum-energy order.
+    /// The min-distance tour, in the direction flown (in neither, for the better direction), is
+    /// not the minimum-energy order.
     pub distance_differs: bool,
 }
 
 impl MissionOutcome {
-    /// Tour energy of an objective's order (a baseline's better direction).
+    /// Tour energy of an objective's order (a baseline in the direction flown).
     pub fn energy_of(&self, objective: Objective) -> f64 {
         match objective {
             Objective::Energy => self.energy_j,
@@ -42,7 +44,7 @@ impl MissionOutcome {
         1.0 + self.increase_pct(baseline) / 100.0
     }
 
-    /// Whether `baseline`'s better direction needs strictly less energy than min-distance's
+    /// Whether `baseline`, in the direction flown, needs strictly less energy than min-distance
     /// (by more than a relative 1e-9, so the same tour found twice is not a win).
     pub fn beats_distance(&self, baseline: Objective) -> bool {
         self.energy_of(baseline) < self.distance_j * (1.0 - 1e-9)
@@ -135,6 +137,8 @@ pub struct StudyJson {
     pub profile: Profile,
     /// What each leg's energy counted: "settled" or "paper" (to the 4 m rule).
     pub pricing: Pricing,
+    /// Which direction of each baseline tour was flown: "better" or "solver".
+    pub baseline_direction: BaselineDirection,
     #[serde(flatten)]
     pub summary: Summary,
     pub worst_mission: Worst,
@@ -151,6 +155,7 @@ pub fn study_document(run: &StudyRun) -> StudyJson {
         seed: s.seed,
         profile: run.profile,
         pricing: run.pricing,
+        baseline_direction: run.study.direction,
         summary: run.study.summary,
         worst_mission: Worst {
             distance: run.study.worst_mission(Objective::Distance),

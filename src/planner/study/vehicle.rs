@@ -4,7 +4,7 @@
 
 use std::time::Instant;
 
-use super::{run_study, Study, StudyError, StudySettings};
+use super::{run_study, BaselineDirection, Study, StudyError, StudySettings};
 use crate::physics::{EnergyTable, Pricing, Profile, VehicleModel};
 
 /// A study run with a vehicle.
@@ -89,24 +89,27 @@ pub fn check_envelope(s: &StudySettings, table: &EnergyTable) -> Result<(), Stud
     Ok(())
 }
 
-/// Runs the study of `settings` with `model`'s energy table, each leg priced as `pricing` says;
-/// `progress` is called once per finished mission, from any thread.
+/// Runs the study of `settings` with `model`'s energy table, each leg priced as `pricing` says and
+/// each baseline flown in `direction`; `progress` is called once per finished mission, from any
+/// thread.
 pub fn run(
     settings: &StudySettings,
     model: &VehicleModel,
     pricing: Pricing,
+    direction: BaselineDirection,
     progress: &(dyn Fn() + Sync),
 ) -> Result<StudyRun, StudyRunError> {
     check_envelope(settings, &model.table)?;
     let started = Instant::now();
     let leg_energy_j =
         |xf_m: f64, zf_m: f64| model.leg(xf_m, zf_m).map(|l| l.priced_energy_j(pricing));
-    let study =
-        run_study(settings, leg_energy_j, progress).map_err(|cause| StudyRunError::Run {
+    let study = run_study(settings, direction, leg_energy_j, progress).map_err(|cause| {
+        StudyRunError::Run {
             settings: *settings,
             profile: model.profile,
             cause: Box::new(cause),
-        })?;
+        }
+    })?;
     Ok(StudyRun {
         study,
         profile: model.profile,
@@ -142,17 +145,25 @@ mod tests {
     #[test]
     fn settings_whose_legs_leave_the_table_are_refused_before_any_mission_is_drawn() {
         let m = model();
-        let wide = run(&settings(60.0, 10.0), &m, Pricing::Settled, &|| {
-            panic!("no mission runs")
-        })
+        let wide = run(
+            &settings(60.0, 10.0),
+            &m,
+            Pricing::Settled,
+            BaselineDirection::Better,
+            &|| panic!("no mission runs"),
+        )
         .unwrap_err();
         assert!(
             matches!(wide, StudyRunError::TooWide { reach_m, .. } if reach_m > 150.0),
             "{wide}"
         );
-        let high = run(&settings(20.0, 31.0), &m, Pricing::Settled, &|| {
-            panic!("no mission runs")
-        })
+        let high = run(
+            &settings(20.0, 31.0),
+            &m,
+            Pricing::Settled,
+            BaselineDirection::Better,
+            &|| panic!("no mission runs"),
+        )
         .unwrap_err();
         assert!(
             matches!(high, StudyRunError::TooHigh { allowed_z_m, .. } if allowed_z_m == 30.0),
@@ -164,18 +175,20 @@ mod tests {
     fn the_study_of_a_vehicle_prices_legs_from_its_table_and_its_view_names_the_worst_missions() {
         let m = model();
         let s = settings(30.0, 20.0);
-        let done = run(&s, &m, Pricing::Settled, &|| {}).unwrap();
+        let done = run(&s, &m, Pricing::Settled, BaselineDirection::Better, &|| {}).unwrap();
         let direct = run_study(
             &s,
+            BaselineDirection::Better,
             |x: f64, z: f64| m.table.lookup(x, z).map(|l| l.total_energy_j()),
             &|| {},
         )
         .unwrap();
         assert_eq!(done.study, direct);
         // The paper's pricing counts each leg to the 4 m rule only, and says so.
-        let paper = run(&s, &m, Pricing::Paper, &|| {}).unwrap();
+        let paper = run(&s, &m, Pricing::Paper, BaselineDirection::Better, &|| {}).unwrap();
         let direct_paper = run_study(
             &s,
+            BaselineDirection::Better,
             |x: f64, z: f64| m.table.lookup(x, z).map(|l| l.energy_j),
             &|| {},
         )
