@@ -17,7 +17,9 @@
 //!   not a fast waypoint: the leg ends at rest on it, and ArduCopter counts it reached when the
 //!   S-curve has finished and the vehicle is within WP_RADIUS_M (`advance_wp_target_along_track`),
 //!   where its hold starts (ArduCopter/mode_auto.cpp `verify_nav_wp`). The trajectory's clock is
-//!   slowed only while the vehicle falls behind its target, which this profile does not model;
+//!   slowed while the vehicle falls behind its target, which depends on the vehicle's response
+//!   and is not modelled here: `physics::power` prices it as a hover of `tracking_lag_s` before
+//!   the S-curve (calibrated to a vehicle's leg durations);
 //! - `ArduCopter/takeoff.cpp` `_AutoTakeoff::run`: NAV_TAKEOFF moves the vertical position
 //!   target to the take-off altitude through `AC_PosControl::input_pos_vel_accel_U`
 //!   (`control.cpp` `shape_pos_vel_accel`: a square-root approach with speed limits WP_SPD_UP

@@ -389,7 +389,12 @@ impl<'a> Model<'a> {
                 let a = &v.ardupilot;
                 let samples =
                     ardupilot::leg(a, xf_m, zf_m).map_err(|e| no_trajectory(e.to_string()))?;
-                Ok(sampled_trajectory(samples, xf_m, zf_m, a.steps, None))
+                // The vehicle trailing its S-curve makes the leg longer by the tracking lag,
+                // priced as hover before it moves (as the PTF's).
+                Ok(Trajectory {
+                    delay_s: a.tracking_lag_s,
+                    ..sampled_trajectory(samples, xf_m, zf_m, a.steps, None)
+                })
             }
         }
     }
