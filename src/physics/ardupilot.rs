@@ -48,6 +48,11 @@ pub const STEP_S: f64 = 0.01;
 /// The longest a single motion may take before it is refused.
 const MAX_DURATION_S: f64 = 3600.0;
 
+/// How long ArduCopter's land detector waits, its conditions met on the ground, before it says
+/// landed (ArduCopter/land_detector.cpp LAND_DETECTOR_TRIGGER_SEC); AUTO's NAV_LAND then
+/// disarms (mode_auto.cpp `verify_land`).
+pub const LAND_DETECTOR_TRIGGER_S: f64 = 1.0;
+
 /// ArduPilot's GRAVITY_MSS (libraries/AP_Math/definitions.h).
 const GRAVITY_MSS: f64 = 9.80665;
 
