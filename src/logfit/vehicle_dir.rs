@@ -81,6 +81,7 @@ pub fn value_of(v: &Vehicle, key: &str) -> f64 {
         "battery.internal_resistance_ohm" => v.battery.internal_resistance_ohm,
         "battery.capacity_ah" => v.battery.capacity_ah,
         "planning.usable_energy_wh" => v.planning.usable_energy_wh,
+        "ardupilot.tracking_lag_s" => v.ardupilot.tracking_lag_s,
         _ => f64::NAN,
     }
 }
@@ -95,6 +96,7 @@ pub fn set_value(v: &mut Vehicle, key: &str, value: f64) {
         "battery.internal_resistance_ohm" => v.battery.internal_resistance_ohm = value,
         "battery.capacity_ah" => v.battery.capacity_ah = value,
         "planning.usable_energy_wh" => v.planning.usable_energy_wh = value,
+        "ardupilot.tracking_lag_s" => v.ardupilot.tracking_lag_s = value,
         _ => {}
     }
 }
@@ -214,6 +216,12 @@ pub fn write_vehicle(
                     ),
                     "battery.internal_resistance_ohm" | "battery.capacity_ah" => format!(
                         "calibrated against the pack voltage and current of logged flights (`emplan calibrate --from-logs`); was {}",
+                        f.before
+                    ),
+                    "ardupilot.tracking_lag_s" => format!(
+                        "calibrated against the leg durations of logged flights {} (`emplan calibrate --from-logs`){}; was {}",
+                        to.flights.join(", "),
+                        f.at_bound.map_or(String::new(), |b| format!(", at its {b} bound")),
                         f.before
                     ),
                     _ => format!(

@@ -17,7 +17,9 @@
 //!   not a fast waypoint: the leg ends at rest on it, and ArduCopter counts it reached when the
 //!   S-curve has finished and the vehicle is within WP_RADIUS_M (`advance_wp_target_along_track`),
 //!   where its hold starts (ArduCopter/mode_auto.cpp `verify_nav_wp`). The trajectory's clock is
-//!   slowed only while the vehicle falls behind its target, which this profile does not model;
+//!   slowed while the vehicle falls behind its target, which depends on the vehicle's response
+//!   and is not modelled here: `physics::power` prices it as a hover of `tracking_lag_s` before
+//!   the S-curve (calibrated to a vehicle's leg durations);
 //! - `ArduCopter/takeoff.cpp` `_AutoTakeoff::run`: NAV_TAKEOFF moves the vertical position
 //!   target to the take-off altitude through `AC_PosControl::input_pos_vel_accel_U`
 //!   (`control.cpp` `shape_pos_vel_accel`: a square-root approach with speed limits WP_SPD_UP
@@ -45,6 +47,11 @@ pub const STEP_S: f64 = 0.01;
 
 /// The longest a single motion may take before it is refused.
 const MAX_DURATION_S: f64 = 3600.0;
+
+/// How long ArduCopter's land detector waits, its conditions met on the ground, before it says
+/// landed (ArduCopter/land_detector.cpp LAND_DETECTOR_TRIGGER_SEC); AUTO's NAV_LAND then
+/// disarms (mode_auto.cpp `verify_land`).
+pub const LAND_DETECTOR_TRIGGER_S: f64 = 1.0;
 
 /// ArduPilot's GRAVITY_MSS (libraries/AP_Math/definitions.h).
 const GRAVITY_MSS: f64 = 9.80665;

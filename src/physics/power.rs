@@ -389,7 +389,12 @@ impl<'a> Model<'a> {
                 let a = &v.ardupilot;
                 let samples =
                     ardupilot::leg(a, xf_m, zf_m).map_err(|e| no_trajectory(e.to_string()))?;
-                Ok(sampled_trajectory(samples, xf_m, zf_m, a.steps, None))
+                // The vehicle trailing its S-curve makes the leg longer by the tracking lag,
+                // priced as hover before it moves (as the PTF's).
+                Ok(Trajectory {
+                    delay_s: a.tracking_lag_s,
+                    ..sampled_trajectory(samples, xf_m, zf_m, a.steps, None)
+                })
             }
         }
     }
@@ -461,15 +466,22 @@ impl<'a> Model<'a> {
     }
 
     /// The landing from `height_m` priced: the descent to touchdown (its last 4 m as the
-    /// settle), then (PX4) the motors idling on the ground, added to the settle, until PX4
-    /// disarms: the land detector's three phases (ground contact, maybe landed, landed:
-    /// `land_detector_s`) and COM_DISARM_LAND after them (commander's auto-disarm).
+    /// settle), then the motors idling on the ground, added to the settle, until the autopilot
+    /// disarms: PX4's land detector's three phases (ground contact, maybe landed, landed:
+    /// `land_detector_s`) and COM_DISARM_LAND after them (commander's auto-disarm); ArduCopter's
+    /// land detector ([`ardupilot::LAND_DETECTOR_TRIGGER_S`]), after which it disarms.
     pub fn landing(&self, profile: Profile, height_m: f64) -> Result<Operation, PhysicsError> {
         let t = self.landing_trajectory(profile, height_m)?;
         let mut op = self.priced(&t, 0.0, -height_m, profile)?;
-        if profile == Profile::Px4 && height_m > 0.0 {
-            let x = &self.vehicle.px4;
-            let on_ground_s = x.land_detector_s + x.com_disarm_land_s;
+        let on_ground_s = match profile {
+            Profile::Px4 => {
+                let x = &self.vehicle.px4;
+                x.land_detector_s + x.com_disarm_land_s
+            }
+            Profile::Ardupilot => ardupilot::LAND_DETECTOR_TRIGGER_S,
+            Profile::Ptf | Profile::Hvb => 0.0,
+        };
+        if on_ground_s > 0.0 && height_m > 0.0 {
             op.settle_duration_s += on_ground_s;
             op.settle_energy_j +=
                 (self.vehicle.body.avionics_power_w + IDLE_SPIN_POWER_W) * on_ground_s;
@@ -745,5 +757,25 @@ mod tests {
         // The other profiles end at touchdown.
         let ptf = Model::new(&v).landing(Profile::Ptf, 30.0).unwrap();
         assert_eq!(ptf, Model::new(&none).landing(Profile::Ptf, 30.0).unwrap());
+    }
+
+    #[test]
+    fn an_ardupilot_landing_ends_when_its_land_detector_says_landed_the_motors_idling() {
+        let v = crate::physics::vehicle::shipped();
+        let model = Model::new(&v);
+        let op = model.landing(Profile::Ardupilot, 20.0).unwrap();
+        let descent = model.landing_trajectory(Profile::Ardupilot, 20.0).unwrap();
+        let on_ground_s = ardupilot::LAND_DETECTOR_TRIGGER_S;
+        assert_eq!(on_ground_s, 1.0);
+        assert!(
+            (op.total_duration_s() - descent.duration_s() - on_ground_s).abs() < 1e-9,
+            "{op:?}"
+        );
+        let in_air_j = model
+            .trajectory_energy_j(&descent, (0.0, descent.duration_s()), 4000)
+            .unwrap();
+        let idle_j = (v.body.avionics_power_w + IDLE_SPIN_POWER_W) * on_ground_s;
+        let rel = (op.total_energy_j() - in_air_j - idle_j) / op.total_energy_j();
+        assert!(rel.abs() < 1e-3, "{rel}");
     }
 }

@@ -145,7 +145,8 @@ pub struct Trajectory {
     /// Midpoint-rule steps to price it with.
     pub(super) steps: usize,
     pub(super) acceptance: Option<Acceptance>,
-    /// Hover before the path starts: the tracking controller's lag behind its reference (PTF).
+    /// Hover before the path starts: the tracking controller's lag behind its reference (PTF,
+    /// and ArduCopter's legs).
     pub(super) delay_s: f64,
 }
 
@@ -165,7 +166,8 @@ impl Trajectory {
         self.delay_s + self.path.duration_s()
     }
 
-    /// Hover at the start before the vehicle moves (the PTF's tracking lag; 0 otherwise).
+    /// Hover at the start before the vehicle moves (the PTF's and ArduCopter's legs' tracking
+    /// lag; 0 otherwise).
     pub fn delay_s(&self) -> f64 {
         self.delay_s
     }

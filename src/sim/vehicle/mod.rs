@@ -220,7 +220,8 @@ impl<'v> SimVehicle<'v> {
                 Flavour::Px4 | Flavour::Generic => Flight::new(vehicle, profile)?
                     .with_land_detection(1.2)
                     .with_instant_rtl_item(),
-                Flavour::ArduPilot => Flight::new(vehicle, profile)?.with_land_detection(1.0),
+                Flavour::ArduPilot => Flight::new(vehicle, profile)?
+                    .with_land_detection(crate::physics::ardupilot::LAND_DETECTOR_TRIGGER_S),
             },
             pack: Pack::new(vehicle, config.state_of_charge),
             monitor: Monitor::new(config.noise, filter_s, config.seed),
