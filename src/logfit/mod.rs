@@ -761,7 +761,17 @@ pub fn fit(
     };
     let start = vec![1.0; KNOBS.len()];
     let step = vec![0.1; KNOBS.len()];
-    let best = nelder_mead(&start, &step, iterations, &constrained);
+    // The free fit first: when it flies the envelope, the envelope did not bind and the search
+    // never meets its wall (a wall of infinities can stall the simplex short of the optimum).
+    // Only a free fit that cannot fly the envelope is searched again within it.
+    let free = nelder_mead(&start, &step, iterations, &objective);
+    let best = match envelope_failure(&apply(&free), profile) {
+        None => free,
+        Some(_) => {
+            constrained(&free);
+            nelder_mead(&start, &step, iterations, &constrained)
+        }
+    };
     let best_value = objective(&best);
     let bound = refused
         .into_inner()

@@ -149,8 +149,9 @@ fn calibration_from_logs_of_a_perturbed_vehicle_brings_held_out_leg_error_under_
     let drag = fitted_value(&c["fitted"], "body.drag_coefficient_n_s2_m2");
     assert!(
         (mass / true_mass - 1.0).abs() < 0.05,
-        "{mass} vs {true_mass}: {}",
-        c["fitted"]
+        "{mass} vs {true_mass}: {} (envelope bound: {})",
+        c["fitted"],
+        c["envelope_bound"]
     );
     // The body drag is not held to the truth: the refitted S1000's horizontal drag is small
     // (0.05 N s^2/m^2) beside the rotors' own losses, so these legs pin it loosely and the fit
