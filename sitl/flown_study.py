@@ -21,31 +21,20 @@ import os
 import re
 import sys
 
+import check_orders
+
 
 def flight(path):
-    """(order, predicted mission kJ, measured mission kJ, predicted legs kJ, measured legs kJ) or a
-    reason it cannot be used."""
+    """check_orders.totals of one fly.json, or None and why it cannot be used."""
     if not os.path.exists(path):
         return None, "not flown"
     try:
-        doc = json.load(open(path))
-    except (OSError, ValueError) as e:
+        doc, problems = check_orders.totals(path)
+    except (OSError, ValueError, KeyError) as e:
         return None, f"unreadable fly.json ({e})"
-    legs = doc.get("legs") or []
-    total = doc.get("total") or {}
-    if not doc.get("complete"):
-        return None, "the flight is not complete"
-    if not legs or any(l.get("measured_kj") is None for l in legs):
-        return None, "a leg is not measured"
-    if total.get("measured_kj") is None or total.get("predicted_kj") is None:
-        return None, "no mission total"
-    return {
-        "order": " ".join([legs[0]["from"]] + [l["to"] for l in legs]),
-        "predicted_kj": total["predicted_kj"],
-        "measured_kj": total["measured_kj"],
-        "legs_predicted_kj": sum(l["predicted_kj"] for l in legs),
-        "legs_measured_kj": sum(l["measured_kj"] for l in legs),
-    }, None
+    if problems or None in doc["mission"]:
+        return None, "; ".join(problems) or "no mission total"
+    return doc, None
 
 
 def profile_of(log_path):
@@ -160,14 +149,14 @@ def main():
             "energy_order": e["order"],
             "distance_order": dist["order"],
             "same_order": e["order"] == dist["order"],
-            "energy_predicted_kj": e["predicted_kj"],
-            "distance_predicted_kj": dist["predicted_kj"],
-            "energy_measured_kj": e["measured_kj"],
-            "distance_measured_kj": dist["measured_kj"],
-            "predicted_saving_pct": saving(e["predicted_kj"], dist["predicted_kj"]),
-            "measured_saving_pct": saving(e["measured_kj"], dist["measured_kj"]),
-            "legs_predicted_saving_pct": saving(e["legs_predicted_kj"], dist["legs_predicted_kj"]),
-            "legs_measured_saving_pct": saving(e["legs_measured_kj"], dist["legs_measured_kj"]),
+            "energy_predicted_kj": e["mission"][0],
+            "distance_predicted_kj": dist["mission"][0],
+            "energy_measured_kj": e["mission"][1],
+            "distance_measured_kj": dist["mission"][1],
+            "predicted_saving_pct": saving(e["mission"][0], dist["mission"][0]),
+            "measured_saving_pct": saving(e["mission"][1], dist["mission"][1]),
+            "legs_predicted_saving_pct": saving(e["legs"][0], dist["legs"][0]),
+            "legs_measured_saving_pct": saving(e["legs"][1], dist["legs"][1]),
         })
     print(f"priced with the {', '.join(sorted(profiles)) or 'unknown'} profile; saving = "
           "100 (distance - energy) / distance, positive when the energy order costs less")

@@ -737,6 +737,18 @@ pub fn fit(
     // Only vehicles that can fly the profile's envelope: the lowest objective of one refused
     // is kept, to say whether the envelope bound the fit.
     let refused: std::sync::Mutex<Option<(f64, String)>> = std::sync::Mutex::new(None);
+    let refuse = |value: f64, (xf, zf, e): (f64, f64, PhysicsError)| {
+        let why = match e {
+            // It names the leg.
+            PhysicsError::NoTrajectory { .. } => e.to_string(),
+            e => format!("Xf {xf} m, Zf {zf} m: {e}"),
+        };
+        if let Ok(mut r) = refused.lock() {
+            if r.as_ref().is_none_or(|(v, _)| value < *v) {
+                *r = Some((value, why));
+            }
+        }
+    };
     let constrained = |x: &[f64]| -> f64 {
         let value = objective(x);
         if !value.is_finite() {
@@ -744,17 +756,8 @@ pub fn fit(
         }
         match envelope_failure(&apply(x), profile) {
             None => value,
-            Some((xf, zf, e)) => {
-                let why = match e {
-                    // It names the leg.
-                    PhysicsError::NoTrajectory { .. } => e.to_string(),
-                    e => format!("Xf {xf} m, Zf {zf} m: {e}"),
-                };
-                if let Ok(mut r) = refused.lock() {
-                    if r.as_ref().is_none_or(|(v, _)| value < *v) {
-                        *r = Some((value, why));
-                    }
-                }
+            Some(failure) => {
+                refuse(value, failure);
                 f64::INFINITY
             }
         }
@@ -767,8 +770,8 @@ pub fn fit(
     let free = nelder_mead(&start, &step, iterations, &objective);
     let best = match envelope_failure(&apply(&free), profile) {
         None => free,
-        Some(_) => {
-            constrained(&free);
+        Some(failure) => {
+            refuse(objective(&free), failure);
             nelder_mead(&start, &step, iterations, &constrained)
         }
     };

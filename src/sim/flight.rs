@@ -1001,6 +1001,34 @@ mod tests {
         }
     }
 
+    /// Take-off to 20 m, a waypoint 40 m east (hold 4 s, radius 2 m), then item 2: `command`
+    /// with `params` at `xyz`.
+    fn east_waypoint_then(
+        command: MavCmd,
+        params: [f32; 4],
+        xyz: (i32, i32, f32),
+    ) -> [MISSION_ITEM_INT_DATA; 3] {
+        let (x, y) = at(40.0, 0.0);
+        let frame = MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT;
+        [
+            item(
+                0,
+                MavCmd::MAV_CMD_NAV_TAKEOFF,
+                frame,
+                [0.0; 4],
+                (0, 0, 20.0),
+            ),
+            item(
+                1,
+                MavCmd::MAV_CMD_NAV_WAYPOINT,
+                frame,
+                [4.0, 2.0, 0.0, 0.0],
+                (x, y, 20.0),
+            ),
+            item(2, command, frame, params, xyz),
+        ]
+    }
+
     /// degE7 of a point `east_m`, `north_m` from home.
     fn at(east_m: f64, north_m: f64) -> (i32, i32) {
         let g = Origin {
@@ -1107,29 +1135,7 @@ mod tests {
         let mut f = Flight::new(v, profile).unwrap();
         f.arm();
         let (x, y) = at(40.0, 0.0);
-        let items = [
-            item(
-                0,
-                MavCmd::MAV_CMD_NAV_TAKEOFF,
-                MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
-                [0.0; 4],
-                (0, 0, 20.0),
-            ),
-            item(
-                1,
-                MavCmd::MAV_CMD_NAV_WAYPOINT,
-                MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
-                [4.0, 2.0, 0.0, 0.0],
-                (x, y, 20.0),
-            ),
-            item(
-                2,
-                MavCmd::MAV_CMD_NAV_LAND,
-                MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
-                [0.0; 4],
-                (x, y, 0.0),
-            ),
-        ];
+        let items = east_waypoint_then(MavCmd::MAV_CMD_NAV_LAND, [0.0; 4], (x, y, 0.0));
         let events = f.start(commands(&items, HOME, false).unwrap(), 0, 1.0);
         assert_eq!(events, [Event::Current(0)]);
         let events = run(&mut f, 300.0, |f| f.complete());
@@ -1204,30 +1210,11 @@ mod tests {
         let v = shipped();
         // Where the vehicle is when it leaves the waypoint 40 m east (its hold done).
         let leaves = |profile: Profile| {
-            let (x, y) = at(40.0, 0.0);
-            let items = [
-                item(
-                    0,
-                    MavCmd::MAV_CMD_NAV_TAKEOFF,
-                    MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
-                    [0.0; 4],
-                    (0, 0, 20.0),
-                ),
-                item(
-                    1,
-                    MavCmd::MAV_CMD_NAV_WAYPOINT,
-                    MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
-                    [4.0, 2.0, 0.0, 0.0],
-                    (x, y, 20.0),
-                ),
-                item(
-                    2,
-                    MavCmd::MAV_CMD_NAV_WAYPOINT,
-                    MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
-                    [4.0, 2.0, 0.0, 0.0],
-                    (x, at(0.0, 40.0).1, 20.0),
-                ),
-            ];
+            let items = east_waypoint_then(
+                MavCmd::MAV_CMD_NAV_WAYPOINT,
+                [4.0, 2.0, 0.0, 0.0],
+                (at(40.0, 0.0).0, at(0.0, 40.0).1, 20.0),
+            );
             let mut f = Flight::new(&v, profile).unwrap();
             f.arm();
             f.start(commands(&items, HOME, false).unwrap(), 0, 1.0);
