@@ -30,5 +30,5 @@ for ((k = 0; k < n; k++)); do
 done
 "$emplan" report "${dirs[@]}" --json >"$work/combined.json"
 python3 sitl/check_combined.py "$work/combined.json" --flights "$n" --legs-within 6 \
-  --mission-within 2 --takeoff-within 10 --landing-within 25
+  --mission-within 2 --takeoff-within 10 --landing-within 10
 echo "flights: ${dirs[*]}"

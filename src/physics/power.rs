@@ -17,7 +17,7 @@ use super::trajectory::{
     path_peak_speed, px4_trajectory, quintic_line, sampled_trajectory, Acceptance, Path,
     Trajectory, ARRIVAL_RADIUS_M,
 };
-use super::vehicle::Vehicle;
+use super::vehicle::{Px4Params, Vehicle};
 use super::{PhysicsError, Profile};
 
 /// Power the spinning motors draw armed on the ground at idle, on top of the avionics: eight
@@ -439,14 +439,30 @@ impl<'a> Model<'a> {
         profile: Profile,
         height_m: f64,
     ) -> Result<Trajectory, PhysicsError> {
+        let rise_m = self.vehicle.px4.landing_home_rise_m;
+        self.landing_trajectory_home_risen(profile, height_m, rise_m)
+    }
+
+    /// [`Model::landing_trajectory`] with PX4's home risen `home_rise_m` in flight instead of
+    /// the vehicle's `landing_home_rise_m` (the built-in mock's height estimate does not drift:
+    /// 0).
+    pub fn landing_trajectory_home_risen(
+        &self,
+        profile: Profile,
+        height_m: f64,
+        home_rise_m: f64,
+    ) -> Result<Trajectory, PhysicsError> {
         match profile {
             Profile::Px4 if height_m > 0.0 => {
-                let x = &self.vehicle.px4;
+                let x = &Px4Params {
+                    landing_home_rise_m: home_rise_m,
+                    ..self.vehicle.px4.clone()
+                };
                 let samples = px4::landing(x, height_m)?;
                 Ok(Trajectory {
                     // On the ground at the end: no acceptance, no settle.
                     acceptance: None,
-                    ..px4_trajectory(x, samples, 0.0, -height_m)
+                    ..px4_trajectory(x, samples, 0.0, -px4::landing_descent_m(x, height_m))
                 })
             }
             Profile::Ardupilot if height_m > 0.0 => {

@@ -490,17 +490,20 @@ fn run(p: &Px4Params, xf: f64, zf: f64, kind: Kind) -> Result<Samples, PhysicsEr
         let (vx_sp, vz_sp) = match kind {
             Kind::Landing => {
                 let to_ground = (-zf) - (-z.x);
+                // PX4's _dist_to_ground: the height above the home it holds now.
+                let above_home = to_ground - p.landing_home_rise_m;
                 let (alt2, alt1) = (p.mpc_land_alt2_m, p.mpc_land_alt1_m);
                 let speed = if to_ground <= p.mpc_land_alt3_m {
-                    // With a distance sensor (`mpc_land_alt3_m` 0 without one).
+                    // With a distance sensor (`mpc_land_alt3_m` 0 without one), which
+                    // measures the ground itself.
                     p.mpc_land_crwl_m_s
-                } else if to_ground <= alt2 {
+                } else if above_home <= alt2 {
                     p.mpc_land_speed_m_s
-                } else if to_ground >= alt1 {
+                } else if above_home >= alt1 {
                     p.mpc_z_vel_max_dn_m_s
                 } else {
                     p.mpc_land_speed_m_s
-                        + (to_ground - alt2) / (alt1 - alt2)
+                        + (above_home - alt2) / (alt1 - alt2)
                             * (p.mpc_z_vel_max_dn_m_s - p.mpc_land_speed_m_s)
                 };
                 (0.0, -speed)
@@ -608,9 +611,17 @@ pub fn takeoff(p: &Px4Params, height_m: f64) -> Result<Samples, PhysicsError> {
     run(p, 0.0, height_m, Kind::Takeoff)
 }
 
-/// NAV_LAND from hover `height_m` above the ground to touchdown.
+/// NAV_LAND from the mission's hover `height_m` above the home PX4 took off from to
+/// touchdown: [`landing_descent_m`] down.
 pub fn landing(p: &Px4Params, height_m: f64) -> Result<Samples, PhysicsError> {
-    run(p, 0.0, -height_m, Kind::Landing)
+    run(p, 0.0, -landing_descent_m(p, height_m), Kind::Landing)
+}
+
+/// How far a landing from the mission's hover `height_m` descends: PX4 flies that hover
+/// `landing_home_rise_m` higher, above the home it has re-set in flight (never below a
+/// centimetre above the ground).
+pub fn landing_descent_m(p: &Px4Params, height_m: f64) -> f64 {
+    (height_m + p.landing_home_rise_m).max(0.01)
 }
 
 #[cfg(test)]
@@ -793,7 +804,8 @@ mod tests {
 
     #[test]
     fn a_landing_slows_to_mpc_land_speed_then_crawls_and_touches_down_moving() {
-        let p = params();
+        let mut p = params();
+        p.landing_home_rise_m = 0.0;
         let s = landing(&p, 30.0).unwrap();
         let at = |h: f64| {
             s.points
@@ -810,5 +822,34 @@ mod tests {
         let mut no_sensor = p.clone();
         no_sensor.mpc_land_alt3_m = 0.0;
         assert!(landing(&no_sensor, 30.0).unwrap().duration_s() < s.duration_s() - 1.0);
+    }
+
+    #[test]
+    fn a_landing_under_a_risen_home_slows_by_the_home_and_descends_past_it_to_the_ground() {
+        let mut p = params();
+        p.landing_home_rise_m = 0.0;
+        let level = landing(&p, 30.0).unwrap();
+        p.landing_home_rise_m = 1.5;
+        let s = landing(&p, 30.0).unwrap();
+        // 31.5 m down to the ground, where it ends at rest.
+        assert_eq!(s.points.last().copied().unwrap()[1], -31.5);
+        // The schedule counts heights from the risen home: MPC_LAND_SPEED from 5 m above it
+        // (6.5 m above the ground) and on past it; the crawl from 1 m above the ground.
+        let at = |h: f64| {
+            s.points
+                .iter()
+                .find(|q| 31.5 + q[1] <= h)
+                .map(|q| -q[3])
+                .unwrap()
+        };
+        assert!((at(6.0) - p.mpc_land_speed_m_s).abs() < 1e-6);
+        assert!((at(1.2) - p.mpc_land_speed_m_s).abs() < 1e-6);
+        assert!((at(0.5) - p.mpc_land_crwl_m_s).abs() < 1e-3);
+        // The extra 1.5 m at MPC_LAND_SPEED.
+        let longer = s.duration_s() - level.duration_s();
+        assert!(
+            (longer - 1.5 / p.mpc_land_speed_m_s).abs() < 0.1,
+            "{longer} s"
+        );
     }
 }

@@ -170,6 +170,13 @@ pub struct Px4Params {
     /// commander's auto-disarm), the motors idling.
     #[serde(default = "default_com_disarm_land_s")]
     pub com_disarm_land_s: f64,
+    /// How far above the home it took off from PX4 holds its home by the landing (m). PX4
+    /// re-sets the home's altitude in flight (HomePosition, for baro drift), so the mission's
+    /// last hover over the origin is this much higher, the landing schedule (MPC_LAND_ALT1,
+    /// MPC_LAND_ALT2) counts heights from that home, and the descent goes on past it at
+    /// MPC_LAND_SPEED to the ground. 0 (a vehicle file without it): the home stays put.
+    #[serde(default)]
+    pub landing_home_rise_m: f64,
     /// The vehicle's horizontal error behind its trajectory setpoint when it leaves a waypoint,
     /// closed exponentially with this time constant (not PX4 parameters: the vehicle's
     /// tracking, which slows PX4's trajectory through MPC_XY_ERR_MAX).
@@ -673,6 +680,12 @@ impl Vehicle {
         check("px4.nav_mc_alt_rad_m", x.nav_mc_alt_rad_m, 0.05, 200.0)?;
         check("px4.land_detector_s", x.land_detector_s, 0.0, 60.0)?;
         check("px4.com_disarm_land_s", x.com_disarm_land_s, 0.0, 600.0)?;
+        check(
+            "px4.landing_home_rise_m",
+            x.landing_home_rise_m,
+            -10.0,
+            10.0,
+        )?;
         check("px4.departure_error_m", x.departure_error_m, 0.0, 100.0)?;
         check(
             "px4.departure_head_start_m",

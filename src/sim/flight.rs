@@ -785,7 +785,9 @@ impl<'v> Flight<'v> {
                 self.model.takeoff_trajectory(self.profile, zf_m)
             }
             Purpose::Descent if xf_m < ABOVE_POINT_M => {
-                self.model.landing_trajectory(self.profile, -zf_m)
+                // The mock's height estimate does not drift: its home stays where it was.
+                self.model
+                    .landing_trajectory_home_risen(self.profile, -zf_m, 0.0)
             }
             Purpose::Climb | Purpose::Descent => self.trajectory(xf_m, zf_m, start),
         };
