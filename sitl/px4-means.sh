@@ -5,8 +5,7 @@
 # with its mission within 5% and every leg measured (sitl/check_report.py; a flight outside that
 # is flown once more), then combines them (`emplan report DIR... --json`) and checks the means
 # over the N flights (sitl/check_combined.py): each leg within 6% of its price, the mission
-# within 2%, the take-off within 10%, the landing within 25% (docs/px4-sitl.md: PX4 SITL's landing
-# is not yet priced as it flies it).
+# within 2%, the take-off and the landing within 10% (docs/px4-sitl.md).
 # Usage: sitl/px4-means.sh N [EMPLAN_BINARY] [MISSION] [WORK_DIR]
 set -euo pipefail
 cd "$(dirname "$0")/.."
