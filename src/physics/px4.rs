@@ -802,18 +802,22 @@ mod tests {
         assert!((first_up - lift_off_s(&p)).abs() < 0.02, "{first_up}");
     }
 
+    /// A landing's descent speed where it first comes `h` above the ground it ends on,
+    /// `descent_m` below its start.
+    fn descent_speed_at(s: &Samples, descent_m: f64, h: f64) -> f64 {
+        s.points
+            .iter()
+            .find(|q| descent_m + q[1] <= h)
+            .map(|q| -q[3])
+            .unwrap()
+    }
+
     #[test]
     fn a_landing_slows_to_mpc_land_speed_then_crawls_and_touches_down_moving() {
         let mut p = params();
         p.landing_home_rise_m = 0.0;
         let s = landing(&p, 30.0).unwrap();
-        let at = |h: f64| {
-            s.points
-                .iter()
-                .find(|q| 30.0 + q[1] <= h)
-                .map(|q| -q[3])
-                .unwrap()
-        };
+        let at = |h: f64| descent_speed_at(&s, 30.0, h);
         assert!((at(20.0) - p.mpc_z_vel_max_dn_m_s).abs() < 1e-6);
         assert!((at(7.5) - 0.5 * (p.mpc_land_speed_m_s + p.mpc_z_vel_max_dn_m_s)).abs() < 0.05);
         assert!((at(3.0) - p.mpc_land_speed_m_s).abs() < 1e-6);
@@ -835,13 +839,7 @@ mod tests {
         assert_eq!(s.points.last().copied().unwrap()[1], -31.5);
         // The schedule counts heights from the risen home: MPC_LAND_SPEED from 5 m above it
         // (6.5 m above the ground) and on past it; the crawl from 1 m above the ground.
-        let at = |h: f64| {
-            s.points
-                .iter()
-                .find(|q| 31.5 + q[1] <= h)
-                .map(|q| -q[3])
-                .unwrap()
-        };
+        let at = |h: f64| descent_speed_at(&s, 31.5, h);
         assert!((at(6.0) - p.mpc_land_speed_m_s).abs() < 1e-6);
         assert!((at(1.2) - p.mpc_land_speed_m_s).abs() < 1e-6);
         assert!((at(0.5) - p.mpc_land_crwl_m_s).abs() < 1e-3);
