@@ -180,8 +180,54 @@ pub fn repriced(plan: &FlightPlan, model: &VehicleModel) -> Result<Predicted, Fl
     price_points(model, plan.origin_height_m, &plan.points)
 }
 
+/// `predicted` with its legs priced as ArduCopter flies `points` (from the origin) when the
+/// profile is `ardupilot` and one of them is a fast waypoint (a hold under a second, another
+/// waypoint after it: `physics::ardupilot_chain`): the corners blended, each leg from the
+/// moment the waypoint before is reached to the moment its own is. Unchanged otherwise (every
+/// leg then ends at rest on its waypoint, as the table prices it). The planner's order and
+/// the table stay rest to rest; only the flown order's prediction is priced this way.
+pub fn with_fast_waypoints(
+    vehicle: &Vehicle,
+    profile: Profile,
+    points: &[PlannedPoint],
+    predicted: Predicted,
+) -> Result<Predicted, FlightItemsError> {
+    use crate::physics::ardupilot_chain::{is_fast, ChainPoint};
+    let chain: Vec<ChainPoint> = points
+        .iter()
+        .enumerate()
+        .map(|(k, point)| ChainPoint {
+            enu_m: [point.enu.x_east_m, point.enu.y_north_m, point.enu.z_up_m],
+            fast: is_fast(point.hold_s, k + 1 < points.len()),
+        })
+        .collect();
+    if profile != Profile::Ardupilot
+        || predicted.legs.len() != points.len()
+        || !chain.iter().any(|p| p.fast)
+    {
+        return Ok(predicted);
+    }
+    let model = Model::new(vehicle);
+    let legs = model
+        .ardupilot_chain([0.0; 3], &chain)
+        .map_err(|e| FlightItemsError::Pricing(format!("the legs with fast waypoints: {e}")))?;
+    Ok(Predicted {
+        legs: legs
+            .iter()
+            .map(|op| PredictedLeg {
+                energy_j: op.energy_j,
+                duration_s: op.duration_s,
+                settle_energy_j: op.settle_energy_j,
+                settle_duration_s: op.settle_duration_s,
+            })
+            .collect(),
+        ..predicted
+    })
+}
+
 /// Prices the legs origin -> points[0] -> ... with the vehicle's table, each after the leg
-/// before it (`physics::start_case`), and the take-off and landing at the origin height.
+/// before it (`physics::start_case`), or as ArduCopter's chain of fast waypoints
+/// ([`with_fast_waypoints`]), and the take-off and landing at the origin height.
 fn price_points(
     model: &VehicleModel,
     origin_height_m: f64,
@@ -214,12 +260,13 @@ fn price_points(
         });
         from = to;
     }
-    Ok(Predicted {
+    let predicted = Predicted {
         takeoff_j: budget.takeoff.total_energy_j(),
         landing_j: budget.landing.total_energy_j(),
         legs,
         hover_power_w: budget.hover_power_w,
-    })
+    };
+    with_fast_waypoints(&model.vehicle, model.profile, points, predicted)
 }
 
 #[cfg(test)]
