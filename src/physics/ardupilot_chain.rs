@@ -441,7 +441,10 @@ mod tests {
         };
         let rest = leg_scurve(&params(), 150.0, 0.0).duration_s();
         let (tight, default, wide) = (durations(0.5), durations(2.0), durations(50.0));
-        assert!(tight.0 > default.0 && default.0 > wide.0, "{tight:?} {default:?} {wide:?}");
+        assert!(
+            tight.0 > default.0 && default.0 > wide.0,
+            "{tight:?} {default:?} {wide:?}"
+        );
         assert!(tight.0 < rest, "{tight:?} {rest}");
         // The second leg ends at rest on the origin whatever the radius.
         for (_, second) in [tight, default, wide] {

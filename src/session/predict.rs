@@ -349,6 +349,73 @@ mod tests {
     }
 
     #[test]
+    fn zero_hold_points_are_priced_as_arducopter_chains_them_and_held_ones_as_before() {
+        let vehicle = crate::physics::vehicle::shipped();
+        let point = |name: &str, x: f64, y: f64, z: f64, hold_s: f64| PlannedPoint {
+            seq: 0,
+            name: name.to_string(),
+            enu: Enu {
+                x_east_m: x,
+                y_north_m: y,
+                z_up_m: z,
+            },
+            hold_s,
+        };
+        let points = |hold_s: f64| {
+            vec![
+                point("A", 40.0, 0.0, 5.0, hold_s),
+                point("B", 40.0, 40.0, 0.0, hold_s),
+                point(ORIGIN_NAME, 0.0, 0.0, 0.0, 0.0),
+            ]
+        };
+        let leg = PredictedLeg {
+            energy_j: 1.0,
+            duration_s: 1.0,
+            settle_energy_j: 0.0,
+            settle_duration_s: 0.0,
+        };
+        let table = Predicted {
+            takeoff_j: 1.0,
+            landing_j: 2.0,
+            legs: vec![leg; 3],
+            hover_power_w: 3.0,
+        };
+        // Holds of a second or more: every leg stops, the table's prices stand.
+        let held = with_fast_waypoints(&vehicle, Profile::Ardupilot, &points(1.0), table.clone());
+        assert_eq!(held.unwrap(), table);
+        // Another profile: unchanged whatever the holds.
+        let px4 = with_fast_waypoints(&vehicle, Profile::Px4, &points(0.0), table.clone());
+        assert_eq!(px4.unwrap(), table);
+        // Zero holds: the chain's legs, the rest of the prediction kept.
+        let fast =
+            with_fast_waypoints(&vehicle, Profile::Ardupilot, &points(0.5), table.clone()).unwrap();
+        assert_eq!(fast.legs.len(), 3);
+        assert_eq!((fast.takeoff_j, fast.landing_j), (1.0, 2.0));
+        let rest = Model::new(&vehicle).ardupilot_chain(
+            [0.0; 3],
+            &points(0.0)
+                .iter()
+                .map(|p| crate::physics::ardupilot_chain::ChainPoint {
+                    enu_m: [p.enu.x_east_m, p.enu.y_north_m, p.enu.z_up_m],
+                    fast: false,
+                })
+                .collect::<Vec<_>>(),
+        );
+        let rest = rest.unwrap();
+        let total = |e: f64, s: f64| e + s;
+        for (k, (f, r)) in fast.legs.iter().zip(&rest).enumerate() {
+            let (tf, tr) = (
+                total(f.duration_s, f.settle_duration_s),
+                total(r.duration_s, r.settle_duration_s),
+            );
+            assert!(
+                tf < tr - 0.5,
+                "leg {k}: {tf} s blended, {tr} s rest to rest"
+            );
+        }
+    }
+
+    #[test]
     fn points_far_from_every_named_waypoint_are_named_by_their_item() {
         let m = sample();
         let mut items = mission_items(&m, &[0, 1], &ItemOptions::default()).unwrap();

@@ -87,7 +87,10 @@ fn a_mission_without_holds_is_predicted_with_blended_corners_by_fly_and_report()
         leg_values(&repriced, "predicted_kj"),
     );
     for (a, b) in flown.iter().zip(&again) {
-        assert!((a - b).abs() <= 1e-6 * a.abs().max(1.0), "{flown:?} vs {again:?}");
+        assert!(
+            (a - b).abs() <= 1e-6 * a.abs().max(1.0),
+            "{flown:?} vs {again:?}"
+        );
     }
 
     // FIXME: the built-in mock flies every leg rest to rest, so on a mission without holds
