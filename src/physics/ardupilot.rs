@@ -331,6 +331,32 @@ impl SCurve {
         self.segments.last().map_or(0.0, |s| s.end_s)
     }
 
+    /// Whether the path has all of SCurve.cpp's 23 segments (a path of no length has only its
+    /// initial one: SCurve.cpp `num_segs != segments_max`, its times then all 0).
+    fn complete(&self) -> bool {
+        self.segments.len() == 23
+    }
+
+    /// When the acceleration ends and the constant speed begins (SCurve.cpp `time_accel_end`:
+    /// the end of segment 7).
+    pub fn time_accel_end_s(&self) -> f64 {
+        if self.complete() {
+            self.segments[7].end_s
+        } else {
+            0.0
+        }
+    }
+
+    /// When the constant speed ends and the deceleration begins (SCurve.cpp
+    /// `time_decel_start`: the end of segment 15).
+    pub fn time_decel_start_s(&self) -> f64 {
+        if self.complete() {
+            self.segments[15].end_s
+        } else {
+            0.0
+        }
+    }
+
     /// Length of the path.
     pub fn length_m(&self) -> f64 {
         self.segments.last().map_or(0.0, |s| s.end_pos)

@@ -10,6 +10,7 @@
 //! Invariant: pure; no IO beyond loading a vehicle or table file, no tokio, no MAVLink.
 
 pub mod ardupilot;
+pub mod ardupilot_chain;
 pub mod body;
 pub mod budget;
 pub mod builtin;

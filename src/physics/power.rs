@@ -399,6 +399,57 @@ impl<'a> Model<'a> {
         }
     }
 
+    /// The legs of a chain of waypoints as ArduCopter flies them with fast waypoints
+    /// (`ardupilot_chain::chain`: corners blended, each waypoint
+    /// reached half-way through its turn), each priced from the moment the waypoint before
+    /// was reached to the moment its own is, as a flight log cuts its legs: to the first
+    /// moment within the arrival radius (the 4 m rule), the rest as its settle. A leg that
+    /// starts at rest is lengthened by `tracking_lag_s` of hover before it, as a rest-to-rest
+    /// leg is; a leg that starts in a blended turn is not: the lag was fitted to the vehicle
+    /// trailing an S-curve that starts from a standstill (its clock slowed most while the
+    /// vehicle gathers speed), and in a blended turn the vehicle is already moving with its
+    /// target.
+    pub fn ardupilot_chain(
+        &self,
+        start_enu_m: [f64; 3],
+        points: &[super::ardupilot_chain::ChainPoint],
+    ) -> Result<Vec<Operation>, PhysicsError> {
+        let a = &self.vehicle.ardupilot;
+        let legs = super::ardupilot_chain::chain(a, start_enu_m, points, ARRIVAL_RADIUS_M)?;
+        legs.into_iter()
+            .map(|leg| {
+                let duration = leg.samples.duration_s();
+                let arrival = leg.arrival_s.clamp(0.0, duration);
+                let n = leg.samples.points.len().max(8);
+                let n1 = ((n as f64 * arrival / duration.max(1e-9)).round() as usize).max(8);
+                let n2 = n.saturating_sub(n1).max(8);
+                let (xf_m, zf_m) = (leg.xf_m, leg.zf_m);
+                let t = sampled_trajectory(leg.samples, xf_m, zf_m, a.steps, None);
+                let to_arrival = self.energy_j(&t.path, (0.0, arrival), n1, false)?;
+                let rest = self.energy_j(&t.path, (arrival, duration), n2, false)?;
+                let peak = path_peak_speed(&t.path, n);
+                let (lead_s, lead_j) = if leg.from_rest && a.tracking_lag_s > 0.0 {
+                    (a.tracking_lag_s, self.hover_power_w()? * a.tracking_lag_s)
+                } else {
+                    (0.0, 0.0)
+                };
+                // Within 4 m from the start: the lag counts with the settle (as `fly`).
+                let (head_s, head_j, tail_s, tail_j) = if arrival > 0.0 {
+                    (lead_s, lead_j, 0.0, 0.0)
+                } else {
+                    (0.0, 0.0, lead_s, lead_j)
+                };
+                Ok(Operation {
+                    energy_j: head_j + to_arrival,
+                    duration_s: head_s + arrival,
+                    settle_energy_j: tail_j + rest,
+                    settle_duration_s: tail_s + duration - arrival,
+                    peak_speed_m_s: peak,
+                })
+            })
+            .collect()
+    }
+
     /// The take-off `profile` flies from the ground to `height_m` (PX4: NAV_TAKEOFF, its slow
     /// climb near the ground; the others: the operation (0, +h)).
     pub fn takeoff_trajectory(

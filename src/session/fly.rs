@@ -14,7 +14,9 @@ use tokio::sync::broadcast::{self, error::RecvError};
 use super::home::{check_home, IfHomeUnknown, PreflightError};
 use super::params::Px4Parameters;
 use super::params::{check_ardupilot_params, check_px4_params, ParamCheck, ParamSection};
-use super::predict::{flight_plan, flight_plan_predicted, predicted_by_simulation};
+use super::predict::{
+    flight_plan, flight_plan_predicted, predicted_by_simulation, with_fast_waypoints,
+};
 use super::recorder::{FlightEvent, RecorderHandle};
 use crate::flightlog::flight_plan::FlightPlan;
 use crate::flightlog::report::{FlightReport, ReportJson};
@@ -140,8 +142,23 @@ pub async fn load(
         }
     }
     .map_err(|e| FlyError::Plan(e.to_string()))?;
+    // ArduCopter flies zero-hold waypoints through, blending the corners: the flown order's
+    // legs are priced that way (the plan's table prices are rest to rest).
+    let predicted = match measured_against.predicted.clone() {
+        Some(p) => Some(
+            with_fast_waypoints(
+                priced_with.unwrap_or(load.vehicle),
+                plan.profile,
+                &measured_against.points,
+                p,
+            )
+            .map_err(|e| FlyError::Plan(e.to_string()))?,
+        ),
+        None => None,
+    };
     let mut measured_against = FlightPlan {
         resumes: load.resumes.map(str::to_string),
+        predicted,
         ..measured_against
     };
     if load.guard != Policy::Off {

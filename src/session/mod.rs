@@ -35,7 +35,7 @@ pub use params::{
 };
 pub use predict::{
     flight_plan, flight_plan_predicted, plan_from_items, predicted, predicted_by_simulation,
-    repriced, FlightItemsError,
+    repriced, with_fast_waypoints, FlightItemsError,
 };
 pub use recorder::{
     flight_dirs, spawn_recorder, FlightEvent, Live, RecorderConfig, RecorderHandle,

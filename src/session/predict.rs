@@ -180,8 +180,54 @@ pub fn repriced(plan: &FlightPlan, model: &VehicleModel) -> Result<Predicted, Fl
     price_points(model, plan.origin_height_m, &plan.points)
 }
 
+/// `predicted` with its legs priced as ArduCopter flies `points` (from the origin) when the
+/// profile is `ardupilot` and one of them is a fast waypoint (a hold under a second, another
+/// waypoint after it: `physics::ardupilot_chain`): the corners blended, each leg from the
+/// moment the waypoint before is reached to the moment its own is. Unchanged otherwise (every
+/// leg then ends at rest on its waypoint, as the table prices it). The planner's order and
+/// the table stay rest to rest; only the flown order's prediction is priced this way.
+pub fn with_fast_waypoints(
+    vehicle: &Vehicle,
+    profile: Profile,
+    points: &[PlannedPoint],
+    predicted: Predicted,
+) -> Result<Predicted, FlightItemsError> {
+    use crate::physics::ardupilot_chain::{is_fast, ChainPoint};
+    let chain: Vec<ChainPoint> = points
+        .iter()
+        .enumerate()
+        .map(|(k, point)| ChainPoint {
+            enu_m: [point.enu.x_east_m, point.enu.y_north_m, point.enu.z_up_m],
+            fast: is_fast(point.hold_s, k + 1 < points.len()),
+        })
+        .collect();
+    if profile != Profile::Ardupilot
+        || predicted.legs.len() != points.len()
+        || !chain.iter().any(|p| p.fast)
+    {
+        return Ok(predicted);
+    }
+    let model = Model::new(vehicle);
+    let legs = model
+        .ardupilot_chain([0.0; 3], &chain)
+        .map_err(|e| FlightItemsError::Pricing(format!("the legs with fast waypoints: {e}")))?;
+    Ok(Predicted {
+        legs: legs
+            .iter()
+            .map(|op| PredictedLeg {
+                energy_j: op.energy_j,
+                duration_s: op.duration_s,
+                settle_energy_j: op.settle_energy_j,
+                settle_duration_s: op.settle_duration_s,
+            })
+            .collect(),
+        ..predicted
+    })
+}
+
 /// Prices the legs origin -> points[0] -> ... with the vehicle's table, each after the leg
-/// before it (`physics::start_case`), and the take-off and landing at the origin height.
+/// before it (`physics::start_case`), or as ArduCopter's chain of fast waypoints
+/// ([`with_fast_waypoints`]), and the take-off and landing at the origin height.
 fn price_points(
     model: &VehicleModel,
     origin_height_m: f64,
@@ -214,12 +260,13 @@ fn price_points(
         });
         from = to;
     }
-    Ok(Predicted {
+    let predicted = Predicted {
         takeoff_j: budget.takeoff.total_energy_j(),
         landing_j: budget.landing.total_energy_j(),
         legs,
         hover_power_w: budget.hover_power_w,
-    })
+    };
+    with_fast_waypoints(&model.vehicle, model.profile, points, predicted)
 }
 
 #[cfg(test)]
@@ -299,6 +346,73 @@ mod tests {
             from_items(only_takeoff, Flavour::Px4, None).unwrap_err(),
             FlightItemsError::Items(ReadItemsError::NoWaypoints)
         );
+    }
+
+    #[test]
+    fn zero_hold_points_are_priced_as_arducopter_chains_them_and_held_ones_as_before() {
+        let vehicle = crate::physics::vehicle::shipped();
+        let point = |name: &str, x: f64, y: f64, z: f64, hold_s: f64| PlannedPoint {
+            seq: 0,
+            name: name.to_string(),
+            enu: Enu {
+                x_east_m: x,
+                y_north_m: y,
+                z_up_m: z,
+            },
+            hold_s,
+        };
+        let points = |hold_s: f64| {
+            vec![
+                point("A", 40.0, 0.0, 5.0, hold_s),
+                point("B", 40.0, 40.0, 0.0, hold_s),
+                point(ORIGIN_NAME, 0.0, 0.0, 0.0, 0.0),
+            ]
+        };
+        let leg = PredictedLeg {
+            energy_j: 1.0,
+            duration_s: 1.0,
+            settle_energy_j: 0.0,
+            settle_duration_s: 0.0,
+        };
+        let table = Predicted {
+            takeoff_j: 1.0,
+            landing_j: 2.0,
+            legs: vec![leg; 3],
+            hover_power_w: 3.0,
+        };
+        // Holds of a second or more: every leg stops, the table's prices stand.
+        let held = with_fast_waypoints(&vehicle, Profile::Ardupilot, &points(1.0), table.clone());
+        assert_eq!(held.unwrap(), table);
+        // Another profile: unchanged whatever the holds.
+        let px4 = with_fast_waypoints(&vehicle, Profile::Px4, &points(0.0), table.clone());
+        assert_eq!(px4.unwrap(), table);
+        // Zero holds: the chain's legs, the rest of the prediction kept.
+        let fast =
+            with_fast_waypoints(&vehicle, Profile::Ardupilot, &points(0.5), table.clone()).unwrap();
+        assert_eq!(fast.legs.len(), 3);
+        assert_eq!((fast.takeoff_j, fast.landing_j), (1.0, 2.0));
+        let rest = Model::new(&vehicle).ardupilot_chain(
+            [0.0; 3],
+            &points(0.0)
+                .iter()
+                .map(|p| crate::physics::ardupilot_chain::ChainPoint {
+                    enu_m: [p.enu.x_east_m, p.enu.y_north_m, p.enu.z_up_m],
+                    fast: false,
+                })
+                .collect::<Vec<_>>(),
+        );
+        let rest = rest.unwrap();
+        let total = |e: f64, s: f64| e + s;
+        for (k, (f, r)) in fast.legs.iter().zip(&rest).enumerate() {
+            let (tf, tr) = (
+                total(f.duration_s, f.settle_duration_s),
+                total(r.duration_s, r.settle_duration_s),
+            );
+            assert!(
+                tf < tr - 0.5,
+                "leg {k}: {tf} s blended, {tr} s rest to rest"
+            );
+        }
     }
 
     #[test]

@@ -4,6 +4,7 @@ mod ardupilot;
 mod cli;
 mod crashes;
 mod failfast;
+mod fastwp;
 mod flight;
 mod flightlog;
 mod flowservice;
