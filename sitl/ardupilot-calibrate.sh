@@ -4,7 +4,8 @@
 # paper-sample-3wp.toml); `emplan calibrate --from-logs` fits the vehicle to those two flights and
 # writes a calibrated vehicle directory; ArduCopter SITL then flies a held-out generated mission
 # (`emplan generate --waypoints 6 --xy 40 --z 20 --seed 5`: no holds, so ArduCopter flies its
-# waypoints through, blending the corners), and `emplan report
+# waypoints through, blending the corners; HELD_OUT_HOVER_S=S holds S s at each instead), and
+# `emplan report
 # HELD_OUT --vehicle CALIBRATED --json` re-prices that flight with the calibrated vehicle. Fails
 # unless every leg is within LEGS_WITHIN % (default 10) and the mission within MISSION_WITHIN %
 # (default 3) of the calibrated vehicle's prices (sitl/check_repriced.py), and prints the same
@@ -33,7 +34,7 @@ if [ -z "${PROFILE:-}" ]; then
 fi
 echo "== pricing with the $PROFILE profile"
 # The held-out mission: emplan generate's default home is ArduCopter SITL's.
-"$emplan" generate --waypoints 6 --xy 40 --z 20 --seed 5 --name held-out-6wp \
+"$emplan" generate --waypoints 6 --xy 40 --z 20 --seed 5 --hover-s "${HELD_OUT_HOVER_S:-0}" --name held-out-6wp \
   --force "$work/held-out-6wp.toml" >/dev/null
 fly() {
   local mission=$1 name

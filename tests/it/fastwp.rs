@@ -92,12 +92,5 @@ fn a_mission_without_holds_is_predicted_with_blended_corners_by_fly_and_report()
             "{flown:?} vs {again:?}"
         );
     }
-
-    // FIXME: the built-in mock flies every leg rest to rest, so on a mission without holds
-    // its legs take longer than the blended prediction (asserted as it is).
-    let measured = leg_values(&through, "duration_s");
-    assert!(
-        measured.iter().sum::<f64>() > 1.05 * sum_fast,
-        "{measured:?} vs {fast:?}"
-    );
+    // The built-in mock itself still flies every leg rest to rest (docs/ardupilot-sitl.md).
 }
