@@ -247,11 +247,7 @@ impl<'a> Model<'a> {
             0.0
         };
         // Within 4 m from the start (t_arrive 0): the lag counts with the settle.
-        let (lead_j, lead_s, late_j, late_s) = if t_arrive > 0.0 {
-            (lead_j, lead_s, 0.0, 0.0)
-        } else {
-            (0.0, 0.0, lead_j, lead_s)
-        };
+        let (lead_j, lead_s, late_j, late_s) = lead_split(lead_j, lead_s, t_arrive);
         Ok(Operation {
             energy_j: lead_j + energy,
             duration_s: lead_s + t_arrive,
@@ -434,11 +430,7 @@ impl<'a> Model<'a> {
                     (0.0, 0.0)
                 };
                 // Within 4 m from the start: the lag counts with the settle (as `fly`).
-                let (head_s, head_j, tail_s, tail_j) = if arrival > 0.0 {
-                    (lead_s, lead_j, 0.0, 0.0)
-                } else {
-                    (0.0, 0.0, lead_s, lead_j)
-                };
+                let (head_j, head_s, tail_j, tail_s) = lead_split(lead_j, lead_s, arrival);
                 Ok(Operation {
                     energy_j: head_j + to_arrival,
                     duration_s: head_s + arrival,
@@ -581,6 +573,17 @@ impl<'a> Model<'a> {
                 reason: other.to_string(),
             },
         })
+    }
+}
+
+/// The tracking lag's hover `lead_j`, `lead_s` before a leg: with the leg when the leg reaches its
+/// point `arrival_s` after it starts, with the settle when it starts within 4 m of it (as `fly`
+/// segments it). Returns (leg energy, leg time, settle energy, settle time).
+fn lead_split(lead_j: f64, lead_s: f64, arrival_s: f64) -> (f64, f64, f64, f64) {
+    if arrival_s > 0.0 {
+        (lead_j, lead_s, 0.0, 0.0)
+    } else {
+        (0.0, 0.0, lead_j, lead_s)
     }
 }
 
