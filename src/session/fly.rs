@@ -144,18 +144,14 @@ pub async fn load(
     .map_err(|e| FlyError::Plan(e.to_string()))?;
     // ArduCopter flies zero-hold waypoints through, blending the corners: the flown order's
     // legs are priced that way (the plan's table prices are rest to rest).
-    let predicted = match measured_against.predicted.clone() {
-        Some(p) => Some(
-            with_fast_waypoints(
-                priced_with.unwrap_or(load.vehicle),
-                plan.profile,
-                &measured_against.points,
-                p,
-            )
-            .map_err(|e| FlyError::Plan(e.to_string()))?,
-        ),
-        None => None,
-    };
+    let mut measured_against = measured_against;
+    let predicted = (measured_against.predicted.take())
+        .map(|p| {
+            let vehicle = priced_with.unwrap_or(load.vehicle);
+            with_fast_waypoints(vehicle, plan.profile, &measured_against.points, p)
+        })
+        .transpose()
+        .map_err(|e| FlyError::Plan(e.to_string()))?;
     let mut measured_against = FlightPlan {
         resumes: load.resumes.map(str::to_string),
         predicted,
