@@ -19,6 +19,8 @@
 # that profile (ArduCopter's own trajectory), else `px4` (what `fly` priced with before it).
 # Only that profile's table is rebuilt (--tables) to keep the run short; the calibrated
 # directory's vehicle.toml carries the fit for the others (`emplan table build`).
+# The airframe's mass is given, as a field team weighs theirs (`calibrate --mass-kg`): MASS_KG,
+# default the SITL frame's own (s1000.json "mass", 6.971 kg); MASS_KG= (empty) fits it instead.
 # Usage: sitl/ardupilot-calibrate.sh [EMPLAN_BINARY] [WORK_DIR]; SITL_INSTANCE as ardupilot-fly.sh.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -33,6 +35,15 @@ if [ -z "${PROFILE:-}" ]; then
   fi
 fi
 echo "== pricing with the $PROFILE profile"
+shared=${SHARED_SITL:-../shared/sitl}
+[ -d "$shared" ] || shared=/work/shared/sitl
+mass=${MASS_KG-$(python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["mass"])' \
+  "$shared/ardupilot/s1000.json")}
+mass_args=()
+if [ -n "$mass" ]; then
+  mass_args=(--mass-kg "$mass")
+  echo "== the airframe weighs $mass kg (given, not fitted)"
+fi
 # The held-out mission: emplan generate's default home is ArduCopter SITL's.
 "$emplan" generate --waypoints 6 --xy 40 --z 20 --seed 5 --hover-s "${HELD_OUT_HOVER_S:-0}" --name held-out-6wp \
   --force "$work/held-out-6wp.toml" >/dev/null
@@ -48,8 +59,8 @@ fitted=()
 for mission in missions/paper-sample-8wp.toml missions/paper-sample-3wp.toml; do
   fitted+=("$(fly "$mission")")
 done
-echo "== emplan calibrate --from-logs ${fitted[*]}"
-"$emplan" calibrate --from-logs "${fitted[@]}" --profile "$PROFILE" --out "$work/calibrated" \
+echo "== emplan calibrate --from-logs ${fitted[*]} ${mass_args[*]}"
+"$emplan" calibrate --from-logs "${fitted[@]}" "${mass_args[@]}" --profile "$PROFILE" --out "$work/calibrated" \
   --tables "$PROFILE" --force --json >"$work/calibrate.json"
 python3 - "$work/calibrate.json" <<'PY'
 import json, sys

@@ -30,6 +30,11 @@ pub struct LogArgs {
     /// tens of seconds each, hvb a few)
     #[arg(long, value_name = "PROFILES", requires = "out")]
     tables: Option<String>,
+    /// With --from-logs: the airframe's weighed take-off mass in kg (battery and payload on):
+    /// set, not fitted, so the energies fit the propulsion, the drag and the descent
+    /// (mass, efficiency and kappa all raise the hover power; a scale tells them apart)
+    #[arg(long, value_name = "KG", requires = "from_logs")]
+    mass_kg: Option<f64>,
     /// With --out: write into a directory that holds files already, replacing them (never the
     /// source vehicle's directory nor a flight directory)
     #[arg(long, requires = "out")]
@@ -89,7 +94,7 @@ pub fn run(
         );
     }
     let c = super::progress::solving("fitting to the logged legs", || {
-        logfit::calibrate(vehicle, profile, &flights)
+        logfit::calibrate_weighed(vehicle, profile, &flights, args.mass_kg)
     })?;
     let mut written = Vec::new();
     if let Some(out) = &out {

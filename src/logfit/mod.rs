@@ -29,6 +29,17 @@
 //!   the vehicle's value.
 //! - `body.drag_coefficient_n_s2_m2` (C_BD): the parasite power of horizontal flight, growing
 //!   as the speed cubed; nothing in hover or a vertical leg. Bounds 0.25-4 times the vehicle's.
+//! - `rotor.descent_inflow_factor`: the share of a descent's rate in the rotors' inflow
+//!   (docs/energy-model.md "Descent"): how much cheaper than a level leg a descending one is;
+//!   climbs and hover do not move it. Bounds 0-1: 1 is momentum theory (the paper's model);
+//!   0 a rotor that recovers nothing of its descent (ArduCopter SITL's frame, whose power
+//!   follows its thrust, fits 0).
+//!
+//! Mass, efficiency and kappa all raise the hover power, and a few flights' holds and legs tell
+//! them apart only by the climbs' m g v_z and the accelerations: fitted together, they wander
+//! along that valley (ArduCopter SITL's flights put the mass anywhere from 5.9 to 9.3 kg). The
+//! mass is the one a scale measures: `calibrate --from-logs --mass-kg KG`
+//! ([`calibrate_weighed`]) sets it and fits the others around it.
 //!
 //! - `ardupilot.tracking_lag_s` (the `ardupilot` profile only): how much longer than its
 //!   S-curve ArduCopter takes over a leg (it slows the S-curve while the vehicle trails it),
@@ -60,7 +71,9 @@
 //! samples.csv ([`battery`]); the planning budget's usable energy is scaled with the capacity.
 //!
 //! The fit is Nelder-Mead (`physics::calibration`'s) on the sum of squared relative errors of
-//! the legs and holds, parameters clamped to their bounds. Leave-one-flight-out: for each
+//! the legs and holds, parameters clamped to their bounds (and penalised past them, so the
+//! simplex does not wander off where the clamp leaves the objective flat), from two starts when
+//! a parameter sits at a bound of its physical range (`fit_starts`). Leave-one-flight-out: for each
 //! flight, fit on all the others and measure the error of the one left out. The vehicle
 //! directory written ([`vehicle_dir`]) marks each fitted value with the flights it came from
 //! and carries every profile's table rebuilt, so the next flight is planned and priced with it.
@@ -439,7 +452,7 @@ impl Knob {
 
 /// The parameters fitted to the flights' legs and holds (module docs: why these, what each
 /// changes, why these bounds).
-pub const KNOBS: [Knob; 4] = [
+pub const KNOBS: [Knob; 5] = [
     Knob {
         key: "motor.esc_efficiency",
         bounds: Bounds::Absolute(0.5, 1.0),
@@ -464,6 +477,12 @@ pub const KNOBS: [Knob; 4] = [
         get: |v| v.body.drag_coefficient_n_s2_m2,
         set: |v, x| v.body.drag_coefficient_n_s2_m2 = x,
     },
+    Knob {
+        key: "rotor.descent_inflow_factor",
+        bounds: Bounds::Absolute(0.0, 1.0),
+        get: |v| v.rotor.descent_inflow_factor,
+        set: |v, x| v.rotor.descent_inflow_factor = x,
+    },
 ];
 
 /// A fitted parameter: its key, the value before and after, the range searched, and the bound
@@ -478,6 +497,9 @@ pub struct Fitted {
     /// `"low"` or `"high"` when the value sits at that bound (within 0.5% of the range): the
     /// flights asked for more than the parameter can give.
     pub at_bound: Option<&'static str>,
+    /// Given, not fitted (`calibrate --mass-kg`: the weighed mass); serialised only when true.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub given: bool,
 }
 
 impl Fitted {
@@ -498,6 +520,20 @@ impl Fitted {
             low,
             high,
             at_bound,
+            given: false,
+        }
+    }
+
+    /// A value given, not fitted: no range searched, no bound.
+    pub fn given(key: &'static str, before: f64, value: f64) -> Fitted {
+        Fitted {
+            key,
+            before,
+            value,
+            low: value,
+            high: value,
+            at_bound: None,
+            given: true,
         }
     }
 }
@@ -692,13 +728,14 @@ pub fn predict_hovers(vehicle: &Vehicle, hovers: &[&LoggedHover]) -> Result<Vec<
 }
 
 /// Fits [`KNOBS`] to `legs` and `hovers` (Nelder-Mead, `iterations`), starting from
-/// `vehicle`'s values.
+/// `vehicle`'s values; the knobs keyed in `fixed` keep `vehicle`'s values (a weighed mass).
 pub fn fit(
     vehicle: &Vehicle,
     profile: Profile,
     flights: &Flights,
     parts: (&[&LoggedLeg], &[&LoggedHover]),
     iterations: usize,
+    fixed: &[&str],
 ) -> (Vehicle, Vec<Fitted>, Option<EnvelopeBound>) {
     let (legs, hovers) = parts;
     let ranges: Vec<(f64, f64, f64)> = KNOBS
@@ -706,16 +743,38 @@ pub fn fit(
         .map(|k| {
             let x = (k.get)(vehicle);
             let (lo, hi) = k.range(x);
+            if fixed.contains(&k.key) {
+                return (x, x, x);
+            }
             (x, lo, hi)
         })
         .collect();
-    // Searched in units of the starting values (every parameter near 1).
+    // Searched in units of the starting values (every parameter near 1; a parameter starting
+    // at 0 in units of its range's middle).
+    let scales: Vec<f64> = ranges
+        .iter()
+        .map(|&(x, lo, hi)| if x != 0.0 { x } else { 0.5 * (lo + hi) })
+        .collect();
     let apply = |x: &[f64]| {
         let mut v = vehicle.clone();
-        for ((knob, &(start, lo, hi)), &u) in KNOBS.iter().zip(&ranges).zip(x) {
-            (knob.set)(&mut v, (start * u).clamp(lo, hi));
+        for ((knob, (&(_, lo, hi), scale)), &u) in
+            KNOBS.iter().zip(ranges.iter().zip(&scales)).zip(x)
+        {
+            (knob.set)(&mut v, (scale * u).clamp(lo, hi));
         }
         v
+    };
+    // Outside its range a parameter is clamped, which leaves the objective flat there and lets
+    // the simplex wander off and stall: a penalty, growing with the distance past the bound
+    // (in units of the range), leads it back. Zero within every range.
+    let outside = |x: &[f64]| -> f64 {
+        (ranges.iter().zip(&scales).zip(x))
+            .map(|((&(_, lo, hi), scale), &u)| {
+                let value = scale * u;
+                let past = (lo - value).max(value - hi).max(0.0) / (hi - lo).max(f64::EPSILON);
+                10.0 * past * past
+            })
+            .sum()
     };
     let objective = |x: &[f64]| -> f64 {
         let v = apply(x);
@@ -732,7 +791,7 @@ pub fn fit(
         let holds: f64 = (hover_j.iter().zip(hovers))
             .map(|(p, h)| squared(p, h.measured_j))
             .sum();
-        legs + holds
+        legs + holds + outside(x)
     };
     // Only vehicles that can fly the profile's envelope: the lowest objective of one refused
     // is kept, to say whether the envelope bound the fit.
@@ -762,19 +821,50 @@ pub fn fit(
             }
         }
     };
-    let start = vec![1.0; KNOBS.len()];
-    let step = vec![0.1; KNOBS.len()];
+    // Each first step into the range: down from a value at its high bound (an efficiency of 1,
+    // a descent inflow of 1), where a step up would clamp back onto the start and leave the
+    // simplex flat in that direction.
+    let step: Vec<f64> = ranges
+        .iter()
+        .zip(&scales)
+        .map(|(&(x, lo, hi), scale)| {
+            if lo == hi {
+                0.0
+            } else if x + 0.1 * scale > hi {
+                -0.1
+            } else {
+                0.1
+            }
+        })
+        .collect();
     // The free fit first: when it flies the envelope, the envelope did not bind and the search
     // never meets its wall (a wall of infinities can stall the simplex short of the optimum).
     // Only a free fit that cannot fly the envelope is searched again within it.
-    let free = nelder_mead(&start, &step, iterations, &objective);
-    let best = match envelope_failure(&apply(&free), profile) {
-        None => free,
-        Some(failure) => {
-            refuse(objective(&free), failure);
-            nelder_mead(&start, &step, iterations, &constrained)
+    let search = |start: &[f64]| {
+        let free = nelder_mead(start, &step, iterations, &objective);
+        match envelope_failure(&apply(&free), profile) {
+            None => free,
+            Some(failure) => {
+                refuse(objective(&free), failure);
+                nelder_mead(start, &step, iterations, &constrained)
+            }
         }
     };
+    // Two starts: the vehicle's values, and the same with every parameter that sits at a bound
+    // of its physical range (an efficiency of 1, a descent inflow of 1) started from the
+    // range's middle. From a bound the simplex can settle in another valley (measured on
+    // ArduCopter SITL's flights: a descent inflow left at 1 and the legs' rms 6.9%, against
+    // 3.9% with it at 0.43 from the middle); the lower objective is kept.
+    let starts = fit_starts(&ranges, &scales);
+    let best = starts
+        .iter()
+        .map(|start| {
+            let x = search(start);
+            (objective(&x), x)
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, x)| x)
+        .unwrap_or_else(|| vec![1.0; KNOBS.len()]);
     let best_value = objective(&best);
     let bound = refused
         .into_inner()
@@ -791,10 +881,50 @@ pub fn fit(
         .iter()
         .zip(&ranges)
         .map(|(knob, &(before, low, high))| {
-            Fitted::new(knob.key, before, (knob.get)(&fitted_vehicle), low, high)
+            let value = (knob.get)(&fitted_vehicle);
+            if fixed.contains(&knob.key) {
+                Fitted::given(knob.key, before, value)
+            } else {
+                Fitted::new(knob.key, before, value, low, high)
+            }
         })
         .collect();
     (fitted_vehicle, fitted, bound)
+}
+
+/// The fit's starting points in search units ([`fit`]): the vehicle's values (all 1), and,
+/// when any parameter of an absolute range sits at one of its bounds, the same with those
+/// parameters at their range's middle.
+fn fit_starts(ranges: &[(f64, f64, f64)], scales: &[f64]) -> Vec<Vec<f64>> {
+    let vehicle: Vec<f64> = ranges
+        .iter()
+        .zip(scales)
+        .map(|(&(x, _, _), scale)| x / scale)
+        .collect();
+    let at_bound = |&(x, lo, hi): &(f64, f64, f64)| {
+        let near = 0.005 * (hi - lo);
+        x <= lo + near || x >= hi - near
+    };
+    let absolute = KNOBS
+        .iter()
+        .map(|k| matches!(k.bounds, Bounds::Absolute(..)));
+    let middle: Vec<f64> = ranges
+        .iter()
+        .zip(scales)
+        .zip(absolute)
+        .map(|((r, scale), absolute)| {
+            if absolute && at_bound(r) {
+                0.5 * (r.1 + r.2) / scale
+            } else {
+                r.0 / scale
+            }
+        })
+        .collect();
+    if middle == vehicle {
+        vec![vehicle]
+    } else {
+        vec![vehicle, middle]
+    }
 }
 
 /// Per-leg error statistics, percent.
@@ -888,8 +1018,9 @@ fn changed_values(
     values
 }
 
-/// Nelder-Mead iterations of each fit (four parameters: converged well before).
-pub const ITERATIONS: usize = 160;
+/// Nelder-Mead iterations of each fit and start (five parameters; at 160 the simplex stopped
+/// short on ArduCopter SITL's flights, objectives 0.04-0.06 against 0.014-0.019 at 600).
+pub const ITERATIONS: usize = 600;
 
 /// Fits `vehicle` flown with `profile` to `flights`: before, after, and leave-one-flight-out.
 pub fn calibrate(
@@ -897,6 +1028,29 @@ pub fn calibrate(
     profile: Profile,
     flights: &Flights,
 ) -> Result<LogCalibration, LogFitError> {
+    calibrate_weighed(vehicle, profile, flights, None)
+}
+
+/// [`calibrate`] with the airframe's weighed take-off mass when known (`calibrate --mass-kg`):
+/// set, not fitted. Mass, efficiency and kappa all raise the hover power, and the holds and
+/// legs of a few flights tell them apart only by the climbs' m g v_z and the accelerations, so
+/// a fit of all three wanders along that valley (module docs); a scale fixes the one that can
+/// be measured.
+pub fn calibrate_weighed(
+    vehicle: &Vehicle,
+    profile: Profile,
+    flights: &Flights,
+    mass_kg: Option<f64>,
+) -> Result<LogCalibration, LogFitError> {
+    let original = vehicle;
+    let mut weighed = vehicle.clone();
+    let mut fixed: Vec<&str> = Vec::new();
+    if let Some(mass) = mass_kg {
+        weighed.body.mass_kg = mass;
+        weighed.validate("--mass-kg")?;
+        fixed.push("body.mass_kg");
+    }
+    let vehicle = &weighed;
     if flights.flights.is_empty() {
         return Err(LogFitError::NoUsableFlight {
             dirs: flights
@@ -920,7 +1074,7 @@ pub fn calibrate(
     }
     let all: Vec<&LoggedLeg> = flights.legs.iter().collect();
     let holds: Vec<&LoggedHover> = flights.hovers.iter().collect();
-    let before = predict(vehicle, profile, flights, &all)?;
+    let before = predict(original, profile, flights, &all)?;
     // The pack first (its resistance sags the voltage the motors have: what the envelope
     // needs), then the tracking lag from the legs' durations, then the energies.
     let battery = battery::fit_battery(vehicle, &flights.packs);
@@ -929,8 +1083,20 @@ pub fn calibrate(
         vehicle_dir::set_value(&mut packed, f.key, f.value);
     }
     let (lagged, lag) = fit_tracking_lag(&packed, profile, flights, &all)?;
-    let (mut fitted_vehicle, fitted, envelope) =
-        fit(&lagged, profile, flights, (&all, &holds), ITERATIONS);
+    let (mut fitted_vehicle, mut fitted, envelope) = fit(
+        &lagged,
+        profile,
+        flights,
+        (&all, &holds),
+        ITERATIONS,
+        &fixed,
+    );
+    // A given value was the original vehicle's before.
+    for (f, knob) in fitted.iter_mut().zip(&KNOBS) {
+        if f.given {
+            f.before = (knob.get)(original);
+        }
+    }
     let after = predict(&fitted_vehicle, profile, flights, &all)?;
     let hover_errors = |v: &Vehicle| -> Result<ErrorStats, LogFitError> {
         let predicted = predict_hovers(v, &holds)?;
@@ -940,7 +1106,7 @@ pub fn calibrate(
         Ok(ErrorStats::of(&errors))
     };
     let hovers = (!holds.is_empty())
-        .then(|| Ok::<_, LogFitError>((hover_errors(vehicle)?, hover_errors(&fitted_vehicle)?)))
+        .then(|| Ok::<_, LogFitError>((hover_errors(original)?, hover_errors(&fitted_vehicle)?)))
         .transpose()?;
     let mut held_out_j: Vec<Option<f64>> = vec![None; all.len()];
     let mut held_out = Vec::new();
@@ -960,6 +1126,7 @@ pub fn calibrate(
                 flights,
                 (&train, &train_holds),
                 ITERATIONS,
+                &fixed,
             );
             let test_legs: Vec<&LoggedLeg> = test.iter().map(|&k| all[k]).collect();
             let predicted = predict(&v, profile, flights, &test_legs)?;
@@ -1192,7 +1359,89 @@ mod tests {
         // Most of the difference is the powertrain's efficiency, found within a few percent.
         let eta = c.vehicle.motor.esc_efficiency / truth.motor.esc_efficiency;
         assert!((eta - 1.0).abs() < 0.05, "{eta}");
-        assert!(c.at_bound().is_empty(), "{:?}", c.at_bound());
+        // Only the descent's inflow sits at a bound: the truth's, momentum theory's 1.
+        let at: Vec<_> = c.at_bound().iter().map(|f| (f.key, f.at_bound)).collect();
+        assert_eq!(at, [("rotor.descent_inflow_factor", Some("high"))]);
+    }
+
+    #[test]
+    fn a_weighed_mass_is_kept_and_the_propulsion_fitted_around_it() {
+        let given = shipped();
+        let mut truth = given.clone();
+        truth.motor.esc_efficiency = 0.75;
+        truth.body.mass_kg *= 1.2;
+        truth.rotor.descent_inflow_factor = 0.4;
+        let flights = flights_of(&truth);
+        let c =
+            calibrate_weighed(&given, Profile::Hvb, &flights, Some(truth.body.mass_kg)).unwrap();
+        assert_eq!(c.vehicle.body.mass_kg, truth.body.mass_kg);
+        let mass = c.fitted.iter().find(|f| f.key == "body.mass_kg").unwrap();
+        assert!(mass.given && mass.at_bound.is_none(), "{mass:?}");
+        assert_eq!(mass.before, given.body.mass_kg);
+        assert_eq!(c.to_json()["changed"][2]["given"], true);
+        assert!(c.after().worst_pct < 1.0, "{:?}", c.after());
+        let eta = c.vehicle.motor.esc_efficiency / truth.motor.esc_efficiency;
+        assert!((eta - 1.0).abs() < 0.03, "{eta}");
+        let descent = c.vehicle.rotor.descent_inflow_factor;
+        assert!((descent - 0.4).abs() < 0.1, "{descent}");
+        // Fitted, the mass is not `given`.
+        let free = calibrate(&given, Profile::Hvb, &flights).unwrap();
+        assert!(free.fitted.iter().all(|f| !f.given));
+        assert!(free.to_json()["changed"][2].get("given").is_none());
+    }
+
+    #[test]
+    fn a_weighed_mass_out_of_range_is_refused_naming_the_flag_and_key() {
+        let flights = flights_of(&shipped());
+        let err = calibrate_weighed(&shipped(), Profile::Hvb, &flights, Some(500.0))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("--mass-kg") && err.contains("body.mass_kg"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn a_parameter_at_a_bound_of_its_physical_range_gets_a_second_start_from_the_middle() {
+        // (value, low, high) in KNOBS' order: efficiency inside, kappa at its low bound, mass
+        // and drag (ranges of factors) inside, the descent inflow at its high bound.
+        let ranges = [
+            (0.95, 0.5, 1.0),
+            (1.0, 1.0, 1.5),
+            (5.0, 3.0, 8.0),
+            (0.2, 0.05, 0.8),
+            (1.0, 0.0, 1.0),
+        ];
+        let scales = [0.95, 1.0, 5.0, 0.2, 1.0];
+        let starts = fit_starts(&ranges, &scales);
+        assert_eq!(starts.len(), 2);
+        assert_eq!(starts[0], vec![1.0; 5]);
+        assert_eq!(starts[1], vec![1.0, 1.25, 1.0, 1.0, 0.5]);
+        // Nothing at a bound: one start.
+        let inside = [
+            (0.9, 0.5, 1.0),
+            (1.2, 1.0, 1.5),
+            (5.0, 3.0, 8.0),
+            (0.2, 0.05, 0.8),
+            (0.5, 0.0, 1.0),
+        ];
+        assert_eq!(fit_starts(&inside, &[0.9, 1.2, 5.0, 0.2, 0.5]).len(), 1);
+    }
+
+    #[test]
+    fn arducopter_sitl_flights_with_the_frames_weighed_mass_fit_a_descent_that_recovers_nothing() {
+        // ArduCopter SITL's frame (s1000.json, 6.971 kg) draws power with its thrust whatever
+        // the vertical speed: given its mass, the fit finds the descent's inflow near 0 and the
+        // legs closer than the four-knob fit could bring them (rms 5.3-5.8% on such flights).
+        let flights = arducopter_sitl_flights();
+        let c = calibrate_weighed(&shipped(), Profile::Ardupilot, &flights, Some(6.971)).unwrap();
+        let descent = c.vehicle.rotor.descent_inflow_factor;
+        assert!(descent < 0.2, "{descent}");
+        assert!(c.after().rms_pct < 4.0, "{:?}", c.after());
+        let held_out = c.held_out_errors().expect("two flights");
+        assert!(held_out.worst_pct < 8.0, "{held_out:?}");
+        assert!(c.envelope.is_none(), "{:?}", c.envelope);
     }
 
     #[test]
@@ -1219,13 +1468,10 @@ mod tests {
         assert_eq!(same, given);
     }
 
-    #[test]
-    fn a_fit_to_arducopter_sitl_flights_is_held_to_a_vehicle_that_flies_the_profiles_envelope() {
-        // ArduCopter SITL's flights of the two paper samples (2026-11-27, `sitl/ardupilot-
-        // calibrate.sh`): each leg's Xf, Zf, measured energy (J) and duration (s), and each
-        // hold's duration and energy. Their 17-57 m legs never reach WP_SPD; fitted freely,
-        // they ask for a vehicle so heavy and draggy that its motors saturate on a 75 m leg
-        // climbing at WP_SPD and WP_SPD_UP at once, which ArduCopter flies.
+    /// ArduCopter SITL's flights of the two paper samples (2026-11-27, `sitl/ardupilot-
+    /// calibrate.sh`): each leg's Xf, Zf, measured energy (J) and duration (s), and each
+    /// hold's duration and energy. Their 17-57 m legs never reach WP_SPD.
+    fn arducopter_sitl_flights() -> Flights {
         let legs = [
             (16.971, -11.0, 8081.8, 8.070),
             (32.985, -8.0, 8702.9, 8.453),
@@ -1257,7 +1503,7 @@ mod tests {
             (1.203, 1290.3),
         ];
         let flight_of = |k: usize| usize::from(k >= 9);
-        let flights = Flights {
+        Flights {
             flights: (0..2)
                 .map(|f| LoggedFlight {
                     dir: PathBuf::from(format!("flight{f}")),
@@ -1287,7 +1533,15 @@ mod tests {
                 .collect(),
             packs: Vec::new(),
             skipped: Vec::new(),
-        };
+        }
+    }
+
+    #[test]
+    fn a_fit_to_arducopter_sitl_flights_is_held_to_a_vehicle_that_flies_the_profiles_envelope() {
+        // Fitted freely with the descent's inflow as momentum theory has it (the four knobs
+        // before it was one), they ask for a vehicle so heavy and draggy that its motors
+        // saturate on a 75 m leg climbing at WP_SPD and WP_SPD_UP at once.
+        let flights = arducopter_sitl_flights();
         let given = shipped();
         let legs: Vec<&LoggedLeg> = flights.legs.iter().collect();
         let holds: Vec<&LoggedHover> = flights.hovers.iter().collect();
@@ -1300,6 +1554,7 @@ mod tests {
             &flights,
             (&legs, &holds),
             ITERATIONS,
+            &["rotor.descent_inflow_factor"],
         );
         assert!(
             envelope_failure(&v, Profile::Ardupilot).is_none(),

@@ -51,7 +51,13 @@ pub fn edit_vehicle_toml(
         // The comment stays in its column.
         let column = lines[line].find('#').unwrap_or(0);
         // Five significant digits, at least four decimals.
-        let decimals = (4 - value.abs().log10().floor() as i64).clamp(4, 9) as usize;
+        // (0 has no magnitude: four decimals.)
+        let magnitude = if *value == 0.0 {
+            0
+        } else {
+            value.abs().log10().floor().clamp(-20.0, 20.0) as i64
+        };
+        let decimals = (4 - magnitude).clamp(4, 9) as usize;
         let assignment = format!("{key} = {value:.decimals$}");
         let pad = column.saturating_sub(assignment.len()).max(1);
         lines[line] = format!("{assignment}{:pad$}# {note}", "");
@@ -78,6 +84,7 @@ pub fn value_of(v: &Vehicle, key: &str) -> f64 {
         "body.drag_coefficient_n_s2_m2" => v.body.drag_coefficient_n_s2_m2,
         "motor.esc_efficiency" => v.motor.esc_efficiency,
         "rotor.induced_power_factor" => v.rotor.induced_power_factor,
+        "rotor.descent_inflow_factor" => v.rotor.descent_inflow_factor,
         "battery.internal_resistance_ohm" => v.battery.internal_resistance_ohm,
         "battery.capacity_ah" => v.battery.capacity_ah,
         "planning.usable_energy_wh" => v.planning.usable_energy_wh,
@@ -93,6 +100,7 @@ pub fn set_value(v: &mut Vehicle, key: &str, value: f64) {
         "body.drag_coefficient_n_s2_m2" => v.body.drag_coefficient_n_s2_m2 = value,
         "motor.esc_efficiency" => v.motor.esc_efficiency = value,
         "rotor.induced_power_factor" => v.rotor.induced_power_factor = value,
+        "rotor.descent_inflow_factor" => v.rotor.descent_inflow_factor = value,
         "battery.internal_resistance_ohm" => v.battery.internal_resistance_ohm = value,
         "battery.capacity_ah" => v.battery.capacity_ah = value,
         "planning.usable_energy_wh" => v.planning.usable_energy_wh = value,
@@ -210,6 +218,10 @@ pub fn write_vehicle(
                 f.key,
                 f.value,
                 match f.key {
+                    _ if f.given => format!(
+                        "weighed, given to `emplan calibrate --from-logs --mass-kg`; was {}",
+                        f.before
+                    ),
                     "planning.usable_energy_wh" => format!(
                         "scaled with battery.capacity_ah as fitted (`emplan calibrate --from-logs`); was {}",
                         f.before
@@ -312,6 +324,22 @@ mod tests {
         assert_eq!(edited.lines().count(), text.lines().count() - 2);
         assert!(edited.contains("mass_kg = 7.6543"), "{edited}");
         assert!(!edited.contains("window 6-11 kg"), "{edited}");
+    }
+
+    #[test]
+    fn a_value_of_zero_is_written_with_four_decimals() {
+        let edited = edit_vehicle_toml(
+            &shipped_text(),
+            "v.toml",
+            &[("rotor.descent_inflow_factor", 0.0, "fitted".into())],
+        )
+        .unwrap();
+        assert!(
+            edited.contains("descent_inflow_factor = 0.0000"),
+            "{edited}"
+        );
+        let v = Vehicle::from_toml(&edited, "v.toml").unwrap();
+        assert_eq!(v.rotor.descent_inflow_factor, 0.0);
     }
 
     #[test]

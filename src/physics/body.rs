@@ -8,6 +8,10 @@
 //! v_x = X' cos Theta - Z' sin Theta, v_z = X' sin Theta + Z' cos Theta. The pitch-rate term
 //! Theta' x_j of the paper's per-rotor inflow is dropped: with quasi-static pitch all rotors
 //! share one operating point (energy effect below 1-2 %, research section 9.3).
+//!
+//! A descent's Z' < 0 enters the inflow scaled by `rotor.descent_inflow_factor` (1: the whole
+//! descent, momentum theory's and the paper's; docs/energy-model.md "Descent"); the forces do
+//! not change with it.
 
 use super::vehicle::Vehicle;
 
@@ -35,10 +39,50 @@ pub fn demand(
         + b.vertical_drag_coefficient_n_s2_m2 * vz_m_s * vz_m_s.abs();
     let pitch = fx.atan2(fz);
     let (s, c) = pitch.sin_cos();
+    // A descent reaches the rotors' inflow by its share (1: momentum theory's whole descent).
+    let vz_m_s = if vz_m_s < 0.0 {
+        vz_m_s * vehicle.rotor.descent_inflow_factor
+    } else {
+        vz_m_s
+    };
     RotorDemand {
         thrust_n: fx.hypot(fz) / f64::from(vehicle.rotor.count),
         pitch_rad: pitch,
         v_x_m_s: vx_m_s * c - vz_m_s * s,
         v_z_m_s: vx_m_s * s + vz_m_s * c,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::physics::vehicle::shipped;
+
+    #[test]
+    fn the_descent_inflow_factor_scales_only_a_descent_in_the_rotors_inflow() {
+        let v = shipped();
+        assert_eq!(v.rotor.descent_inflow_factor, 1.0);
+        let mut none = v.clone();
+        none.rotor.descent_inflow_factor = 0.0;
+        let mut half = v.clone();
+        half.rotor.descent_inflow_factor = 0.5;
+        // A climb and level flight are the same whatever the factor.
+        for (vx, vz, ax, az) in [(5.0, 2.0, 0.5, 0.1), (8.0, 0.0, 0.0, 0.0)] {
+            assert_eq!(demand(&none, vx, vz, ax, az), demand(&v, vx, vz, ax, az));
+        }
+        // A descent: the same thrust and pitch, the inflow of a descent at the factor's share.
+        let (vx, vz, ax, az) = (4.0, -2.0, 0.3, -0.2);
+        let full = demand(&v, vx, vz, ax, az);
+        let at_half = demand(&half, vx, vz, ax, az);
+        let at_none = demand(&none, vx, vz, ax, az);
+        assert_eq!(
+            (at_half.thrust_n, at_half.pitch_rad),
+            (full.thrust_n, full.pitch_rad)
+        );
+        let (s, c) = full.pitch_rad.sin_cos();
+        assert!((at_half.v_z_m_s - (vx * s - 1.0 * c)).abs() < 1e-12);
+        assert!((at_none.v_z_m_s - vx * s).abs() < 1e-12);
+        assert!((at_none.v_x_m_s - vx * c).abs() < 1e-12);
+        assert!(full.v_z_m_s < at_half.v_z_m_s && at_half.v_z_m_s < at_none.v_z_m_s);
     }
 }

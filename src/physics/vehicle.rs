@@ -72,6 +72,23 @@ pub struct RotorParams {
     /// Aerodynamics", 2nd ed., section 3.3: about 1.15). 1 (ideal) for files written before it.
     #[serde(default = "default_induced_power_factor")]
     pub induced_power_factor: f64,
+    /// The share of a descent's rate that reaches the rotors' inflow: 1 in momentum theory (the
+    /// paper's model, every descent crediting its fall through the disk); below 1 a rotor that
+    /// recovers less of it (docs/energy-model.md "Descent"). 1 for files written before it.
+    /// Left out of the serialised parameters (and so of the tables' vehicle hash) at 1.
+    #[serde(
+        default = "default_descent_inflow_factor",
+        skip_serializing_if = "is_one"
+    )]
+    pub descent_inflow_factor: f64,
+}
+
+fn default_descent_inflow_factor() -> f64 {
+    1.0
+}
+
+fn is_one(x: &f64) -> bool {
+    *x == 1.0
 }
 
 fn default_induced_power_factor() -> f64 {
@@ -484,7 +501,8 @@ impl Vehicle {
         Ok(vehicle)
     }
 
-    fn validate(&self, file: &str) -> Result<(), PhysicsError> {
+    /// Every parameter within its physical range, or an error naming `file` and the key.
+    pub fn validate(&self, file: &str) -> Result<(), PhysicsError> {
         let fail = |key: &str, problem: String| PhysicsError::VehicleFile {
             file: file.to_string(),
             line: String::new(),
@@ -582,6 +600,12 @@ impl Vehicle {
             r.induced_power_factor,
             1.0,
             1.5,
+        )?;
+        check(
+            "rotor.descent_inflow_factor",
+            r.descent_inflow_factor,
+            0.0,
+            1.0,
         )?;
         let m = &self.motor;
         check("motor.kv_rpm_per_v", m.kv_rpm_per_v, 10.0, 10_000.0)?;

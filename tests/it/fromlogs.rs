@@ -203,6 +203,54 @@ fn calibration_from_logs_of_a_perturbed_vehicle_brings_held_out_leg_error_under_
         stderr.contains(out.to_str().unwrap()) && stderr.contains("not empty"),
         "{stderr}"
     );
+
+    // Given the weighed mass, the fit keeps it and fits the rest around it.
+    let weighed = tmp.path().join("weighed");
+    let mass_arg = format!("{true_mass}");
+    let w = json(&[
+        "calibrate",
+        "--from-logs",
+        logs.to_str().unwrap(),
+        "--profile",
+        "hvb",
+        "--mass-kg",
+        &mass_arg,
+        "--out",
+        weighed.to_str().unwrap(),
+        "--tables",
+        "none",
+        "--json",
+    ]);
+    let given: Vec<&Value> = (w["fitted"].as_array().unwrap().iter())
+        .filter(|f| f["given"] == true)
+        .collect();
+    assert_eq!(given.len(), 1, "{}", w["fitted"]);
+    assert_eq!(given[0]["key"], "body.mass_kg");
+    assert_eq!(given[0]["value"].as_f64(), Some(true_mass));
+    assert!(
+        w["after"]["rms_pct"].as_f64().unwrap() < 3.0,
+        "{}",
+        w["after"]
+    );
+    let written = std::fs::read_to_string(weighed.join("vehicle.toml")).unwrap();
+    let line = written
+        .lines()
+        .find(|l| l.starts_with("mass_kg = "))
+        .unwrap();
+    assert!(line.contains("weighed"), "{line}");
+    // A mass no airframe has is refused, naming the flag and the key.
+    let (ok, _, stderr) = emplan(&[
+        "calibrate",
+        "--from-logs",
+        logs.to_str().unwrap(),
+        "--mass-kg",
+        "0.01",
+    ]);
+    assert!(!ok);
+    assert!(
+        stderr.contains("--mass-kg") && stderr.contains("body.mass_kg"),
+        "{stderr}"
+    );
 }
 
 #[test]
