@@ -270,8 +270,9 @@ fn print(c: &LogCalibration, vehicle: &str) {
     }
     if let Some(e) = &c.envelope {
         println!(
-            "warning: the fit was held to vehicles that can fly the {} profile's legs (Xf 0-150 m, Zf -60..+60 m): one that fitted these flights better (objective {:.4} against {:.4}) cannot fly {}",
-            c.profile, e.refused_objective, e.objective, e.refused_because
+            "warning: the fit was held to vehicles that can fly the {} profile's legs (Xf 0-150 m, Zf -60..+60 m): one that fitted these flights better (objective {:.4} against {:.4}) cannot fly them {:.0}% heavier: {}",
+            c.profile, e.refused_objective, e.objective,
+            (logfit::ENVELOPE_MASS_MARGIN - 1.0) * 100.0, e.refused_because
         );
     }
     if !c.at_bound().is_empty() {
