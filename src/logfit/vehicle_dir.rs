@@ -77,14 +77,13 @@ pub fn edit_vehicle_toml(
 }
 
 /// The value of a key [`LogCalibration::values`](super::LogCalibration::values) may change
-/// (NaN for another key).
+/// (NaN for another key): the leg fit's [`KNOBS`](super::KNOBS) by their own accessors, and the
+/// pack's, the budget's and the tracking lag's.
 pub fn value_of(v: &Vehicle, key: &str) -> f64 {
+    if let Some(knob) = super::KNOBS.iter().find(|k| k.key == key) {
+        return (knob.get)(v);
+    }
     match key {
-        "body.mass_kg" => v.body.mass_kg,
-        "body.drag_coefficient_n_s2_m2" => v.body.drag_coefficient_n_s2_m2,
-        "motor.esc_efficiency" => v.motor.esc_efficiency,
-        "rotor.induced_power_factor" => v.rotor.induced_power_factor,
-        "rotor.descent_inflow_factor" => v.rotor.descent_inflow_factor,
         "battery.internal_resistance_ohm" => v.battery.internal_resistance_ohm,
         "battery.capacity_ah" => v.battery.capacity_ah,
         "planning.usable_energy_wh" => v.planning.usable_energy_wh,
@@ -95,12 +94,11 @@ pub fn value_of(v: &Vehicle, key: &str) -> f64 {
 
 /// Sets a key [`value_of`] knows (others are ignored).
 pub fn set_value(v: &mut Vehicle, key: &str, value: f64) {
+    if let Some(knob) = super::KNOBS.iter().find(|k| k.key == key) {
+        (knob.set)(v, value);
+        return;
+    }
     match key {
-        "body.mass_kg" => v.body.mass_kg = value,
-        "body.drag_coefficient_n_s2_m2" => v.body.drag_coefficient_n_s2_m2 = value,
-        "motor.esc_efficiency" => v.motor.esc_efficiency = value,
-        "rotor.induced_power_factor" => v.rotor.induced_power_factor = value,
-        "rotor.descent_inflow_factor" => v.rotor.descent_inflow_factor = value,
         "battery.internal_resistance_ohm" => v.battery.internal_resistance_ohm = value,
         "battery.capacity_ah" => v.battery.capacity_ah = value,
         "planning.usable_energy_wh" => v.planning.usable_energy_wh = value,
