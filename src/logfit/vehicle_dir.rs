@@ -50,14 +50,13 @@ pub fn edit_vehicle_toml(
             })?;
         // The comment stays in its column.
         let column = lines[line].find('#').unwrap_or(0);
-        // Five significant digits, at least four decimals.
-        // (0 has no magnitude: four decimals.)
+        // Five significant digits, at least four decimals (0, of no magnitude, four).
         let magnitude = if *value == 0.0 {
-            0
+            0.0
         } else {
-            value.abs().log10().floor().clamp(-20.0, 20.0) as i64
+            value.abs().log10().floor()
         };
-        let decimals = (4 - magnitude).clamp(4, 9) as usize;
+        let decimals = (4.0 - magnitude).clamp(4.0, 9.0) as usize;
         let assignment = format!("{key} = {value:.decimals$}");
         let pad = column.saturating_sub(assignment.len()).max(1);
         lines[line] = format!("{assignment}{:pad$}# {note}", "");

@@ -80,7 +80,7 @@ mod tests {
             (full.thrust_n, full.pitch_rad)
         );
         let (s, c) = full.pitch_rad.sin_cos();
-        assert!((at_half.v_z_m_s - (vx * s - 1.0 * c)).abs() < 1e-12);
+        assert!((at_half.v_z_m_s - (vx * s + 0.5 * vz * c)).abs() < 1e-12);
         assert!((at_none.v_z_m_s - vx * s).abs() < 1e-12);
         assert!((at_none.v_x_m_s - vx * c).abs() < 1e-12);
         assert!(full.v_z_m_s < at_half.v_z_m_s && at_half.v_z_m_s < at_none.v_z_m_s);
