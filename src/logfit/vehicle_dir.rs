@@ -12,8 +12,11 @@ use crate::output::Output;
 use crate::physics::table::{DEFAULT_XF, DEFAULT_ZF};
 use crate::physics::{EnergyTable, Profile, Vehicle};
 
+/// The column of the comment on a line [`edit_vehicle_toml`] adds.
+const NEW_KEY_COLUMN: usize = 37;
+
 /// `text` (a vehicle.toml named `file` in errors) with each `section.key` of `values` set to its
-/// value and its comment replaced by the note given.
+/// value and its comment replaced by the note given; a key the section leaves out is added.
 pub fn edit_vehicle_toml(
     text: &str,
     file: &str,
@@ -35,19 +38,32 @@ pub fn edit_vehicle_toml(
                 file: file.to_string(),
                 reason: format!("no {header} section"),
             })?;
-        let line = lines[start + 1..]
+        let section_lines = lines[start + 1..]
             .iter()
             .take_while(|l| !l.trim_start().starts_with('['))
+            .count();
+        let found = lines[start + 1..start + 1 + section_lines]
+            .iter()
             .position(|l| {
                 l.trim_start()
                     .strip_prefix(key)
                     .is_some_and(|rest| rest.trim_start().starts_with('='))
             })
-            .map(|k| start + 1 + k)
-            .ok_or_else(|| LogFitError::VehicleFile {
-                file: file.to_string(),
-                reason: format!("no {key} in {header}"),
-            })?;
+            .map(|k| start + 1 + k);
+        // A key the file leaves out (it reads its default: a file written before the key was
+        // one) is added after the section's last line.
+        let line = match found {
+            Some(line) => line,
+            None => {
+                let last = lines[start + 1..start + 1 + section_lines]
+                    .iter()
+                    .rposition(|l| !l.trim().is_empty())
+                    .map_or(start, |k| start + 1 + k);
+                let placeholder = format!("{key} = 0");
+                lines.insert(last + 1, format!("{placeholder:<NEW_KEY_COLUMN$}#"));
+                last + 1
+            }
+        };
         // The comment stays in its column.
         let column = lines[line].find('#').unwrap_or(0);
         // Five significant digits, at least four decimals (0, of no magnitude, four).
@@ -340,16 +356,49 @@ mod tests {
     }
 
     #[test]
-    fn a_key_the_file_lacks_is_refused_naming_the_file_and_key() {
-        let err = edit_vehicle_toml(
-            &shipped_text(),
+    fn a_key_the_file_leaves_out_is_added_to_its_section_and_a_missing_section_refused() {
+        // A vehicle file written before the airflow was a key reads it as 1.
+        let older: String = shipped_text()
+            .lines()
+            .filter(|l| !l.starts_with("airflow_factor") && !l.contains("\"Airflow\""))
+            .map(|l| format!("{l}\n"))
+            .collect();
+        assert_eq!(
+            Vehicle::from_toml(&older, "v.toml")
+                .unwrap()
+                .rotor
+                .airflow_factor,
+            1.0
+        );
+        let edited = edit_vehicle_toml(
+            &older,
             "v.toml",
-            &[("body.wings", 2.0, "x".into())],
+            &[("rotor.airflow_factor", 0.25, "fitted".into())],
         )
-        .unwrap_err()
-        .to_string();
+        .unwrap();
+        let v = Vehicle::from_toml(&edited, "v.toml").unwrap();
+        assert_eq!(v.rotor.airflow_factor, 0.25);
+        assert_eq!(edited.lines().count(), older.lines().count() + 1);
+        let line = edited
+            .lines()
+            .find(|l| l.starts_with("airflow_factor"))
+            .unwrap();
+        assert_eq!(line.find('#'), Some(NEW_KEY_COLUMN), "{line}");
+        assert!(line.ends_with("# fitted"), "{line}");
+        // In its section: the line before it is the rotor's.
+        let at = edited.lines().position(|l| l == line).unwrap();
+        let section = edited
+            .lines()
+            .take(at)
+            .filter(|l| l.starts_with('['))
+            .last();
+        assert_eq!(section, Some("[rotor]"));
+
+        let err = edit_vehicle_toml(&older, "v.toml", &[("wings.count", 2.0, "x".into())])
+            .unwrap_err()
+            .to_string();
         assert!(
-            err.contains("v.toml") && err.contains("no wings in [body]"),
+            err.contains("v.toml") && err.contains("no [wings] section"),
             "{err}"
         );
     }

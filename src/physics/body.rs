@@ -10,8 +10,10 @@
 //! share one operating point (energy effect below 1-2 %, research section 9.3).
 //!
 //! A descent's Z' < 0 enters the inflow scaled by `rotor.descent_inflow_factor` (1: the whole
-//! descent, momentum theory's and the paper's; docs/energy-model.md "Descent"); the forces do
-//! not change with it.
+//! descent, momentum theory's and the paper's; docs/energy-model.md "Descent"), and the whole
+//! rotor-frame airspeed then by `rotor.airflow_factor` (1: all of it, as the paper's model; 0:
+//! a rotor that works at every airspeed as in hover; docs/energy-model.md "Airflow"); the forces
+//! change with neither.
 
 use super::vehicle::Vehicle;
 
@@ -45,11 +47,12 @@ pub fn demand(
     } else {
         vz_m_s
     };
+    let airflow = vehicle.rotor.airflow_factor;
     RotorDemand {
         thrust_n: fx.hypot(fz) / f64::from(vehicle.rotor.count),
         pitch_rad: pitch,
-        v_x_m_s: vx_m_s * c - vz_m_s * s,
-        v_z_m_s: vx_m_s * s + vz_m_s * c,
+        v_x_m_s: airflow * (vx_m_s * c - vz_m_s * s),
+        v_z_m_s: airflow * (vx_m_s * s + vz_m_s * c),
     }
 }
 
@@ -84,5 +87,30 @@ mod tests {
         assert!((at_none.v_z_m_s - vx * s).abs() < 1e-12);
         assert!((at_none.v_x_m_s - vx * c).abs() < 1e-12);
         assert!(full.v_z_m_s < at_half.v_z_m_s && at_half.v_z_m_s < at_none.v_z_m_s);
+    }
+
+    #[test]
+    fn the_airflow_factor_scales_the_rotors_airspeed_and_leaves_the_forces() {
+        let v = shipped();
+        assert_eq!(v.rotor.airflow_factor, 1.0);
+        let mut none = v.clone();
+        none.rotor.airflow_factor = 0.0;
+        let mut share = v.clone();
+        share.rotor.airflow_factor = 0.3;
+        for (vx, vz, ax, az) in [
+            (5.0, 2.0, 0.5, 0.1),
+            (8.0, 0.0, 0.0, 0.0),
+            (4.0, -2.0, 0.3, -0.2),
+        ] {
+            let full = demand(&v, vx, vz, ax, az);
+            let part = demand(&share, vx, vz, ax, az);
+            let still = demand(&none, vx, vz, ax, az);
+            for d in [part, still] {
+                assert_eq!((d.thrust_n, d.pitch_rad), (full.thrust_n, full.pitch_rad));
+            }
+            assert!((part.v_x_m_s - 0.3 * full.v_x_m_s).abs() < 1e-12);
+            assert!((part.v_z_m_s - 0.3 * full.v_z_m_s).abs() < 1e-12);
+            assert_eq!((still.v_x_m_s, still.v_z_m_s), (0.0, 0.0));
+        }
     }
 }

@@ -59,6 +59,48 @@ pub(crate) fn nelder_mead(
     iterations: usize,
     f: &impl Fn(&[f64]) -> f64,
 ) -> Vec<f64> {
+    simplex_search(start, step, iterations, 0.0, f).0
+}
+
+/// Nelder-Mead restarted from its own result with a fresh simplex of `step` until a restart
+/// no longer lowers the value by more than `tolerance` (relative), at most `restarts` times;
+/// each run stops early once its simplex's values agree within `tolerance` (relative). A
+/// simplex can collapse onto a face of the search space (a parameter pressed against a bound,
+/// parameters that trade against each other) and stall short of the minimum; a fresh simplex
+/// at the point reached spans every direction again (the standard remedy: Press et al.,
+/// Numerical Recipes 3rd ed., section 10.5). Returns the point and its value.
+pub(crate) fn nelder_mead_restarted(
+    start: &[f64],
+    step: &[f64],
+    iterations: usize,
+    restarts: usize,
+    tolerance: f64,
+    f: &impl Fn(&[f64]) -> f64,
+) -> (Vec<f64>, f64) {
+    let (mut best, mut value) = simplex_search(start, step, iterations, tolerance, f);
+    for _ in 0..restarts {
+        let (x, fx) = simplex_search(&best, step, iterations, tolerance, f);
+        let better = fx < value - tolerance * value.abs();
+        if fx < value {
+            (best, value) = (x, fx);
+        }
+        if !better {
+            break;
+        }
+    }
+    (best, value)
+}
+
+/// The simplex search of [`nelder_mead`]: at most `iterations` steps, stopping early once the
+/// simplex's values agree within `tolerance` relative to the best (0: never). Returns the best
+/// vertex and its value.
+fn simplex_search(
+    start: &[f64],
+    step: &[f64],
+    iterations: usize,
+    tolerance: f64,
+    f: &impl Fn(&[f64]) -> f64,
+) -> (Vec<f64>, f64) {
     let n = start.len();
     let mut simplex: Vec<(Vec<f64>, f64)> = (0..=n)
         .map(|k| {
@@ -72,6 +114,9 @@ pub(crate) fn nelder_mead(
         .collect();
     for _ in 0..iterations {
         simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
+        if tolerance > 0.0 && simplex[n].1 - simplex[0].1 <= tolerance * simplex[0].1.abs() {
+            break;
+        }
         let centroid: Vec<f64> = (0..n)
             .map(|i| simplex[..n].iter().map(|(x, _)| x[i]).sum::<f64>() / n as f64)
             .collect();
@@ -114,7 +159,7 @@ pub(crate) fn nelder_mead(
         }
     }
     simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
-    simplex.swap_remove(0).0
+    simplex.swap_remove(0)
 }
 
 #[cfg(test)]

@@ -81,6 +81,17 @@ pub struct RotorParams {
         skip_serializing_if = "is_one"
     )]
     pub descent_inflow_factor: f64,
+    /// The share of the vehicle's airspeed (in the rotor's frame, in-plane and through the
+    /// disk, after the descent's share) that reaches the rotors' aerodynamics: 1 in momentum
+    /// and blade-element theory (translational lift, the work of climbing, parasite power);
+    /// 0 a rotor whose power follows its thrust alone, as ArduPilot's SITL motors
+    /// (libraries/SITL/SIM_Motor.cpp: power = factor x thrust). docs/energy-model.md
+    /// "Airflow". 1 for files written before it; left out of the serialised parameters at 1.
+    #[serde(
+        default = "default_descent_inflow_factor",
+        skip_serializing_if = "is_one"
+    )]
+    pub airflow_factor: f64,
 }
 
 fn default_descent_inflow_factor() -> f64 {
@@ -607,6 +618,7 @@ impl Vehicle {
             0.0,
             1.0,
         )?;
+        check("rotor.airflow_factor", r.airflow_factor, 0.0, 1.0)?;
         let m = &self.motor;
         check("motor.kv_rpm_per_v", m.kv_rpm_per_v, 10.0, 10_000.0)?;
         check("motor.resistance_ohm", m.resistance_ohm, 0.0, 10.0)?;
