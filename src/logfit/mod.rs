@@ -40,7 +40,9 @@
 //!   model, a real rotor's); 0 a rotor whose power follows its thrust alone. ArduCopter SITL's
 //!   frame is that (ArduPilot's SIM_Motor: power = factor x thrust) and fits about 0.17, where
 //!   the descent's share then hardly matters; a real airframe that fits far below 1 is worth a
-//!   second look at its logs.
+//!   second look at its logs. Fitted only with the mass weighed (`--mass-kg`): a climb's work
+//!   through the disk is the airflow times m g v_z / eta, so unweighed it trades with the mass
+//!   and efficiency; it then keeps the vehicle's value.
 //!
 //! Mass, efficiency and kappa all raise the hover power, and a few flights' holds and legs tell
 //! them apart only by the climbs' m g v_z and the accelerations: fitted together, they wander
@@ -459,6 +461,9 @@ impl Knob {
     }
 }
 
+/// The key of the airflow's knob: fitted only with a weighed mass ([`calibrate_weighed`]).
+const AIRFLOW_KEY: &str = "rotor.airflow_factor";
+
 /// The parameters fitted to the flights' legs and holds (module docs: why these, what each
 /// changes, why these bounds).
 pub const KNOBS: [Knob; 6] = [
@@ -493,7 +498,7 @@ pub const KNOBS: [Knob; 6] = [
         set: |v, x| v.rotor.descent_inflow_factor = x,
     },
     Knob {
-        key: "rotor.airflow_factor",
+        key: AIRFLOW_KEY,
         bounds: Bounds::Absolute(0.0, 1.0),
         get: |v| v.rotor.airflow_factor,
         set: |v, x| v.rotor.airflow_factor = x,
@@ -1083,6 +1088,17 @@ pub fn calibrate_weighed(
         weighed.validate("--mass-kg")?;
         fixed.push("body.mass_kg");
     }
+    // Unweighed, the airflow is held at the vehicle's value, not fitted: a climb's work through
+    // the disk is the airflow times m g v_z / eta, so without the mass the airflow, mass and
+    // efficiency trade along the climbs (measured on the built-in mock's flights of a vehicle
+    // at airflow 1: a fit of all six put it at 0.81 with the mass at 3.99 kg against 6.39 and
+    // the efficiency at its 0.5 bound). Held knobs are left out of `fitted`.
+    let held: &[&str] = if mass_kg.is_some() {
+        &[]
+    } else {
+        &[AIRFLOW_KEY]
+    };
+    fixed.extend_from_slice(held);
     let vehicle = &weighed;
     if flights.flights.is_empty() {
         return Err(LogFitError::NoUsableFlight {
@@ -1130,6 +1146,7 @@ pub fn calibrate_weighed(
             f.before = (knob.get)(original);
         }
     }
+    fitted.retain(|f| !held.contains(&f.key));
     let after = predict(&fitted_vehicle, profile, flights, &all)?;
     let hover_errors = |v: &Vehicle| -> Result<ErrorStats, LogFitError> {
         let predicted = predict_hovers(v, &holds)?;
@@ -1153,7 +1170,7 @@ pub fn calibrate_weighed(
                 holds.iter().copied().filter(|h| h.flight != f).collect();
             let test: Vec<usize> = (0..all.len()).filter(|&k| all[k].flight == f).collect();
             let (train_lagged, _) = fit_tracking_lag(&packed, profile, flights, &train)?;
-            let (v, values, _) = fit(
+            let (v, mut values, _) = fit(
                 &train_lagged,
                 profile,
                 flights,
@@ -1161,6 +1178,7 @@ pub fn calibrate_weighed(
                 ITERATIONS,
                 &fixed,
             );
+            values.retain(|f| !held.contains(&f.key));
             let test_legs: Vec<&LoggedLeg> = test.iter().map(|&k| all[k]).collect();
             let predicted = predict(&v, profile, flights, &test_legs)?;
             let errors: Vec<f64> = predicted
@@ -1421,6 +1439,29 @@ mod tests {
         let free = calibrate(&given, Profile::Hvb, &flights).unwrap();
         assert!(free.fitted.iter().all(|f| !f.given));
         assert!(free.to_json()["changed"][2].get("given").is_none());
+    }
+
+    #[test]
+    fn the_airflow_is_fitted_with_a_weighed_mass_and_held_without_one() {
+        let given = shipped();
+        let mut truth = given.clone();
+        truth.motor.esc_efficiency = 0.7;
+        truth.rotor.airflow_factor = 0.3;
+        let flights = flights_of(&truth);
+        let weighed =
+            calibrate_weighed(&given, Profile::Hvb, &flights, Some(truth.body.mass_kg)).unwrap();
+        let airflow = weighed.vehicle.rotor.airflow_factor;
+        assert!((airflow - 0.3).abs() < 0.05, "{airflow}");
+        assert!(weighed.after().worst_pct < 1.0, "{:?}", weighed.after());
+        assert!(weighed.fitted.iter().any(|f| f.key == AIRFLOW_KEY));
+        // Unweighed: held at the vehicle's 1, and not listed as fitted.
+        let free = calibrate(&given, Profile::Hvb, &flights).unwrap();
+        assert_eq!(free.vehicle.rotor.airflow_factor, 1.0);
+        assert!(free.fitted.iter().all(|f| f.key != AIRFLOW_KEY));
+        assert!(free
+            .held_out
+            .iter()
+            .all(|h| h.fitted.len() == KNOBS.len() - 1));
     }
 
     #[test]
