@@ -77,6 +77,9 @@ pub struct ChainLeg {
     /// Straight-line horizontal and vertical displacement of the leg (waypoint to waypoint).
     pub xf_m: f64,
     pub zf_m: f64,
+    /// The target's position (east, north, up, m, the chain's frame) at each sample: where the
+    /// built-in mock flies it.
+    pub track_enu_m: Vec<[f64; 3]>,
 }
 
 /// One straight leg's S-curve and where its clock is (SCurve.cpp's `time`).
@@ -232,6 +235,7 @@ pub fn chain(
             .unwrap_or([0.0; 6]);
         let mut samples = vec![first];
         let mut last_pos = target_of(origin, prev.as_ref(), &this, next.as_ref()).0;
+        let mut track = vec![last_pos];
         let (mut x_m, z0) = (0.0, last_pos[2]);
         let mut arrival_s = None;
         let leg_t0 = now_s;
@@ -286,6 +290,7 @@ pub fn chain(
             last_pos = pos;
             let (vx, vz, ax, az) = planar(vel, accel, along);
             samples.push([x_m, pos[2] - z0, vx, vz, ax, az]);
+            track.push(pos);
             if arrival_s.is_none() && norm(sub(pos, point.enu_m)) <= arrival_radius_m {
                 arrival_s = Some(now_s - leg_t0);
             }
@@ -304,6 +309,7 @@ pub fn chain(
             from_rest,
             xf_m: d[0].hypot(d[1]),
             zf_m: d[2],
+            track_enu_m: track,
         });
         // AC_WPNav.cpp `set_wp_destination_NED_m`: the finished leg is kept as the previous
         // leg; the next leg's S-curve, running or not, becomes this one. Without a next leg the

@@ -90,6 +90,10 @@ struct PowerState {
     v_z_m_s: f64,
 }
 
+/// A chain leg's trajectory with its target's positions (east, north, up, m) a tick apart:
+/// [`Model::ardupilot_chain_trajectories`].
+pub type TrackedTrajectory = (Trajectory, Vec<[f64; 3]>);
+
 /// A vehicle's models, built once and reused for many operations (table builds).
 #[derive(Debug, Clone)]
 pub struct Model<'a> {
@@ -440,6 +444,28 @@ impl<'a> Model<'a> {
                 })
             })
             .collect()
+    }
+
+    /// The legs of a chain of waypoints as ArduCopter flies them (`ardupilot_chain::chain`),
+    /// each as the trajectory [`Model::ardupilot_chain`] prices (a leg from rest after its
+    /// `tracking_lag_s` of hover) with the target's positions along it (east, north, up, a
+    /// sample each [`ardupilot_chain::TICK_S`](super::ardupilot_chain::TICK_S) after the lag):
+    /// what the built-in mock flies.
+    pub fn ardupilot_chain_trajectories(
+        &self,
+        start_enu_m: [f64; 3],
+        points: &[super::ardupilot_chain::ChainPoint],
+    ) -> Result<Vec<TrackedTrajectory>, PhysicsError> {
+        let a = &self.vehicle.ardupilot;
+        let legs = super::ardupilot_chain::chain(a, start_enu_m, points, ARRIVAL_RADIUS_M)?;
+        Ok(legs
+            .into_iter()
+            .map(|leg| {
+                let delay_s = if leg.from_rest { a.tracking_lag_s } else { 0.0 };
+                let t = sampled_trajectory(leg.samples, leg.xf_m, leg.zf_m, a.steps, None);
+                (Trajectory { delay_s, ..t }, leg.track_enu_m)
+            })
+            .collect())
     }
 
     /// The take-off `profile` flies from the ground to `height_m` (PX4: NAV_TAKEOFF, its slow

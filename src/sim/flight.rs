@@ -3,7 +3,11 @@
 //!
 //! The mission items (MISSION_ITEM_INT, as the mission server stores them) are read once into
 //! [`Command`]s in a local east-north-up frame centred on home (`crate::mission` geodesy, exact).
-//! Every motion between two points is a hover-to-hover operation flown with the profile's
+//! With the ardupilot profile, waypoints ArduCopter flies through (no hold, another waypoint
+//! next: `ardupilot_chain::is_fast`) are flown as its chain (`physics::ardupilot_chain`): the
+//! target's 3D track, each such waypoint reached when its leg's S-curve finishes, half-way
+//! through the turn, the power from the same planar kinematics the chain is priced with.
+//! Every other motion between two points is a hover-to-hover operation flown with the profile's
 //! [`Trajectory`] from `physics` (the same trajectory the energy tables were built from) along
 //! the straight 3D line, followed by the profile's settle time in hover; electrical power at each
 //! instant is `physics::power::Model::power_w` of the trajectory's kinematics in the leg's
@@ -33,6 +37,10 @@
 use crate::link::mav::{MavCmd, MavFrame, MISSION_ITEM_INT_DATA};
 use crate::mission::{Geodetic, Origin};
 use crate::physics::power::Model;
+use std::collections::VecDeque;
+use std::sync::Arc;
+
+use crate::physics::ardupilot_chain::{self, ChainPoint};
 use crate::physics::trajectory::{Acceptance, Trajectory};
 use crate::physics::{start_case, PhysicsError, Profile, Start, Vehicle};
 
@@ -262,6 +270,11 @@ struct Line {
     overshoot: Local,
     /// The leg's horizontal length (m).
     across_m: f64,
+    /// ArduCopter's target along a leg of fast waypoints (`physics::ardupilot_chain`): its
+    /// position a tick apart after the trajectory's delay, flown instead of the straight line;
+    /// the waypoint counts reached when it ends (the S-curve finished, half-way through the
+    /// turn).
+    track: Option<Arc<Vec<Local>>>,
 }
 
 impl Line {
@@ -270,6 +283,9 @@ impl Line {
     }
 
     fn at(&self, t_s: f64) -> (Local, Local) {
+        if let Some(track) = &self.track {
+            return on_track(track, t_s - self.start_s - self.trajectory.delay_s());
+        }
         let tau = (t_s - self.start_s).max(0.0);
         let (x, z) = self.trajectory.position_m(tau);
         let (vx, vz, _, _) = self.trajectory.kinematics(tau);
@@ -298,6 +314,31 @@ impl Line {
             ],
         )
     }
+}
+
+/// Position and velocity `tau_s` along a target track sampled every
+/// [`ardupilot_chain::TICK_S`] (at its ends outside it).
+fn on_track(track: &[Local], tau_s: f64) -> (Local, Local) {
+    let last = track.len().saturating_sub(1);
+    let Some(&end) = track.get(last) else {
+        return ([0.0; 3], [0.0; 3]);
+    };
+    let at = tau_s.max(0.0) / ardupilot_chain::TICK_S;
+    let k = at.floor() as usize;
+    if k >= last {
+        return (end, [0.0; 3]);
+    }
+    let (a, b) = (track[k], track[k + 1]);
+    let f = at - k as f64;
+    let dt = ardupilot_chain::TICK_S;
+    (
+        [
+            a[0] + f * (b[0] - a[0]),
+            a[1] + f * (b[1] - a[1]),
+            a[2] + f * (b[2] - a[2]),
+        ],
+        [(b[0] - a[0]) / dt, (b[1] - a[1]) / dt, (b[2] - a[2]) / dt],
+    )
 }
 
 /// What the vehicle is physically doing.
@@ -375,6 +416,9 @@ pub struct Flight<'v> {
     /// or landing): with the px4 profile the next leg starts behind or ahead of PX4's
     /// trajectory by the turn between them (`physics::start_case`).
     last_leg_xy: Option<(f64, f64)>,
+    /// With the ardupilot profile, the legs still ahead in a chain of fast waypoints: the item
+    /// each flies to, its trajectory and its target track (`physics::ardupilot_chain`).
+    chain_ahead: VecDeque<(u16, Trajectory, Arc<Vec<Local>>)>,
 }
 
 /// Most items started without time passing before the flight stops and hovers.
@@ -407,6 +451,7 @@ impl<'v> Flight<'v> {
             chain: 0,
             setpoint: None,
             last_leg_xy: None,
+            chain_ahead: VecDeque::new(),
         })
     }
 
@@ -618,6 +663,13 @@ impl<'v> Flight<'v> {
                 self.velocity = velocity;
                 if now_s >= line.end_s() {
                     line_end = Some((*purpose, line.end_s(), line.trajectory.settle_s()));
+                    // ArduCopter counts a waypoint of a chain reached when its S-curve
+                    // finishes, wherever the vehicle is.
+                    if line.track.is_some() {
+                        if let Some(p) = self.progress.as_mut() {
+                            p.reached_s.get_or_insert(line.end_s());
+                        }
+                    }
                 }
             }
             _ => {}
@@ -779,6 +831,24 @@ impl<'v> Flight<'v> {
             } else {
                 [0.0; 3]
             };
+        if let Some((trajectory, track)) = self.chain_leg(from, purpose) {
+            let line = Line {
+                trajectory,
+                from,
+                heading,
+                start_s: self.now_s,
+                offset: [0.0; 3],
+                catch_up_s: self.vehicle.px4.departure_error_decay_s,
+                overshoot: [0.0; 3],
+                across_m: xf_m,
+                track: Some(track),
+            };
+            self.motion = Motion::Flying {
+                line: Box::new(line),
+                purpose,
+            };
+            return;
+        }
         let trajectory = match purpose {
             Purpose::Leg => self.trajectory(xf_m, zf_m, start),
             Purpose::Climb if xf_m < ABOVE_POINT_M => {
@@ -814,6 +884,7 @@ impl<'v> Flight<'v> {
             catch_up_s: self.vehicle.px4.departure_error_decay_s,
             overshoot,
             across_m: xf_m,
+            track: None,
         };
         if line.trajectory.duration_s() <= 0.0 {
             self.motion = Motion::Hover;
@@ -824,6 +895,65 @@ impl<'v> Flight<'v> {
             line: Box::new(line),
             purpose,
         };
+    }
+
+    /// With the ardupilot profile, the leg to the current waypoint when ArduCopter flies it in
+    /// a chain of fast waypoints (the waypoint, or the one before it, fast: a hold under a
+    /// second and another waypoint next, `ardupilot_chain::is_fast`): the chain from `from`
+    /// through the waypoints ahead to the first that is not fast is simulated when its first
+    /// leg starts and its legs kept for the items that follow. None for a leg rest to rest.
+    fn chain_leg(
+        &mut self,
+        from: Local,
+        purpose: Purpose,
+    ) -> Option<(Trajectory, Arc<Vec<Local>>)> {
+        let seq = self.progress?.seq;
+        if let Some((next, _, _)) = self.chain_ahead.front() {
+            if *next == seq && purpose == Purpose::Leg {
+                return self.chain_ahead.pop_front().map(|(_, t, track)| (t, track));
+            }
+        }
+        self.chain_ahead.clear();
+        if self.profile != Profile::Ardupilot || purpose != Purpose::Leg {
+            return None;
+        }
+        let waypoint = |k: usize| match self.commands.get(k) {
+            Some(Command::Waypoint { at, hold_s, .. }) => Some((*at, *hold_s)),
+            _ => None,
+        };
+        let mut points = Vec::new();
+        let mut k = usize::from(seq);
+        while let Some((at, hold_s)) = waypoint(k) {
+            let fast = ardupilot_chain::is_fast(hold_s, waypoint(k + 1).is_some());
+            points.push((k, ChainPoint { enu_m: at, fast }));
+            if !fast {
+                break;
+            }
+            k += 1;
+        }
+        if points.first().is_none_or(|(_, p)| !p.fast) {
+            return None;
+        }
+        let chain_points: Vec<ChainPoint> = points.iter().map(|(_, p)| *p).collect();
+        let flown = match self.cruise_m_s {
+            None => self.model.ardupilot_chain_trajectories(from, &chain_points),
+            Some(speed) => {
+                let mut v = self.vehicle.clone();
+                v.ardupilot.wp_spd_m_s = speed;
+                Model::new(&v).ardupilot_chain_trajectories(from, &chain_points)
+            }
+        };
+        let Ok(flown) = flown else {
+            // The physics cannot fly it: the legs rest to rest instead.
+            self.physics_errors += 1;
+            return None;
+        };
+        for ((k, _), (trajectory, track)) in points.iter().zip(flown) {
+            let seq = u16::try_from(*k).ok()?;
+            self.chain_ahead
+                .push_back((seq, trajectory, Arc::new(track)));
+        }
+        self.chain_ahead.pop_front().map(|(_, t, track)| (t, track))
     }
 
     /// The profile's trajectory, at the cruise speed a DO_CHANGE_SPEED set.
@@ -1163,6 +1293,100 @@ mod tests {
                 )
             })
             .collect()
+    }
+
+    #[test]
+    fn ardupilot_flies_waypoints_without_holds_through_their_blended_corners_as_priced() {
+        // Take-off to 20 m, then three waypoints without holds (the last followed by a landing,
+        // so not fast): ArduCopter flies the first two through, each reached half-way through
+        // its turn, and stops on the third.
+        let v = shipped();
+        let frame = MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT;
+        let enu = [[40.0, 0.0, 20.0], [40.0, 30.0, 25.0], [0.0, 30.0, 20.0]];
+        let mut items = vec![item(
+            0,
+            MavCmd::MAV_CMD_NAV_TAKEOFF,
+            frame,
+            [0.0; 4],
+            (0, 0, 20.0),
+        )];
+        for (k, p) in enu.iter().enumerate() {
+            let (x, y) = at(p[0], p[1]);
+            items.push(item(
+                k as u16 + 1,
+                MavCmd::MAV_CMD_NAV_WAYPOINT,
+                frame,
+                [0.0; 4],
+                (x, y, p[2] as f32),
+            ));
+        }
+        let (x, y) = at(0.0, 30.0);
+        items.push(item(
+            4,
+            MavCmd::MAV_CMD_NAV_LAND,
+            frame,
+            [0.0; 4],
+            (x, y, 0.0),
+        ));
+        let mut f = Flight::new(&v, Profile::Ardupilot).unwrap();
+        f.arm();
+        f.start(commands(&items, HOME, false).unwrap(), 0, 1.0);
+        let mut events = Vec::new();
+        let mut jumps = 0.0f64;
+        let mut last = f.position();
+        let mut energy = [0.0f64; 3];
+        let mut leg: Option<usize> = None;
+        let dt = 0.01;
+        for k in 1..30_000 {
+            let t = k as f64 * dt;
+            for e in f.advance(t) {
+                match e {
+                    Event::Current(s @ 1..=3) => leg = Some(usize::from(s) - 1),
+                    Event::Reached(3) => leg = None,
+                    _ => {}
+                }
+                events.push((t, e));
+            }
+            let here = f.position();
+            jumps = jumps.max(distance(here, last));
+            last = here;
+            if let Some(l) = leg {
+                energy[l] += f.power_w() * dt;
+            }
+            if f.complete() {
+                break;
+            }
+        }
+        assert!(f.complete(), "{events:?}");
+        // No jump in position: each leg's track starts where the last one ended.
+        assert!(jumps < 0.2, "{jumps} m in a step");
+        assert_eq!(f.physics_errors(), 0);
+        // The legs as the profile prices them: the same chain, from the take-off's end.
+        let model = Model::new(&v);
+        let points: Vec<ChainPoint> = (enu.iter().enumerate())
+            .map(|(k, &enu_m)| ChainPoint { enu_m, fast: k < 2 })
+            .collect();
+        let top = [0.0, 0.0, 20.0];
+        let priced = model.ardupilot_chain(top, &points).unwrap();
+        let flown = model.ardupilot_chain_trajectories(top, &points).unwrap();
+        let start = when(&events, Event::Current(1));
+        let mut end = start;
+        for (k, ((op, (t, _)), measured)) in priced.iter().zip(&flown).zip(energy).enumerate() {
+            // Each fast waypoint is reached when its leg's trajectory ends.
+            if k < 2 {
+                end += t.duration_s();
+                let reached = when(&events, Event::Reached(k as u16 + 1));
+                assert!((reached - end).abs() < 0.011, "leg {k}: {reached} vs {end}");
+            }
+            let price = op.energy_j + op.settle_energy_j;
+            assert!(
+                (measured / price - 1.0).abs() < 0.01,
+                "leg {k}: {measured} J flown, {price} J priced"
+            );
+        }
+        // The third is reached on arrival, at rest: its leg ends on it.
+        let third = when(&events, Event::Reached(3));
+        assert!(third >= end + flown[2].0.duration_s() - 0.011, "{third}");
     }
 
     #[test]
