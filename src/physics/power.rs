@@ -90,6 +90,16 @@ struct PowerState {
     v_z_m_s: f64,
 }
 
+/// The hover before a chain leg (`Model::ardupilot_chain`): the tracking lag for a leg that
+/// starts at rest, none for one that starts in a blended turn. Pricing and the mock alike.
+fn chain_lead_s(a: &super::vehicle::ArdupilotParams, from_rest: bool) -> f64 {
+    if from_rest {
+        a.tracking_lag_s.max(0.0)
+    } else {
+        0.0
+    }
+}
+
 /// A chain leg's trajectory with its target's positions (east, north, up, m) a tick apart:
 /// [`Model::ardupilot_chain_trajectories`].
 pub type TrackedTrajectory = (Trajectory, Vec<[f64; 3]>);
@@ -428,10 +438,11 @@ impl<'a> Model<'a> {
                 let to_arrival = self.energy_j(&t.path, (0.0, arrival), n1, false)?;
                 let rest = self.energy_j(&t.path, (arrival, duration), n2, false)?;
                 let peak = path_peak_speed(&t.path, n);
-                let (lead_s, lead_j) = if leg.from_rest && a.tracking_lag_s > 0.0 {
-                    (a.tracking_lag_s, self.hover_power_w()? * a.tracking_lag_s)
+                let lead_s = chain_lead_s(a, leg.from_rest);
+                let lead_j = if lead_s > 0.0 {
+                    self.hover_power_w()? * lead_s
                 } else {
-                    (0.0, 0.0)
+                    0.0
                 };
                 // Within 4 m from the start: the lag counts with the settle (as `fly`).
                 let (head_j, head_s, tail_j, tail_s) = lead_split(lead_j, lead_s, arrival);
@@ -461,7 +472,7 @@ impl<'a> Model<'a> {
         Ok(legs
             .into_iter()
             .map(|leg| {
-                let delay_s = if leg.from_rest { a.tracking_lag_s } else { 0.0 };
+                let delay_s = chain_lead_s(a, leg.from_rest);
                 let t = sampled_trajectory(leg.samples, leg.xf_m, leg.zf_m, a.steps, None);
                 (Trajectory { delay_s, ..t }, leg.track_enu_m)
             })

@@ -76,10 +76,7 @@ pub struct RotorParams {
     /// paper's model, every descent crediting its fall through the disk); below 1 a rotor that
     /// recovers less of it (docs/energy-model.md "Descent"). 1 for files written before it.
     /// Left out of the serialised parameters (and so of the tables' vehicle hash) at 1.
-    #[serde(
-        default = "default_descent_inflow_factor",
-        skip_serializing_if = "is_one"
-    )]
+    #[serde(default = "one", skip_serializing_if = "is_one")]
     pub descent_inflow_factor: f64,
     /// The share of the vehicle's airspeed (in the rotor's frame, in-plane and through the
     /// disk, after the descent's share) that reaches the rotors' aerodynamics: 1 in momentum
@@ -87,14 +84,12 @@ pub struct RotorParams {
     /// 0 a rotor whose power follows its thrust alone, as ArduPilot's SITL motors
     /// (libraries/SITL/SIM_Motor.cpp: power = factor x thrust). docs/energy-model.md
     /// "Airflow". 1 for files written before it; left out of the serialised parameters at 1.
-    #[serde(
-        default = "default_descent_inflow_factor",
-        skip_serializing_if = "is_one"
-    )]
+    #[serde(default = "one", skip_serializing_if = "is_one")]
     pub airflow_factor: f64,
 }
 
-fn default_descent_inflow_factor() -> f64 {
+/// The default of a share that is whole in the paper's model (descent inflow, airflow).
+fn one() -> f64 {
     1.0
 }
 

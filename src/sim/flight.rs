@@ -935,13 +935,9 @@ impl<'v> Flight<'v> {
             return None;
         }
         let chain_points: Vec<ChainPoint> = points.iter().map(|(_, p)| *p).collect();
-        let flown = match self.cruise_m_s {
+        let flown = match self.cruising() {
             None => self.model.ardupilot_chain_trajectories(from, &chain_points),
-            Some(speed) => {
-                let mut v = self.vehicle.clone();
-                v.ardupilot.wp_spd_m_s = speed;
-                Model::new(&v).ardupilot_chain_trajectories(from, &chain_points)
-            }
+            Some(v) => Model::new(&v).ardupilot_chain_trajectories(from, &chain_points),
         };
         let Ok(flown) = flown else {
             // The physics cannot fly it: the legs rest to rest instead.
@@ -958,17 +954,22 @@ impl<'v> Flight<'v> {
 
     /// The profile's trajectory, at the cruise speed a DO_CHANGE_SPEED set.
     fn trajectory(&self, xf_m: f64, zf_m: f64, start: Start) -> Result<Trajectory, PhysicsError> {
-        match self.cruise_m_s {
+        match self.cruising() {
             None => self.model.trajectory_from(self.profile, xf_m, zf_m, start),
-            Some(speed) => {
-                let mut v = self.vehicle.clone();
-                v.px4.mpc_xy_cruise_m_s = speed;
-                v.ardupilot.wp_spd_m_s = speed;
-                v.hvb.speed_xy_m_s = speed;
-                v.ptf.max_speed_xy_m_s = speed;
-                Model::new(&v).trajectory_from(self.profile, xf_m, zf_m, start)
-            }
+            Some(v) => Model::new(&v).trajectory_from(self.profile, xf_m, zf_m, start),
         }
+    }
+
+    /// The vehicle with every profile's cruise speed at the one a DO_CHANGE_SPEED set (None:
+    /// none set, the vehicle's own).
+    fn cruising(&self) -> Option<Vehicle> {
+        let speed = self.cruise_m_s?;
+        let mut v = self.vehicle.clone();
+        v.px4.mpc_xy_cruise_m_s = speed;
+        v.ardupilot.wp_spd_m_s = speed;
+        v.hvb.speed_xy_m_s = speed;
+        v.ptf.max_speed_xy_m_s = speed;
+        Some(v)
     }
 
     /// Heads for the landing point: a horizontal leg first when not above it, else the descent.
