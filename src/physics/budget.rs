@@ -11,7 +11,8 @@
 //! for the waypoint's hover time.
 
 use super::power::Model;
-use super::{hover_power_w, Operation, PhysicsError, Profile, Vehicle};
+use super::wind::Wind;
+use super::{Operation, PhysicsError, Profile, Vehicle};
 
 /// The fixed costs of flights from one origin with one vehicle and profile, and its battery.
 #[derive(Debug, Clone, PartialEq)]
@@ -54,6 +55,17 @@ impl Budget {
         profile: Profile,
         height_above_home_m: f64,
     ) -> Result<Budget, PhysicsError> {
+        Budget::in_wind(vehicle, profile, height_above_home_m, Wind::CALM)
+    }
+
+    /// [`Budget::new`] in a steady `wind`: the take-off, landing and hover in it (a vertical
+    /// move and a hover see only its speed).
+    pub fn in_wind(
+        vehicle: &Vehicle,
+        profile: Profile,
+        height_above_home_m: f64,
+        wind: Wind,
+    ) -> Result<Budget, PhysicsError> {
         let pricing = |what: &'static str| {
             move |e: PhysicsError| PhysicsError::Pricing {
                 what,
@@ -67,11 +79,11 @@ impl Budget {
                 value: h,
             }));
         }
-        let model = Model::new(vehicle);
+        let model = Model::new(vehicle).in_wind(wind.on_heading(0.0));
         Ok(Budget {
             takeoff: model.takeoff(profile, h).map_err(pricing("take-off"))?,
             landing: model.landing(profile, h).map_err(pricing("landing"))?,
-            hover_power_w: hover_power_w(vehicle).map_err(pricing("hover"))?,
+            hover_power_w: model.hover_power_w().map_err(pricing("hover"))?,
             usable_j: vehicle.mission_budget_j(),
             reserve_pct: vehicle.planning.reserve_pct,
         })

@@ -26,6 +26,7 @@ pub mod rotor;
 pub mod table;
 pub mod trajectory;
 pub mod vehicle;
+pub mod wind;
 
 pub use budget::{BatteryCheck, Budget};
 pub use model::{VehicleModel, VehicleSource};
@@ -34,6 +35,7 @@ pub use profile::Profile;
 pub use px4::{start_case, Start};
 pub use table::{EnergyTable, LegEnergy, Pricing};
 pub use vehicle::Vehicle;
+pub use wind::{heading_deg, LegWind, Wind};
 
 /// Everything the physics layer can refuse.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -9,6 +9,7 @@ use super::budget::Budget;
 use super::longleg;
 use super::power::Model;
 use super::px4::{start_case, Start};
+use super::wind::{heading_deg, Wind};
 use super::{builtin, EnergyTable, LegEnergy, PhysicsError, Profile, Vehicle};
 
 /// Where a vehicle and its tables come from.
@@ -39,12 +40,19 @@ impl std::fmt::Display for VehicleSource {
     }
 }
 
-/// A vehicle with the energy table of one profile.
+/// A vehicle with the energy table of one profile, and the wind it flies in.
+///
+/// In still air a leg is looked up in the table. In wind ([`VehicleModel::with_wind`]) every
+/// leg is simulated directly in the wind its heading meets (`Model::in_wind`): the table is
+/// a still-air table, and a leg's price in wind depends on its direction as well as on its
+/// size (docs/energy-model.md "Wind": the choice, its accuracy and its time).
 #[derive(Debug, Clone)]
 pub struct VehicleModel {
     pub vehicle: Vehicle,
     pub profile: Profile,
     pub table: EnergyTable,
+    /// The steady wind legs are priced in (calm: the table).
+    pub wind: Wind,
 }
 
 impl VehicleModel {
@@ -70,7 +78,13 @@ impl VehicleModel {
             vehicle,
             profile,
             table,
+            wind: Wind::CALM,
         })
+    }
+
+    /// The same vehicle flying in a steady `wind`.
+    pub fn with_wind(self, wind: Wind) -> VehicleModel {
+        VehicleModel { wind, ..self }
     }
 
     /// One leg of horizontal distance `xf_m` and signed climb `zf_m`: from the table, or beyond
@@ -98,8 +112,26 @@ impl VehicleModel {
         }
     }
 
+    /// [`VehicleModel::leg_from`] flown on `heading_deg` (its direction of travel, degrees
+    /// clockwise from north) in the model's wind: in still air the same, in wind simulated
+    /// directly in what that heading meets of it.
+    pub fn leg_on_heading(
+        &self,
+        xf_m: f64,
+        zf_m: f64,
+        start: Start,
+        heading_deg: f64,
+    ) -> Result<LegEnergy, PhysicsError> {
+        if self.wind.is_calm() {
+            return self.leg_from(xf_m, zf_m, start);
+        }
+        let model = Model::new(&self.vehicle).in_wind(self.wind.on_heading(heading_deg));
+        let op = model.operation_from(self.profile, xf_m, zf_m, start)?;
+        Ok(LegEnergy::from(&op))
+    }
+
     /// The leg from `from` to `to` (east, north, up; m) flown after the leg `previous` (None
-    /// after the take-off), priced with the start case PX4 gives it.
+    /// after the take-off), priced with the start case PX4 gives it, in the model's wind.
     pub fn leg_after(
         &self,
         previous: Option<[f64; 3]>,
@@ -108,11 +140,17 @@ impl VehicleModel {
     ) -> Result<LegEnergy, PhysicsError> {
         let (dx, dy, dz) = (to[0] - from[0], to[1] - from[1], to[2] - from[2]);
         let start = start_case(previous.map(|p| (p[0], p[1])), (dx, dy));
-        self.leg_from(dx.hypot(dy), dz, start)
+        self.leg_on_heading(dx.hypot(dy), dz, start, heading_deg(dx, dy))
     }
 
-    /// Take-off, landing and hover for an origin `height_above_home_m` up, and the battery.
+    /// Take-off, landing and hover for an origin `height_above_home_m` up, and the battery, in
+    /// the model's wind.
     pub fn budget(&self, height_above_home_m: f64) -> Result<Budget, PhysicsError> {
-        Budget::new(&self.vehicle, self.profile, height_above_home_m)
+        Budget::in_wind(
+            &self.vehicle,
+            self.profile,
+            height_above_home_m,
+            self.wind,
+        )
     }
 }

@@ -7,7 +7,8 @@
 //! include everything. The PTF's trajectory is the one of least energy, so it is chosen here.
 
 use super::ardupilot;
-use super::body::demand;
+use super::body::demand_in_wind;
+use super::wind::LegWind;
 use super::minimise::golden_section;
 use super::powertrain::Powertrain;
 use super::profile::line_limit;
@@ -111,6 +112,8 @@ pub struct Model<'a> {
     rotor: Rotor,
     powertrain: Powertrain,
     max_tilt_rad: f64,
+    /// The wind the leg is flown in (calm: still air, the tables' model).
+    wind: LegWind,
 }
 
 impl<'a> Model<'a> {
@@ -121,7 +124,16 @@ impl<'a> Model<'a> {
             rotor: Rotor::new(vehicle),
             powertrain: Powertrain::new(vehicle, vehicle.battery.table_state_of_charge),
             max_tilt_rad: vehicle.body.max_tilt_deg.to_radians(),
+            wind: LegWind::CALM,
         }
+    }
+
+    /// The same models flying in a steady wind, as one leg sees it (`body::demand_in_wind`):
+    /// every power, hover and operation priced by them is in that wind. The trajectories are
+    /// the still-air ones (the autopilots fly their paths over the ground), except the PTF's,
+    /// whose duration is chosen for least energy in the wind.
+    pub fn in_wind(self, wind: LegWind) -> Model<'a> {
+        Model { wind, ..self }
     }
 
     /// Battery terminal power at a kinematic state in the leg's plane; also returns the tilt.
@@ -131,7 +143,7 @@ impl<'a> Model<'a> {
 
     /// Power, tilt and the rotors' inflow at a kinematic state in the leg's plane.
     fn state(&self, vx: f64, vz: f64, ax: f64, az: f64) -> Result<PowerState, PhysicsError> {
-        let d = demand(self.vehicle, vx, vz, ax, az);
+        let d = demand_in_wind(self.vehicle, vx, vz, ax, az, self.wind);
         let rotor = self.rotor.solve(d.thrust_n, d.v_x_m_s, d.v_z_m_s)?;
         let electrical = self.powertrain.electrical(&rotor)?;
         Ok(PowerState {

@@ -30,7 +30,7 @@ use crate::mission::Mission;
 use crate::physics::{
     start_case, BatteryCheck, Budget, LegEnergy, PhysicsError, Pricing, Profile, Start,
 };
-use crate::tour::energy::energy_matrix;
+use crate::tour::energy::energy_matrix_on_headings;
 use crate::tour::orders::{baseline, energy_order, plan_orders, SolvedOrder};
 use crate::tour::sorties::{self, Method, SortieError, SortieOptions, SortieProblem};
 use crate::tour::{
@@ -524,9 +524,10 @@ fn plan_uncancelled(
         mission: mission.name.clone(),
         cause,
     };
-    let energy = energy_matrix(&geometry, &names, |x, z| {
+    // In still air a leg is the table's; in wind it is simulated on its heading.
+    let energy = energy_matrix_on_headings(&geometry, &names, |x, z, heading| {
         model
-            .leg(x, z)
+            .leg_on_heading(x, z, Start::Behind, heading)
             .map(|leg| leg.priced_energy_j(options.pricing))
     })
     .map_err(pricing)?;
@@ -534,9 +535,9 @@ fn plan_uncancelled(
     // ahead of PX4's trajectory); the same matrix for the profiles that do not depend on it.
     let ahead = if model.table.starts.contains(&Start::Ahead) {
         Some(
-            energy_matrix(&geometry, &names, |x, z| {
+            energy_matrix_on_headings(&geometry, &names, |x, z, heading| {
                 model
-                    .leg_from(x, z, Start::Ahead)
+                    .leg_on_heading(x, z, Start::Ahead, heading)
                     .map(|leg| leg.priced_energy_j(options.pricing))
             })
             .map_err(pricing)?,
@@ -589,7 +590,12 @@ fn plan_uncancelled(
         );
         let start = start_of(previous, from, to);
         let predicted = model
-            .leg_from(horizontal_m, vertical_m, start)
+            .leg_on_heading(
+                horizontal_m,
+                vertical_m,
+                start,
+                geometry.heading_deg(from, to),
+            )
             .map_err(|e| {
                 pricing(PlanError::LegEnergy {
                     from: names[from].clone(),

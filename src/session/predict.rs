@@ -246,7 +246,8 @@ fn price_points(
         // PX4 leaves the previous hold past its waypoint: this leg's start depends on it.
         let start = start_case(previous, (dx, dy));
         previous = Some((dx, dy));
-        let leg = model.leg_from(xf, zf, start).map_err(|e| {
+        let heading = crate::physics::heading_deg(dx, dy);
+        let leg = model.leg_on_heading(xf, zf, start, heading).map_err(|e| {
             FlightItemsError::Pricing(format!(
                 "leg to {} (Xf {xf:.1} m, Zf {zf:.1} m): {e}",
                 point.name

@@ -215,11 +215,11 @@ fn node_name(node: usize) -> String {
 /// Runs mission `mission` of a study: draws its waypoints, prices every leg with
 /// `leg_energy_j(xf_m, zf_m)` (joules, take-off hover to settled hover), solves the energy order
 /// and the three baselines, and prices each baseline in `direction`.
-pub fn run_mission<E: Display>(
+pub fn run_mission<E: Display + Send>(
     settings: &StudySettings,
     mission: u64,
     direction: BaselineDirection,
-    leg_energy_j: &(impl Fn(f64, f64) -> Result<f64, E> + ?Sized),
+    leg_energy_j: &(impl Fn(f64, f64) -> Result<f64, E> + Sync + ?Sized),
 ) -> Result<MissionOutcome, StudyError> {
     let geometry = mission_geometry(settings, mission);
     let names: Vec<String> = (0..geometry.len()).map(node_name).collect();
@@ -273,7 +273,7 @@ pub fn run_mission<E: Display>(
 /// Runs a whole study in parallel (rayon's current pool) and summarises it. `progress` is called
 /// once per finished mission, from any thread. On failure the error is that of the lowest-numbered
 /// failing mission, so errors reproduce too.
-pub fn run_study<E: Display>(
+pub fn run_study<E: Display + Send>(
     settings: &StudySettings,
     direction: BaselineDirection,
     leg_energy_j: impl Fn(f64, f64) -> Result<f64, E> + Sync,
