@@ -47,6 +47,12 @@ pub struct Args {
     order: Option<super::OrderArg>,
     #[command(flatten)]
     solver: super::SolverArgs,
+    /// Plan in a steady wind, SPEED@FROM_DEG: m/s and the direction it blows from, degrees
+    /// clockwise from north (6@270: 6 m/s from the west). Every leg, hover, take-off and
+    /// landing is priced in it, and the still-air energy order is priced beside the wind-aware
+    /// one
+    #[arg(long, value_name = "SPEED@FROM_DEG")]
+    wind: Option<emplan::physics::Wind>,
 }
 
 /// TSPLIB export scale: costs in units of 0.1 J, so that a tour of thousands of legs stays
@@ -74,7 +80,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         .as_ref()
         .map(|p| output(p, &args.export_atsp))
         .transpose()?;
-    let model = args.model.model()?;
+    let model = args
+        .model
+        .model()?
+        .with_wind(args.wind.unwrap_or(emplan::physics::Wind::CALM));
     let options = PlanOptions {
         orders: match args.order {
             None => Orders::All,
@@ -172,6 +181,9 @@ fn print_table(plan: &Plan, doc: &PlanJson, waypoints: usize) {
     if let Some(explanation) = &plan.explanation {
         explain(plan, explanation);
     }
+    if let Some(w) = &doc.wind {
+        print_wind(w);
+    }
     let battery = &doc.battery;
     println!(
         "battery: take-off {:.1} + legs {:.1} + hovering {:.1} + landing {:.1} = {:.1} kJ of {:.1} kJ usable after the {}% reserve: {}",
@@ -184,6 +196,33 @@ fn print_table(plan: &Plan, doc: &PlanJson, waypoints: usize) {
         battery.reserve_pct,
         if battery.feasible { "feasible" } else { "NOT FEASIBLE on one battery" }
     );
+}
+
+/// The wind, and the still-air energy order flown in it against the wind-aware one.
+fn print_wind(w: &emplan::planner::json::WindJson) {
+    println!(
+        "in wind {} m/s from {} deg: every leg, hover, take-off and landing priced in it",
+        w.speed_m_s, w.from_deg
+    );
+    if let (Some(still), Some(calm_kj), Some(saving_kj), Some(saving_pct)) = (
+        &w.still_air_order,
+        w.still_air_order_calm_kj,
+        w.saving_kj,
+        w.saving_pct,
+    ) {
+        println!(
+            "  the still-air energy order {} ({calm_kj:.2} kJ in still air) costs {:.2} kJ in this wind",
+            still.sequence.join(" "),
+            still.energy_kj
+        );
+        if w.order_changed == Some(true) {
+            println!(
+                "  the wind-aware energy order saves {saving_kj:.2} kJ ({saving_pct:.1}%) against it"
+            );
+        } else {
+            println!("  the wind does not change the energy order");
+        }
+    }
 }
 
 /// Where the energy order saves against the better direction of the distance order.

@@ -36,6 +36,35 @@ pub struct PlanJson {
     pub battery: BatteryJson,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sorties: Option<SortiesJson>,
+    /// With `--wind`: the wind, and beside the wind-aware energy order the order still air
+    /// would choose, priced in that wind.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub wind: Option<WindJson>,
+}
+
+/// The `"wind"` object of `emplan plan --wind S@FROM --json`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct WindJson {
+    pub speed_m_s: f64,
+    /// The direction it blows from, degrees clockwise from north.
+    pub from_deg: f64,
+    /// The still-air energy order, its legs priced in this wind (with the energy order asked
+    /// for).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub still_air_order: Option<OrderJson>,
+    /// The still-air order's price in still air.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub still_air_order_calm_kj: Option<f64>,
+    /// The still-air order's price in this wind less the wind-aware energy order's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub saving_kj: Option<f64>,
+    /// `saving_kj` as a share of the still-air order's price in this wind.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub saving_pct: Option<f64>,
+    /// Whether the wind changed the order (the same tour in either direction is not the same
+    /// order: legs flown the other way cost differently).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub order_changed: Option<bool>,
 }
 
 /// One order (the ORDER object of docs/json.md).
@@ -256,7 +285,38 @@ pub fn plan_document(plan: &Plan) -> PlanJson {
         orders: plan.orders.iter().map(|o| order_json(plan, o)).collect(),
         battery: battery_json(plan),
         sorties: plan.sorties.as_ref().map(|s| sorties_json(plan, s)),
+        wind: wind_json(plan),
     }
+}
+
+/// The `"wind"` object: None in still air. The saving is of the printed kJ.
+pub fn wind_json(plan: &Plan) -> Option<WindJson> {
+    if plan.wind.is_calm() {
+        return None;
+    }
+    let still = plan.still_air.as_ref();
+    let aware = plan.cheapest(Objective::Energy);
+    let still_order = still.map(|s| order_json(plan, &s.order));
+    let saving_kj = match (&still_order, aware) {
+        (Some(s), Some(a)) => Some(s.energy_kj - energy_kj(&a.legs)),
+        _ => None,
+    };
+    let saving_pct = match (&still_order, saving_kj) {
+        (Some(s), Some(k)) if s.energy_kj > 0.0 => Some(100.0 * k / s.energy_kj),
+        _ => None,
+    };
+    Some(WindJson {
+        speed_m_s: plan.wind.speed_m_s,
+        from_deg: plan.wind.from_deg,
+        still_air_order_calm_kj: still.map(|s| kj(s.still_air_energy_j)),
+        order_changed: match (still, aware) {
+            (Some(s), Some(a)) => Some(s.order.nodes != a.nodes),
+            _ => None,
+        },
+        still_air_order: still_order,
+        saving_kj,
+        saving_pct,
+    })
 }
 
 /// The planning fields of `emplan upload --json` for `flight` of `plan`.

@@ -28,7 +28,7 @@ use serde::Serialize;
 
 use crate::mission::Mission;
 use crate::physics::{
-    start_case, BatteryCheck, Budget, LegEnergy, PhysicsError, Pricing, Profile, Start,
+    start_case, BatteryCheck, Budget, LegEnergy, PhysicsError, Pricing, Profile, Start, Wind,
 };
 use crate::tour::energy::energy_matrix_on_headings;
 use crate::tour::orders::{baseline, energy_order, plan_orders, SolvedOrder};
@@ -201,6 +201,36 @@ pub struct Plan {
     pub explanation: Option<Explanation>,
     /// Energy of every leg as the plan prices it (J), node 0 = origin.
     pub energy: CostMatrix,
+    /// The wind every price is in (calm: still air, the table's).
+    pub wind: Wind,
+    /// In wind, with the energy order asked for: the order still air would choose, priced in
+    /// the wind, to set beside the wind-aware energy order.
+    pub still_air: Option<StillAir>,
+}
+
+/// The still-air energy order of a plan made in wind.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StillAir {
+    /// The order minimum-energy in still air, its legs priced in the plan's wind.
+    pub order: Order,
+    /// Its price in still air (J, the plan's pricing).
+    pub still_air_energy_j: f64,
+}
+
+impl Plan {
+    /// What the wind-aware energy order saves against the still-air order flown in the same
+    /// wind (J, and % of the still-air order's price in the wind); None in still air.
+    pub fn wind_saving(&self) -> Option<(f64, f64)> {
+        let still = self.still_air.as_ref()?;
+        let aware = self.cheapest(Objective::Energy)?;
+        let saving = still.order.energy_j - aware.energy_j;
+        let pct = if still.order.energy_j > 0.0 {
+            100.0 * saving / still.order.energy_j
+        } else {
+            0.0
+        };
+        Some((saving, pct))
+    }
 }
 
 /// What one upload flies: the flown order, or one sortie.
@@ -666,6 +696,32 @@ fn plan_uncancelled(
         within_leg_limit(&order.legs, &names, &model.vehicle.planning)?;
     }
 
+    // In wind: the order still air would choose, priced in this wind.
+    let still_air = match options.orders {
+        Orders::All | Orders::Energy if !model.wind.is_calm() => {
+            let calm = model.clone().with_wind(Wind::CALM);
+            let calm_options = PlanOptions {
+                orders: Orders::Energy,
+                sorties: false,
+                ..options.clone()
+            };
+            let calm_plan = plan_uncancelled(mission, &calm, &calm_options)?;
+            let calm_order = calm_plan.orders.into_iter().next().ok_or_else(|| {
+                planning(PlanError::Infeasible("no still-air energy order".into()))
+            })?;
+            Some(StillAir {
+                still_air_energy_j: calm_order.energy_j,
+                order: priced(
+                    Some(Objective::Energy),
+                    calm_order.direction,
+                    calm_order.nodes,
+                    calm_order.proof,
+                )?,
+            })
+        }
+        _ => None,
+    };
+
     let budget = model
         .budget(mission.origin.height_above_home_m)
         .map_err(PlannerError::Budget)?;
@@ -763,6 +819,8 @@ fn plan_uncancelled(
         sorties,
         explanation,
         energy,
+        wind: model.wind,
+        still_air,
     })
 }
 
