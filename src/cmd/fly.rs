@@ -134,7 +134,7 @@ fn autopilot_profile(
     }
     let (source, _) = flight.model.source();
     let reopened = match emplan::physics::VehicleModel::open(&source, Some(wanted)) {
-        Ok(m) => m,
+        Ok(m) => m.with_wind(model.wind),
         Err(e) => {
             eprintln!(
                 "warning: the autopilot flies the {wanted} profile but {e}: pricing with {} (--profile chooses)",

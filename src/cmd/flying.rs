@@ -40,6 +40,10 @@ pub struct MockArgs {
     /// is not what the vehicle file says, for `calibrate --from-logs`
     #[arg(long, value_name = "DIR")]
     mock_vehicle: Option<PathBuf>,
+    /// Built-in mock only: a steady wind it flies in and reports as PX4 does (WIND_COV),
+    /// SPEED@FROM_DEG (6@270: 6 m/s from the west)
+    #[arg(long, value_name = "SPEED@FROM_DEG")]
+    mock_wind: Option<emplan::physics::Wind>,
 }
 
 impl MockArgs {
@@ -81,7 +85,11 @@ impl MockArgs {
                 .with_context(|| format!("--mock-vehicle {}", dir.display()))?,
             None => planned.clone(),
         };
+        if self.mock_wind.is_some() && !builtin {
+            anyhow::bail!("--mock-wind is for the built-in mock (no --connect)");
+        }
         Ok(MockFlight {
+            wind: self.mock_wind,
             home: mission.origin.home,
             profile,
             truth,

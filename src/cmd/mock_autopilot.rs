@@ -90,6 +90,11 @@ pub struct Args {
     /// field, 38.5362,-121.7875,16)
     #[arg(long, value_parser = parse_home)]
     home: Option<emplan::mission::Geodetic>,
+    /// A steady wind the vehicle flies in (its physics in moving air) and reports, SPEED@FROM_DEG
+    /// (6@270: 6 m/s from the west): the PX4 flavour as WIND_COV, the ArduPilot flavour as WIND.
+    /// Default still air and no wind message
+    #[arg(long, value_name = "SPEED@FROM_DEG")]
+    wind: Option<emplan::physics::Wind>,
     /// Telemetry fault: no telemetry at all from START_S for LEN_S simulated seconds
     #[arg(long, value_name = "START_S:LEN_S", value_parser = parse_gap)]
     telemetry_gap: Option<Gap>,
@@ -218,6 +223,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                 px4_fake_current: args.px4_fake_current,
             },
             seed: args.seed,
+            wind: args.wind,
             ..FlightConfig::default()
         }),
         speedup: args.speedup,

@@ -228,6 +228,11 @@ pub struct FlightArgs {
     pub acceptance_radius_m: f32,
     #[command(flatten)]
     pub solver: SolverArgs,
+    /// Price the flight in a steady wind, SPEED@FROM_DEG: m/s and the direction it blows from,
+    /// degrees clockwise from north (6@270: 6 m/s from the west); the order, the battery check,
+    /// the guard and the report's predictions are in it. Default still air
+    #[arg(long, value_name = "SPEED@FROM_DEG")]
+    pub wind: Option<emplan::physics::Wind>,
 }
 
 /// A planner refusal in the words of the command line (`--sortie 3: ...`, how to override an
@@ -246,6 +251,14 @@ pub fn flight_error(e: emplan::planner::PlannerError) -> anyhow::Error {
 }
 
 impl FlightArgs {
+    /// The vehicle with the chosen profile's table, in the `--wind` given (still air without).
+    pub fn vehicle_model(&self) -> anyhow::Result<emplan::physics::VehicleModel> {
+        Ok(self
+            .model
+            .model()?
+            .with_wind(self.wind.unwrap_or(emplan::physics::Wind::CALM)))
+    }
+
     /// The library's choice of what to fly.
     pub fn choice(&self) -> emplan::planner::FlightChoice {
         emplan::planner::FlightChoice {
@@ -260,7 +273,7 @@ impl FlightArgs {
         &self,
         mission: &emplan::mission::Mission,
     ) -> anyhow::Result<(emplan::physics::VehicleModel, emplan::planner::Plan)> {
-        let model = self.model.model()?;
+        let model = self.vehicle_model()?;
         let (choice, solver) = (self.choice(), self.solver.options()?);
         let plan = progress::solving(&format!("planning {}", mission.name), || {
             choice.plan(mission, &model, solver)
@@ -385,7 +398,7 @@ impl FlightArgs {
         mission: &emplan::mission::Mission,
     ) -> anyhow::Result<(emplan::physics::VehicleModel, Option<emplan::planner::Plan>)> {
         if self.plans_from_vehicle() {
-            return Ok((self.model.model()?, None));
+            return Ok((self.vehicle_model()?, None));
         }
         let (model, plan) = self.plan(mission)?;
         self.flight(&plan)?;

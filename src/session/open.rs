@@ -224,6 +224,8 @@ pub struct MockFlight {
     pub seed: u64,
     pub loss: f64,
     pub signing_key: Option<[u8; 32]>,
+    /// The wind it flies in and reports (None: still air, no wind estimate).
+    pub wind: Option<crate::physics::Wind>,
 }
 
 impl MockFlight {
@@ -236,6 +238,7 @@ impl MockFlight {
                 profile: Some(self.profile),
                 home: self.home,
                 seed: self.seed,
+                wind: self.wind,
                 ..Default::default()
             }),
             speedup: self.speedup,

@@ -42,7 +42,7 @@ use std::sync::Arc;
 
 use crate::physics::ardupilot_chain::{self, ChainPoint};
 use crate::physics::trajectory::{Acceptance, Trajectory};
-use crate::physics::{start_case, PhysicsError, Profile, Start, Vehicle};
+use crate::physics::{heading_deg, start_case, PhysicsError, Profile, Start, Vehicle, Wind};
 
 /// A point in the home-centred local frame: metres east, north and up from home.
 pub type Local = [f64; 3];
@@ -419,6 +419,10 @@ pub struct Flight<'v> {
     /// With the ardupilot profile, the legs still ahead in a chain of fast waypoints: the item
     /// each flies to, its trajectory and its target track (`physics::ardupilot_chain`).
     chain_ahead: VecDeque<(u16, Trajectory, Arc<Vec<Local>>)>,
+    /// The steady wind it flies in: the power of each line in what its heading meets of it,
+    /// the hover in its speed (`physics::wind`). The paths over the ground are the still-air
+    /// ones, as the autopilots fly them.
+    wind: Wind,
 }
 
 /// Most items started without time passing before the flight stops and hovers.
@@ -452,6 +456,21 @@ impl<'v> Flight<'v> {
             setpoint: None,
             last_leg_xy: None,
             chain_ahead: VecDeque::new(),
+            wind: Wind::CALM,
+        })
+    }
+
+    /// The same flight in a steady `wind`.
+    pub fn with_wind(self, wind: Wind) -> Result<Flight<'v>, FlightError> {
+        let hover_power_w = self
+            .model
+            .clone()
+            .in_wind(wind.on_heading(0.0))
+            .hover_power_w()?;
+        Ok(Flight {
+            wind,
+            hover_power_w,
+            ..self
         })
     }
 
@@ -558,7 +577,9 @@ impl<'v> Flight<'v> {
                 let (vx, vz, ax, az) = line
                     .trajectory
                     .kinematics((self.now_s - line.start_s).max(0.0));
-                match self.model.power_w(vx, vz, ax, az) {
+                let [east, north] = line.heading;
+                let wind = self.wind.on_heading(heading_deg(east, north));
+                match self.model.clone().in_wind(wind).power_w(vx, vz, ax, az) {
                     Ok((p, _)) => p,
                     Err(_) => {
                         self.physics_errors += 1;

@@ -113,6 +113,9 @@ pub struct FlightConfig {
     pub faults: TelemetryFaults,
     /// Seed of the sensor noise.
     pub seed: u64,
+    /// A steady wind the vehicle flies in and reports (PX4: WIND_COV, ArduPilot: WIND); None:
+    /// still air and no wind estimate, as an autopilot whose estimator does not run one.
+    pub wind: Option<crate::physics::Wind>,
 }
 
 impl Default for FlightConfig {
@@ -125,6 +128,7 @@ impl Default for FlightConfig {
             current_filter_s: None,
             faults: TelemetryFaults::default(),
             seed: 1,
+            wind: None,
         }
     }
 }
@@ -222,7 +226,8 @@ impl<'v> SimVehicle<'v> {
                     .with_instant_rtl_item(),
                 Flavour::ArduPilot => Flight::new(vehicle, profile)?
                     .with_land_detection(crate::physics::ardupilot::LAND_DETECTOR_TRIGGER_S),
-            },
+            }
+            .with_wind(config.wind.unwrap_or_default())?,
             pack: Pack::new(vehicle, config.state_of_charge),
             monitor: Monitor::new(config.noise, filter_s, config.seed),
             step: 0,

@@ -12,7 +12,7 @@ use crate::link::mav::{
     MavMessage, MavModeFlag, MavResult, MavState, MavSysStatusSensor, MavType, MavVtolState,
     ATTITUDE_DATA, BATTERY_STATUS_DATA, EXTENDED_SYS_STATE_DATA, GLOBAL_POSITION_INT_DATA,
     HEARTBEAT_DATA, HOME_POSITION_DATA, LOCAL_POSITION_NED_DATA, MISSION_CURRENT_DATA,
-    SYS_STATUS_DATA,
+    SYS_STATUS_DATA, WIND_COV_DATA, WIND_DATA,
 };
 use crate::link::Flavour;
 use crate::mission::{Enu, Origin};
@@ -36,7 +36,7 @@ pub(super) fn steps(duration_s: f64) -> u64 {
 
 /// Streams the vehicle can send, in the order they go out within a step (messages carrying
 /// `time_boot_ms` first, so a ground station stamping the others from them sees a fresh time).
-const STREAM_IDS: [u32; 9] = [
+const STREAM_IDS: [u32; 11] = [
     GLOBAL_POSITION_INT_DATA::ID,
     LOCAL_POSITION_NED_DATA::ID,
     ATTITUDE_DATA::ID,
@@ -46,6 +46,8 @@ const STREAM_IDS: [u32; 9] = [
     EXTENDED_SYS_STATE_DATA::ID,
     MISSION_CURRENT_DATA::ID,
     HOME_POSITION_DATA::ID,
+    WIND_COV_DATA::ID,
+    WIND_DATA::ID,
 ];
 
 /// Default interval of a stream per flavour. PX4: its SITL GCS link (px4-rc.mavlink: position
@@ -66,6 +68,11 @@ fn default_interval_s(flavour: Flavour, id: u32) -> Option<f64> {
         // PX4's normal mode streams HOME_POSITION at 0.5 Hz (mavlink_main.cpp); ArduCopter
         // sends it when home is set, not as a stream (twice in an ArduCopter SITL flight log).
         (Flavour::Px4 | Flavour::Generic, HOME_POSITION_DATA::ID) => 0.5,
+        // PX4's WIND_COV (from its wind estimate, 0.5-1 Hz); ArduPilot sends WIND instead.
+        (Flavour::Px4 | Flavour::Generic, WIND_COV_DATA::ID) => 1.0,
+        (Flavour::Px4 | Flavour::Generic, WIND_DATA::ID) | (Flavour::ArduPilot, WIND_COV_DATA::ID) => {
+            return None
+        }
         (Flavour::ArduPilot, GLOBAL_POSITION_INT_DATA::ID | LOCAL_POSITION_NED_DATA::ID) => 3.0,
         (Flavour::ArduPilot, _) if id != ATTITUDE_DATA::ID && id != HOME_POSITION_DATA::ID => 2.0,
         _ => return None,
@@ -166,6 +173,32 @@ impl<'v> SimVehicle<'v> {
                     altitude: (home.alt_m * 1000.0).round() as i32,
                     q: [1.0, 0.0, 0.0, 0.0],
                     ..Default::default()
+                })
+            }
+            // Only a vehicle told its wind estimates one (PX4: EKF2 with drag fusion;
+            // ArduPilot: EK3 drag): without, no message, as theirs.
+            WIND_COV_DATA::ID => {
+                let Some(wind) = self.config.wind else { return };
+                let (east, north) = wind.velocity_en_m_s();
+                MavMessage::WIND_COV(WIND_COV_DATA {
+                    time_usec: (t * 1e6) as u64,
+                    wind_x: north as f32,
+                    wind_y: east as f32,
+                    wind_z: 0.0,
+                    // PX4 puts the variance north + east here ((m/s)^2).
+                    var_horiz: 0.01,
+                    var_vert: 0.0,
+                    wind_alt: (self.config.home.alt_m + self.flight.position()[2]) as f32,
+                    horiz_accuracy: 0.0,
+                    vert_accuracy: 0.0,
+                })
+            }
+            WIND_DATA::ID => {
+                let Some(wind) = self.config.wind else { return };
+                MavMessage::WIND(WIND_DATA {
+                    direction: wind.from_deg as f32,
+                    speed: wind.speed_m_s as f32,
+                    speed_z: 0.0,
                 })
             }
             _ => return,
