@@ -34,6 +34,7 @@ mod svcwatch;
 mod tidy;
 mod tlogcorrupt;
 mod upload;
+mod wind;
 
 /// Runs the `emplan` binary from the crate root: (success, stdout, stderr).
 pub fn emplan(args: &[&str]) -> (bool, String, String) {

@@ -1,0 +1,116 @@
+//! Energy in a steady wind: `energy --wind` in no wind is today's still-air price, a headwind
+//! costs more than a tailwind and a hover in a moderate wind less than in calm air;
+//! `plan --wind` prices the still-air energy order in the wind beside the wind-aware one; and
+//! the built-in mock flying in that wind measures every leg within 3% of its wind-aware price
+//! (and not of its still-air one).
+
+use serde_json::Value;
+
+use crate::{emplan, json};
+
+fn f(v: &Value, key: &str) -> f64 {
+    v[key]
+        .as_f64()
+        .unwrap_or_else(|| panic!("{key} in {v}"))
+}
+
+#[test]
+fn energy_in_no_wind_is_the_still_air_price_and_a_headwind_costs_more_than_a_tailwind() {
+    let still = json(&["energy", "--xf", "40", "--zf", "0", "--json"]);
+    let none = json(&["energy", "--xf", "40", "--zf", "0", "--wind", "0@0", "--json"]);
+    for key in ["energy_kj", "duration_s", "settle_energy_kj", "settle_duration_s"] {
+        assert_eq!(f(&none, key), f(&still, key), "{key}");
+    }
+    let leg = |wind: &str| {
+        let v = json(&[
+            "energy", "--xf", "40", "--zf", "0", "--wind", wind, "--heading", "0", "--json",
+        ]);
+        f(&v, "energy_kj") + f(&v, "settle_energy_kj")
+    };
+    let (head, tail) = (leg("6@0"), leg("6@180"));
+    assert!(head > tail * 1.1, "headwind {head} kJ, tailwind {tail} kJ");
+    let hover = |wind: &str| {
+        f(
+            &json(&["energy", "--xf", "0", "--zf", "0", "--wind", wind, "--json"]),
+            "hover_power_w",
+        )
+    };
+    let (calm, breezy) = (hover("0@0"), hover("5@90"));
+    assert!(breezy < calm, "hover in 5 m/s {breezy} W, calm {calm} W");
+    let (ok, _, stderr) = emplan(&["energy", "--xf", "40", "--zf", "0", "--wind", "6"]);
+    assert!(!ok && stderr.contains("SPEED@FROM_DEG"), "{stderr}");
+}
+
+#[test]
+fn plan_in_wind_sets_the_still_air_order_priced_in_the_wind_beside_the_wind_aware_one() {
+    let mission = "missions/paper-sample-8wp.toml";
+    let still = json(&["plan", mission, "--json"]);
+    assert!(still.get("wind").is_none());
+    let calm = json(&["plan", mission, "--wind", "0@0", "--json"]);
+    let priced = |plan: &Value| -> Vec<(Value, Value)> {
+        (plan["orders"].as_array().expect("orders").iter())
+            .map(|o| (o["sequence"].clone(), o["energy_kj"].clone()))
+            .collect()
+    };
+    assert!(priced(&calm) == priced(&still), "0@0 is still air");
+    let windy = json(&["plan", mission, "--wind", "6@270", "--json"]);
+    let w = &windy["wind"];
+    assert_eq!((f(w, "speed_m_s"), f(w, "from_deg")), (6.0, 270.0));
+    let still_air_order = &w["still_air_order"];
+    // The still-air order is the still-air plan's energy order, priced in the wind.
+    assert_eq!(still_air_order["sequence"], still["orders"][0]["sequence"]);
+    let calm_kj = f(&still["orders"][0], "energy_kj");
+    assert!((f(w, "still_air_order_calm_kj") - calm_kj).abs() < 1e-6);
+    let in_wind_kj = f(still_air_order, "energy_kj");
+    assert!((in_wind_kj - calm_kj).abs() > 0.01 * calm_kj, "the wind changes its price");
+    // The wind-aware order is optimal in the wind: never dearer than the still-air one there.
+    let aware_kj = f(&windy["orders"][0], "energy_kj");
+    assert!(aware_kj <= in_wind_kj + 1e-9);
+    assert!((f(w, "saving_kj") - (in_wind_kj - aware_kj)).abs() < 1e-9);
+    assert_eq!(
+        w["order_changed"].as_bool(),
+        Some(windy["orders"][0]["sequence"] != still["orders"][0]["sequence"])
+    );
+}
+
+/// Flies the 8-waypoint sample on the built-in mock in a 6 m/s west wind, priced in `wind`:
+/// each leg's error (%).
+fn flown_in_wind(dir: &std::path::Path, wind: Option<&str>) -> Vec<f64> {
+    let logs = dir.join(wind.map_or("still".into(), |w| w.replace('@', "-")));
+    let mut args = vec![
+        "fly",
+        "missions/paper-sample-8wp.toml",
+        "--mock-wind",
+        "6@270",
+        "--speedup",
+        "50",
+        "--log-dir",
+        logs.to_str().unwrap(),
+        "--json",
+    ];
+    if let Some(w) = wind {
+        args.extend(["--wind", w]);
+    }
+    let report = json(&args);
+    assert_eq!(report["complete"], true, "{report}");
+    (report["legs"].as_array().expect("legs").iter())
+        .map(|l| f(l, "error_pct"))
+        .collect()
+}
+
+#[test]
+fn the_mock_in_wind_measures_every_leg_within_three_percent_of_its_wind_aware_price() {
+    let tmp = tempfile::tempdir().unwrap();
+    let aware = flown_in_wind(tmp.path(), Some("6@270"));
+    assert_eq!(aware.len(), 9);
+    assert!(
+        aware.iter().all(|e| e.abs() < 3.0),
+        "legs priced in the wind: {aware:?}"
+    );
+    // Priced in still air, the same flight is off by more.
+    let blind = flown_in_wind(tmp.path(), None);
+    assert!(
+        blind.iter().any(|e| e.abs() > 3.0),
+        "legs priced in still air: {blind:?}"
+    );
+}
