@@ -129,6 +129,7 @@ impl Budget {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::physics::hover_power_w;
     use crate::physics::simulate_operation;
     use crate::physics::vehicle::shipped;
 

@@ -146,11 +146,6 @@ impl VehicleModel {
     /// Take-off, landing and hover for an origin `height_above_home_m` up, and the battery, in
     /// the model's wind.
     pub fn budget(&self, height_above_home_m: f64) -> Result<Budget, PhysicsError> {
-        Budget::in_wind(
-            &self.vehicle,
-            self.profile,
-            height_above_home_m,
-            self.wind,
-        )
+        Budget::in_wind(&self.vehicle, self.profile, height_above_home_m, self.wind)
     }
 }

@@ -8,7 +8,6 @@
 
 use super::ardupilot;
 use super::body::demand_in_wind;
-use super::wind::LegWind;
 use super::minimise::golden_section;
 use super::powertrain::Powertrain;
 use super::profile::line_limit;
@@ -19,6 +18,7 @@ use super::trajectory::{
     Trajectory, ARRIVAL_RADIUS_M,
 };
 use super::vehicle::{Px4Params, Vehicle};
+use super::wind::LegWind;
 use super::{PhysicsError, Profile};
 
 /// Power the spinning motors draw armed on the ground at idle, on top of the avionics: eight
@@ -436,10 +436,31 @@ impl<'a> Model<'a> {
         start_enu_m: [f64; 3],
         points: &[super::ardupilot_chain::ChainPoint],
     ) -> Result<Vec<Operation>, PhysicsError> {
+        self.ardupilot_chain_in_wind(start_enu_m, points, super::wind::Wind::CALM)
+    }
+
+    /// [`Model::ardupilot_chain`] in a steady `wind`, each leg in what its heading (from the
+    /// point before to its own) meets of it, as the mock flies it.
+    pub fn ardupilot_chain_in_wind(
+        &self,
+        start_enu_m: [f64; 3],
+        points: &[super::ardupilot_chain::ChainPoint],
+        wind: super::wind::Wind,
+    ) -> Result<Vec<Operation>, PhysicsError> {
         let a = &self.vehicle.ardupilot;
         let legs = super::ardupilot_chain::chain(a, start_enu_m, points, ARRIVAL_RADIUS_M)?;
+        let froms = std::iter::once(start_enu_m).chain(points.iter().map(|p| p.enu_m));
+        let headings: Vec<f64> = froms
+            .zip(points)
+            .map(|(from, to)| {
+                super::wind::heading_deg(to.enu_m[0] - from[0], to.enu_m[1] - from[1])
+            })
+            .collect();
         legs.into_iter()
-            .map(|leg| {
+            .zip(headings)
+            .map(|(leg, heading)| {
+                let model = self.clone().in_wind(wind.on_heading(heading));
+                let this = &model;
                 let duration = leg.samples.duration_s();
                 let arrival = leg.arrival_s.clamp(0.0, duration);
                 let n = leg.samples.points.len().max(8);
@@ -447,12 +468,12 @@ impl<'a> Model<'a> {
                 let n2 = n.saturating_sub(n1).max(8);
                 let (xf_m, zf_m) = (leg.xf_m, leg.zf_m);
                 let t = sampled_trajectory(leg.samples, xf_m, zf_m, a.steps, None);
-                let to_arrival = self.energy_j(&t.path, (0.0, arrival), n1, false)?;
-                let rest = self.energy_j(&t.path, (arrival, duration), n2, false)?;
+                let to_arrival = this.energy_j(&t.path, (0.0, arrival), n1, false)?;
+                let rest = this.energy_j(&t.path, (arrival, duration), n2, false)?;
                 let peak = path_peak_speed(&t.path, n);
                 let lead_s = chain_lead_s(a, leg.from_rest);
                 let lead_j = if lead_s > 0.0 {
-                    self.hover_power_w()? * lead_s
+                    this.hover_power_w()? * lead_s
                 } else {
                     0.0
                 };

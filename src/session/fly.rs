@@ -148,7 +148,13 @@ pub async fn load(
     let predicted = (measured_against.predicted.take())
         .map(|p| {
             let vehicle = priced_with.unwrap_or(load.vehicle);
-            with_fast_waypoints(vehicle, plan.profile, &measured_against.points, p)
+            with_fast_waypoints(
+                vehicle,
+                plan.profile,
+                &measured_against.points,
+                p,
+                plan.wind,
+            )
         })
         .transpose()
         .map_err(|e| FlyError::Plan(e.to_string()))?;

@@ -191,6 +191,7 @@ pub fn with_fast_waypoints(
     profile: Profile,
     points: &[PlannedPoint],
     predicted: Predicted,
+    wind: crate::physics::Wind,
 ) -> Result<Predicted, FlightItemsError> {
     use crate::physics::ardupilot_chain::{is_fast, ChainPoint};
     let chain: Vec<ChainPoint> = points
@@ -209,7 +210,7 @@ pub fn with_fast_waypoints(
     }
     let model = Model::new(vehicle);
     let legs = model
-        .ardupilot_chain([0.0; 3], &chain)
+        .ardupilot_chain_in_wind([0.0; 3], &chain, wind)
         .map_err(|e| FlightItemsError::Pricing(format!("the legs with fast waypoints: {e}")))?;
     Ok(Predicted {
         legs: legs
@@ -267,7 +268,7 @@ fn price_points(
         legs,
         hover_power_w: budget.hover_power_w,
     };
-    with_fast_waypoints(&model.vehicle, model.profile, points, predicted)
+    with_fast_waypoints(&model.vehicle, model.profile, points, predicted, model.wind)
 }
 
 #[cfg(test)]
@@ -275,6 +276,7 @@ mod tests {
     use super::*;
     use crate::link::items::{mission_items, read_flight, ItemOptions};
     use crate::link::mav::{MavCmd, MISSION_ITEM_INT_DATA};
+    use crate::physics::Wind;
 
     fn from_items(
         items: &[MISSION_ITEM_INT_DATA],
@@ -382,14 +384,32 @@ mod tests {
             hover_power_w: 3.0,
         };
         // Holds of a second or more: every leg stops, the table's prices stand.
-        let held = with_fast_waypoints(&vehicle, Profile::Ardupilot, &points(1.0), table.clone());
+        let held = with_fast_waypoints(
+            &vehicle,
+            Profile::Ardupilot,
+            &points(1.0),
+            table.clone(),
+            Wind::CALM,
+        );
         assert_eq!(held.unwrap(), table);
         // Another profile: unchanged whatever the holds.
-        let px4 = with_fast_waypoints(&vehicle, Profile::Px4, &points(0.0), table.clone());
+        let px4 = with_fast_waypoints(
+            &vehicle,
+            Profile::Px4,
+            &points(0.0),
+            table.clone(),
+            Wind::CALM,
+        );
         assert_eq!(px4.unwrap(), table);
         // Zero holds: the chain's legs, the rest of the prediction kept.
-        let fast =
-            with_fast_waypoints(&vehicle, Profile::Ardupilot, &points(0.5), table.clone()).unwrap();
+        let fast = with_fast_waypoints(
+            &vehicle,
+            Profile::Ardupilot,
+            &points(0.5),
+            table.clone(),
+            Wind::CALM,
+        )
+        .unwrap();
         assert_eq!(fast.legs.len(), 3);
         assert_eq!((fast.takeoff_j, fast.landing_j), (1.0, 2.0));
         let rest = Model::new(&vehicle).ardupilot_chain(

@@ -9,21 +9,35 @@ use serde_json::Value;
 use crate::{emplan, json};
 
 fn f(v: &Value, key: &str) -> f64 {
-    v[key]
-        .as_f64()
-        .unwrap_or_else(|| panic!("{key} in {v}"))
+    v[key].as_f64().unwrap_or_else(|| panic!("{key} in {v}"))
 }
 
 #[test]
 fn energy_in_no_wind_is_the_still_air_price_and_a_headwind_costs_more_than_a_tailwind() {
     let still = json(&["energy", "--xf", "40", "--zf", "0", "--json"]);
-    let none = json(&["energy", "--xf", "40", "--zf", "0", "--wind", "0@0", "--json"]);
-    for key in ["energy_kj", "duration_s", "settle_energy_kj", "settle_duration_s"] {
+    let none = json(&[
+        "energy", "--xf", "40", "--zf", "0", "--wind", "0@0", "--json",
+    ]);
+    for key in [
+        "energy_kj",
+        "duration_s",
+        "settle_energy_kj",
+        "settle_duration_s",
+    ] {
         assert_eq!(f(&none, key), f(&still, key), "{key}");
     }
     let leg = |wind: &str| {
         let v = json(&[
-            "energy", "--xf", "40", "--zf", "0", "--wind", wind, "--heading", "0", "--json",
+            "energy",
+            "--xf",
+            "40",
+            "--zf",
+            "0",
+            "--wind",
+            wind,
+            "--heading",
+            "0",
+            "--json",
         ]);
         f(&v, "energy_kj") + f(&v, "settle_energy_kj")
     };
@@ -62,7 +76,10 @@ fn plan_in_wind_sets_the_still_air_order_priced_in_the_wind_beside_the_wind_awar
     let calm_kj = f(&still["orders"][0], "energy_kj");
     assert!((f(w, "still_air_order_calm_kj") - calm_kj).abs() < 1e-6);
     let in_wind_kj = f(still_air_order, "energy_kj");
-    assert!((in_wind_kj - calm_kj).abs() > 0.01 * calm_kj, "the wind changes its price");
+    assert!(
+        (in_wind_kj - calm_kj).abs() > 0.01 * calm_kj,
+        "the wind changes its price"
+    );
     // The wind-aware order is optimal in the wind: never dearer than the still-air one there.
     let aware_kj = f(&windy["orders"][0], "energy_kj");
     assert!(aware_kj <= in_wind_kj + 1e-9);

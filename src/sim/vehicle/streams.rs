@@ -70,9 +70,8 @@ fn default_interval_s(flavour: Flavour, id: u32) -> Option<f64> {
         (Flavour::Px4 | Flavour::Generic, HOME_POSITION_DATA::ID) => 0.5,
         // PX4's WIND_COV (from its wind estimate, 0.5-1 Hz); ArduPilot sends WIND instead.
         (Flavour::Px4 | Flavour::Generic, WIND_COV_DATA::ID) => 1.0,
-        (Flavour::Px4 | Flavour::Generic, WIND_DATA::ID) | (Flavour::ArduPilot, WIND_COV_DATA::ID) => {
-            return None
-        }
+        (Flavour::Px4 | Flavour::Generic, WIND_DATA::ID)
+        | (Flavour::ArduPilot, WIND_COV_DATA::ID) => return None,
         (Flavour::ArduPilot, GLOBAL_POSITION_INT_DATA::ID | LOCAL_POSITION_NED_DATA::ID) => 3.0,
         (Flavour::ArduPilot, _) if id != ATTITUDE_DATA::ID && id != HOME_POSITION_DATA::ID => 2.0,
         _ => return None,
