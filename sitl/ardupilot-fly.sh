@@ -8,7 +8,9 @@
 # cost far less, its hover power is higher) -- that is information, not a failure.
 # ArduCopter's own DataFlash log of the flight (logged while armed) is kept as LOG_DIR/ardupilot.bin.
 # Usage: sitl/ardupilot-fly.sh [EMPLAN_BINARY] [MISSION] [LOG_DIR]; SITL_INSTANCE picks the
-# instance (TCP 5760 + 10 x instance, default 0); FLY_ARGS adds arguments to emplan fly.
+# instance (TCP 5760 + 10 x instance, default 0); FLY_ARGS adds arguments to emplan fly;
+# SITL_PARAMS sets ArduPilot parameters (NAME=VALUE ..., e.g. "SIM_WIND_SPD=6 SIM_WIND_DIR=270
+# SIM_WIND_T=1") over MAVLink and reads them back before emplan connects.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 emplan=${1:-target/debug/emplan}
@@ -28,6 +30,21 @@ stop_sitl() {
   wait $sitl 2>/dev/null || true
 }
 trap 'stop_sitl; rm -rf "$sitl_tmp"' EXIT
+if [ -n "${SITL_PARAMS:-}" ]; then
+  venv=target/pymavlink-venv
+  if [ ! -x "$venv/bin/python" ]; then
+    python3 -m venv "$venv"
+  fi
+  "$venv/bin/pip" install --quiet --disable-pip-version-check pymavlink==2.4.50
+  # shellcheck disable=SC2086 # SITL_PARAMS is a list of NAME=VALUE, split on purpose
+  if ! "$venv/bin/python" sitl/ardupilot_params.py "tcp:127.0.0.1:$((5762 + 10 * inst))" \
+      $SITL_PARAMS; then
+    echo "FAIL: ArduCopter SITL's parameters $SITL_PARAMS could not be set" >&2
+    tail -20 "$sitl_log" >&2
+    exit 1
+  fi
+fi
+mkdir -p "$log_dir"
 report=$log_dir/fly.json
 # FLY_ARGS: more arguments for emplan fly (e.g. "--order distance"), split on spaces.
 # shellcheck disable=SC2086

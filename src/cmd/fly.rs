@@ -79,6 +79,7 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
     super::runtime()?.block_on(async {
         let session = args.link.open_with(Some(mock)).await?;
         let (model, planned) = autopilot_profile(&args.flight, &session, &mission, model, planned)?;
+        let model = args.flight.in_live_wind(&session, model).await?;
         let (mission, plan) = (args.flight)
             .planned_at(&session, mission, planned, &model, args.json)
             .await?;
@@ -177,6 +178,11 @@ fn fly_through(
     client: &emplan::service::Client,
     timeout: Duration,
 ) -> anyhow::Result<ExitCode> {
+    if args.flight.wind.is_some() {
+        anyhow::bail!(
+            "--wind with --service: the service prices in the wind it was started with (emplan serve --wind)"
+        );
+    }
     let upload = args.flight.service_request()?;
     let lines = Lines::new(args.json);
     let asked = remote::FlyRequest {

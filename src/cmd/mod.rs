@@ -231,9 +231,35 @@ pub struct FlightArgs {
     /// Price the flight in a steady wind, SPEED@FROM_DEG: m/s and the direction it blows from,
     /// degrees clockwise from north (6@270: 6 m/s from the west); the order, the battery check,
     /// the guard and the report's predictions are in it. Default still air
-    #[arg(long, value_name = "SPEED@FROM_DEG")]
-    pub wind: Option<emplan::physics::Wind>,
+    /// `fly` only: `live` reads the vehicle's own wind estimate after connecting (PX4's
+    /// WIND_COV, ArduPilot's WIND) and plans in it (still air, with a warning, when it sends
+    /// none within 10 s)
+    #[arg(long, value_name = "SPEED@FROM_DEG|live")]
+    pub wind: Option<WindArg>,
 }
+
+/// `--wind`: a steady wind given, or (`live`) the vehicle's own estimate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum WindArg {
+    Steady(emplan::physics::Wind),
+    Live,
+}
+
+impl std::str::FromStr for WindArg {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        if s.trim().eq_ignore_ascii_case("live") {
+            return Ok(WindArg::Live);
+        }
+        s.parse()
+            .map(WindArg::Steady)
+            .map_err(|e| format!("{e}, or live"))
+    }
+}
+
+/// How long `--wind live` waits for the vehicle's wind estimate (PX4 streams WIND_COV at
+/// 0.5-1 Hz, ArduPilot WIND at its stream rate).
+pub const LIVE_WIND_WAIT: std::time::Duration = std::time::Duration::from_secs(10);
 
 /// A planner refusal in the words of the command line (`--sortie 3: ...`, how to override an
 /// over-budget flight).
@@ -253,10 +279,49 @@ pub fn flight_error(e: emplan::planner::PlannerError) -> anyhow::Error {
 impl FlightArgs {
     /// The vehicle with the chosen profile's table, in the `--wind` given (still air without).
     pub fn vehicle_model(&self) -> anyhow::Result<emplan::physics::VehicleModel> {
-        Ok(self
-            .model
-            .model()?
-            .with_wind(self.wind.unwrap_or(emplan::physics::Wind::CALM)))
+        let wind = match self.wind {
+            Some(WindArg::Steady(w)) => w,
+            // Planned once the vehicle has said its wind (`live_wind`).
+            Some(WindArg::Live) | None => emplan::physics::Wind::CALM,
+        };
+        Ok(self.model.model()?.with_wind(wind))
+    }
+
+    /// Whether the wind is read from the vehicle (`--wind live`).
+    pub fn live_wind(&self) -> bool {
+        self.wind == Some(WindArg::Live)
+    }
+
+    /// With `--wind live`: `model` in the vehicle's own wind estimate, read over `session`
+    /// (still air, with a warning, when it sends none); else `model` as it is.
+    pub async fn in_live_wind(
+        &self,
+        session: &emplan::session::Session,
+        model: emplan::physics::VehicleModel,
+    ) -> anyhow::Result<emplan::physics::VehicleModel> {
+        if !self.live_wind() {
+            return Ok(model);
+        }
+        let heard =
+            emplan::link::commands::listen_wind(&session.link, &session.target, LIVE_WIND_WAIT)
+                .await?;
+        match heard {
+            Some(w) => {
+                // Said even with --json (on stderr): the plan depends on it.
+                eprintln!(
+                    "wind from the vehicle: {:.1} m/s from {:.0} deg: planning in it",
+                    w.speed_m_s, w.from_deg
+                );
+                Ok(model.with_wind(w))
+            }
+            None => {
+                eprintln!(
+                    "warning: --wind live: the vehicle sent no wind estimate (WIND_COV or WIND) within {} s (PX4 estimates wind only with EKF2 drag fusion, ArduPilot with EK3 drag): planning in still air",
+                    LIVE_WIND_WAIT.as_secs()
+                );
+                Ok(model)
+            }
+        }
     }
 
     /// The library's choice of what to fly.
@@ -397,7 +462,7 @@ impl FlightArgs {
         &self,
         mission: &emplan::mission::Mission,
     ) -> anyhow::Result<(emplan::physics::VehicleModel, Option<emplan::planner::Plan>)> {
-        if self.plans_from_vehicle() {
+        if self.plans_from_vehicle() || self.live_wind() {
             return Ok((self.vehicle_model()?, None));
         }
         let (model, plan) = self.plan(mission)?;
@@ -406,8 +471,8 @@ impl FlightArgs {
     }
 
     /// The mission and plan to fly: `planned`, planned from the mission's origin before
-    /// connecting, or (`--origin vehicle`, `planned` None) the mission re-homed to the vehicle's
-    /// home over `session` and planned now.
+    /// connecting, or (`planned` None) planned now: with `--origin vehicle` the mission re-homed
+    /// to the vehicle's home over `session`; with `--wind live` alone from its own origin.
     pub async fn planned_at(
         &self,
         session: &emplan::session::Session,
@@ -419,8 +484,14 @@ impl FlightArgs {
         match planned {
             Some(plan) => Ok((mission, plan)),
             None => {
-                let mission = self.rehome(session, &mission, quiet).await?;
+                let mission = if self.plans_from_vehicle() {
+                    self.rehome(session, &mission, quiet).await?
+                } else {
+                    // `--wind live` alone: planned from the mission's origin, in the wind heard.
+                    mission
+                };
                 let plan = self.plan_with(&mission, model)?;
+                self.flight(&plan)?;
                 Ok((mission, plan))
             }
         }

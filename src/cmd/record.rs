@@ -90,7 +90,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                             }) {
                                 Ok(mut plan) => {
                                     if args.guard != Policy::Off {
-                                        match emplan::session::guard::setup(&model.vehicle, model.profile, target.flavour, &plan, args.guard, return_alt_m) {
+                                        match emplan::session::guard::setup(&model.vehicle, model.profile, target.flavour, &plan, args.guard, return_alt_m, model.wind) {
                                             Ok(setup) => plan.guard = Some(setup),
                                             Err(e) => eprintln!("the energy guard cannot price the way home: {e}; not guarding this flight"),
                                         }

@@ -38,6 +38,10 @@ pub struct Args {
     allow_hosts: Vec<String>,
     #[command(flatten)]
     model: super::VehicleArgs,
+    /// Plan and price every mission in a steady wind, SPEED@FROM_DEG (6@270: 6 m/s from the
+    /// west); default still air
+    #[arg(long, value_name = "SPEED@FROM_DEG")]
+    wind: Option<emplan::physics::Wind>,
     #[command(flatten)]
     solver: super::SolverArgs,
     /// Time allowed for one transfer, upload and read-back (s; default: 30 s plus two of the
@@ -104,7 +108,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     use super::seconds;
     let transfer_budget = args.budget_s.map(|b| seconds("budget-s", b)).transpose()?;
     let resume_within = seconds("resume-within-s", args.resume_within_s)?;
-    let model = args.model.model()?;
+    let model = args
+        .model
+        .model()?
+        .with_wind(args.wind.unwrap_or(emplan::physics::Wind::CALM));
     let signing_key = match &args.signing_key {
         Some(path) => Some(emplan::link::read_signing_key(path)?),
         None => None,

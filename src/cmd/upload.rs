@@ -87,6 +87,11 @@ fn upload(args: Args) -> anyhow::Result<ExitCode> {
         return upload_through(&args, &client);
     }
     let mission = emplan::mission::load(&args.mission)?;
+    if args.flight.live_wind() {
+        anyhow::bail!(
+            "--wind live: only fly reads the wind from the vehicle; upload takes --wind SPEED@FROM_DEG"
+        );
+    }
     let (model, planned) = args.flight.plan_first(&mission)?;
     let runtime = super::runtime()?;
     runtime.block_on(async {

@@ -78,6 +78,10 @@ pub struct FlightPlan {
     /// The energy guard's setup (policy, pack, return prices), when the flight is guarded.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub guard: Option<crate::flightlog::guard::GuardSetup>,
+    /// The steady wind the predictions are priced in (`--wind`, or the vehicle's own estimate
+    /// with `--wind live`); absent in still air.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wind: Option<crate::physics::Wind>,
 }
 
 /// What a mission sequence number means for the flight.
@@ -138,6 +142,7 @@ impl FlightPlan {
             predicted,
             resumes: None,
             guard: None,
+            wind: None,
         };
         plan.validate()?;
         Ok(plan)

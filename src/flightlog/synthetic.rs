@@ -61,6 +61,7 @@ pub fn square_plan() -> FlightPlan {
         }),
         resumes: None,
         guard: None,
+        wind: None,
     }
 }
 

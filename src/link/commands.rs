@@ -106,6 +106,33 @@ impl CommandMachine for ParamReads {
     }
 }
 
+impl CommandMachine for super::wind::ListenWind {
+    fn start(&mut self, now: Duration) -> Vec<MavMessage> {
+        super::wind::ListenWind::start(self, now)
+    }
+    fn handle(&mut self, now: Duration, message: &MavMessage) -> Vec<MavMessage> {
+        super::wind::ListenWind::handle(self, now, message)
+    }
+    fn tick(&mut self, now: Duration) -> Vec<MavMessage> {
+        super::wind::ListenWind::tick(self, now)
+    }
+    fn done(&self) -> bool {
+        super::wind::ListenWind::done(self)
+    }
+}
+
+/// `target`'s own wind estimate (WIND_COV or WIND), or None when it sends none within
+/// `budget` (see [`super::wind`]).
+pub async fn listen_wind(
+    link: &Link,
+    target: &Autopilot,
+    budget: Duration,
+) -> Result<Option<crate::physics::Wind>, LinkError> {
+    let mut machine = super::wind::ListenWind::new(*target, budget);
+    drive(link, target, &mut machine).await?;
+    Ok(machine.finished())
+}
+
 const TICK: Duration = Duration::from_millis(50);
 
 /// Runs `machine` against `target` until it is done.

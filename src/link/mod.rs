@@ -18,6 +18,7 @@ pub mod readback;
 pub mod telemetry;
 pub mod testing;
 pub mod transfer;
+pub mod wind;
 
 pub use flavour::Flavour;
 pub use mavlink::dialects::ardupilotmega as mav;

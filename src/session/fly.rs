@@ -160,6 +160,7 @@ pub async fn load(
         .map_err(|e| FlyError::Plan(e.to_string()))?;
     let mut measured_against = FlightPlan {
         resumes: load.resumes.map(str::to_string),
+        wind: (!plan.wind.is_calm()).then_some(plan.wind),
         predicted,
         ..measured_against
     };
@@ -172,6 +173,7 @@ pub async fn load(
             &measured_against,
             load.guard,
             return_alt_m,
+            plan.wind,
         )
         .map_err(|e| FlyError::Plan(format!("the energy guard's return prices: {e}")))?;
         measured_against.guard = Some(setup);

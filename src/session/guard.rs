@@ -20,7 +20,7 @@ use crate::link::connection::{Autopilot, Link};
 use crate::link::params::ReturnAltitude;
 use crate::link::{Flavour, LinkError};
 use crate::physics::power::Model;
-use crate::physics::{PhysicsError, Profile, Vehicle};
+use crate::physics::{heading_deg, PhysicsError, Profile, Vehicle, Wind};
 
 /// ArduCopter's return: loiter over home, then descend (its defaults: RTL_LOITER_TIME 5000 ms,
 /// WPNAV_SPEED_DN 150 cm/s, LAND_ALT_LOW 1000 cm, LAND_SPEED 50 cm/s).
@@ -60,7 +60,8 @@ pub async fn send_home(link: &Link, target: &Autopilot) -> Result<(), LinkError>
 }
 
 /// The guard's setup for `plan` flown by `vehicle` with `profile` on an autopilot of `flavour`
-/// whose return flies home at `return_alt_m` above home.
+/// whose return flies home at `return_alt_m` above home, in a steady `wind` (the climb, the
+/// descent and the hovers in its speed, the flight home on its heading).
 pub fn setup(
     vehicle: &Vehicle,
     profile: Profile,
@@ -68,8 +69,10 @@ pub fn setup(
     plan: &FlightPlan,
     policy: Policy,
     return_alt_m: f64,
+    wind: Wind,
 ) -> Result<GuardSetup, PhysicsError> {
-    let model = Model::new(vehicle);
+    let still = Model::new(vehicle);
+    let model = still.clone().in_wind(wind.on_heading(0.0));
     let hover_w = model.hover_power_w()?;
     let home_j = plan
         .points
@@ -83,7 +86,9 @@ pub fn setup(
             }
             let across = p.enu.x_east_m.hypot(p.enu.y_north_m);
             if across > 0.5 {
-                energy += model.operation(profile, across, 0.0)?.total_energy_j();
+                let home = wind.on_heading(heading_deg(-p.enu.x_east_m, -p.enu.y_north_m));
+                let homeward = still.clone().in_wind(home);
+                energy += homeward.operation(profile, across, 0.0)?.total_energy_j();
             }
             energy += match flavour {
                 Flavour::ArduPilot => {

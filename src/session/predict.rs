@@ -168,6 +168,7 @@ pub fn plan_from_items(
         predicted,
         resumes: None,
         guard: None,
+        wind: None,
     };
     plan.validate()?;
     Ok(plan)

@@ -131,3 +131,86 @@ fn the_mock_in_wind_measures_every_leg_within_three_percent_of_its_wind_aware_pr
         "legs priced in still air: {blind:?}"
     );
 }
+
+#[test]
+fn fly_with_the_live_wind_plans_in_the_mocks_wind_cov_and_measures_its_legs_within_three_percent() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mission = "missions/paper-sample-8wp.toml";
+    let logs = tmp.path().join("live");
+    let (ok, stdout, stderr) = emplan(&[
+        "fly",
+        mission,
+        "--wind",
+        "live",
+        "--mock-wind",
+        "6@270",
+        "--speedup",
+        "50",
+        "--log-dir",
+        logs.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(ok, "{stderr}");
+    assert!(
+        stderr.contains("wind from the vehicle: 6.0 m/s from 270 deg"),
+        "{stderr}"
+    );
+    let report: Value = serde_json::from_str(&stdout).unwrap();
+    let legs = report["legs"].as_array().expect("legs");
+    let errors: Vec<f64> = legs.iter().map(|l| f(l, "error_pct")).collect();
+    assert!(errors.iter().all(|e| e.abs() < 3.0), "{errors:?}");
+    // It flew the order planned in that wind.
+    let flown: Vec<&str> = legs[..legs.len() - 1]
+        .iter()
+        .map(|l| l["to"].as_str().unwrap())
+        .collect();
+    let windy = json(&[
+        "plan", mission, "--wind", "6@270", "--order", "energy", "--json",
+    ]);
+    let planned: Vec<&str> = (windy["orders"][0]["sequence"].as_array().unwrap().iter())
+        .map(|s| s.as_str().unwrap())
+        .collect();
+    assert_eq!(flown, planned);
+    // plan.json says so.
+    let dir = std::path::Path::new(report["log_dir"].as_str().unwrap());
+    let plan: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("plan.json")).unwrap()).unwrap();
+    assert!(
+        (f(&plan["wind"], "speed_m_s") - 6.0).abs() < 1e-3,
+        "{}",
+        plan["wind"]
+    );
+    assert!(
+        (f(&plan["wind"], "from_deg") - 270.0).abs() < 1e-3,
+        "{}",
+        plan["wind"]
+    );
+}
+
+#[test]
+fn fly_with_the_live_wind_from_a_vehicle_without_an_estimate_warns_and_plans_in_still_air() {
+    let tmp = tempfile::tempdir().unwrap();
+    let logs = tmp.path().join("none");
+    let (ok, stdout, stderr) = emplan(&[
+        "fly",
+        "missions/paper-sample-3wp.toml",
+        "--wind",
+        "live",
+        "--speedup",
+        "50",
+        "--log-dir",
+        logs.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(ok, "{stderr}");
+    assert!(stderr.contains("sent no wind estimate"), "{stderr}");
+    let report: Value = serde_json::from_str(&stdout).unwrap();
+    let dir = std::path::Path::new(report["log_dir"].as_str().unwrap());
+    let plan = std::fs::read_to_string(dir.join("plan.json")).unwrap();
+    assert!(!plan.contains("\"wind\""), "still air is not written");
+    let (ok, _, stderr) = emplan(&["upload", "missions/paper-sample-3wp.toml", "--wind", "live"]);
+    assert!(
+        !ok && stderr.contains("only fly reads the wind"),
+        "{stderr}"
+    );
+}
