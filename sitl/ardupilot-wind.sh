@@ -56,5 +56,11 @@ for k in $(seq 1 "$repeats"); do
   still+=("$work/still-air-order-$k/fly.json")
   aware+=("$work/wind-aware-order-$k/fly.json")
 done
+# What emplan predicts for the two orders' legs in that wind (plan --wind: the still-air order
+# priced in the wind beside the wind-aware one).
+# shellcheck disable=SC2086 # VEHICLE_ARGS is a list of arguments
+"$emplan" plan "$mission" --order energy --wind "$last@$from" $vehicle_args \
+  $([[ " $vehicle_args " == *" --profile "* ]] || echo "--profile ardupilot") --json \
+  >"$work/plan-in-wind.json"
 python3 sitl/check_wind.py --ratios "${ratio_set[@]}" \
-  --still "${still[@]}" --aware "${aware[@]}"
+  --still "${still[@]}" --aware "${aware[@]}" --plan "$work/plan-in-wind.json"

@@ -2,7 +2,7 @@
 """Reads sitl/ardupilot-wind.sh's flights: the per-leg wind / calm ratios, and the two orders.
 
 usage: check_wind.py --ratios CALM.json WIND1.json [WIND2.json ...]
-                     --still STILL1.json [...] --aware AWARE1.json [...]
+                     --still STILL1.json [...] --aware AWARE1.json [...] [--plan PLAN.json]
 
 Each file is `emplan fly --json` (sitl/ardupilot-fly.sh's fly.json), every flight complete with
 every leg measured.
@@ -14,6 +14,8 @@ every leg measured.
   the spread of each order's repeats (largest minus smallest). Fails unless the wind-aware order's
   mean measured mission energy is below the still-air order's, or the difference is within the
   larger of the two spreads (then says so).
+- PLAN.json (`emplan plan --wind --json`): the legs' saving emplan predicted for the wind-aware
+  order against the still-air order priced in the same wind, printed beside the measured one.
 """
 import json
 import sys
@@ -113,9 +115,13 @@ def main():
     print(f"mission, mean: still-air order {ms:.2f} kJ, wind-aware order {ma:.2f} kJ: "
           f"{100 * (ma - ms) / ms:+.2f}% (spread of repeats {spread:.2f} kJ, {100 * spread / ms:.2f}%)")
     print(f"legs, mean: still-air order {ls:.2f} kJ, wind-aware order {la:.2f} kJ: {100 * (la - ls) / ls:+.2f}%")
-    pa, ps = mean(aware[2]), mean(still[2])
-    print(f"predicted (each flight priced as planned): still-air order {ps:.2f} kJ in still air, "
-          f"wind-aware order {pa:.2f} kJ in the wind")
+    if args.get("plan"):
+        w = json.load(open(args["plan"][0])).get("wind") or {}
+        if w.get("saving_pct") is not None:
+            print(f"legs, predicted in the wind (plan --wind): still-air order "
+                  f"{w['still_air_order']['energy_kj']:.2f} kJ, wind-aware order "
+                  f"{w['still_air_order']['energy_kj'] - w['saving_kj']:.2f} kJ: "
+                  f"{-w['saving_pct']:+.2f}%")
     if ma < ms:
         print("ok: the wind-aware order measured less than the still-air order in the same wind")
     elif ma - ms <= spread:
