@@ -527,11 +527,52 @@ pub fn plan_mission(
     planned
 }
 
-/// [`plan_mission`], skipping what is left once the cancel token asks.
+/// [`plan_mission`], skipping what is left once the cancel token asks. In wind, with the energy
+/// order asked for, the still-air energy order is planned on a thread of its own (with this
+/// thread's cancel token) while the wind's legs are priced and ordered, and joined to be priced
+/// in the wind.
 fn plan_uncancelled(
     mission: &Mission,
     model: &VehicleModel,
     options: &PlanOptions,
+) -> Result<Plan, PlannerError> {
+    let wants_still_air =
+        !model.wind.is_calm() && matches!(options.orders, Orders::All | Orders::Energy);
+    if !wants_still_air {
+        return plan_core(mission, model, options, None);
+    }
+    let calm = model.clone().with_wind(Wind::CALM);
+    let calm_options = PlanOptions {
+        orders: Orders::Energy,
+        sorties: false,
+        ..options.clone()
+    };
+    let token = cancel::current();
+    std::thread::scope(|scope| {
+        // Started once the wind's legs are priced (both cores then free of them), so that it
+        // runs beside the single-threaded solves.
+        let start = || {
+            scope.spawn(|| {
+                let plan = || plan_core(mission, &calm, &calm_options, None);
+                match &token {
+                    Some(token) => cancel::within(token, plan),
+                    None => plan(),
+                }
+            })
+        };
+        plan_core(mission, model, options, Some(&start))
+    })
+}
+
+/// A plan whose still-air energy order comes from another thread.
+type StillAirPlan<'scope> = std::thread::ScopedJoinHandle<'scope, Result<Plan, PlannerError>>;
+
+/// The plan of [`plan_uncancelled`]; `start_still_air`, in wind, starts the still-air plan.
+fn plan_core<'scope>(
+    mission: &Mission,
+    model: &VehicleModel,
+    options: &PlanOptions,
+    start_still_air: Option<&dyn Fn() -> StillAirPlan<'scope>>,
 ) -> Result<Plan, PlannerError> {
     let stopped = || PlannerError::Cancelled {
         mission: mission.name.clone(),
@@ -575,6 +616,7 @@ fn plan_uncancelled(
     } else {
         None
     };
+    let still_air_plan = start_still_air.map(|start| start());
     let start_of = |previous: Option<usize>, from: usize, to: usize| -> Start {
         let points = geometry.points();
         let across = |a: usize, b: usize| {
@@ -697,15 +739,13 @@ fn plan_uncancelled(
     }
 
     // In wind: the order still air would choose, priced in this wind.
-    let still_air = match options.orders {
-        Orders::All | Orders::Energy if !model.wind.is_calm() => {
-            let calm = model.clone().with_wind(Wind::CALM);
-            let calm_options = PlanOptions {
-                orders: Orders::Energy,
-                sorties: false,
-                ..options.clone()
-            };
-            let calm_plan = plan_uncancelled(mission, &calm, &calm_options)?;
+    let still_air = match still_air_plan {
+        Some(handle) => {
+            let calm_plan = handle.join().map_err(|_| {
+                planning(PlanError::Infeasible(
+                    "the still-air plan stopped unexpectedly".into(),
+                ))
+            })??;
             let calm_order = calm_plan.orders.into_iter().next().ok_or_else(|| {
                 planning(PlanError::Infeasible("no still-air energy order".into()))
             })?;
@@ -719,7 +759,7 @@ fn plan_uncancelled(
                 )?,
             })
         }
-        _ => None,
+        None => None,
     };
 
     let budget = model

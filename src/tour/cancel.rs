@@ -92,6 +92,11 @@ pub fn within<R>(cancel: &Cancel, work: impl FnOnce() -> R) -> R {
     work()
 }
 
+/// This thread's token, if any (to hand to work run on another thread with [`within`]).
+pub fn current() -> Option<Cancel> {
+    CURRENT.with(|c| c.borrow().clone())
+}
+
 /// Whether this thread's token (if any) asks the plan to stop.
 pub fn requested() -> bool {
     CURRENT.with(|c| c.borrow().as_ref().is_some_and(Cancel::requested))

@@ -26,6 +26,7 @@ use crate::tour::PlanError;
 mod random;
 mod summary;
 mod vehicle;
+pub mod wind;
 
 pub use random::{
     mission_geometry, random_mission, random_points, waypoint_name, Site, CLEARANCE_M,
