@@ -62,6 +62,7 @@ fn plan() -> FlightPlan {
             hover_power_w: 530.0,
         }),
         resumes: None,
+        wind: None,
         guard: Some(GuardSetup {
             policy: Policy::Rtl,
             usable_j: 720_000.0,

@@ -7,7 +7,9 @@ Each STUDY.json is one setting's document (docs/json.md, "emplan study ... --win
 "winds" rows are pooled. Two panels against the wind speed, one line per direction the wind
 blows from: the share of missions whose minimum-energy order the wind changes, and the mean
 saving of planning in the wind (the still-air order's price in the wind over the wind-aware
-order's). Plain SVG, no plotting library.
+order's). A wind in which more than half the missions have a leg the vehicle cannot fly
+(`infeasible_missions`) is left out: its statistics are of the few left. Plain SVG, no plotting
+library.
 """
 import json
 import sys
@@ -24,7 +26,7 @@ def main():
         doc = json.load(open(path))
         title = (f"N={doc['waypoints']}, XY={doc['xy_m']:g} m, Z={doc['z_m']:g} m, "
                  f"{doc['winds'][0]['missions']} missions, seed {doc['seed']}, {doc['profile']} profile")
-        rows += doc["winds"]
+        rows += [r for r in doc["winds"] if 2 * r["infeasible_missions"] <= r["missions"]]
     directions = sorted({r["from_deg"] for r in rows})
     speeds = sorted({r["speed_m_s"] for r in rows})
     panels = [("order changed by the wind (% of missions)", lambda r: r["order_changed_pct"]),

@@ -114,10 +114,9 @@ fn run_in_wind(
                 "N={} XY={} Z={} wind {w}",
                 s.waypoints, s.xy_m, s.z_m
             ));
-            let row = emplan::planner::study::wind::run_wind(s, model, args.pricing, w, &|| {
-                bar.inc(1)
-            })
-            .map_err(super::setting_error)?;
+            let row =
+                emplan::planner::study::wind::run_wind(s, model, args.pricing, w, &|| bar.inc(1))
+                    .map_err(super::setting_error)?;
             bar.finish_and_clear();
             winds.push(row);
         }
@@ -147,13 +146,21 @@ fn run_in_wind(
         args.missions, args.seed, model.profile, args.pricing
     );
     println!(
-        "{:>3} {:>5} {:>5} {:>9} {:>9} | {:>14} | {:^20} | {:>12}",
-        "N", "XY_m", "Z_m", "wind_m_s", "from_deg", "order_changed", "saving", "wind_effect"
+        "{:>3} {:>5} {:>5} {:>9} {:>9} | {:>14} | {:^20} | {:>12} {:>11}",
+        "N",
+        "XY_m",
+        "Z_m",
+        "wind_m_s",
+        "from_deg",
+        "order_changed",
+        "saving",
+        "wind_effect",
+        "infeasible"
     );
     for d in &docs {
         for r in &d.winds {
             println!(
-                "{:>3} {:>5} {:>5} {:>9} {:>9} | {:>13.1}% | {:>5.2} {:>6.2} {:>6.2} | {:>+11.1}%",
+                "{:>3} {:>5} {:>5} {:>9} {:>9} | {:>13.1}% | {:>5.2} {:>6.2} {:>6.2} | {:>+11.1}% {:>11}",
                 d.waypoints,
                 d.xy_m,
                 d.z_m,
@@ -163,7 +170,8 @@ fn run_in_wind(
                 r.saving.mean_pct,
                 r.saving.p90_pct,
                 r.saving.max_pct,
-                r.wind_effect_mean_pct
+                r.wind_effect_mean_pct,
+                r.infeasible_missions
             );
         }
     }

@@ -214,3 +214,38 @@ fn fly_with_the_live_wind_from_a_vehicle_without_an_estimate_warns_and_plans_in_
         "{stderr}"
     );
 }
+
+#[test]
+fn the_study_in_wind_counts_the_orders_the_wind_changes_and_what_planning_in_it_saves() {
+    let doc = json(&[
+        "study",
+        "--waypoints",
+        "5",
+        "--xy",
+        "20",
+        "--z",
+        "10",
+        "--missions",
+        "6",
+        "--seed",
+        "2",
+        "--wind",
+        "0@0",
+        "--wind",
+        "9@270",
+        "--json",
+    ]);
+    let rows = doc["winds"].as_array().expect("winds");
+    assert_eq!(rows.len(), 2);
+    assert_eq!(
+        f(&rows[0], "order_changed_pct"),
+        0.0,
+        "no wind changes nothing"
+    );
+    assert_eq!(f(&rows[0]["saving"], "max_pct"), 0.0);
+    assert_eq!(
+        (f(&rows[1], "speed_m_s"), f(&rows[1], "from_deg")),
+        (9.0, 270.0)
+    );
+    assert!(f(&rows[1]["saving"], "mean_pct") >= 0.0, "{}", rows[1]);
+}

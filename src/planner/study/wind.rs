@@ -31,16 +31,27 @@ pub struct WindRow {
     /// The wind-aware order's price in the wind against the still-air order's price in still
     /// air, mean over the missions (%): what the wind itself does to the mission.
     pub wind_effect_mean_pct: f64,
+    /// Missions with a leg the vehicle cannot fly in this wind (its motors or tilt at their
+    /// limit): left out of the shares and statistics above, which count the others.
+    pub infeasible_missions: usize,
 }
 
-/// One mission in `wind`: (order changed, saving %, wind effect %).
+/// What one mission gives in a wind.
+enum InWind {
+    /// (order changed, saving %, wind effect %).
+    Flown(bool, f64, f64),
+    /// A leg cannot be flown in this wind.
+    Infeasible,
+}
+
+/// One mission in `wind`.
 fn mission_in_wind(
     settings: &StudySettings,
     mission: u64,
     still: &VehicleModel,
     windy: &VehicleModel,
     pricing: Pricing,
-) -> Result<(bool, f64, f64), StudyError> {
+) -> Result<InWind, StudyError> {
     let geometry = mission_geometry(settings, mission);
     let names: Vec<String> = (0..geometry.len()).map(node_name).collect();
     let leg_error = |e: PlanError| match e {
@@ -64,12 +75,17 @@ fn mission_in_wind(
         still.leg(x, z).map(|l| l.priced_energy_j(pricing))
     })
     .map_err(leg_error)?;
-    let in_wind = energy_matrix_on_headings(&geometry, &names, |x, z, heading| {
+    // A leg the physics cannot fly in the wind (the still-air table flew it) makes the mission
+    // infeasible in that wind, not the study wrong.
+    let in_wind = match energy_matrix_on_headings(&geometry, &names, |x, z, heading| {
         windy
             .leg_on_heading(x, z, Start::Behind, heading)
             .map(|l| l.priced_energy_j(pricing))
-    })
-    .map_err(leg_error)?;
+    }) {
+        Ok(m) => m,
+        Err(PlanError::LegEnergy { .. }) => return Ok(InWind::Infeasible),
+        Err(e) => return Err(leg_error(e)),
+    };
     let plan_err = |source| StudyError::Plan { mission, source };
     let still_order = solve_order(&geometry, Objective::Energy, Some(&calm)).map_err(plan_err)?;
     let aware = solve_order(&geometry, Objective::Energy, Some(&in_wind)).map_err(plan_err)?;
@@ -86,7 +102,7 @@ fn mission_in_wind(
     } else {
         0.0
     };
-    Ok((aware != still_order, saving, effect))
+    Ok(InWind::Flown(aware != still_order, saving, effect))
 }
 
 /// The study `settings` flown in `wind` by `model` (its table for still air), missions in
@@ -102,7 +118,7 @@ pub fn run_wind(
     settings.validate()?;
     let still = model.clone().with_wind(Wind::CALM);
     let windy = model.clone().with_wind(wind);
-    let results: Vec<Result<(bool, f64, f64), StudyError>> = (0..settings.missions as u64)
+    let results: Vec<Result<InWind, StudyError>> = (0..settings.missions as u64)
         .into_par_iter()
         .map(|k| {
             let outcome = mission_in_wind(settings, k, &still, &windy, pricing);
@@ -110,7 +126,14 @@ pub fn run_wind(
             outcome
         })
         .collect();
-    let outcomes = results.into_iter().collect::<Result<Vec<_>, _>>()?;
+    let all = results.into_iter().collect::<Result<Vec<_>, _>>()?;
+    let outcomes: Vec<(bool, f64, f64)> = all
+        .iter()
+        .filter_map(|o| match o {
+            InWind::Flown(changed, saving, effect) => Some((*changed, *saving, *effect)),
+            InWind::Infeasible => None,
+        })
+        .collect();
     let n = outcomes.len().max(1) as f64;
     let savings: Vec<f64> = outcomes.iter().map(|o| o.1).collect();
     Ok(WindRow {
@@ -120,6 +143,7 @@ pub fn run_wind(
         order_changed_pct: 100.0 * outcomes.iter().filter(|o| o.0).count() as f64 / n,
         saving: Stats::of(&savings),
         wind_effect_mean_pct: outcomes.iter().map(|o| o.2).sum::<f64>() / n,
+        infeasible_missions: all.len() - outcomes.len(),
     })
 }
 
@@ -149,11 +173,15 @@ mod tests {
         assert_eq!(calm.order_changed_pct, 0.0);
         assert_eq!(calm.saving.max_pct, 0.0);
         assert_eq!(calm.wind_effect_mean_pct, 0.0);
+        assert_eq!(calm.infeasible_missions, 0);
         let strong = Wind::new(8.0, 270.0).unwrap();
         let row = run_wind(&settings, &m, Pricing::Settled, strong, &|| {}).unwrap();
         assert_eq!(row.missions, 8);
         assert!(row.order_changed_pct > 0.0, "{row:?}");
         // The wind-aware order is optimal in the wind: never dearer there than the still-air one.
-        assert!(row.saving.mean_pct >= 0.0 && row.saving.max_pct > 0.0, "{row:?}");
+        assert!(
+            row.saving.mean_pct >= 0.0 && row.saving.max_pct > 0.0,
+            "{row:?}"
+        );
     }
 }
