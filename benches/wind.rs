@@ -7,33 +7,13 @@
 //! alone (`plan --order energy --wind`); `all`: with the distance baselines (`plan --wind`).
 //! Run with `cargo bench --bench wind`; `cargo bench --bench wind -- energy/20` for one.
 
+mod common;
+
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
-use emplan::mission::{Geodetic, Mission};
 use emplan::physics::{Profile, VehicleModel, VehicleSource, Wind};
-use emplan::planner::study::{random_mission, Site, StudySettings};
 use emplan::planner::{plan_mission, Orders, PlanOptions};
-
-fn mission(waypoints: usize) -> Mission {
-    let settings = StudySettings {
-        waypoints,
-        xy_m: 30.0,
-        z_m: 25.0,
-        missions: 1,
-        seed: 1,
-    };
-    let site = Site {
-        home: Geodetic {
-            lat_deg: 38.5362,
-            lon_deg: -121.7875,
-            alt_m: 16.0,
-        },
-        hover_s: 5.0,
-        name: None,
-    };
-    random_mission(&settings, 0, &site).expect("a generated mission")
-}
 
 fn wind_bench(c: &mut Criterion) {
     let model = VehicleModel::open(&VehicleSource::BuiltIn, Some(Profile::Px4))
@@ -51,7 +31,7 @@ fn wind_bench(c: &mut Criterion) {
             ..PlanOptions::default()
         };
         for &n in sizes {
-            let m = mission(n);
+            let m = common::study_mission(n);
             group.bench_with_input(BenchmarkId::new(name, n), &m, |b, m| {
                 b.iter(|| plan_mission(m, &model, &options).expect("planned"))
             });

@@ -205,6 +205,27 @@ pub enum StudyError {
     },
 }
 
+/// A pricing or planning failure of mission `mission`, a leg's named as the leg's.
+fn study_error(mission: u64, e: PlanError) -> StudyError {
+    match e {
+        PlanError::LegEnergy {
+            from,
+            to,
+            xf_m,
+            zf_m,
+            reason,
+        } => StudyError::LegEnergy {
+            mission,
+            from,
+            to,
+            xf_m,
+            zf_m,
+            reason,
+        },
+        source => StudyError::Plan { mission, source },
+    }
+}
+
 fn node_name(node: usize) -> String {
     if node == 0 {
         "origin".to_string()
@@ -224,23 +245,8 @@ pub fn run_mission<E: Display + Send>(
 ) -> Result<MissionOutcome, StudyError> {
     let geometry = mission_geometry(settings, mission);
     let names: Vec<String> = (0..geometry.len()).map(node_name).collect();
-    let energy = energy_matrix(&geometry, &names, leg_energy_j).map_err(|e| match e {
-        PlanError::LegEnergy {
-            from,
-            to,
-            xf_m,
-            zf_m,
-            reason,
-        } => StudyError::LegEnergy {
-            mission,
-            from,
-            to,
-            xf_m,
-            zf_m,
-            reason,
-        },
-        source => StudyError::Plan { mission, source },
-    })?;
+    let energy =
+        energy_matrix(&geometry, &names, leg_energy_j).map_err(|e| study_error(mission, e))?;
     let plan_err = |source| StudyError::Plan { mission, source };
     let energy_order =
         solve_order(&geometry, Objective::Energy, Some(&energy)).map_err(plan_err)?;

@@ -9,7 +9,7 @@
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::{mission_geometry, node_name, StudyError, StudySettings};
+use super::{mission_geometry, node_name, study_error, StudyError, StudySettings};
 use crate::physics::{Pricing, Start, VehicleModel, Wind};
 use crate::tour::energy::{energy_matrix, energy_matrix_on_headings};
 use crate::tour::orders::{solve_order, Objective};
@@ -54,23 +54,7 @@ fn mission_in_wind(
 ) -> Result<InWind, StudyError> {
     let geometry = mission_geometry(settings, mission);
     let names: Vec<String> = (0..geometry.len()).map(node_name).collect();
-    let leg_error = |e: PlanError| match e {
-        PlanError::LegEnergy {
-            from,
-            to,
-            xf_m,
-            zf_m,
-            reason,
-        } => StudyError::LegEnergy {
-            mission,
-            from,
-            to,
-            xf_m,
-            zf_m,
-            reason,
-        },
-        source => StudyError::Plan { mission, source },
-    };
+    let leg_error = |e: PlanError| study_error(mission, e);
     let calm = energy_matrix(&geometry, &names, |x, z| {
         still.leg(x, z).map(|l| l.priced_energy_j(pricing))
     })
