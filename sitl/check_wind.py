@@ -52,10 +52,6 @@ def groups(argv):
     return out
 
 
-def wind_of(doc):
-    return doc.get("flight_wind") or "?"
-
-
 def main():
     args = groups(sys.argv[1:])
     problems = []

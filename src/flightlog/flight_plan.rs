@@ -81,16 +81,7 @@ pub struct FlightPlan {
     /// The steady wind the predictions are priced in (`--wind`, or the vehicle's own estimate
     /// with `--wind live`); absent in still air.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub wind: Option<PlannedWind>,
-}
-
-/// The steady wind a flight's predictions are priced in (`physics::Wind`'s numbers: the
-/// flight log sits below the physics).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct PlannedWind {
-    pub speed_m_s: f64,
-    /// The direction it blows from, degrees clockwise from north.
-    pub from_deg: f64,
+    pub wind: Option<crate::mission::wind::Wind>,
 }
 
 /// What a mission sequence number means for the flight.

@@ -128,7 +128,7 @@ pub async fn listen_wind(
     target: &Autopilot,
     budget: Duration,
 ) -> Result<Option<crate::physics::Wind>, LinkError> {
-    let mut machine = super::wind::ListenWind::new(*target, budget);
+    let mut machine = super::wind::ListenWind::new(budget);
     drive(link, target, &mut machine).await?;
     Ok(machine.finished())
 }

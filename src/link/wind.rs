@@ -8,7 +8,6 @@
 
 use std::time::Duration;
 
-use super::connection::Autopilot;
 use super::mav::MavMessage;
 use crate::physics::Wind;
 
@@ -22,8 +21,8 @@ pub struct ListenWind {
 }
 
 impl ListenWind {
-    /// Listens to `_target` for at most `budget`.
-    pub fn new(_target: Autopilot, budget: Duration) -> ListenWind {
+    /// Listens for at most `budget` (the driver hands it only the target's messages).
+    pub fn new(budget: Duration) -> ListenWind {
         ListenWind {
             budget,
             started: Duration::ZERO,
@@ -104,14 +103,13 @@ mod tests {
 
     #[test]
     fn listening_ends_with_the_first_estimate_or_the_budget() {
-        let target = crate::link::testing::autopilot(crate::link::Flavour::Px4);
-        let mut m = ListenWind::new(target, Duration::from_secs(5));
+        let mut m = ListenWind::new(Duration::from_secs(5));
         m.start(Duration::ZERO);
         m.tick(Duration::from_secs(4));
         assert!(!m.done());
         m.tick(Duration::from_secs(5));
         assert!(m.done() && m.finished().is_none());
-        let mut m = ListenWind::new(target, Duration::from_secs(5));
+        let mut m = ListenWind::new(Duration::from_secs(5));
         m.start(Duration::ZERO);
         m.handle(
             Duration::from_secs(1),

@@ -1,5 +1,6 @@
 //! Waypoint missions: the in-memory model, file formats (emplan TOML, QGroundControl `.plan`,
-//! `QGC WPL 110` `.waypoints`), validation with located errors, and WGS84 <-> local ENU geodesy.
+//! `QGC WPL 110` `.waypoints`), validation with located errors, WGS84 <-> local ENU geodesy, and
+//! the steady wind a mission may be flown in (`wind`).
 //!
 //! Invariant: pure apart from reading and writing the one file it is asked to; never panics on
 //! input; every error names the file and the line or field at fault.
@@ -9,6 +10,7 @@ pub mod geodesy;
 mod qgc_plan;
 pub mod rehome;
 mod toml_format;
+pub mod wind;
 mod wpl;
 
 use std::collections::HashSet;

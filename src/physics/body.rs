@@ -23,7 +23,7 @@
 //! it is [`demand`] itself.
 
 use super::vehicle::Vehicle;
-use super::wind::LegWind;
+use crate::mission::wind::LegWind;
 
 /// What one rotor must do at a kinematic state.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -11,8 +11,8 @@
 //! for the waypoint's hover time.
 
 use super::power::Model;
-use super::wind::Wind;
 use super::{Operation, PhysicsError, Profile, Vehicle};
+use crate::mission::wind::Wind;
 
 /// The fixed costs of flights from one origin with one vehicle and profile, and its battery.
 #[derive(Debug, Clone, PartialEq)]

@@ -26,8 +26,8 @@ pub mod rotor;
 pub mod table;
 pub mod trajectory;
 pub mod vehicle;
-pub mod wind;
 
+pub use crate::mission::wind::{heading_deg, LegWind, Wind};
 pub use budget::{BatteryCheck, Budget};
 pub use model::{VehicleModel, VehicleSource};
 pub use power::{hover_power_w, level_flight_power_w, simulate_operation, Operation};
@@ -35,7 +35,6 @@ pub use profile::Profile;
 pub use px4::{start_case, Start};
 pub use table::{EnergyTable, LegEnergy, Pricing};
 pub use vehicle::Vehicle;
-pub use wind::{heading_deg, LegWind, Wind};
 
 /// Everything the physics layer can refuse.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

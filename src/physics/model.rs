@@ -9,8 +9,8 @@ use super::budget::Budget;
 use super::longleg;
 use super::power::Model;
 use super::px4::{start_case, Start};
-use super::wind::{heading_deg, Wind};
 use super::{builtin, EnergyTable, LegEnergy, PhysicsError, Profile, Vehicle};
+use crate::mission::wind::{heading_deg, Wind};
 
 /// Where a vehicle and its tables come from.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -18,8 +18,8 @@ use super::trajectory::{
     Trajectory, ARRIVAL_RADIUS_M,
 };
 use super::vehicle::{Px4Params, Vehicle};
-use super::wind::LegWind;
 use super::{PhysicsError, Profile};
+use crate::mission::wind::LegWind;
 
 /// Power the spinning motors draw armed on the ground at idle, on top of the avionics: eight
 /// motors at about 5 W each ([assumed]: PX4 idle throttle a few percent of hover thrust).
@@ -436,7 +436,7 @@ impl<'a> Model<'a> {
         start_enu_m: [f64; 3],
         points: &[super::ardupilot_chain::ChainPoint],
     ) -> Result<Vec<Operation>, PhysicsError> {
-        self.ardupilot_chain_in_wind(start_enu_m, points, super::wind::Wind::CALM)
+        self.ardupilot_chain_in_wind(start_enu_m, points, crate::mission::wind::Wind::CALM)
     }
 
     /// [`Model::ardupilot_chain`] in a steady `wind`, each leg in what its heading (from the
@@ -445,7 +445,7 @@ impl<'a> Model<'a> {
         &self,
         start_enu_m: [f64; 3],
         points: &[super::ardupilot_chain::ChainPoint],
-        wind: super::wind::Wind,
+        wind: crate::mission::wind::Wind,
     ) -> Result<Vec<Operation>, PhysicsError> {
         let a = &self.vehicle.ardupilot;
         let legs = super::ardupilot_chain::chain(a, start_enu_m, points, ARRIVAL_RADIUS_M)?;
@@ -453,7 +453,7 @@ impl<'a> Model<'a> {
         let headings: Vec<f64> = froms
             .zip(points)
             .map(|(from, to)| {
-                super::wind::heading_deg(to.enu_m[0] - from[0], to.enu_m[1] - from[1])
+                crate::mission::wind::heading_deg(to.enu_m[0] - from[0], to.enu_m[1] - from[1])
             })
             .collect();
         legs.into_iter()

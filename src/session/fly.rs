@@ -160,10 +160,7 @@ pub async fn load(
         .map_err(|e| FlyError::Plan(e.to_string()))?;
     let mut measured_against = FlightPlan {
         resumes: load.resumes.map(str::to_string),
-        wind: (!plan.wind.is_calm()).then_some(crate::flightlog::flight_plan::PlannedWind {
-            speed_m_s: plan.wind.speed_m_s,
-            from_deg: plan.wind.from_deg,
-        }),
+        wind: (!plan.wind.is_calm()).then_some(plan.wind),
         predicted,
         ..measured_against
     };

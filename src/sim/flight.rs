@@ -420,7 +420,7 @@ pub struct Flight<'v> {
     /// each flies to, its trajectory and its target track (`physics::ardupilot_chain`).
     chain_ahead: VecDeque<(u16, Trajectory, Arc<Vec<Local>>)>,
     /// The steady wind it flies in: the power of each line in what its heading meets of it,
-    /// the hover in its speed (`physics::wind`). The paths over the ground are the still-air
+    /// the hover in its speed (`mission::wind`). The paths over the ground are the still-air
     /// ones, as the autopilots fly them.
     wind: Wind,
 }

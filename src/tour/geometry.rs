@@ -64,14 +64,10 @@ impl Geometry {
     }
 
     /// The heading from point `i` to point `j`: degrees clockwise from north, in [0, 360); 0 for
-    /// a vertical move (as `physics::heading_deg`).
+    /// a vertical move ([`crate::mission::wind::heading_deg`]).
     pub fn heading_deg(&self, i: usize, j: usize) -> f64 {
         let (a, b) = (self.points[i], self.points[j]);
-        let (dx, dy) = (b.x_east_m - a.x_east_m, b.y_north_m - a.y_north_m);
-        if dx == 0.0 && dy == 0.0 {
-            return 0.0;
-        }
-        dx.atan2(dy).to_degrees().rem_euclid(360.0)
+        crate::mission::wind::heading_deg(b.x_east_m - a.x_east_m, b.y_north_m - a.y_north_m)
     }
 
     /// Straight-line 3D distance from point `i` to point `j`.

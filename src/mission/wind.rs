@@ -1,11 +1,13 @@
-//! A steady horizontal wind, and what a leg sees of it.
+//! A steady horizontal wind, and what a leg sees of it: a field condition of a mission, kept
+//! here below the physics (which prices in it), the tour (headings) and the flight log (a
+//! plan's wind) alike.
 //!
 //! A wind is given as `SPEED@FROM_DEG` (`--wind 6@270`: 6 m/s from the west), the
 //! meteorological convention: the direction it blows from, degrees clockwise from north. A leg
 //! flown on a heading (its direction of travel over the ground, degrees clockwise from north)
 //! sees it as [`LegWind`]: the air's velocity along the leg (positive with the travel, a
 //! tailwind) and across it (positive to the right of the travel). The body and rotors work in
-//! the air: their airspeed is the ground velocity minus the wind (`body::demand_in_wind`). The
+//! the air: their airspeed is the ground velocity minus the wind (`physics::body::demand_in_wind`). The
 //! autopilots fly their trajectories over the ground, so a leg's motion is the same in wind as
 //! in still air; what changes is the thrust, the attitude and the rotors' airflow along it
 //! (docs/energy-model.md "Wind").
