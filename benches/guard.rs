@@ -63,6 +63,7 @@ fn plan() -> FlightPlan {
         }),
         resumes: None,
         wind: None,
+        repricings: Vec::new(),
         guard: Some(GuardSetup {
             policy: Policy::Rtl,
             usable_j: 720_000.0,

@@ -87,6 +87,7 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
         let load = Load {
             guard: args.guard.unwrap_or_default(),
             resumes: resumed.as_ref().map(|(name, _)| name.as_str()),
+            live_wind: args.flight.live_wind().then_some(&model),
             ..(args.flight).load(&mission, &plan, &flight, &model.vehicle)
         };
         let recorder = session.recorder(RecorderConfig::new(&args.log_dir));

@@ -44,6 +44,11 @@ pub struct MockArgs {
     /// SPEED@FROM_DEG (6@270: 6 m/s from the west)
     #[arg(long, value_name = "SPEED@FROM_DEG")]
     mock_wind: Option<emplan::physics::Wind>,
+    /// Built-in mock only: the wind changes in flight, T_S=SPEED@FROM_DEG: T_S seconds after
+    /// arming it becomes SPEED@FROM_DEG (60=8@270), flown in and reported (what `--wind live`
+    /// prices the rest of the flight again on)
+    #[arg(long, value_name = "T_S=SPEED@FROM_DEG")]
+    mock_wind_change: Option<emplan::sim::WindChange>,
 }
 
 impl MockArgs {
@@ -85,11 +90,14 @@ impl MockArgs {
                 .with_context(|| format!("--mock-vehicle {}", dir.display()))?,
             None => planned.clone(),
         };
-        if self.mock_wind.is_some() && !builtin {
-            anyhow::bail!("--mock-wind is for the built-in mock (no --connect)");
+        if (self.mock_wind.is_some() || self.mock_wind_change.is_some()) && !builtin {
+            anyhow::bail!(
+                "--mock-wind and --mock-wind-change are for the built-in mock (no --connect)"
+            );
         }
         Ok(MockFlight {
             wind: self.mock_wind,
+            wind_change: self.mock_wind_change,
             home: mission.origin.home,
             profile,
             truth,
@@ -267,6 +275,11 @@ impl Lines {
             FlightEvent::Part { part, kind, .. } => part_line(clear, *kind, part),
             FlightEvent::Failed { error, .. } => eprintln!("{clear}recording failed: {error}"),
             FlightEvent::Guard { note, .. } => guard_line(clear, note),
+            FlightEvent::Repriced { repriced, .. } => eprintln!(
+                "{clear}  at {:.0} s: {}",
+                repriced.t_s,
+                emplan::flightlog::report::repriced_line(repriced)
+            ),
             FlightEvent::Ended { .. } => {}
         }
     }

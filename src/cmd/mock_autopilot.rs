@@ -95,6 +95,10 @@ pub struct Args {
     /// Default still air and no wind message
     #[arg(long, value_name = "SPEED@FROM_DEG")]
     wind: Option<emplan::physics::Wind>,
+    /// The wind changes in flight, T_S=SPEED@FROM_DEG: T_S seconds after the first arming the
+    /// vehicle flies in (and reports) SPEED@FROM_DEG
+    #[arg(long, value_name = "T_S=SPEED@FROM_DEG")]
+    wind_change: Option<emplan::sim::WindChange>,
     /// Telemetry fault: no telemetry at all from START_S for LEN_S simulated seconds
     #[arg(long, value_name = "START_S:LEN_S", value_parser = parse_gap)]
     telemetry_gap: Option<Gap>,
@@ -224,6 +228,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             },
             seed: args.seed,
             wind: args.wind,
+            wind_change: args.wind_change,
             ..FlightConfig::default()
         }),
         speedup: args.speedup,

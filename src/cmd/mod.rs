@@ -426,6 +426,7 @@ impl FlightArgs {
             resumes: None,
             guard: emplan::flightlog::watch::Policy::Off,
             if_home_unknown: emplan::session::IfHomeUnknown::asked(self.plan_origin()),
+            live_wind: None,
         }
     }
 

@@ -107,6 +107,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                     }
                     Ok(FlightEvent::Failed { error, .. }) => eprintln!("recording failed: {error}"),
                     Ok(FlightEvent::Guard { note, .. }) => eprintln!("  energy guard at {:.0} s: {}", note.t_s, note.message),
+                    Ok(FlightEvent::Repriced { repriced, .. }) => eprintln!("  at {:.0} s: {}", repriced.t_s, emplan::flightlog::report::repriced_line(&repriced)),
                     Ok(FlightEvent::Ended { dir, report, .. }) => return Some((dir, report.map(|r| *r))),
                     Err(tokio::sync::broadcast::error::RecvError::Lagged(_)) => {}
                     Err(tokio::sync::broadcast::error::RecvError::Closed) => return None,

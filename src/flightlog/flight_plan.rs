@@ -82,6 +82,35 @@ pub struct FlightPlan {
     /// with `--wind live`); absent in still air.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub wind: Option<crate::mission::wind::Wind>,
+    /// What was left of the flight priced again in a wind the vehicle estimated in flight
+    /// (`fly --wind live`), in the order they took effect. Not in plan.json (written before the
+    /// flight): the flight directory's repriced.jsonl, one line each as they were made.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub repricings: Vec<Repricing>,
+}
+
+/// The rest of a flight priced again, from `from_point` on, in a wind heard in flight.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Repricing {
+    /// Flight-log time it took effect (s).
+    pub t_s: f64,
+    /// The wind the rest is priced in (the vehicle's estimate, averaged).
+    pub wind: crate::mission::wind::Wind,
+    /// The first point whose leg is priced again (legs before it had begun).
+    pub from_point: usize,
+    /// The legs to points `from_point..` (their settles too).
+    pub legs: Vec<PredictedLeg>,
+    /// The hover power at those points, and the landing.
+    pub hover_power_w: f64,
+    pub landing_j: f64,
+    /// The guard's price of the autopilot's return from every point, in this wind (empty when
+    /// the flight is not guarded).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub home_j: Vec<f64>,
+    /// What the stages from `from_point` on (legs, settles, hovers, the landing) were priced at
+    /// before, and are now.
+    pub rest_before_j: f64,
+    pub rest_after_j: f64,
 }
 
 /// What a mission sequence number means for the flight.
@@ -143,6 +172,7 @@ impl FlightPlan {
             resumes: None,
             guard: None,
             wind: None,
+            repricings: Vec::new(),
         };
         plan.validate()?;
         Ok(plan)
@@ -190,6 +220,18 @@ impl FlightPlan {
                 )));
             }
         }
+        for r in &self.repricings {
+            let legs_left = self.points.len().saturating_sub(r.from_point);
+            if r.legs.len() != legs_left || legs_left == 0 {
+                return Err(plan_error(format!(
+                    "a repricing at {:.1} s has {} legs from point {} of {}",
+                    r.t_s,
+                    r.legs.len(),
+                    r.from_point,
+                    self.points.len()
+                )));
+            }
+        }
         if let Some(p) = &self.predicted {
             if p.legs.len() != self.points.len() {
                 return Err(plan_error(format!(
@@ -200,6 +242,62 @@ impl FlightPlan {
             }
         }
         Ok(())
+    }
+
+    /// The latest repricing that covers point `k` (made before its leg began).
+    fn repriced_at(&self, k: usize) -> Option<&Repricing> {
+        self.repricings.iter().rev().find(|r| r.from_point <= k)
+    }
+
+    /// The prediction of leg `k` (and its settle) as last priced: a repricing's when one covers
+    /// it, else the plan's.
+    pub fn predicted_leg(&self, k: usize) -> Option<PredictedLeg> {
+        match self.repriced_at(k) {
+            Some(r) => r.legs.get(k - r.from_point).copied(),
+            None => self.predicted.as_ref()?.legs.get(k).copied(),
+        }
+    }
+
+    /// The predicted hover power at point `k` as last priced.
+    pub fn predicted_hover_power_w(&self, k: usize) -> Option<f64> {
+        match self.repriced_at(k) {
+            Some(r) => Some(r.hover_power_w),
+            None => Some(self.predicted.as_ref()?.hover_power_w),
+        }
+    }
+
+    /// The predicted landing as last priced.
+    pub fn predicted_landing_j(&self) -> Option<f64> {
+        match self.repricings.last() {
+            Some(r) => Some(r.landing_j),
+            None => Some(self.predicted.as_ref()?.landing_j),
+        }
+    }
+
+    /// The whole flight as last priced: the take-off, each leg, settle and hover, the landing.
+    pub fn predicted_total_j(&self) -> Option<f64> {
+        let p = self.predicted.as_ref()?;
+        let mut total = p.takeoff_j + self.predicted_landing_j()?;
+        for (k, point) in self.points.iter().enumerate() {
+            let leg = self.predicted_leg(k)?;
+            total += leg.energy_j
+                + leg.settle_energy_j
+                + point.hold_s * self.predicted_hover_power_w(k)?;
+        }
+        Some(total)
+    }
+
+    /// What the stages from point `from` on (legs, settles, hovers, the landing) are priced at
+    /// now.
+    pub fn predicted_rest_j(&self, from: usize) -> Option<f64> {
+        let mut rest = self.predicted_landing_j()?;
+        for (k, point) in self.points.iter().enumerate().skip(from) {
+            let leg = self.predicted_leg(k)?;
+            rest += leg.energy_j
+                + leg.settle_energy_j
+                + point.hold_s * self.predicted_hover_power_w(k)?;
+        }
+        Some(rest)
     }
 
     /// The origin: home and the hover height above it.
@@ -326,6 +424,66 @@ mod tests {
             min_height_above_home_m: 2.0,
             source: None,
         }
+    }
+
+    fn plan_with_prediction() -> FlightPlan {
+        let leg = PredictedLeg {
+            energy_j: 10_000.0,
+            duration_s: 12.0,
+            settle_energy_j: 2_000.0,
+            settle_duration_s: 2.5,
+        };
+        FlightPlan::for_mission(
+            &mission(),
+            &[0, 1, 2],
+            0,
+            Some(Predicted {
+                takeoff_j: 30_000.0,
+                landing_j: 20_000.0,
+                legs: vec![leg; 4],
+                hover_power_w: 800.0,
+            }),
+        )
+        .expect("valid")
+    }
+
+    #[test]
+    fn a_repricing_prices_its_points_and_the_landing_and_leaves_the_legs_before_it() {
+        let mut plan = plan_with_prediction();
+        let p = plan.predicted.clone().unwrap();
+        let n = plan.points.len();
+        let before = plan.predicted_total_j().unwrap();
+        let leg = PredictedLeg {
+            energy_j: 1_000.0,
+            duration_s: 5.0,
+            settle_energy_j: 100.0,
+            settle_duration_s: 1.0,
+        };
+        plan.repricings.push(Repricing {
+            t_s: 10.0,
+            wind: crate::mission::wind::Wind::new(5.0, 90.0).unwrap(),
+            from_point: 1,
+            legs: vec![leg; n - 1],
+            hover_power_w: 2.0 * p.hover_power_w,
+            landing_j: 7.0,
+            home_j: Vec::new(),
+            rest_before_j: 0.0,
+            rest_after_j: 0.0,
+        });
+        plan.validate().expect("fits");
+        assert_eq!(plan.predicted_leg(0), Some(p.legs[0]));
+        assert_eq!(plan.predicted_leg(1), Some(leg));
+        assert_eq!(plan.predicted_hover_power_w(0), Some(p.hover_power_w));
+        assert_eq!(plan.predicted_hover_power_w(1), Some(2.0 * p.hover_power_w));
+        assert_eq!(plan.predicted_landing_j(), Some(7.0));
+        let hover_after: f64 =
+            plan.points[1..].iter().map(|x| x.hold_s).sum::<f64>() * 2.0 * p.hover_power_w;
+        let rest = plan.predicted_rest_j(1).unwrap();
+        assert!((rest - (7.0 + 1_100.0 * (n - 1) as f64 + hover_after)).abs() < 1e-9);
+        assert!(plan.predicted_total_j().unwrap() != before);
+        // One leg short of the points left is refused.
+        plan.repricings[0].legs.pop();
+        assert!(plan.validate().is_err());
     }
 
     #[test]

@@ -24,6 +24,7 @@ pub mod synthetic;
 pub mod telemetry;
 pub mod tlog;
 pub mod watch;
+pub mod wind;
 
 /// Everything that can go wrong reading or writing a flight log; each names its file.
 #[derive(Debug, thiserror::Error)]

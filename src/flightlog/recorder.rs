@@ -4,6 +4,8 @@
 //! - `flight.tlog`: every frame, both directions, as QGroundControl and MAVProxy write it;
 //! - `samples.csv`: one row per battery sample with the vehicle state (see [`super::csv`]);
 //! - `plan.json`: the [`FlightPlan`], written at the start;
+//! - `repriced.jsonl`: with `fly --wind live`, the rest of the flight priced again in the wind
+//!   the vehicle estimated, a line each time (absent otherwise);
 //! - `report.json`: the report, written when the flight ends (a replay can always rebuild it).
 //!
 //! Append-only. Buffers go to the operating system at least every `flush_every_us` (0.5 s) and
@@ -28,6 +30,9 @@ pub const TLOG_FILE: &str = "flight.tlog";
 pub const SAMPLES_FILE: &str = "samples.csv";
 pub const PLAN_FILE: &str = "plan.json";
 pub const REPORT_FILE: &str = "report.json";
+/// The rest of the flight priced again in a wind heard in flight (`fly --wind live`), a JSON
+/// line each ([`super::flight_plan::Repricing`]), appended as they are made.
+pub const REPRICED_FILE: &str = "repriced.jsonl";
 
 /// Whether `dir` is a flight directory: the recorder creates its `flight.tlog` first, and
 /// `report`, the service and `session::flight_dirs` know a flight by it.
@@ -261,6 +266,29 @@ impl Recorder {
         plan.write_json(&self.dir.join(PLAN_FILE))
     }
 
+    /// Appends a repricing of the rest of the flight to repriced.jsonl, on disk before it
+    /// returns (a torn last line is skipped by [`read_flight_plan`]).
+    pub fn append_repricing(
+        &self,
+        repricing: &super::flight_plan::Repricing,
+    ) -> Result<(), FlightLogError> {
+        use std::io::Write;
+        let path = self.dir.join(REPRICED_FILE);
+        let mut line = serde_json::to_string(repricing).map_err(|e| FlightLogError::Json {
+            file: path.display().to_string(),
+            reason: e.to_string(),
+        })?;
+        line.push('\n');
+        let mut file = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(&path)
+            .map_err(super::io_error(&path))?;
+        file.write_all(line.as_bytes())
+            .and_then(|()| file.sync_data())
+            .map_err(super::io_error(&path))
+    }
+
     /// Records one frame received or sent at `wall_us`, with its reading if it decoded to one.
     pub fn record(
         &mut self,
@@ -304,6 +332,37 @@ impl Recorder {
     }
 }
 
+/// The plan of a flight directory: plan.json with the repricings made in flight
+/// (repriced.jsonl, when there is one; a torn last line, from a crash while it was written, is
+/// skipped). Errors name the file and, for repriced.jsonl, the line.
+pub fn read_flight_plan(dir: &Path) -> Result<FlightPlan, FlightLogError> {
+    let mut plan = FlightPlan::read_json(&dir.join(PLAN_FILE))?;
+    let path = dir.join(REPRICED_FILE);
+    if !path.is_file() {
+        return Ok(plan);
+    }
+    let text = std::fs::read_to_string(&path).map_err(super::io_error(&path))?;
+    let lines: Vec<&str> = text.split_inclusive('\n').collect();
+    for (n, line) in lines.iter().enumerate() {
+        let torn = n + 1 == lines.len() && !line.ends_with('\n');
+        match serde_json::from_str(line.trim()) {
+            Ok(r) => plan.repricings.push(r),
+            Err(_) if torn || line.trim().is_empty() => {}
+            Err(e) => {
+                return Err(FlightLogError::Json {
+                    file: format!("{}:{}", path.display(), n + 1),
+                    reason: e.to_string(),
+                })
+            }
+        }
+    }
+    plan.validate().map_err(|e| FlightLogError::Json {
+        file: path.display().to_string(),
+        reason: e.to_string(),
+    })?;
+    Ok(plan)
+}
+
 /// Writes report.json into a flight directory (complete or absent, never torn).
 pub fn write_report(dir: &Path, report: &FlightReport) -> Result<(), FlightLogError> {
     let path = dir.join(REPORT_FILE);
@@ -343,6 +402,44 @@ mod tests {
     use crate::flightlog::csv::read_samples;
     use crate::flightlog::telemetry::{Battery, BatterySource};
     use crate::flightlog::tlog::read_tlog;
+
+    #[test]
+    fn the_repricings_of_a_flight_directory_come_back_with_its_plan_a_torn_last_line_skipped() {
+        use crate::flightlog::flight_plan::{PredictedLeg, Repricing};
+        let tmp = tempfile::tempdir().unwrap();
+        let recorder = Recorder::create(tmp.path(), "square", 1_700_000_000_000_000).unwrap();
+        let plan = crate::flightlog::synthetic::square_plan();
+        recorder.write_plan(&plan).unwrap();
+        let n = plan.points.len();
+        let leg = PredictedLeg {
+            energy_j: 1.0,
+            duration_s: 1.0,
+            settle_energy_j: 1.0,
+            settle_duration_s: 1.0,
+        };
+        let r = Repricing {
+            t_s: 12.5,
+            wind: crate::mission::wind::Wind::new(4.0, 200.0).unwrap(),
+            from_point: 1,
+            legs: vec![leg; n - 1],
+            hover_power_w: 900.0,
+            landing_j: 30_000.0,
+            home_j: Vec::new(),
+            rest_before_j: 1.0,
+            rest_after_j: 2.0,
+        };
+        recorder.append_repricing(&r).unwrap();
+        let path = recorder.dir().join(REPRICED_FILE);
+        let mut text = std::fs::read_to_string(&path).unwrap();
+        text.push_str("{\"t_s\": 20.0, \"wi");
+        std::fs::write(&path, &text).unwrap();
+        let back = read_flight_plan(recorder.dir()).unwrap();
+        assert_eq!(back.repricings, vec![r]);
+        // A broken line that is not the last is an error naming the file and line.
+        std::fs::write(&path, format!("oops\n{text}")).unwrap();
+        let err = read_flight_plan(recorder.dir()).unwrap_err().to_string();
+        assert!(err.contains("repriced.jsonl:1"), "{err}");
+    }
 
     #[test]
     fn timestamps_name_directories_in_utc() {

@@ -8,7 +8,7 @@ use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use super::flight_plan::FlightPlan;
-use super::recorder::{flight_name, PLAN_FILE, TLOG_FILE};
+use super::recorder::{flight_name, TLOG_FILE};
 use super::report::FlightReport;
 use super::segment::{SegmentConfig, Segmenter};
 use super::telemetry::Stamped;
@@ -114,7 +114,7 @@ impl FlightDir {
     /// Reads `dir`'s plan.json; the flight is named by the directory.
     pub fn read(dir: &Path) -> Result<FlightDir, FlightLogError> {
         Ok(FlightDir {
-            plan: FlightPlan::read_json(&dir.join(PLAN_FILE))?,
+            plan: super::recorder::read_flight_plan(dir)?,
             tlog: dir.join(TLOG_FILE),
             name: flight_name(dir),
         })

@@ -119,6 +119,45 @@ pub struct FlightReport {
     pub guard: Option<GuardReport>,
     /// The log measured (None: a report written before it was said).
     pub source: Option<LogSource>,
+    /// The rest of the flight priced again in the wind the vehicle estimated in flight.
+    pub repriced: Vec<RepricedNote>,
+}
+
+/// The rest of a flight priced again in a wind heard in flight (`fly --wind live`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RepricedNote {
+    /// Flight-log time (s).
+    pub t_s: f64,
+    pub wind: crate::mission::wind::Wind,
+    /// The point whose leg was the first priced again.
+    pub from: String,
+    /// The stages from there on (legs, settles, hovers, the landing), priced before and after.
+    pub rest_before_kj: f64,
+    pub rest_after_kj: f64,
+}
+
+/// A repricing in a sentence, for the user.
+pub fn repriced_line(r: &RepricedNote) -> String {
+    format!(
+        "wind now {:.1} m/s from {:.0} deg (the vehicle's estimate): the rest of the flight from {} priced again, {:.1} kJ -> {:.1} kJ",
+        r.wind.speed_m_s, r.wind.from_deg, r.from, r.rest_before_kj, r.rest_after_kj
+    )
+}
+
+impl RepricedNote {
+    /// The note of repricing `r` of `plan`.
+    pub fn of(plan: &super::flight_plan::FlightPlan, r: &super::flight_plan::Repricing) -> Self {
+        RepricedNote {
+            t_s: r.t_s,
+            wind: r.wind,
+            from: plan
+                .points
+                .get(r.from_point)
+                .map_or_else(String::new, |p| p.name.clone()),
+            rest_before_kj: r.rest_before_j / 1e3,
+            rest_after_kj: r.rest_after_j / 1e3,
+        }
+    }
 }
 
 fn part(
@@ -166,6 +205,11 @@ impl FlightReport {
     pub fn build(flight: &str, segmenter: &Segmenter) -> FlightReport {
         let plan = segmenter.plan();
         let predicted = plan.predicted.as_ref();
+        let repriced = plan
+            .repricings
+            .iter()
+            .map(|r| RepricedNote::of(plan, r))
+            .collect();
         let point_name = |k: usize| {
             plan.points
                 .get(k)
@@ -192,6 +236,7 @@ impl FlightReport {
                     .map(|s| s.t_s)
                     .collect::<Vec<_>>(),
             )),
+            repriced,
         };
         for segment in segmenter.segments() {
             match segment.kind {
@@ -205,16 +250,16 @@ impl FlightReport {
                     ));
                 }
                 SegmentKind::Leg(k) => {
-                    let p = predicted
-                        .and_then(|p| p.legs.get(k))
+                    let p = plan
+                        .predicted_leg(k)
                         .map(|l| (l.energy_j, Some(l.duration_s)));
                     report
                         .legs
                         .push(part(segmenter, &segment, plan.leg_names(k), p));
                 }
                 SegmentKind::Settle(k) => {
-                    let p = predicted
-                        .and_then(|p| p.legs.get(k))
+                    let p = plan
+                        .predicted_leg(k)
                         .map(|l| (l.settle_energy_j, Some(l.settle_duration_s)));
                     let name = point_name(k);
                     report
@@ -223,14 +268,16 @@ impl FlightReport {
                 }
                 SegmentKind::Hover(k) => {
                     let hold_s = plan.points.get(k).map_or(0.0, |p| p.hold_s);
-                    let p = predicted.map(|p| (p.hover_power_w * hold_s, Some(hold_s)));
+                    let p = plan
+                        .predicted_hover_power_w(k)
+                        .map(|w| (w * hold_s, Some(hold_s)));
                     let name = point_name(k);
                     report
                         .hovers
                         .push(part(segmenter, &segment, (name.clone(), name), p));
                 }
                 SegmentKind::Landing => {
-                    let p = predicted.map(|p| (p.landing_j, None));
+                    let p = plan.predicted_landing_j().map(|j| (j, None));
                     report.landing = Some(part(
                         segmenter,
                         &segment,
@@ -240,11 +287,7 @@ impl FlightReport {
                 }
             }
         }
-        if let Some(p) = predicted {
-            let hover_j: f64 = plan.points.iter().map(|x| x.hold_s * p.hover_power_w).sum();
-            let legs_j: f64 = p.legs.iter().map(|l| l.energy_j + l.settle_energy_j).sum();
-            report.predicted_j = Some(p.takeoff_j + legs_j + hover_j + p.landing_j);
-        }
+        report.predicted_j = plan.predicted_total_j();
         if let Some((start, end)) = segmenter.flight_span() {
             let whole = segmenter.series().measure(start, end);
             report.measured_j = whole.energy_j;
@@ -329,6 +372,7 @@ impl FlightReport {
             log_gaps: self.log_gaps.clone(),
             guard: self.guard.clone(),
             source: self.source.clone(),
+            repriced: self.repriced.clone(),
         }
     }
 
@@ -350,6 +394,7 @@ impl FlightReport {
             log_gaps: json.log_gaps.clone(),
             guard: json.guard.clone(),
             source: json.source.clone(),
+            repriced: json.repriced.clone(),
         }
     }
 }
@@ -493,6 +538,10 @@ pub struct ReportJson {
     /// from reports written before it was said).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub source: Option<LogSource>,
+    /// The rest of the flight priced again in the wind the vehicle estimated in flight
+    /// (`fly --wind live`; absent when it was not).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub repriced: Vec<RepricedNote>,
 }
 
 /// One leg of a flight measured from two logs of it: the ground station's `.tlog` and the flight
@@ -828,6 +877,7 @@ mod tests {
             log_gaps: vec![],
             guard: None,
             source: None,
+            repriced: vec![],
         }
     }
 

@@ -35,7 +35,9 @@ pub use super::part::{Segment, SegmentKind, StartState};
 use super::samples::{BatteryFeed, FeedConfig};
 use super::telemetry::{FlightMode, LandedState, Reading, Stamped, VehicleState};
 use super::watch::{GuardNote, Watch};
+use super::wind::WindTrack;
 use super::FlightLogError;
+use crate::mission::wind::Wind;
 use crate::mission::Enu;
 
 /// Thresholds of segmentation.
@@ -121,6 +123,9 @@ pub struct Segmenter {
     measured: Vec<(Segment, Option<f64>)>,
     /// Notes the guard made that the caller has not taken yet.
     fresh_notes: Vec<GuardNote>,
+    /// The vehicle's wind estimate, and how many of the plan's repricings the guard has.
+    wind: WindTrack,
+    repricings_applied: usize,
 }
 
 /// One position of the vehicle in the mission frame.
@@ -209,6 +214,8 @@ impl Segmenter {
             watch,
             measured: Vec::new(),
             fresh_notes: Vec::new(),
+            wind: WindTrack::new(),
+            repricings_applied: 0,
             plan,
             feed: BatteryFeed::new(cfg.feed),
             series: PowerSeries::new(cfg.energy),
@@ -818,6 +825,65 @@ impl Segmenter {
     pub fn push(&mut self, stamped: &Stamped) {
         self.push_reading(stamped);
         self.guard();
+        // A replay: the plan's repricings reach the guard when the live one's did, after the
+        // reading they were made on.
+        while let Some(r) = self.plan.repricings.get(self.repricings_applied) {
+            if r.t_s > self.now_s {
+                break;
+            }
+            if let Some(watch) = self.watch.as_mut() {
+                watch.reprice(r);
+            }
+            self.repricings_applied += 1;
+        }
+    }
+
+    /// The wind the rest of the flight is priced in now: the latest repricing's, else the
+    /// plan's (still air when it has none).
+    pub fn priced_wind(&self) -> Wind {
+        match self.plan.repricings.last() {
+            Some(r) => r.wind,
+            None => self.plan.wind.unwrap_or(Wind::CALM),
+        }
+    }
+
+    /// When the vehicle's wind estimate has moved far enough from [`Self::priced_wind`] in
+    /// flight (`flightlog::wind`): the estimate and the first point whose leg has not begun,
+    /// for the caller to price the rest again in it ([`Self::reprice`]). Taken: the next one
+    /// comes after `wind::MIN_APART_S` at the earliest.
+    pub fn take_reprice_due(&mut self) -> Option<(Wind, usize)> {
+        if self.flight_start_s.is_none() || self.flight_end_s.is_some() {
+            return None;
+        }
+        let from_point = match self.phase {
+            Phase::Active(SegmentKind::Takeoff) => 0,
+            Phase::Active(SegmentKind::Leg(k) | SegmentKind::Settle(k) | SegmentKind::Hover(k)) => {
+                k + 1
+            }
+            Phase::Active(SegmentKind::Landing) | Phase::Idle | Phase::Done => return None,
+        };
+        if from_point >= self.plan.points.len() {
+            return None;
+        }
+        let priced = self.priced_wind();
+        let wind = self.wind.take_due(self.now_s, priced)?;
+        Some((wind, from_point))
+    }
+
+    /// The rest of the flight priced again (made live by the caller on
+    /// [`Self::take_reprice_due`]): the parts from its point on are measured against it, and
+    /// the guard sees it from now. Refused (false) when it does not fit the plan.
+    pub fn reprice(&mut self, r: super::flight_plan::Repricing) -> bool {
+        let legs_left = self.plan.points.len().saturating_sub(r.from_point);
+        if r.legs.len() != legs_left || legs_left == 0 || self.plan.predicted.is_none() {
+            return false;
+        }
+        if let Some(watch) = self.watch.as_mut() {
+            watch.reprice(&r);
+        }
+        self.plan.repricings.push(r);
+        self.repricings_applied = self.plan.repricings.len();
+        true
     }
 
     fn push_reading(&mut self, stamped: &Stamped) {
@@ -891,6 +957,7 @@ impl Segmenter {
                 ..
             } => self.on_home(*alt_amsl_m, *set_boot_s),
             Reading::StatusText { .. } => {}
+            Reading::Wind(wind) => self.wind.push(t_s, *wind),
         }
     }
 }

@@ -62,6 +62,7 @@ pub fn square_plan() -> FlightPlan {
         resumes: None,
         guard: None,
         wind: None,
+        repricings: Vec::new(),
     }
 }
 

@@ -43,6 +43,8 @@ pub enum Reading {
         /// with the moment it set home, ArduPilot with the moment it sent it), when given.
         set_boot_s: Option<f64>,
     },
+    /// The autopilot's wind estimate (PX4's WIND_COV, ArduPilot's WIND).
+    Wind(crate::mission::wind::Wind),
 }
 
 /// Where a battery reading came from.
@@ -226,7 +228,8 @@ impl VehicleState {
             Reading::Battery(_)
             | Reading::ItemReached { .. }
             | Reading::StatusText { .. }
-            | Reading::Home { .. } => {}
+            | Reading::Home { .. }
+            | Reading::Wind(_) => {}
         }
     }
 }

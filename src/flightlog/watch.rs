@@ -144,6 +144,15 @@ pub struct GuardReport {
     pub returned: bool,
 }
 
+/// `after[i]`: the energy of the stages after stage i.
+fn stages_after(stages: &[(f64, f64)]) -> Vec<f64> {
+    let mut after = vec![0.0; stages.len()];
+    for i in (0..stages.len().saturating_sub(1)).rev() {
+        after[i] = after[i + 1] + stages[i + 1].0;
+    }
+    after
+}
+
 fn stage_of(kind: SegmentKind) -> usize {
     match kind {
         SegmentKind::Takeoff => 0,
@@ -174,10 +183,7 @@ impl Watch {
             stages.push((point.hold_s * predicted.hover_power_w, point.hold_s));
         }
         stages.push((predicted.landing_j, 0.0));
-        let mut after = vec![0.0; stages.len()];
-        for i in (0..stages.len().saturating_sub(1)).rev() {
-            after[i] = after[i + 1] + stages[i + 1].0;
-        }
+        let after = stages_after(&stages);
         let energies: Vec<f64> = stages.iter().map(|s| s.0).filter(|e| *e > 0.0).collect();
         let typical_j = if energies.is_empty() {
             1.0
@@ -208,6 +214,32 @@ impl Watch {
             notes: Vec::new(),
             view: None,
         })
+    }
+
+    /// Prices the stages from `r.from_point` on (leg, settle and hover of each point, the
+    /// landing) and the return from every point as `r` says: the rest of the flight priced
+    /// again in a wind heard in flight. The take-off and the parts already begun keep their
+    /// price, and the correction learned so far stays (it is measured against the old prices
+    /// of the parts flown).
+    pub fn reprice(&mut self, r: &super::flight_plan::Repricing) {
+        for (i, leg) in r.legs.iter().enumerate() {
+            let k = r.from_point + i;
+            let hover = 3 + 3 * k;
+            if hover >= self.stages.len() {
+                break;
+            }
+            self.stages[1 + 3 * k] = (leg.energy_j, leg.duration_s);
+            self.stages[2 + 3 * k] = (leg.settle_energy_j, leg.settle_duration_s);
+            let hold_s = self.stages[hover].1;
+            self.stages[hover] = (hold_s * r.hover_power_w, hold_s);
+        }
+        if let Some(landing) = self.stages.last_mut() {
+            landing.0 = r.landing_j;
+        }
+        self.after = stages_after(&self.stages);
+        if r.home_j.len() == self.setup.home_j.len() {
+            self.setup.home_j.clone_from(&r.home_j);
+        }
     }
 
     /// Every note so far.
@@ -623,6 +655,66 @@ mod tests {
             .filter(|n| n.kind == kind)
             .cloned()
             .collect()
+    }
+
+    /// The guard's view after the readings up to `until_s` of `flight`, measured against `plan`.
+    fn view_at(
+        plan: &crate::flightlog::flight_plan::FlightPlan,
+        flight: &SyntheticFlight,
+        until_s: f64,
+    ) -> GuardView {
+        let mut s = Segmenter::new(plan.clone(), SegmentConfig::default()).expect("valid");
+        for r in flight.stamped().iter().filter(|r| r.t_s <= until_s) {
+            s.push(r);
+        }
+        s.watch().and_then(|w| w.view().cloned()).expect("a view")
+    }
+
+    #[test]
+    fn a_repricing_reaches_the_guard_when_its_time_comes_with_the_rest_at_its_new_price() {
+        use crate::flightlog::flight_plan::Repricing;
+        let base = plan(2_000_000.0, Policy::Warn);
+        let flight = SyntheticFlight::fly(&base, &SyntheticConfig::default());
+        let leg1 = (flight.parts.iter())
+            .find(|p| p.kind == SegmentKind::Leg(1))
+            .expect("leg 1");
+        let t_s = leg1.start_s - 1.0;
+        let predicted = base.predicted.clone().expect("priced");
+        let dearer: Vec<PredictedLeg> = (predicted.legs[1..].iter())
+            .map(|l| PredictedLeg {
+                energy_j: 2.0 * l.energy_j,
+                ..*l
+            })
+            .collect();
+        let extra_j: f64 = predicted.legs[1..].iter().map(|l| l.energy_j).sum();
+        let mut repriced = base.clone();
+        repriced.repricings.push(Repricing {
+            t_s,
+            wind: crate::mission::wind::Wind::new(8.0, 270.0).expect("a wind"),
+            from_point: 1,
+            legs: dearer,
+            hover_power_w: predicted.hover_power_w,
+            landing_j: predicted.landing_j,
+            home_j: vec![90_000.0; base.points.len()],
+            rest_before_j: 0.0,
+            rest_after_j: 0.0,
+        });
+        // Before its time the two guards see the same; after it, the rest costs the extra.
+        let before = (
+            view_at(&base, &flight, t_s - 0.6),
+            view_at(&repriced, &flight, t_s - 0.6),
+        );
+        assert_eq!(before.0, before.1);
+        let after = (
+            view_at(&base, &flight, t_s + 0.6),
+            view_at(&repriced, &flight, t_s + 0.6),
+        );
+        let less_kj = after.0.left_at_landing_kj - after.1.left_at_landing_kj;
+        assert!(
+            (less_kj / (extra_j / 1e3) / after.1.correction - 1.0).abs() < 1e-6,
+            "{less_kj} kJ less, the rest {extra_j} J dearer"
+        );
+        assert!(after.1.left_if_home_now_kj < after.0.left_if_home_now_kj);
     }
 
     #[test]

@@ -547,7 +547,7 @@ async fn flight(
     let now = recording(&s.hub);
     let mut doc = flight_summary(&dir, now.as_deref());
     if let Some(map) = doc.as_object_mut() {
-        let plan = crate::flightlog::flight_plan::FlightPlan::read_json(&dir.join(PLAN_FILE)).ok();
+        let plan = crate::flightlog::recorder::read_flight_plan(&dir).ok();
         map.insert("mission".into(), serde_json::json!(plan.map(|p| p.mission)));
         map.insert("dir".into(), serde_json::json!(dir));
         map.insert(

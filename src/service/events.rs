@@ -178,6 +178,7 @@ impl Hub {
                 }
             }
             FlightEvent::Failed { flight, error } => Event::RecordingFailed { flight, error },
+            FlightEvent::Repriced { flight, repriced } => Event::Repriced { flight, repriced },
         };
         self.publish(&out);
     }
@@ -285,6 +286,10 @@ fn log_flight_event(span: &mut Option<tracing::Span>, event: &FlightEvent) {
         FlightEvent::Failed { error, .. } => {
             let s = span.clone().unwrap_or_else(tracing::Span::none);
             s.in_scope(|| tracing::error!("recording failed: {error}"));
+        }
+        FlightEvent::Repriced { repriced, .. } => {
+            let s = span.clone().unwrap_or_else(tracing::Span::none);
+            s.in_scope(|| tracing::info!("{}", crate::flightlog::report::repriced_line(repriced)));
         }
     }
 }

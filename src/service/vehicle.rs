@@ -30,7 +30,6 @@ use super::missions::CatalogRx;
 use super::wire::{Failure, LinkNumbers, LinkState, LinkStatus, UploadAnswer};
 use super::Refusal;
 use crate::flightlog::flight_plan::FlightPlan;
-use crate::flightlog::recorder::PLAN_FILE;
 use crate::flightlog::watch::{NoteKind, Policy};
 use crate::link::commands::{drive, heartbeats, Heard};
 use crate::link::connection::{Autopilot, Identity, Link};
@@ -614,6 +613,7 @@ impl Actor {
             resumes: None,
             guard: self.guard,
             if_home_unknown: session::IfHomeUnknown::asked(job.origin),
+            live_wind: None,
         };
         tracing::info!("uploading");
         let loaded = session::load(
@@ -839,7 +839,7 @@ impl Actor {
             return;
         };
         let current = if resumed {
-            FlightPlan::read_json(&dir.join(PLAN_FILE)).ok()
+            crate::flightlog::recorder::read_flight_plan(dir).ok()
         } else {
             self.expected.clone()
         };

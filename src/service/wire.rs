@@ -82,6 +82,11 @@ pub enum Event {
         flight: String,
         note: GuardNote,
     },
+    /// The rest of the flight was priced again in the wind the vehicle estimated in flight.
+    Repriced {
+        flight: String,
+        repriced: crate::flightlog::report::RepricedNote,
+    },
     MissionPlanned(serde_json::Value),
     MissionError(serde_json::Value),
     MissionRemoved {

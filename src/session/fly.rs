@@ -15,10 +15,10 @@ use super::home::{check_home, IfHomeUnknown, PreflightError};
 use super::params::Px4Parameters;
 use super::params::{check_ardupilot_params, check_px4_params, ParamCheck, ParamSection};
 use super::predict::{
-    flight_plan, flight_plan_predicted, predicted_by_simulation, with_fast_waypoints,
+    flight_plan, flight_plan_predicted, predicted_by_simulation, repriced, with_fast_waypoints,
 };
-use super::recorder::{FlightEvent, RecorderHandle};
-use crate::flightlog::flight_plan::FlightPlan;
+use super::recorder::{FlightEvent, RecorderHandle, Repricer};
+use crate::flightlog::flight_plan::{FlightPlan, Repricing};
 use crate::flightlog::report::{FlightReport, ReportJson};
 use crate::flightlog::watch::{NoteKind, Policy};
 use crate::link::commands::{drive, keep_streams, request_streams};
@@ -31,7 +31,7 @@ use crate::link::transfer::TransferConfig;
 use crate::link::{Flavour, LinkError};
 use crate::mission::rehome::HomeOffset;
 use crate::mission::Mission;
-use crate::physics::{Profile, Vehicle};
+use crate::physics::{Profile, Vehicle, VehicleModel, Wind};
 use crate::planner::{Flight, Plan};
 
 /// How to fly.
@@ -72,6 +72,9 @@ pub struct Load<'a> {
     /// Whether a vehicle that does not say where it is is refused (the default) or flown from
     /// the mission's origin as planned.
     pub if_home_unknown: IfHomeUnknown,
+    /// `fly --wind live`: the model the rest of the flight is priced again with whenever the
+    /// vehicle's wind estimate moves in flight (`flightlog::wind`); None: priced once.
+    pub live_wind: Option<&'a VehicleModel>,
 }
 
 /// A flight on the vehicle, verified, and what it will be measured against.
@@ -164,8 +167,11 @@ pub async fn load(
         predicted,
         ..measured_against
     };
+    let mut return_alt_m = None;
     if load.guard != Policy::Off {
-        let return_alt_m = super::guard::return_altitude_m(link, target).await?;
+        let alt_m = super::guard::return_altitude_m(link, target).await?;
+        return_alt_m = Some(alt_m);
+        let return_alt_m = alt_m;
         let setup = super::guard::setup(
             priced_with.unwrap_or(load.vehicle),
             plan.profile,
@@ -179,13 +185,74 @@ pub async fn load(
         measured_against.guard = Some(setup);
     }
     let upload = upload_verified(link, target, &items, transfer, progress).await?;
-    recorder.set_plan(measured_against.clone());
+    match load.live_wind {
+        Some(model) => {
+            let model = VehicleModel {
+                vehicle: priced_with.unwrap_or(load.vehicle).clone(),
+                ..model.clone()
+            };
+            let repricer = repricer(model, target.flavour, return_alt_m);
+            recorder.set_plan_repriced(measured_against.clone(), repricer);
+        }
+        None => recorder.set_plan(measured_against.clone()),
+    }
     Ok(Loaded {
         upload,
         items,
         measured_against,
         params,
         home,
+    })
+}
+
+/// Prices the rest of a flight again in a wind heard in flight, as `load` priced it before it
+/// flew: every leg after the one before it on its heading (ArduCopter's fast waypoints as its
+/// chain), the settles, the hovers and the landing in that wind, and the guard's return from
+/// every point (when the flight is guarded: `return_alt_m` is then the autopilot's).
+fn repricer(model: VehicleModel, flavour: Flavour, return_alt_m: Option<f64>) -> Repricer {
+    Box::new(move |plan: &FlightPlan, wind: Wind, from_point: usize| {
+        let model = model.clone().with_wind(wind);
+        let predicted = repriced(plan, &model).map_err(|e| e.to_string())?;
+        let home_j = match (&plan.guard, return_alt_m) {
+            (Some(guard), Some(alt_m)) => {
+                super::guard::setup(
+                    &model.vehicle,
+                    model.profile,
+                    flavour,
+                    plan,
+                    guard.policy,
+                    alt_m,
+                    wind,
+                )
+                .map_err(|e| format!("the guard's return prices: {e}"))?
+                .home_j
+            }
+            _ => Vec::new(),
+        };
+        let legs = predicted
+            .legs
+            .get(from_point..)
+            .unwrap_or_default()
+            .to_vec();
+        let rest_after_j = predicted.landing_j
+            + legs
+                .iter()
+                .zip(plan.points.iter().skip(from_point))
+                .map(|(leg, point)| {
+                    leg.energy_j + leg.settle_energy_j + point.hold_s * predicted.hover_power_w
+                })
+                .sum::<f64>();
+        Ok(Repricing {
+            t_s: 0.0,
+            wind,
+            from_point,
+            legs,
+            hover_power_w: predicted.hover_power_w,
+            landing_j: predicted.landing_j,
+            home_j,
+            rest_before_j: plan.predicted_rest_j(from_point).unwrap_or(0.0),
+            rest_after_j,
+        })
     })
 }
 
@@ -345,7 +412,9 @@ pub async fn fly(
                         FlightEvent::Guard { note, .. } if note.kind == NoteKind::Return => {
                             super::guard::send_home(link, target).await?;
                         }
-                        FlightEvent::Part { .. } | FlightEvent::Guard { .. } => {}
+                        FlightEvent::Part { .. }
+                        | FlightEvent::Guard { .. }
+                        | FlightEvent::Repriced { .. } => {}
                     }
                 }
                 Err(RecvError::Lagged(n)) => tracing::warn!("{n} flight events missed"),
@@ -561,6 +630,7 @@ mod tests {
                 log_gaps: Vec::new(),
                 guard: None,
                 source: None,
+                repriced: Vec::new(),
             })),
         }
     }

@@ -226,6 +226,8 @@ pub struct MockFlight {
     pub signing_key: Option<[u8; 32]>,
     /// The wind it flies in and reports (None: still air, no wind estimate).
     pub wind: Option<crate::physics::Wind>,
+    /// A change of that wind in flight.
+    pub wind_change: Option<crate::sim::WindChange>,
 }
 
 impl MockFlight {
@@ -239,6 +241,7 @@ impl MockFlight {
                 home: self.home,
                 seed: self.seed,
                 wind: self.wind,
+                wind_change: self.wind_change,
                 ..Default::default()
             }),
             speedup: self.speedup,

@@ -169,6 +169,7 @@ pub fn plan_from_items(
         resumes: None,
         guard: None,
         wind: None,
+        repricings: Vec::new(),
     };
     plan.validate()?;
     Ok(plan)

@@ -20,17 +20,16 @@ use std::time::Duration;
 
 use tokio::sync::{broadcast, mpsc, oneshot, watch};
 
-use crate::flightlog::flight_plan::FlightPlan;
-use crate::flightlog::recorder::{
-    flight_name, read_report, write_report, Recorder, PLAN_FILE, TLOG_FILE,
-};
-use crate::flightlog::report::{FlightReport, PartReport};
+use crate::flightlog::flight_plan::{FlightPlan, Repricing};
+use crate::flightlog::recorder::{flight_name, read_report, write_report, Recorder, TLOG_FILE};
+use crate::flightlog::report::{FlightReport, PartReport, RepricedNote};
 use crate::flightlog::segment::{SegmentConfig, SegmentKind, Segmenter};
 use crate::flightlog::telemetry::{Reading, Stamped, VehicleState};
 use crate::flightlog::tlog::read_tlog;
 use crate::flightlog::watch::{GuardNote, GuardView};
 use crate::link::connection::{wall_us, Frame, Link};
 use crate::link::telemetry::Telemetry;
+use crate::mission::wind::Wind;
 
 /// How the recorder works.
 #[derive(Debug, Clone, PartialEq)]
@@ -91,7 +90,18 @@ pub enum FlightEvent {
     /// The energy guard saw or decided something (a `Return` note: it decided to send the
     /// vehicle home; the flight's session does).
     Guard { flight: String, note: GuardNote },
+    /// The rest of the flight was priced again in the wind the vehicle estimated in flight
+    /// (`fly --wind live`).
+    Repriced {
+        flight: String,
+        repriced: RepricedNote,
+    },
 }
+
+/// Prices the rest of a flight again in a wind heard in flight: the plan as priced so far, the
+/// vehicle's wind estimate and the first point whose leg has not begun (`fly --wind live`).
+/// Its `t_s` is the recorder's to set.
+pub type Repricer = Box<dyn Fn(&FlightPlan, Wind, usize) -> Result<Repricing, String> + Send>;
 
 /// The latest battery sample.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -131,7 +141,7 @@ pub struct Live {
 enum Input {
     Frame(Frame),
     Tick(u64),
-    Plan(Box<FlightPlan>),
+    Plan(Box<FlightPlan>, Option<Repricer>),
     Close(oneshot::Sender<()>),
 }
 
@@ -149,7 +159,15 @@ impl RecorderHandle {
     /// next flight's when none is in progress (or the one in progress has disarmed). A flight
     /// uses up the plan: the one after it starts without one unless another is set.
     pub fn set_plan(&self, plan: FlightPlan) {
-        let _ = self.input.send(Input::Plan(Box::new(plan)));
+        let _ = self.input.send(Input::Plan(Box::new(plan), None));
+    }
+
+    /// [`Self::set_plan`], with the rest of the flight priced again by `repricer` whenever the
+    /// vehicle's wind estimate moves far enough from the wind it is priced in
+    /// (`flightlog::wind`): each repricing is appended to the flight directory's
+    /// repriced.jsonl and announced (`FlightEvent::Repriced`).
+    pub fn set_plan_repriced(&self, plan: FlightPlan, repricer: Repricer) {
+        let _ = self.input.send(Input::Plan(Box::new(plan), Some(repricer)));
     }
 
     /// Flight events from now on.
@@ -205,7 +223,7 @@ pub fn spawn_recorder(link: &Link, cfg: RecorderConfig) -> RecorderHandle {
                 match input {
                     Input::Frame(frame) => state.frame(frame),
                     Input::Tick(now_us) => state.tick(now_us),
-                    Input::Plan(plan) => state.set_plan(*plan),
+                    Input::Plan(plan, repricer) => state.set_plan(*plan, repricer),
                     Input::Close(done) => {
                         state.end_flight(wall_us());
                         let _ = done.send(());
@@ -237,6 +255,8 @@ struct Open {
     /// When the flight ends (wall time), once it has disarmed.
     ends_at_us: Option<u64>,
     failed: bool,
+    /// Prices the rest again when the wind changes in flight.
+    repricer: Option<Repricer>,
 }
 
 struct State {
@@ -248,6 +268,7 @@ struct State {
     watch: Telemetry,
     preroll: VecDeque<Frame>,
     plan: Option<FlightPlan>,
+    repricer: Option<Repricer>,
     open: Option<Open>,
     was_armed: Option<bool>,
     last_live_us: u64,
@@ -267,6 +288,7 @@ impl State {
             watch: Telemetry::new(),
             preroll: VecDeque::new(),
             plan: None,
+            repricer: None,
             open: None,
             was_armed: None,
             last_live_us: 0,
@@ -377,15 +399,23 @@ impl State {
         let _ = self.live_tx.send(self.live.clone());
     }
 
-    fn set_plan(&mut self, plan: FlightPlan) {
+    fn set_plan(&mut self, mut plan: FlightPlan, repricer: Option<Repricer>) {
         if self.open.as_ref().is_some_and(|o| o.ends_at_us.is_some()) {
             // The flight in progress has disarmed: the plan is the next one's.
             self.end_flight(wall_us());
         }
         let Some(open) = self.open.as_mut() else {
             self.plan = Some(plan);
+            self.repricer = repricer;
             return;
         };
+        open.repricer = repricer;
+        // What was priced again in flight stays (applied again in the replay below).
+        if let Some(seg) = &open.segmenter {
+            if plan.repricings.is_empty() {
+                plan.repricings.clone_from(&seg.plan().repricings);
+            }
+        }
         if open.segmenter.as_ref().is_some_and(|s| *s.plan() == plan) {
             return;
         }
@@ -437,6 +467,7 @@ impl State {
             announced: 0,
             ends_at_us: None,
             failed: false,
+            repricer: self.repricer.take(),
         };
         if let Some(plan) = &self.plan {
             if let Err(e) = open.recorder.write_plan(plan) {
@@ -502,7 +533,7 @@ impl State {
             recorder.restore(s);
         }
         let name = flight_name(&dir);
-        let plan = FlightPlan::read_json(&dir.join(PLAN_FILE))
+        let plan = crate::flightlog::recorder::read_flight_plan(&dir)
             .ok()
             .or_else(|| self.plan.clone());
         let mut open = Open {
@@ -514,6 +545,7 @@ impl State {
             announced: 0,
             ends_at_us: None,
             failed: false,
+            repricer: None,
         };
         if let Some(plan) = plan {
             match Segmenter::new(plan, self.cfg.segment) {
@@ -553,6 +585,7 @@ impl State {
             return;
         };
         self.plan = None;
+        self.repricer = None;
         let report = open.segmenter.as_mut().map(|seg| {
             seg.finish();
             FlightReport::build(&open.name, seg)
@@ -595,9 +628,55 @@ fn record(open: &mut Open, events: &broadcast::Sender<FlightEvent>, frame: &Fram
         if let Some(seg) = open.segmenter.as_mut() {
             seg.push(&s);
         }
+        if matches!(s.reading, Reading::Wind(_)) {
+            reprice(open, events);
+        }
         open.stamped.push(s);
         announce(open, events);
     }
+}
+
+/// Prices the rest of the flight again when the wind estimate says so (and a repricer was
+/// given with the plan): the segmenter and its guard take it, repriced.jsonl keeps it for the
+/// replay, and it is announced. A rest that cannot be priced (a wind the vehicle cannot fly in)
+/// keeps its old prices, with a warning.
+fn reprice(open: &mut Open, events: &broadcast::Sender<FlightEvent>) {
+    let (Some(seg), Some(repricer)) = (open.segmenter.as_mut(), open.repricer.as_ref()) else {
+        return;
+    };
+    let Some((wind, from_point)) = seg.take_reprice_due() else {
+        return;
+    };
+    let mut repricing = match repricer(seg.plan(), wind, from_point) {
+        Ok(r) => r,
+        Err(e) => {
+            tracing::warn!(
+                "flight {}: the wind is now {:.1} m/s from {:.0} deg and the rest of the flight could not be priced in it ({e}): its old prices stay",
+                open.name,
+                wind.speed_m_s,
+                wind.from_deg
+            );
+            return;
+        }
+    };
+    repricing.t_s = seg.now_s();
+    if !seg.reprice(repricing.clone()) {
+        tracing::warn!(
+            "flight {}: a repricing that does not fit the plan",
+            open.name
+        );
+        return;
+    }
+    let note = RepricedNote::of(seg.plan(), &repricing);
+    if !open.failed {
+        if let Err(e) = open.recorder.append_repricing(&repricing) {
+            fail(open, events, e.to_string());
+        }
+    }
+    let _ = events.send(FlightEvent::Repriced {
+        flight: open.name.clone(),
+        repriced: note,
+    });
 }
 
 /// Sends an event for every guard note and every part completed since the last call.
@@ -712,7 +791,7 @@ mod tests {
         // The first run records up to the cut and dies without closing anything (as SIGKILL:
         // nothing flushed by a destructor either).
         let (mut first, mut rx) = state(log.path(), false);
-        first.set_plan(plan.clone());
+        first.set_plan(plan.clone(), None);
         for frame in &frames[..cut] {
             first.frame(frame.clone());
         }
@@ -769,7 +848,7 @@ mod tests {
         let flight = SyntheticFlight::fly(&square_plan(), &SyntheticConfig::default());
         let frames = frames(&flight);
         let (mut first, _rx) = state(log.path(), false);
-        first.set_plan(square_plan());
+        first.set_plan(square_plan(), None);
         for frame in &frames {
             first.frame(frame.clone());
         }

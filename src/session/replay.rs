@@ -99,8 +99,10 @@ pub fn replay_priced(
 
 /// The plan.json beside a log (a flight directory's), read, when there is one.
 pub(super) fn plan_beside(log: &Path) -> Option<Result<FlightPlan, FlightLogError>> {
-    let beside = log.parent()?.join(PLAN_FILE);
-    beside.is_file().then(|| FlightPlan::read_json(&beside))
+    let dir = log.parent()?;
+    dir.join(PLAN_FILE)
+        .is_file()
+        .then(|| crate::flightlog::recorder::read_flight_plan(dir))
 }
 
 /// A log's flight name: its flight directory's when plan.json is beside it, else its file's

@@ -474,6 +474,17 @@ impl<'v> Flight<'v> {
         })
     }
 
+    /// From now on the flight is in `wind` (a change of the wind in flight).
+    pub fn set_wind(&mut self, wind: Wind) -> Result<(), FlightError> {
+        self.hover_power_w = self
+            .model
+            .clone()
+            .in_wind(wind.on_heading(0.0))
+            .hover_power_w()?;
+        self.wind = wind;
+        Ok(())
+    }
+
     /// The same flight with a land detector that confirms a landing `land_detect_s` after
     /// ground contact (the vehicle reports LANDING until then).
     pub fn with_land_detection(self, land_detect_s: f64) -> Flight<'v> {

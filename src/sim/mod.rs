@@ -19,4 +19,4 @@ pub mod vehicle;
 
 pub use mock::{Faults, MockAutopilot, MockConfig, MockHandle, SimError, DEFAULT_SPEEDUP};
 pub use storage::Home;
-pub use vehicle::{FlightConfig, Gap, SimVehicle, Snapshot, TelemetryFaults};
+pub use vehicle::{FlightConfig, Gap, SimVehicle, Snapshot, TelemetryFaults, WindChange};

@@ -71,6 +71,7 @@ async fn flight_sent_home(log_dir: &Path) -> PathBuf {
         guard: emplan::flightlog::watch::Policy::Off,
         resumes: None,
         if_home_unknown: Default::default(),
+        live_wind: None,
     };
     let options = emplan::session::FlyOptions {
         arm: true,

@@ -2,7 +2,8 @@
 //! costs more than a tailwind and a hover in a moderate wind less than in calm air;
 //! `plan --wind` prices the still-air energy order in the wind beside the wind-aware one; and
 //! the built-in mock flying in that wind measures every leg within 3% of its wind-aware price
-//! (and not of its still-air one).
+//! (and not of its still-air one); `fly --wind live` prices the rest of a flight again when the
+//! wind changes in it.
 
 use serde_json::Value;
 
@@ -187,6 +188,89 @@ fn fly_with_the_live_wind_plans_in_the_mocks_wind_cov_and_measures_its_legs_with
         "{}",
         plan["wind"]
     );
+}
+
+/// `fly --wind live` while the mock's wind rises from 3 to 8 m/s in flight: the rest of the
+/// flight is priced again in the new wind once the vehicle's estimate has settled, the legs
+/// flown after it are measured against (and within 3% of) their new prices, which the old ones
+/// miss by far, and the replay of the flight directory (repriced.jsonl) reports the same.
+#[test]
+fn fly_with_the_live_wind_prices_the_rest_again_when_the_wind_changes_in_flight() {
+    let tmp = tempfile::tempdir().unwrap();
+    let logs = tmp.path().join("change");
+    let (ok, stdout, stderr) = emplan(&[
+        "fly",
+        "missions/paper-sample-8wp.toml",
+        "--wind",
+        "live",
+        "--mock-wind",
+        "3@270",
+        "--mock-wind-change",
+        "60=8@270",
+        "--guard",
+        "warn",
+        "--speedup",
+        "20",
+        "--log-dir",
+        logs.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(ok, "{stderr}");
+    assert!(
+        stderr.contains("wind from the vehicle: 3.0 m/s from 270 deg"),
+        "{stderr}"
+    );
+    let report: Value = serde_json::from_str(&stdout).unwrap();
+    let repriced = report["repriced"].as_array().expect("repriced");
+    assert_eq!(repriced.len(), 1, "one settled change: {repriced:?}");
+    let note = &repriced[0];
+    assert!((f(&note["wind"], "speed_m_s") - 8.0).abs() < 0.05, "{note}");
+    assert!((f(&note["wind"], "from_deg") - 270.0).abs() < 0.5, "{note}");
+    assert!(
+        f(note, "rest_after_kj") > f(note, "rest_before_kj"),
+        "{note}"
+    );
+    let t_s = f(note, "t_s");
+    let dir = std::path::Path::new(report["log_dir"].as_str().unwrap());
+    let plan: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("plan.json")).unwrap()).unwrap();
+    let planned = plan["predicted"]["legs"].as_array().unwrap();
+    let legs = report["legs"].as_array().unwrap();
+    let after: Vec<(usize, &Value)> = (legs.iter().enumerate())
+        .filter(|(_, l)| f(l, "start_s") > t_s)
+        .collect();
+    assert!(
+        after.len() >= 3,
+        "legs flown after the change: {}",
+        after.len()
+    );
+    let mut worst_old = 0.0_f64;
+    for (k, leg) in &after {
+        let measured = f(leg, "measured_kj");
+        let new = f(leg, "predicted_kj");
+        let old = f(&planned[*k], "energy_j") / 1e3;
+        assert!(((measured - new) / new).abs() < 0.03, "{leg}");
+        worst_old = worst_old.max(((measured - old) / old).abs());
+    }
+    assert!(
+        worst_old > 0.1,
+        "the old prices miss a leg by {:.1}%",
+        worst_old * 100.0
+    );
+    // The flight directory keeps it; its replay reports the same prices.
+    let lines = std::fs::read_to_string(dir.join("repriced.jsonl")).unwrap();
+    assert_eq!(lines.lines().count(), 1, "{lines}");
+    let replay = json(&["report", dir.to_str().unwrap(), "--json"]);
+    let replay = if replay.is_array() {
+        &replay[0]
+    } else {
+        &replay
+    };
+    assert_eq!(replay["repriced"].as_array().map(Vec::len), Some(1));
+    for (live, again) in legs.iter().zip(replay["legs"].as_array().unwrap()) {
+        let (a, b) = (f(live, "predicted_kj"), f(again, "predicted_kj"));
+        assert!((a - b).abs() < 1e-9 * a, "{live} / {again}");
+    }
 }
 
 #[test]

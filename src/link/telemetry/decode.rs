@@ -247,6 +247,12 @@ pub fn decode(header: &MavHeader, message: &MavMessage) -> Decoded {
                 text: String::from_utf8_lossy(&bytes[..end]).into_owned(),
             })
         }
+        MavMessage::WIND_COV(_) | MavMessage::WIND(_) => {
+            match crate::link::wind::wind_of(message) {
+                Some(wind) => Decoded::reading(Reading::Wind(wind)),
+                None => Decoded::NOTHING,
+            }
+        }
         _ => Decoded::NOTHING,
     }
 }

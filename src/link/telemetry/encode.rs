@@ -158,6 +158,21 @@ pub fn encode(reading: &Reading, flavour: Flavour) -> MavMessage {
             time_usec: set_boot_s.map_or(0, |s| (s * 1e6).round() as u64),
             ..Default::default()
         }),
+        Reading::Wind(wind) => match flavour {
+            Flavour::ArduPilot => MavMessage::WIND(mav::WIND_DATA {
+                direction: wind.from_deg as f32,
+                speed: wind.speed_m_s as f32,
+                ..Default::default()
+            }),
+            Flavour::Px4 | Flavour::Generic => {
+                let (east, north) = wind.velocity_en_m_s();
+                MavMessage::WIND_COV(mav::WIND_COV_DATA {
+                    wind_x: north as f32,
+                    wind_y: east as f32,
+                    ..Default::default()
+                })
+            }
+        },
         Reading::StatusText { severity, text } => {
             let mut bytes = [0u8; 50];
             for (slot, b) in bytes.iter_mut().zip(text.bytes()) {
@@ -248,6 +263,26 @@ mod tests {
                 let back = decode(&header, &message).reading.expect("a reading");
                 assert_eq!(&back, r, "{flavour:?}");
             }
+        }
+    }
+
+    #[test]
+    fn a_wind_estimate_goes_out_as_its_flavour_sends_it_and_comes_back() {
+        let wind = crate::mission::wind::Wind::new(6.0, 250.0).expect("a wind");
+        for flavour in [Flavour::Px4, Flavour::ArduPilot] {
+            let message = encode(&Reading::Wind(wind), flavour);
+            let as_sent = match flavour {
+                Flavour::ArduPilot => matches!(message, MavMessage::WIND(_)),
+                _ => matches!(message, MavMessage::WIND_COV(_)),
+            };
+            assert!(as_sent, "{flavour:?}: {message:?}");
+            let frame = frame_bytes(&vehicle(), &message);
+            let (header, message) = parse_frame(&frame).expect("a frame");
+            let Some(Reading::Wind(back)) = decode(&header, &message).reading else {
+                panic!("{flavour:?}: no wind read back");
+            };
+            assert!((back.speed_m_s - 6.0).abs() < 1e-4, "{back:?}");
+            assert!((back.from_deg - 250.0).abs() < 1e-3, "{back:?}");
         }
     }
 

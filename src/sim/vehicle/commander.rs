@@ -94,6 +94,7 @@ impl<'v> SimVehicle<'v> {
         }
         self.flight.arm();
         self.arms += 1;
+        self.first_armed_s.get_or_insert(self.now_s);
         self.idle_since_s = Some(self.now_s);
         self.landed_s = None;
         self.maybe_fly();

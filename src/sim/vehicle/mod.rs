@@ -116,6 +116,37 @@ pub struct FlightConfig {
     /// A steady wind the vehicle flies in and reports (PX4: WIND_COV, ArduPilot: WIND); None:
     /// still air and no wind estimate, as an autopilot whose estimator does not run one.
     pub wind: Option<crate::physics::Wind>,
+    /// The wind changes (and is reported changed) this long after the first arming.
+    pub wind_change: Option<WindChange>,
+}
+
+/// A change of the wind in flight: `after_armed_s` after the first arming, the vehicle flies
+/// in (and reports) `wind`. Written `T_S=SPEED@FROM_DEG` (`60=8@270`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WindChange {
+    pub after_armed_s: f64,
+    pub wind: crate::physics::Wind,
+}
+
+impl std::str::FromStr for WindChange {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<WindChange, String> {
+        let (t, wind) = s
+            .split_once('=')
+            .ok_or_else(|| format!("{s:?}: expected T_S=SPEED@FROM_DEG, e.g. 60=8@270"))?;
+        let after_armed_s: f64 = t
+            .trim()
+            .parse()
+            .map_err(|_| format!("{t:?}: not a number of seconds"))?;
+        if !(after_armed_s.is_finite() && after_armed_s >= 0.0) {
+            return Err(format!("{t:?}: seconds after arming must be 0 or more"));
+        }
+        Ok(WindChange {
+            after_armed_s,
+            wind: wind.trim().parse()?,
+        })
+    }
 }
 
 impl Default for FlightConfig {
@@ -129,6 +160,7 @@ impl Default for FlightConfig {
             faults: TelemetryFaults::default(),
             seed: 1,
             wind: None,
+            wind_change: None,
         }
     }
 }
@@ -186,8 +218,9 @@ pub struct SimVehicle<'v> {
     /// Next 1 Hz tick of PX4's mission manager (repeats of MISSION_ITEM_REACHED).
     slow_next_step: u64,
     idle_since_s: Option<f64>,
-    /// Times armed since boot.
+    /// Times armed since boot, and when first.
     arms: u32,
+    first_armed_s: Option<f64>,
     /// When the land detector confirmed a landing (the disarm follows).
     landed_s: Option<f64>,
     heading_rad: f64,
@@ -250,6 +283,7 @@ impl<'v> SimVehicle<'v> {
             slow_next_step: 1,
             idle_since_s: None,
             arms: 0,
+            first_armed_s: None,
             landed_s: None,
             heading_rad: 0.0,
             params: params::held(flavour, vehicle),
@@ -367,6 +401,21 @@ impl<'v> SimVehicle<'v> {
             .is_some_and(|g| t_s >= g.start_s && t_s < g.start_s + g.duration_s)
     }
 
+    /// The configured change of wind, once its time after the first arming has come.
+    fn change_wind(&mut self, t: f64) {
+        let (Some(change), Some(armed_s)) = (self.config.wind_change, self.first_armed_s) else {
+            return;
+        };
+        if t - armed_s < change.after_armed_s {
+            return;
+        }
+        self.config.wind_change = None;
+        match self.flight.set_wind(change.wind) {
+            Ok(()) => self.config.wind = Some(change.wind),
+            Err(e) => tracing::warn!("the mock cannot fly in the changed wind: {e}"),
+        }
+    }
+
     /// Advances simulated time to `now_s` in steps of [`STEP_S`] and returns what the vehicle
     /// sends meanwhile (in time order).
     pub fn step(&mut self, now_s: f64) -> Vec<MavMessage> {
@@ -385,6 +434,7 @@ impl<'v> SimVehicle<'v> {
 
     fn tick(&mut self, t: f64) {
         self.now_s = t;
+        self.change_wind(t);
         let events = self.flight.advance(t);
         let power_w = self.flight.power_w();
         let draw = self.pack.draw(power_w, STEP_S);
@@ -411,5 +461,14 @@ impl<'v> SimVehicle<'v> {
             self.send_stream(id, t);
         }
         self.repeat_reached(step);
+    }
+}
+#[test]
+fn a_wind_change_is_read_as_seconds_after_arming_and_the_new_wind() {
+    let change: WindChange = "60=8@270".parse().expect("a change");
+    assert_eq!(change.after_armed_s, 60.0);
+    assert_eq!(change.wind, crate::physics::Wind::new(8.0, 270.0).unwrap());
+    for bad in ["8@270", "-1=8@270", "x=8@270", "60=8"] {
+        assert!(bad.parse::<WindChange>().is_err(), "{bad}");
     }
 }
