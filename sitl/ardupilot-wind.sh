@@ -10,6 +10,12 @@
 #    (`--order energy`, planned without the wind) and of the wind-aware energy order
 #    (`--order energy --wind S@FROM`): the wind-aware one must measure less, or the difference
 #    must be within the flights' own spread (both are printed; sitl/check_wind.py).
+# 3. live: in the last of SPEEDS, the energy order flown with `--wind live`, ArduCopter's EKF3
+#    estimating the wind by drag fusion (EK3_DRAG_MCOEF 0.2, the frame's own momentum drag
+#    coefficient in s1000.json; EK3_DRAG_BCOEF_X/Y 24.3 kg/m2 = rho v^2 / (2 g tan 30 deg), the
+#    frame's 15 m/s at a 30 degree lean): it learns the wind only in the air, so emplan plans in
+#    still air and must price the rest again in flight, closer to the measurement
+#    (sitl/check_live_wind.py).
 # The vehicle is the one emplan plans with (VEHICLE_ARGS, default the built-in S1000): its
 # model is not tuned to ArduPilot's airframe.
 # Usage: sitl/ardupilot-wind.sh [EMPLAN_BINARY] [MISSION] [WORK_DIR]; SPEEDS (default "3 6"),
@@ -32,7 +38,7 @@ fly() {
   shift 2
   echo "== ArduCopter SITL flies $(basename "$mission"): $name (wind $speed m/s from $from)"
   # shellcheck disable=SC2086 # VEHICLE_ARGS is a list of arguments
-  SITL_PARAMS="SIM_WIND_SPD=$speed SIM_WIND_DIR=$from SIM_WIND_T=1 SIM_WIND_TURB=0" \
+  SITL_PARAMS="SIM_WIND_SPD=$speed SIM_WIND_DIR=$from SIM_WIND_T=1 SIM_WIND_TURB=0 ${EXTRA_PARAMS:-}" \
     FLY_ARGS="$* $vehicle_args" bash sitl/ardupilot-fly.sh "$emplan" "$mission" "$work/$name" \
     >"$work/$name.log" 2>&1 || {
     cat "$work/$name.log" >&2
@@ -64,3 +70,6 @@ done
   >"$work/plan-in-wind.json"
 python3 sitl/check_wind.py --ratios "${ratio_set[@]}" \
   --still "${still[@]}" --aware "${aware[@]}" --plan "$work/plan-in-wind.json"
+EXTRA_PARAMS="EK3_DRAG_MCOEF=0.2 EK3_DRAG_BCOEF_X=24.3 EK3_DRAG_BCOEF_Y=24.3" \
+  fly "live-$last" "$last" --order energy --wind live
+python3 sitl/check_live_wind.py "$work/live-$last/fly.json" "$last" "$from"

@@ -19,7 +19,7 @@ use super::locate::{Locate, LocateConfig, LocateError, Located};
 use super::mav::MavMessage;
 use super::params::{ParamConfig, ParamReads};
 use super::telemetry::{
-    default_streams, is_autopilot, RequestOutcome, StreamConfig, StreamRequests,
+    default_streams, is_autopilot, RequestOutcome, StreamConfig, StreamRequest, StreamRequests,
 };
 use super::LinkError;
 
@@ -121,13 +121,14 @@ impl CommandMachine for super::wind::ListenWind {
     }
 }
 
-/// `target`'s own wind estimate (WIND_COV or WIND), or None when it sends none within
+/// `target`'s own wind estimate (WIND_COV or WIND, asked for at 1 Hz first), or None when it sends none within
 /// `budget` (see [`super::wind`]).
 pub async fn listen_wind(
     link: &Link,
     target: &Autopilot,
     budget: Duration,
 ) -> Result<Option<crate::physics::Wind>, LinkError> {
+    request_wind_stream(link, target).await?;
     let mut machine = super::wind::ListenWind::new(budget);
     drive(link, target, &mut machine).await?;
     Ok(machine.finished())
@@ -209,6 +210,28 @@ pub async fn locate(
 /// mission progress and landed state at 2 Hz) and returns when every request has an answer (or
 /// ran out of retries); the names of the ones not accepted are logged and returned.
 pub async fn request_streams(link: &Link, target: &Autopilot) -> Result<Vec<String>, LinkError> {
+    request(link, target, default_streams()).await
+}
+
+/// Asks `target` for its wind estimate at 1 Hz (PX4: WIND_COV; ArduPilot: WIND; nothing of an
+/// autopilot of neither kind); a refusal is a warning, as in [`request_streams`].
+async fn request_wind_stream(link: &Link, target: &Autopilot) -> Result<Vec<String>, LinkError> {
+    use super::mav::{WIND_COV_DATA, WIND_DATA};
+    let wind = match target.flavour {
+        Flavour::Px4 => StreamRequest::of::<WIND_COV_DATA>(1.0),
+        Flavour::ArduPilot => StreamRequest::of::<WIND_DATA>(1.0),
+        Flavour::Generic => return Ok(Vec::new()),
+    };
+    request(link, target, vec![wind]).await
+}
+
+/// Asks `target` for `wanted` at their rates (MAV_CMD_SET_MESSAGE_INTERVAL, one at a time):
+/// the ones it did not accept, by name, each logged.
+async fn request(
+    link: &Link,
+    target: &Autopilot,
+    wanted: Vec<StreamRequest>,
+) -> Result<Vec<String>, LinkError> {
     let identity = Identity::default();
     let cfg = StreamConfig {
         target_system: target.system_id,
@@ -217,7 +240,7 @@ pub async fn request_streams(link: &Link, target: &Autopilot) -> Result<Vec<Stri
         own_component: identity.component_id,
         ..StreamConfig::default()
     };
-    let mut requests = StreamRequests::new(cfg, default_streams());
+    let mut requests = StreamRequests::new(cfg, wanted);
     drive(link, target, &mut requests).await?;
     let refused: Vec<String> = requests
         .outcomes()
