@@ -537,24 +537,7 @@ mod tests {
 
     #[test]
     fn a_plan_with_a_prediction_per_leg_survives_plan_json() {
-        let leg = PredictedLeg {
-            energy_j: 10_000.0,
-            duration_s: 12.0,
-            settle_energy_j: 2_000.0,
-            settle_duration_s: 2.5,
-        };
-        let plan = FlightPlan::for_mission(
-            &mission(),
-            &[0, 1, 2],
-            0,
-            Some(Predicted {
-                takeoff_j: 30_000.0,
-                landing_j: 20_000.0,
-                legs: vec![leg; 4],
-                hover_power_w: 800.0,
-            }),
-        )
-        .expect("valid");
+        let plan = plan_with_prediction();
         let dir = tempfile::tempdir().expect("temp dir");
         let path = dir.path().join("plan.json");
         plan.write_json(&path).expect("written");

@@ -6,8 +6,8 @@
 //! estimate jitters). It is due when it has at least [`MIN_READINGS`] readings spanning
 //! [`MIN_SPAN_S`], has settled (every reading of the window within [`CHANGE_M_S`] of the mean,
 //! so a change is priced once it is over, not on the way), differs from the priced wind by at
-//! least [`CHANGE_M_S`] as a vector (a 1 m/s change moves a 40 m leg's price by about 1-5%:
-//! `docs/energy-model.md`, "Wind") and [`MIN_APART_S`] has passed since the last look that
+//! least [`CHANGE_M_S`] as a vector (a 1 m/s change moves a 40 m level leg's price by about 5%
+//! into the wind, under 0.5% across or with it: `docs/energy-model.md`, "Wind") and [`MIN_APART_S`] has passed since the last look that
 //! found it due, so a wind that drifts is not priced again at every reading.
 
 use std::collections::VecDeque;

@@ -34,7 +34,7 @@ use crate::tour::energy::energy_matrix_on_headings;
 use crate::tour::orders::{baseline, energy_order, plan_orders, SolvedOrder};
 use crate::tour::sorties::{self, Method, SortieError, SortieOptions, SortieProblem};
 use crate::tour::{
-    cancel, pairs, solver, CostMatrix, Direction, Geometry, Objective, PlanError, Proof,
+    cancel, held_karp, pairs, solver, CostMatrix, Direction, Geometry, Objective, PlanError, Proof,
 };
 
 pub use crate::physics::VehicleModel;
@@ -595,28 +595,6 @@ fn plan_core<'scope>(
         mission: mission.name.clone(),
         cause,
     };
-    // In still air a leg is the table's; in wind it is simulated on its heading.
-    let energy = energy_matrix_on_headings(&geometry, &names, |x, z, heading| {
-        model
-            .leg_on_heading(x, z, Start::Behind, heading)
-            .map(|leg| leg.priced_energy_j(options.pricing))
-    })
-    .map_err(pricing)?;
-    // A leg's price after a turn of less than 90 degrees (the px4 profile's vehicle starts it
-    // ahead of PX4's trajectory); the same matrix for the profiles that do not depend on it.
-    let ahead = if model.table.starts.contains(&Start::Ahead) {
-        Some(
-            energy_matrix_on_headings(&geometry, &names, |x, z, heading| {
-                model
-                    .leg_on_heading(x, z, Start::Ahead, heading)
-                    .map(|leg| leg.priced_energy_j(options.pricing))
-            })
-            .map_err(pricing)?,
-        )
-    } else {
-        None
-    };
-    let still_air_plan = start_still_air.map(|start| start());
     let start_of = |previous: Option<usize>, from: usize, to: usize| -> Start {
         let points = geometry.points();
         let across = |a: usize, b: usize| {
@@ -628,30 +606,88 @@ fn plan_core<'scope>(
         start_case(previous.map(|p| across(p, from)), across(from, to))
     };
     let solver = &options.solver;
-    let pair_aware = |mut order: SolvedOrder| -> Result<SolvedOrder, PlannerError> {
-        match (&ahead, order.objective) {
-            (Some(ahead), Objective::Energy) => {
-                order = pair_energy_order(&energy, ahead, &start_of, order, &geometry, solver)
-                    .map_err(planning)?;
-                Ok(order)
+    // The distance baselines need only the geometry. Of a mission Held-Karp solves exactly
+    // (the min-vertical baseline's lexicographic Held-Karp is the slowest solve of a
+    // 20-waypoint plan) they run on a thread of their own from the start, beside the energy
+    // pricing and solve, each solve within the time limit as before; a larger mission's
+    // solves share the time limit one after the other on this thread, their progress shown.
+    let parallel_baselines =
+        options.orders == Orders::All && geometry.len() <= held_karp::MAX_NODES + 1;
+    let token = cancel::current();
+    let (energy, still_air_plan, solved) = std::thread::scope(|scope| {
+        let baselines = parallel_baselines.then(|| {
+            scope.spawn(|| {
+                let solve = || plan_orders(&geometry, None, solver);
+                match &token {
+                    Some(token) => cancel::within(token, solve),
+                    None => solve(),
+                }
+            })
+        });
+        // In still air a leg is the table's; in wind it is simulated on its heading.
+        let energy = energy_matrix_on_headings(&geometry, &names, |x, z, heading| {
+            model
+                .leg_on_heading(x, z, Start::Behind, heading)
+                .map(|leg| leg.priced_energy_j(options.pricing))
+        })
+        .map_err(pricing)?;
+        // A leg's price after a turn of less than 90 degrees (the px4 profile's vehicle starts
+        // it ahead of PX4's trajectory); the same matrix for the profiles that do not depend on
+        // it.
+        let ahead = if model.table.starts.contains(&Start::Ahead) {
+            Some(
+                energy_matrix_on_headings(&geometry, &names, |x, z, heading| {
+                    model
+                        .leg_on_heading(x, z, Start::Ahead, heading)
+                        .map(|leg| leg.priced_energy_j(options.pricing))
+                })
+                .map_err(pricing)?,
+            )
+        } else {
+            None
+        };
+        let still_air_plan = start_still_air.map(|start| start());
+        let pair_aware = |mut order: SolvedOrder| -> Result<SolvedOrder, PlannerError> {
+            match (&ahead, order.objective) {
+                (Some(ahead), Objective::Energy) => {
+                    order = pair_energy_order(&energy, ahead, &start_of, order, &geometry, solver)
+                        .map_err(planning)?;
+                    Ok(order)
+                }
+                _ => Ok(order),
             }
-            _ => Ok(order),
-        }
-    };
-    let solved = match options.orders {
-        Orders::All => plan_orders(&geometry, Some(&energy), solver)
-            .map_err(planning)?
-            .into_iter()
-            .map(pair_aware)
-            .collect::<Result<_, _>>()?,
-        Orders::Energy => vec![pair_aware(
-            energy_order(&geometry, &energy, solver).map_err(planning)?,
-        )?],
-        Orders::Distance => baseline(&geometry, Objective::Distance, solver)
-            .map_err(planning)?
-            .to_vec(),
-        Orders::Listed => Vec::new(),
-    };
+        };
+        let solved: Vec<SolvedOrder> = match (options.orders, baselines) {
+            (Orders::All, Some(baselines)) => {
+                let energy_first = energy_order(&geometry, &energy, solver).map_err(planning)?;
+                let rest = baselines
+                    .join()
+                    .map_err(|_| {
+                        planning(PlanError::Infeasible(
+                            "the distance baselines stopped unexpectedly".into(),
+                        ))
+                    })?
+                    .map_err(planning)?;
+                std::iter::once(energy_first)
+                    .chain(rest)
+                    .map(pair_aware)
+                    .collect::<Result<_, _>>()?
+            }
+            (Orders::All, None) => plan_orders(&geometry, Some(&energy), solver)
+                .map_err(planning)?
+                .into_iter()
+                .map(pair_aware)
+                .collect::<Result<_, _>>()?,
+            (Orders::Energy, _) => vec![pair_aware(
+                energy_order(&geometry, &energy, solver).map_err(planning)?,
+            )?],
+            (Orders::Distance, _) => baseline(&geometry, Objective::Distance, solver)
+                .map_err(planning)?
+                .to_vec(),
+            (Orders::Listed, _) => Vec::new(),
+        };
+        Ok::<_, PlannerError>((energy, still_air_plan, solved))
+    })?;
     if cancel::requested() {
         return Err(stopped());
     }
@@ -722,8 +758,10 @@ fn plan_core<'scope>(
             None,
         )?]
     } else {
+        // In wind each leg is a simulation: the orders are priced in parallel.
+        use rayon::prelude::*;
         solved
-            .into_iter()
+            .into_par_iter()
             .map(|o| priced(Some(o.objective), o.direction, o.nodes, o.proof))
             .collect::<Result<_, _>>()?
     };

@@ -146,12 +146,14 @@ fn forward(mut order: Vec<usize>) -> Vec<usize> {
     order
 }
 
-/// The minimum-energy order of `energy` (joules per leg, node 0 = origin).
+/// The minimum-energy order of `energy` (joules per leg, node 0 = origin), its solve's progress
+/// reported on this thread.
 pub fn energy_order(
     geometry: &Geometry,
     energy: &CostMatrix,
     options: &solver::Options,
 ) -> Result<SolvedOrder, PlanError> {
+    progress::report(Event::Order(objective_name(Objective::Energy)));
     let (nodes, solved) = solve_order_with(geometry, Objective::Energy, Some(energy), options)?;
     Ok(SolvedOrder {
         objective: Objective::Energy,
@@ -212,7 +214,6 @@ pub fn plan_orders(
     };
     let mut orders = Vec::new();
     if let Some(energy) = energy {
-        progress::report(Event::Order(objective_name(Objective::Energy)));
         orders.push(energy_order(geometry, energy, &share(2.0))?);
     }
     for objective in baselines {

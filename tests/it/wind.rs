@@ -135,30 +135,25 @@ fn the_mock_in_wind_measures_every_leg_within_three_percent_of_its_wind_aware_pr
     );
 }
 
+/// `fly missions/paper-sample-8wp.toml --wind live` on the built-in mock with `mock` (its wind)
+/// into `logs`, planned in the `speed` m/s from 270 it reported: the report.
+fn fly_live(logs: &std::path::Path, mock: &[&str], speed: f64) -> Value {
+    let mut args = vec!["fly", "missions/paper-sample-8wp.toml", "--wind", "live"];
+    args.extend_from_slice(mock);
+    let logs = logs.to_str().unwrap();
+    args.extend(["--speedup", "20", "--log-dir", logs, "--json"]);
+    let (ok, stdout, stderr) = emplan(&args);
+    assert!(ok, "{stderr}");
+    let heard = format!("wind from the vehicle: {speed:.1} m/s from 270 deg");
+    assert!(stderr.contains(&heard), "{stderr}");
+    serde_json::from_str(&stdout).unwrap()
+}
+
 #[test]
 fn fly_with_the_live_wind_plans_in_the_mocks_wind_cov_and_measures_its_legs_within_three_percent() {
     let tmp = tempfile::tempdir().unwrap();
     let mission = "missions/paper-sample-8wp.toml";
-    let logs = tmp.path().join("live");
-    let (ok, stdout, stderr) = emplan(&[
-        "fly",
-        mission,
-        "--wind",
-        "live",
-        "--mock-wind",
-        "6@270",
-        "--speedup",
-        "20",
-        "--log-dir",
-        logs.to_str().unwrap(),
-        "--json",
-    ]);
-    assert!(ok, "{stderr}");
-    assert!(
-        stderr.contains("wind from the vehicle: 6.0 m/s from 270 deg"),
-        "{stderr}"
-    );
-    let report: Value = serde_json::from_str(&stdout).unwrap();
+    let report = fly_live(&tmp.path().join("live"), &["--mock-wind", "6@270"], 6.0);
     let legs = report["legs"].as_array().expect("legs");
     let errors: Vec<f64> = legs.iter().map(|l| f(l, "error_pct")).collect();
     assert!(errors.iter().all(|e| e.abs() < 3.0), "{errors:?}");
@@ -197,30 +192,15 @@ fn fly_with_the_live_wind_plans_in_the_mocks_wind_cov_and_measures_its_legs_with
 #[test]
 fn fly_with_the_live_wind_prices_the_rest_again_when_the_wind_changes_in_flight() {
     let tmp = tempfile::tempdir().unwrap();
-    let logs = tmp.path().join("change");
-    let (ok, stdout, stderr) = emplan(&[
-        "fly",
-        "missions/paper-sample-8wp.toml",
-        "--wind",
-        "live",
+    let mock = [
         "--mock-wind",
         "3@270",
         "--mock-wind-change",
         "60=8@270",
         "--guard",
         "warn",
-        "--speedup",
-        "20",
-        "--log-dir",
-        logs.to_str().unwrap(),
-        "--json",
-    ]);
-    assert!(ok, "{stderr}");
-    assert!(
-        stderr.contains("wind from the vehicle: 3.0 m/s from 270 deg"),
-        "{stderr}"
-    );
-    let report: Value = serde_json::from_str(&stdout).unwrap();
+    ];
+    let report = fly_live(&tmp.path().join("change"), &mock, 3.0);
     let repriced = report["repriced"].as_array().expect("repriced");
     assert_eq!(repriced.len(), 1, "one settled change: {repriced:?}");
     let note = &repriced[0];
