@@ -261,9 +261,18 @@ impl Recorder {
         (self.tlog.records(), self.samples.rows())
     }
 
-    /// Writes plan.json (complete or absent, never torn).
+    /// Writes plan.json (complete or absent, never torn), without the repricings made in
+    /// flight: those are repriced.jsonl's ([`Self::append_repricing`]).
     pub fn write_plan(&self, plan: &FlightPlan) -> Result<(), FlightLogError> {
-        plan.write_json(&self.dir.join(PLAN_FILE))
+        let path = self.dir.join(PLAN_FILE);
+        if plan.repricings.is_empty() {
+            return plan.write_json(&path);
+        }
+        FlightPlan {
+            repricings: Vec::new(),
+            ..plan.clone()
+        }
+        .write_json(&path)
     }
 
     /// Appends a repricing of the rest of the flight to repriced.jsonl, on disk before it
@@ -343,6 +352,7 @@ pub fn read_flight_plan(dir: &Path) -> Result<FlightPlan, FlightLogError> {
     }
     let text = std::fs::read_to_string(&path).map_err(super::io_error(&path))?;
     let lines: Vec<&str> = text.split_inclusive('\n').collect();
+    plan.repricings.clear();
     for (n, line) in lines.iter().enumerate() {
         let torn = n + 1 == lines.len() && !line.ends_with('\n');
         match serde_json::from_str(line.trim()) {

@@ -2,7 +2,9 @@
 //! against, start it (arming only when asked: with a real vehicle the pilot may start it), and
 //! wait until the recorder has seen it land and disarm; the recorder's report is the answer.
 //! Before anything is uploaded, the vehicle's home is checked against the mission's origin
-//! ([`super::home`]).
+//! ([`super::home`]). With `fly --wind live` ([`Load::live_wind`]) the recorder is handed a
+//! repricer too: the rest of the flight priced again, as [`load`] priced it, in the wind the
+//! vehicle estimates in flight.
 //! A start the autopilot refuses fails at once (`link::flight::Start` disarms a vehicle it
 //! armed), and the flight folder that arming opened goes with it ([`discard_unflown`]).
 

@@ -10,7 +10,9 @@
 //! one agree.
 //!
 //! Handles: `set_plan` (what the next flight, or the one in progress, is measured against: a
-//! plan set mid-flight is applied to everything recorded so far), `subscribe` (flight events:
+//! plan set mid-flight is applied to everything recorded so far; `set_plan_repriced` with a
+//! [`Repricer`] that prices the rest again when the vehicle's wind estimate changes in flight,
+//! each repricing kept in repriced.jsonl), `subscribe` (flight events:
 //! started, each part completed, ended with its report), `live` (the latest state: vehicle,
 //! battery, the part in progress), `close` (finishes an open flight cleanly).
 
