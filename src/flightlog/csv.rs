@@ -134,6 +134,9 @@ pub fn format_row(row: &SampleRow, out: &mut String) {
     out.push('\n');
 }
 
+/// More bytes than any samples.csv row takes.
+pub const ROW_BOUND: usize = 1024;
+
 /// Appends rows to samples.csv.
 #[derive(Debug)]
 pub struct SamplesWriter {
@@ -219,6 +222,12 @@ impl SamplesWriter {
         self.file.write(self.line.as_bytes())?;
         self.rows += 1;
         Ok(())
+    }
+
+    /// Whether another row fits in the buffer without it spilling (a row is well under
+    /// [`ROW_BOUND`] bytes).
+    pub fn has_room(&self) -> bool {
+        self.file.has_room(ROW_BOUND)
     }
 
     pub fn flush(&mut self) -> Result<(), FlightLogError> {

@@ -114,6 +114,11 @@ impl AppendFile {
         &self.path
     }
 
+    /// Whether `bytes` more fit in the buffer without it spilling to the OS on its own.
+    pub(crate) fn has_room(&self, bytes: usize) -> bool {
+        self.out.buffer().len() + bytes <= self.out.capacity()
+    }
+
     pub(crate) fn write(&mut self, bytes: &[u8]) -> Result<(), FlightLogError> {
         use std::io::Write;
         self.out.write_all(bytes).map_err(io_error(&self.path))

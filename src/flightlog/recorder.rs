@@ -9,7 +9,8 @@
 //! - `report.json`: the report, written when the flight ends (a replay can always rebuild it).
 //!
 //! Append-only. Buffers go to the operating system at least every `flush_every_us` (0.5 s) and
-//! to disk (fsync) at least every `sync_every_us` (1 s) of wall time, so a crash of emplan loses
+//! to disk (fsync) at least every `sync_every_us` (1 s) of wall time, and all of them together
+//! whenever one is full, so a crash of emplan loses
 //! at most the last half second and a power cut the last second, and every file stays readable
 //! (the readers skip a torn last record or line). Time is the caller's: `record` flushes on the
 //! frames' own wall times, `tick` when the link is quiet; the async task that owns the recorder
@@ -305,6 +306,13 @@ impl Recorder {
         frame: &[u8],
         stamped: Option<&Stamped>,
     ) -> Result<(), FlightLogError> {
+        // The files go to the OS together, whatever the clock says: one buffer spilling alone
+        // (a recorder backlogged by a slow fsync writes a second of frames at once) would
+        // leave the .tlog ahead of samples.csv after a crash.
+        if !(self.tlog.has_room(frame.len()) && self.samples.has_room()) {
+            self.tlog.flush()?;
+            self.samples.flush()?;
+        }
         self.tlog.append(wall_us, frame)?;
         if let Some(s) = stamped {
             self.state.update(&s.reading);
@@ -514,6 +522,32 @@ mod tests {
                 fake_current: false,
             }),
         }
+    }
+
+    #[test]
+    fn a_burst_of_frames_in_the_same_instant_reaches_the_disk_with_its_samples() {
+        // A recorder catching up on a backlog records many frames at once, no flush due by the
+        // clock: whenever the .tlog's buffer is full, samples.csv goes to the OS with it.
+        let log = tempfile::tempdir().expect("temp dir");
+        let start = 1_750_000_000_000_000u64;
+        let mut r = Recorder::create(log.path(), "m", start).expect("created");
+        let dir = r.dir().to_path_buf();
+        // A MAVLink 2 frame of 255 payload bytes (the reader checks its framing, not its CRC).
+        let mut frame = vec![0xFDu8, 255, 0, 0, 0, 1, 1, 0, 0, 0];
+        frame.extend([0u8; 255]);
+        frame.extend([0xAA, 0xBB]);
+        let mut spilled = 0;
+        for k in 0..2_000u64 {
+            r.record(start, &frame, Some(&battery(k as f64 * 0.01)))
+                .expect("recorded");
+            let on_disk = read_tlog(&dir.join(TLOG_FILE)).expect("read").records.len();
+            if on_disk > 0 {
+                spilled += 1;
+                let rows = read_samples(&dir.join(SAMPLES_FILE)).expect("read").len();
+                assert!(rows >= on_disk, "{on_disk} frames on disk, {rows} rows");
+            }
+        }
+        assert!(spilled > 0, "the .tlog's buffer never spilled");
     }
 
     #[test]

@@ -102,6 +102,11 @@ impl TlogWriter {
         Ok(())
     }
 
+    /// Whether a record of `frame_len` bytes fits in the buffer without it spilling.
+    pub fn has_room(&self, frame_len: usize) -> bool {
+        self.file.has_room(8 + frame_len)
+    }
+
     /// Hands buffered records to the operating system (survives a crash of this process).
     pub fn flush(&mut self) -> Result<(), FlightLogError> {
         self.file.flush()
