@@ -130,6 +130,17 @@ fn plan_error(reason: impl Into<String>) -> FlightLogError {
     }
 }
 
+impl Repricing {
+    /// Whether it prices a leg for each of a plan of `points` points from its own on.
+    pub fn fits(&self, points: usize) -> bool {
+        from_point_fits(self.from_point, self.legs.len(), points)
+    }
+}
+
+fn from_point_fits(from_point: usize, legs: usize, points: usize) -> bool {
+    from_point < points && legs == points - from_point
+}
+
 impl FlightPlan {
     /// The plan `fly` uploads for `mission` visited in `order` (indices into its waypoints):
     /// take-off at `first_seq` (1 for ArduPilot, whose seq 0 is home; 0 for PX4), the
@@ -221,8 +232,7 @@ impl FlightPlan {
             }
         }
         for r in &self.repricings {
-            let legs_left = self.points.len().saturating_sub(r.from_point);
-            if r.legs.len() != legs_left || legs_left == 0 {
+            if !r.fits(self.points.len()) {
                 return Err(plan_error(format!(
                     "a repricing at {:.1} s has {} legs from point {} of {}",
                     r.t_s,
@@ -276,15 +286,7 @@ impl FlightPlan {
 
     /// The whole flight as last priced: the take-off, each leg, settle and hover, the landing.
     pub fn predicted_total_j(&self) -> Option<f64> {
-        let p = self.predicted.as_ref()?;
-        let mut total = p.takeoff_j + self.predicted_landing_j()?;
-        for (k, point) in self.points.iter().enumerate() {
-            let leg = self.predicted_leg(k)?;
-            total += leg.energy_j
-                + leg.settle_energy_j
-                + point.hold_s * self.predicted_hover_power_w(k)?;
-        }
-        Some(total)
+        Some(self.predicted.as_ref()?.takeoff_j + self.predicted_rest_j(0)?)
     }
 
     /// What the stages from point `from` on (legs, settles, hovers, the landing) are priced at

@@ -874,8 +874,7 @@ impl Segmenter {
     /// [`Self::take_reprice_due`]): the parts from its point on are measured against it, and
     /// the guard sees it from now. Refused (false) when it does not fit the plan.
     pub fn reprice(&mut self, r: super::flight_plan::Repricing) -> bool {
-        let legs_left = self.plan.points.len().saturating_sub(r.from_point);
-        if r.legs.len() != legs_left || legs_left == 0 || self.plan.predicted.is_none() {
+        if !r.fits(self.plan.points.len()) || self.plan.predicted.is_none() {
             return false;
         }
         if let Some(watch) = self.watch.as_mut() {

@@ -236,15 +236,7 @@ fn repricer(model: VehicleModel, flavour: Flavour, return_alt_m: Option<f64>) ->
             .get(from_point..)
             .unwrap_or_default()
             .to_vec();
-        let rest_after_j = predicted.landing_j
-            + legs
-                .iter()
-                .zip(plan.points.iter().skip(from_point))
-                .map(|(leg, point)| {
-                    leg.energy_j + leg.settle_energy_j + point.hold_s * predicted.hover_power_w
-                })
-                .sum::<f64>();
-        Ok(Repricing {
+        let mut repricing = Repricing {
             t_s: 0.0,
             wind,
             from_point,
@@ -253,8 +245,13 @@ fn repricer(model: VehicleModel, flavour: Flavour, return_alt_m: Option<f64>) ->
             landing_j: predicted.landing_j,
             home_j,
             rest_before_j: plan.predicted_rest_j(from_point).unwrap_or(0.0),
-            rest_after_j,
-        })
+            rest_after_j: 0.0,
+        };
+        // The rest as the plan prices it with this repricing: the plan's own sum.
+        let mut after = plan.clone();
+        after.repricings.push(repricing.clone());
+        repricing.rest_after_j = after.predicted_rest_j(from_point).unwrap_or(0.0);
+        Ok(repricing)
     })
 }
 
