@@ -33,7 +33,7 @@ pub struct PlannedPoint {
     pub name: String,
     /// Position in the mission frame (east, north, up from the origin hover point).
     pub enu: Enu,
-    /// Planned hover time at the point.
+    /// Planned hover time at the point (its hover and its actions' holds).
     pub hold_s: f64,
 }
 
@@ -142,6 +142,30 @@ fn from_point_fits(from_point: usize, legs: usize, points: usize) -> bool {
 }
 
 impl FlightPlan {
+    /// The plan with its points, take-off and landing numbered as the items uploaded hold them
+    /// (a mission with actions has commands between its navigation items): `point_seqs` for
+    /// the points in flying order (the origin last).
+    pub fn renumbered(
+        mut self,
+        takeoff_seq: Option<u16>,
+        point_seqs: &[u16],
+        land_seq: u16,
+    ) -> Result<FlightPlan, FlightLogError> {
+        if point_seqs.len() != self.points.len() {
+            return Err(plan_error(format!(
+                "{} item numbers for {} points",
+                point_seqs.len(),
+                self.points.len()
+            )));
+        }
+        for (point, &seq) in self.points.iter_mut().zip(point_seqs) {
+            point.seq = seq;
+        }
+        self.takeoff_seq = takeoff_seq;
+        self.land_seq = Some(land_seq);
+        Ok(self)
+    }
+
     /// The plan `fly` uploads for `mission` visited in `order` (indices into its waypoints):
     /// take-off at `first_seq` (1 for ArduPilot, whose seq 0 is home; 0 for PX4), the
     /// waypoints, the origin, landing.
@@ -163,7 +187,7 @@ impl FlightPlan {
                 seq: seq_at(first_seq, k + 1)?,
                 name: waypoint.name.clone(),
                 enu: waypoint.position,
-                hold_s: waypoint.hover_s,
+                hold_s: waypoint.hold_s(),
             });
         }
         points.push(PlannedPoint {
@@ -406,6 +430,7 @@ mod tests {
                 z_up_m: z,
             },
             hover_s: 5.0,
+            ..Default::default()
         };
         Mission {
             name: "square".into(),
@@ -425,6 +450,8 @@ mod tests {
             default_hover_s: 5.0,
             min_height_above_home_m: 2.0,
             source: None,
+            start_actions: Vec::new(),
+            pois: Vec::new(),
         }
     }
 

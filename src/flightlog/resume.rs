@@ -574,6 +574,7 @@ mod tests {
                 name: p.name.clone(),
                 position: p.enu,
                 hover_s: p.hold_s,
+                ..Default::default()
             })
             .collect();
         waypoints.rotate_right(1);
@@ -584,6 +585,8 @@ mod tests {
             default_hover_s: 3.0,
             min_height_above_home_m: 2.0,
             source: None,
+            start_actions: Vec::new(),
+            pois: Vec::new(),
         }
     }
 

@@ -1,6 +1,9 @@
 //! Mission items from a mission and a visiting order: optional NAV_TAKEOFF to the origin height,
-//! one NAV_WAYPOINT per waypoint (latitude/longitude as degE7, altitude relative to home, param1
-//! hover seconds, param2 acceptance radius), optional DO_CHANGE_SPEED, and the ending: by
+//! optional DO_CHANGE_SPEED, the start's actions, one navigation item per waypoint
+//! (NAV_WAYPOINT, or the spline or loiter the file gave; latitude/longitude as degE7, altitude
+//! relative to home, param1 hover seconds, param2 acceptance radius) followed by its actions
+//! and the commands that restore the file's settings for the next waypoint
+//! (`mission::actions::restore`), translated for the autopilot ([`translate`]), and the ending: by
 //! default a NAV_WAYPOINT back at the origin hover point, then NAV_LAND there (the return leg
 //! and the landing the plan priced: PX4's RTL would first climb to RTL_RETURN_ALT, which is not
 //! the planned leg); NAV_RETURN_TO_LAUNCH or a bare NAV_LAND on request. Frames PX4 accepts: GLOBAL_RELATIVE_ALT (3) for navigation items,
@@ -9,7 +12,8 @@
 
 use super::mav::{MavCmd, MavFrame, MavMissionType, MISSION_ITEM_INT_DATA};
 use super::Flavour;
-use crate::mission::{Enu, Geodetic, Mission, Origin};
+use crate::mission::actions::{id, Action, Command};
+use crate::mission::{Enu, Geodetic, Mission, Origin, WaypointKind};
 
 /// How a mission ends.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -29,6 +33,9 @@ pub struct ItemOptions {
     pub acceptance_radius_m: f32,
     /// Cruise speed to command with DO_CHANGE_SPEED before the first waypoint, if any.
     pub cruise_speed_m_s: Option<f32>,
+    /// The vehicle's own horizontal speed, commanded where the file's order flies at it after
+    /// another order changed it (None: DO_CHANGE_SPEED -2, "the vehicle's default").
+    pub vehicle_speed_m_s: Option<f64>,
     pub ending: Ending,
 }
 
@@ -39,6 +46,7 @@ impl Default for ItemOptions {
             takeoff: true,
             acceptance_radius_m: 2.0,
             cruise_speed_m_s: None,
+            vehicle_speed_m_s: None,
             ending: Ending::ReturnAndLand,
         }
     }
@@ -107,17 +115,139 @@ pub fn item_from_numbers(
     })
 }
 
-/// The items that fly `mission` in `order` (indices into `mission.waypoints`), numbered from 0.
-/// Returns None when `order` names a waypoint the mission does not have.
-pub fn mission_items(
+/// Why a mission's items could not be made.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ItemsError {
+    #[error("the order names waypoint {0}, which the mission does not have")]
+    UnknownWaypoint(usize),
+    #[error(
+        "{place}: command {command} ({what}) is not taken by {autopilot} (it answers \
+         MAV_MISSION_UNSUPPORTED): remove it from the mission or fly it with another autopilot"
+    )]
+    Unsupported {
+        place: String,
+        command: u16,
+        what: String,
+        autopilot: &'static str,
+    },
+    #[error("{place}: command {command} is not a MAVLink command this build knows")]
+    UnknownCommand { place: String, command: u16 },
+}
+
+/// What an autopilot of `flavour` flies for a waypoint of `kind` with these actions: the
+/// waypoint's MAV_CMD and yaw (param4, NaN: none), and the actions to send, with the notes of
+/// what was translated. PX4 does not take CONDITION_YAW (115), DO_SET_SERVO (183), DO_SET_RELAY
+/// (181) or NAV_SPLINE_WAYPOINT (82) (PX4 SITL answers MAV_MISSION_UNSUPPORTED:
+/// shared/research/mission-items.md): an absolute yaw becomes the waypoint's own yaw, a spline
+/// a straight waypoint; a servo, a relay or a relative yaw is refused.
+pub fn translate(
+    flavour: Flavour,
+    place: &str,
+    kind: WaypointKind,
+    actions: &[Command],
+) -> Result<(u16, f32, Vec<Command>, Vec<String>), ItemsError> {
+    let mut command = kind.command();
+    let mut yaw_deg = f32::NAN;
+    let mut notes = Vec::new();
+    let mut out = Vec::with_capacity(actions.len());
+    if flavour != Flavour::Px4 {
+        return Ok((command, yaw_deg, actions.to_vec(), notes));
+    }
+    let unsupported = |c: &Command| ItemsError::Unsupported {
+        place: place.to_string(),
+        command: c.command,
+        what: c.describe(),
+        autopilot: "PX4",
+    };
+    if kind == WaypointKind::Spline {
+        command = id::NAV_WAYPOINT;
+        notes.push(format!(
+            "{place}: spline waypoint sent to PX4 as a straight waypoint (PX4 has no splines)"
+        ));
+    }
+    for c in actions {
+        match (c.command, c.action()) {
+            (
+                id::CONDITION_YAW,
+                Action::Yaw {
+                    angle_deg,
+                    relative: false,
+                    ..
+                },
+            ) => {
+                yaw_deg = angle_deg.rem_euclid(360.0) as f32;
+                notes.push(format!(
+                    "{place}: yaw to {angle_deg} deg sent to PX4 as the waypoint's own yaw \
+                     (PX4 does not take CONDITION_YAW in a mission)"
+                ));
+            }
+            (id::CONDITION_YAW | id::DO_SET_SERVO | id::DO_SET_RELAY, _) => {
+                return Err(unsupported(c))
+            }
+            _ => out.push(c.clone()),
+        }
+    }
+    Ok((command, yaw_deg, out, notes))
+}
+
+/// A command as a mission item for `flavour`: a position in degE7 where it has one (frame as
+/// the file gave it), else parameters 5 and 6 as integers in the mission frame.
+fn command_item(c: &Command, place: &str) -> Result<MISSION_ITEM_INT_DATA, ItemsError> {
+    use num_traits::FromPrimitive;
+    let command = MavCmd::from_u16(c.command).ok_or_else(|| ItemsError::UnknownCommand {
+        place: place.to_string(),
+        command: c.command,
+    })?;
+    let p = c.params.map(|v| v as f32);
+    let (frame, x, y) = if c.has_position() {
+        let frame = MavFrame::from_u8(c.frame).unwrap_or(MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT);
+        (frame, deg_e7(c.params[4]), deg_e7(c.params[5]))
+    } else {
+        // MAV_FRAME_MISSION: x and y are parameters 5 and 6 as integers (MISSION_ITEM_INT).
+        let int = |v: f64| {
+            if v.is_finite() {
+                v.round().clamp(f64::from(i32::MIN), f64::from(i32::MAX)) as i32
+            } else {
+                0
+            }
+        };
+        (
+            MavFrame::MAV_FRAME_MISSION,
+            int(c.params[4]),
+            int(c.params[5]),
+        )
+    };
+    let z = if p[6].is_nan() { 0.0 } else { p[6] };
+    Ok(item(command, frame, [p[0], p[1], p[2], p[3]], x, y, z))
+}
+
+/// Where the navigation items of [`mission_items_noted`] are: what a flight is measured
+/// against numbers its points by.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Layout {
+    pub takeoff_seq: Option<u16>,
+    /// Each waypoint's item in the order flown, then the return to the origin (with the
+    /// default ending).
+    pub point_seqs: Vec<u16>,
+    pub land_seq: u16,
+}
+
+/// The items that fly `mission` in `order` (indices into `mission.waypoints`), numbered from 0,
+/// the notes of what was inserted or translated for the autopilot, and where its navigation
+/// items are.
+pub fn mission_items_noted(
     mission: &Mission,
     order: &[usize],
     opts: &ItemOptions,
-) -> Option<Vec<MISSION_ITEM_INT_DATA>> {
+) -> Result<(Vec<MISSION_ITEM_INT_DATA>, Vec<String>, Layout), ItemsError> {
+    if let Some(&k) = order.iter().find(|&&k| k >= mission.waypoints.len()) {
+        return Err(ItemsError::UnknownWaypoint(k));
+    }
     let home = mission.origin.home;
     let (lat, lon) = (deg_e7(home.lat_deg), deg_e7(home.lon_deg));
     let relative = MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT;
     let mut items = Vec::new();
+    let mut notes = Vec::new();
     if opts.flavour == Flavour::ArduPilot {
         // ArduPilot's seq 0 is home (AMSL), overwritten by the vehicle's own home.
         items.push(item(
@@ -129,6 +259,8 @@ pub fn mission_items(
             home.alt_m as f32,
         ));
     }
+    let takeoff_seq = opts.takeoff.then_some(items.len() as u16);
+    let mut point_seqs = Vec::with_capacity(order.len() + 1);
     if opts.takeoff {
         items.push(item(
             MavCmd::MAV_CMD_NAV_TAKEOFF,
@@ -150,19 +282,82 @@ pub fn mission_items(
             0.0,
         ));
     }
-    for &k in order {
-        let (wlat, wlon, alt) = mission.waypoint_relative(k)?;
-        let hover = mission.waypoints[k].hover_s as f32;
+    let restoring = mission.restoring(order, opts.vehicle_speed_m_s);
+    let push_commands = |items: &mut Vec<MISSION_ITEM_INT_DATA>,
+                         commands: &[Command],
+                         place: &str|
+     -> Result<(), ItemsError> {
+        for c in commands {
+            items.push(command_item(c, place)?);
+        }
+        Ok(())
+    };
+    let (_, _, start, start_notes) = translate(
+        opts.flavour,
+        "the start",
+        WaypointKind::Waypoint,
+        &mission.start_actions,
+    )?;
+    notes.extend(start_notes);
+    push_commands(&mut items, &start, "the start")?;
+    let restore = |i: usize, before: &str, notes: &mut Vec<String>| -> Vec<Command> {
+        let inserted = restoring.get(i).cloned().unwrap_or_default();
+        for (setting, c) in &inserted {
+            notes.push(format!(
+                "{before}: inserted {} to restore the file's {} ({})",
+                c.command,
+                setting.name(),
+                c.describe()
+            ));
+        }
+        inserted.into_iter().map(|(_, c)| c).collect()
+    };
+    let first = order.first().map_or("the way home".to_string(), |&k| {
+        format!("before {}", mission.waypoints[k].name)
+    });
+    let inserted = restore(0, &first, &mut notes);
+    let (_, _, inserted, _) = translate(opts.flavour, &first, WaypointKind::Waypoint, &inserted)?;
+    push_commands(&mut items, &inserted, &first)?;
+    for (i, &k) in order.iter().enumerate() {
+        let w = &mission.waypoints[k];
+        let place = format!("waypoint {}", w.name);
+        let (command, yaw_deg, actions, translated) =
+            translate(opts.flavour, &place, w.kind, &w.actions)?;
+        notes.extend(translated);
+        let (wlat, wlon, alt) = mission
+            .waypoint_relative(k)
+            .ok_or(ItemsError::UnknownWaypoint(k))?;
+        let hover = w.hover_s as f32;
+        let params = match w.kind {
+            WaypointKind::LoiterTime { params } if command == id::NAV_LOITER_TIME => {
+                [hover, params[0] as f32, params[1] as f32, params[2] as f32]
+            }
+            _ => [hover, opts.acceptance_radius_m, 0.0, yaw_deg],
+        };
+        let nav = {
+            use num_traits::FromPrimitive;
+            MavCmd::from_u16(command).unwrap_or(MavCmd::MAV_CMD_NAV_WAYPOINT)
+        };
+        point_seqs.push(items.len() as u16);
         items.push(item(
-            MavCmd::MAV_CMD_NAV_WAYPOINT,
+            nav,
             relative,
-            [hover, opts.acceptance_radius_m, 0.0, f32::NAN],
+            params,
             deg_e7(wlat),
             deg_e7(wlon),
             alt as f32,
         ));
+        push_commands(&mut items, &actions, &place)?;
+        let next = order.get(i + 1).map_or("the way home".to_string(), |&n| {
+            format!("after {}, before {}", w.name, mission.waypoints[n].name)
+        });
+        let inserted = restore(i + 1, &next, &mut notes);
+        let (_, _, inserted, _) =
+            translate(opts.flavour, &next, WaypointKind::Waypoint, &inserted)?;
+        push_commands(&mut items, &inserted, &next)?;
     }
     if opts.ending == Ending::ReturnAndLand {
+        point_seqs.push(items.len() as u16);
         items.push(item(
             MavCmd::MAV_CMD_NAV_WAYPOINT,
             relative,
@@ -172,6 +367,7 @@ pub fn mission_items(
             mission.origin.height_above_home_m as f32,
         ));
     }
+    let land_seq = items.len() as u16;
     items.push(match opts.ending {
         Ending::ReturnToLaunch => item(
             MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH,
@@ -193,7 +389,21 @@ pub fn mission_items(
     for (seq, it) in items.iter_mut().enumerate() {
         it.seq = seq as u16;
     }
-    Some(items)
+    let layout = Layout {
+        takeoff_seq,
+        point_seqs,
+        land_seq,
+    };
+    Ok((items, notes, layout))
+}
+
+/// The items that fly `mission` in `order` ([`mission_items_noted`] without its notes).
+pub fn mission_items(
+    mission: &Mission,
+    order: &[usize],
+    opts: &ItemOptions,
+) -> Result<Vec<MISSION_ITEM_INT_DATA>, ItemsError> {
+    mission_items_noted(mission, order, opts).map(|(items, _, _)| items)
 }
 
 /// An item as JSON: MISSION_ITEM_INT fields, frame and command as MAVLink numbers, x/y in
@@ -292,11 +502,25 @@ pub fn read_flight(
         home,
         height_above_home_m: f64::from(takeoff.z),
     };
-    let mut points = Vec::new();
+    let mut points: Vec<(u16, Enu, f64)> = Vec::new();
     let mut land_seq = None;
     for item in items.iter().filter(|i| i.seq > takeoff.seq) {
+        let here = |i: &MISSION_ITEM_INT_DATA| i.x == 0 && i.y == 0;
         match item.command {
-            MavCmd::MAV_CMD_NAV_WAYPOINT => {
+            // A hold where the vehicle is: the waypoint before holds longer.
+            MavCmd::MAV_CMD_NAV_DELAY => {
+                if let Some(last) = points.last_mut() {
+                    last.2 += f64::from(item.param1.max(0.0));
+                }
+            }
+            MavCmd::MAV_CMD_NAV_LOITER_TIME if here(item) && !points.is_empty() => {
+                if let Some(last) = points.last_mut() {
+                    last.2 += f64::from(item.param1.max(0.0));
+                }
+            }
+            MavCmd::MAV_CMD_NAV_WAYPOINT
+            | MavCmd::MAV_CMD_NAV_SPLINE_WAYPOINT
+            | MavCmd::MAV_CMD_NAV_LOITER_TIME => {
                 if !relative(item) {
                     return Err(ReadItemsError::Item {
                         seq: item.seq,
@@ -311,7 +535,18 @@ pub fn read_flight(
                     lon_deg: degrees(item.y),
                     alt_m: home.alt_m + f64::from(item.z),
                 });
-                points.push((item.seq, enu, f64::from(item.param1.max(0.0))));
+                let hold_s = f64::from(item.param1.max(0.0));
+                // A loiter within a metre of the waypoint before is a hold there.
+                let same = points.last().filter(|(_, last, _)| {
+                    item.command == MavCmd::MAV_CMD_NAV_LOITER_TIME
+                        && (last.x_east_m - enu.x_east_m).hypot(last.y_north_m - enu.y_north_m)
+                            <= 1.0
+                        && (last.z_up_m - enu.z_up_m).abs() <= 1.0
+                });
+                match (same.is_some(), points.last_mut()) {
+                    (true, Some(last)) => last.2 += hold_s,
+                    _ => points.push((item.seq, enu, hold_s)),
+                }
             }
             MavCmd::MAV_CMD_NAV_LAND | MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH => {
                 land_seq = Some(item.seq);
@@ -404,6 +639,9 @@ mod tests {
     fn degrees_become_rounded_e7_integers_and_a_bad_order_is_refused() {
         assert_eq!(deg_e7(38.536_200_04), 385_362_000);
         assert_eq!(deg_e7(-121.787_500_06), -1_217_875_001);
-        assert!(mission_items(&sample(), &[0, 7], &ItemOptions::default()).is_none());
+        assert_eq!(
+            mission_items(&sample(), &[0, 7], &ItemOptions::default()),
+            Err(ItemsError::UnknownWaypoint(7))
+        );
     }
 }

@@ -1,14 +1,17 @@
 //! Waypoint missions: the in-memory model, file formats (emplan TOML, QGroundControl `.plan`,
-//! `QGC WPL 110` `.waypoints`), validation with located errors, WGS84 <-> local ENU geodesy, and
+//! `QGC WPL 110` `.waypoints`), validation with located errors, WGS84 <-> local ENU geodesy, the
+//! actions a mission carries at its waypoints and the state they leave in force (`actions`), and
 //! the steady wind a mission may be flown in (`wind`).
 //!
 //! Invariant: pure apart from reading and writing the one file it is asked to; never panics on
 //! input; every error names the file and the line or field at fault.
 
+pub mod actions;
 pub mod convert;
 pub mod geodesy;
 mod qgc_plan;
 pub mod rehome;
+mod sequence;
 mod toml_format;
 pub mod wind;
 mod wpl;
@@ -43,13 +46,74 @@ pub struct Origin {
     pub height_above_home_m: f64,
 }
 
-/// One named waypoint, positioned relative to the origin.
-#[derive(Debug, Clone, PartialEq)]
+/// How the autopilot flies to a waypoint.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum WaypointKind {
+    /// NAV_WAYPOINT: a straight line to it.
+    #[default]
+    Waypoint,
+    /// NAV_SPLINE_WAYPOINT: ArduCopter flies a curve through it (priced as the straight leg).
+    Spline,
+    /// NAV_LOITER_TIME at its own place: flown to, then held for the hover time; the loiter's
+    /// parameters 2-4 (heading required, radius, exit) as the file gave them.
+    LoiterTime { params: [f64; 3] },
+}
+
+impl WaypointKind {
+    /// The MAV_CMD that flies it.
+    pub fn command(self) -> u16 {
+        match self {
+            WaypointKind::Waypoint => actions::id::NAV_WAYPOINT,
+            WaypointKind::Spline => actions::id::NAV_SPLINE_WAYPOINT,
+            WaypointKind::LoiterTime { .. } => actions::id::NAV_LOITER_TIME,
+        }
+    }
+}
+
+/// One named waypoint, positioned relative to the origin, with the actions that follow it.
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct Waypoint {
     pub name: String,
     pub position: Enu,
-    /// Time to hover at the waypoint before leaving it.
+    /// Time to hover at the waypoint before leaving it (its own hold: MISSION_ITEM param1).
     pub hover_s: f64,
+    pub kind: WaypointKind,
+    /// The commands that follow it in the file, in order, until the next navigation item: the
+    /// autopilot runs them once the waypoint is reached and its hover done ([`actions`]).
+    pub actions: Vec<actions::Command>,
+}
+
+impl Waypoint {
+    /// The time the vehicle holds at the waypoint: its hover and the holds of its actions
+    /// (NAV_DELAY, NAV_LOITER_TIME where it is).
+    pub fn hold_s(&self) -> f64 {
+        self.hover_s
+            + self
+                .actions
+                .iter()
+                .map(|c| match c.action() {
+                    actions::Action::Hold { duration_s } => duration_s,
+                    _ => 0.0,
+                })
+                .sum::<f64>()
+    }
+
+    /// How many photos its actions take.
+    pub fn photos(&self) -> u32 {
+        self.actions
+            .iter()
+            .filter(|c| c.action() == actions::Action::Photo)
+            .count() as u32
+    }
+}
+
+/// A named point of interest a region-of-interest action looks at (TOML `roi = "NAME"`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Poi {
+    pub name: String,
+    pub lat_deg: f64,
+    pub lon_deg: f64,
+    pub alt_above_home_m: f64,
 }
 
 /// A validated mission: at least one waypoint, unique names, finite coordinates, every waypoint
@@ -63,6 +127,11 @@ pub struct Mission {
     pub default_hover_s: f64,
     /// Lowest height above home a waypoint may have.
     pub min_height_above_home_m: f64,
+    /// The commands between the take-off and the first waypoint: run once the take-off
+    /// completes, first in every order.
+    pub start_actions: Vec<actions::Command>,
+    /// Named points of interest (the names of the regions of interest the actions look at).
+    pub pois: Vec<Poi>,
     /// The file this mission was read from, if any (for error messages and reports).
     pub source: Option<PathBuf>,
 }
@@ -239,6 +308,9 @@ struct RawWaypoint {
     name: String,
     position: RawPosition,
     hover_s: Option<f64>,
+    kind: WaypointKind,
+    /// With the place each came from.
+    actions: Vec<(actions::Command, Place)>,
     place: Place,
 }
 
@@ -251,6 +323,8 @@ struct RawMission {
     default_hover_s: f64,
     min_height_above_home_m: f64,
     waypoints: Vec<RawWaypoint>,
+    start_actions: Vec<(actions::Command, Place)>,
+    pois: Vec<Poi>,
     /// Where the origin and the mission-level fields are defined.
     place: Place,
 }
@@ -421,11 +495,41 @@ impl RawMission {
                     format!("{what}: hover_s {hover_s} is negative (allowed: 0 or more)"),
                 ));
             }
+            if let WaypointKind::LoiterTime { params } = w.kind {
+                for (k, v) in params.iter().enumerate() {
+                    if v.is_infinite() {
+                        return Err(MissionError::invalid(
+                            file,
+                            w.place,
+                            format!("{what}: loiter param{} is {v} (a finite number or empty is required)", k + 2),
+                        ));
+                    }
+                }
+            }
+            let actions = check_actions(file, &what, w.actions)?;
             waypoints.push(Waypoint {
                 name: w.name,
                 position,
                 hover_s,
+                kind: w.kind,
+                actions,
             });
+        }
+        let start_actions = check_actions(file, "the start", self.start_actions)?;
+        for poi in &self.pois {
+            check_lat_lon(
+                file,
+                place,
+                &format!("point of interest {:?}", poi.name),
+                poi.lat_deg,
+                poi.lon_deg,
+            )?;
+            finite(
+                file,
+                place,
+                &format!("point of interest {:?} alt_above_home_m", poi.name),
+                poi.alt_above_home_m,
+            )?;
         }
         Ok(Mission {
             name: self.name,
@@ -433,12 +537,124 @@ impl RawMission {
             waypoints,
             default_hover_s: self.default_hover_s,
             min_height_above_home_m: self.min_height_above_home_m,
+            start_actions,
+            pois: self.pois,
             source: None,
         })
     }
 }
 
+/// Checks each action (a take-able command, finite or empty parameters, a valid position where
+/// it has one, a hold that can be priced) and returns them without their places.
+fn check_actions(
+    file: &str,
+    what: &str,
+    commands: Vec<(actions::Command, Place)>,
+) -> Result<Vec<actions::Command>, MissionError> {
+    commands
+        .into_iter()
+        .map(|(c, place)| {
+            let name = format!("{what}: command {} ({})", c.command, c.describe());
+            if let actions::Taken::Refused(why) = actions::take(c.command) {
+                return Err(MissionError::invalid(
+                    file,
+                    place,
+                    format!("command {} is refused: {why}", c.command),
+                ));
+            }
+            for (k, v) in c.params.iter().enumerate() {
+                if v.is_infinite() {
+                    return Err(MissionError::invalid(
+                        file,
+                        place,
+                        format!(
+                            "{name}: param{} is {v} (a finite number or empty is required)",
+                            k + 1
+                        ),
+                    ));
+                }
+            }
+            if c.has_position() {
+                check_lat_lon(file, &place, &name, c.params[4], c.params[5])?;
+            }
+            if c.command == actions::id::NAV_DELAY && !(c.params[0] >= 0.0) {
+                return Err(MissionError::invalid(
+                    file,
+                    place,
+                    format!(
+                        "{name}: a delay of {} s (until a time of day) cannot be priced or \
+                         reordered (allowed: a delay of 0 s or more in param1)",
+                        c.params[0]
+                    ),
+                ));
+            }
+            Ok(c)
+        })
+        .collect()
+}
+
 impl Mission {
+    /// Every command kept verbatim that emplan does not understand, with the waypoint it
+    /// follows (None: the start), for the one warning that lists them.
+    pub fn unknown_commands(&self) -> Vec<(Option<&str>, &actions::Command)> {
+        let unknown = |c: &&actions::Command| actions::take(c.command) == actions::Taken::Unknown;
+        self.start_actions
+            .iter()
+            .filter(unknown)
+            .map(|c| (None, c))
+            .chain(self.waypoints.iter().flat_map(|w| {
+                w.actions
+                    .iter()
+                    .filter(unknown)
+                    .map(move |c| (Some(w.name.as_str()), c))
+            }))
+            .collect()
+    }
+
+    /// Whether any waypoint or the start carries actions.
+    pub fn has_actions(&self) -> bool {
+        !self.start_actions.is_empty() || self.waypoints.iter().any(|w| !w.actions.is_empty())
+    }
+
+    /// The states the file's order leaves in force ([`actions::file_states`]).
+    pub fn file_states(&self) -> actions::FileStates {
+        actions::file_states(
+            &self.start_actions,
+            self.waypoints.iter().map(|w| w.actions.as_slice()),
+        )
+    }
+
+    /// The horizontal speed in force on the way to each waypoint in the file's order (None: the
+    /// vehicle's own), and on the way home: what every order flies, since emplan restores it.
+    pub fn speeds_m_s(&self) -> (Vec<Option<f64>>, Option<f64>) {
+        let states = self.file_states();
+        (
+            states
+                .before
+                .iter()
+                .map(actions::State::speed_m_s)
+                .collect(),
+            states.end.speed_m_s(),
+        )
+    }
+
+    /// The commands to insert so that `order` flies each waypoint in the file's state
+    /// ([`actions::restore`]).
+    pub fn restoring(
+        &self,
+        order: &[usize],
+        default_speed_m_s: Option<f64>,
+    ) -> Vec<Vec<(actions::Setting, actions::Command)>> {
+        let states = self.file_states();
+        let start = actions::State::default().after(&self.start_actions);
+        let refs: Vec<&[actions::Command]> = self
+            .waypoints
+            .iter()
+            .map(|w| w.actions.as_slice())
+            .collect();
+        actions::restore(&states, &start, &refs, order, default_speed_m_s)
+    }
+
     /// Geodetic position of waypoint `k`, with altitude above home (MAVLink's relative frame).
     pub fn waypoint_relative(&self, k: usize) -> Option<(f64, f64, f64)> {
         let w = self.waypoints.get(k)?;

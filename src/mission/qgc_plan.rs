@@ -1,71 +1,24 @@
 //! QGroundControl `.plan` (JSON) import and export (the QGC dev guide's plan file
-//! format; docs/mission-files.md). `plannedHomePosition` is home; NAV_TAKEOFF sets the
-//! origin's height above home; NAV_WAYPOINT items are the waypoints (param1 = hover time);
-//! RTL / LAND end the mission and DO_CHANGE_SPEED is ignored (emplan's flight profile sets speed).
-//! Complex items (surveys, scans) and any other command are rejected, naming the item.
-//! Waypoint names, which QGC has no field for, travel in a top-level `emplan` object QGC ignores.
+//! format; docs/mission-files.md). `plannedHomePosition` is home; the items are read as
+//! [`super::sequence`] reads them: NAV_TAKEOFF sets the origin's height above home, the
+//! waypoints (param1 = hover time) carry the commands that follow them, RTL / LAND end the
+//! mission. Complex items (surveys, scans) are rejected, naming the item.
+//! Waypoint and point-of-interest names, which QGC has no field for, travel in a top-level
+//! `emplan` object QGC ignores.
 
 use serde_json::{json, Value};
 
+use super::actions::{Command, FRAME_GLOBAL_RELATIVE_ALT, FRAME_MISSION};
+use super::sequence::{self, Item};
 use super::{
-    Geodetic, Mission, MissionError, Place, RawMission, RawPosition, RawWaypoint,
-    DEFAULT_MIN_HEIGHT_ABOVE_HOME_M, DEFAULT_TAKEOFF_HEIGHT_M,
+    Geodetic, Mission, MissionError, Place, Poi, RawMission, DEFAULT_MIN_HEIGHT_ABOVE_HOME_M,
+    DEFAULT_TAKEOFF_HEIGHT_M,
 };
 
-/// MAV_CMD ids (common.xml).
+/// MAV_CMD ids (common.xml) of the items emplan writes itself.
 pub(super) const NAV_WAYPOINT: u64 = 16;
 pub(super) const NAV_RETURN_TO_LAUNCH: u64 = 20;
-pub(super) const NAV_LAND: u64 = 21;
 pub(super) const NAV_TAKEOFF: u64 = 22;
-pub(super) const DO_CHANGE_SPEED: u64 = 178;
-
-/// What a mission item means to emplan.
-pub(super) enum ItemMeaning {
-    /// A waypoint: latitude, longitude, altitude above home, hover time.
-    Waypoint(f64, f64, f64, f64),
-    /// A take-off to this height above home.
-    Takeoff(f64),
-    /// An item emplan does not need (end of mission, speed change).
-    Ignored,
-}
-
-/// Interprets one mission item (shared by `.plan` and `.waypoints`): `params` are the seven
-/// MISSION_ITEM params with latitude and longitude in degrees.
-pub(super) fn interpret_item(
-    command: u64,
-    frame: u64,
-    params: [f64; 7],
-    home_amsl_m: f64,
-) -> Result<ItemMeaning, String> {
-    let altitude = |alt: f64| -> Result<f64, String> {
-        match frame {
-            // MAV_FRAME_GLOBAL_RELATIVE_ALT (3) and its _INT twin (6).
-            3 | 6 => Ok(alt),
-            // MAV_FRAME_GLOBAL (0) and GLOBAL_INT (5): altitude above mean sea level.
-            0 | 5 => Ok(alt - home_amsl_m),
-            10 | 11 => Err(format!(
-                "frame {frame} (terrain-relative altitude) is not supported (allowed: 0, 3, 5, 6)"
-            )),
-            _ => Err(format!(
-                "frame {frame} is not supported for command {command} (allowed: 0, 3, 5, 6)"
-            )),
-        }
-    };
-    match command {
-        NAV_WAYPOINT => Ok(ItemMeaning::Waypoint(
-            params[4],
-            params[5],
-            altitude(params[6])?,
-            params[0],
-        )),
-        NAV_TAKEOFF => Ok(ItemMeaning::Takeoff(altitude(params[6])?)),
-        NAV_RETURN_TO_LAUNCH | NAV_LAND | DO_CHANGE_SPEED => Ok(ItemMeaning::Ignored),
-        _ => Err(format!(
-            "command {command} is not supported (allowed: 16 NAV_WAYPOINT, 22 NAV_TAKEOFF, \
-             20 NAV_RETURN_TO_LAUNCH, 21 NAV_LAND, 178 DO_CHANGE_SPEED)"
-        )),
-    }
-}
 
 fn number(v: &Value) -> Option<f64> {
     match v {
@@ -126,8 +79,7 @@ pub(super) fn parse(text: &str, file: &str, stem: &str) -> Result<RawMission, Mi
         })
         .unwrap_or_default();
 
-    let mut height_above_home_m = None;
-    let mut found = Vec::new();
+    let mut read = Vec::with_capacity(items.len());
     for (k, item) in items.iter().enumerate() {
         let place = Place::Item(k);
         let kind = item.get("type").and_then(Value::as_str).unwrap_or("");
@@ -172,34 +124,40 @@ pub(super) fn parse(text: &str, file: &str, stem: &str) -> Result<RawMission, Mi
                     "field \"params\": must be an array of 7 numbers or nulls".into(),
                 )
             })?;
-        let params: [f64; 7] = [
-            params[0], params[1], params[2], params[3], params[4], params[5], params[6],
-        ];
-        match interpret_item(command, frame, params, home[2]).map_err(|p| bad(place.clone(), p))? {
-            ItemMeaning::Waypoint(lat, lon, alt, hover) => found.push((k, lat, lon, alt, hover)),
-            ItemMeaning::Takeoff(h) => height_above_home_m = Some(h),
-            ItemMeaning::Ignored => {}
-        }
+        read.push(Item {
+            command,
+            frame,
+            params: [
+                params[0], params[1], params[2], params[3], params[4], params[5], params[6],
+            ],
+            place,
+        });
     }
-    let use_names = names.len() == found.len();
-    let waypoints = found
-        .into_iter()
-        .enumerate()
-        .map(|(i, (k, lat, lon, alt, hover))| RawWaypoint {
-            name: if use_names {
-                names[i].clone()
-            } else {
-                format!("WP{}", i + 1)
-            },
-            position: RawPosition::Geodetic {
-                lat_deg: lat,
-                lon_deg: lon,
-                alt_above_home_m: alt,
-            },
-            hover_s: Some(if hover.is_nan() { 0.0 } else { hover }),
-            place: Place::Item(k),
+    let mut seq = sequence::read(file, read, home[2])?;
+    let use_names = names.len() == seq.waypoints.len();
+    for (i, w) in seq.waypoints.iter_mut().enumerate() {
+        w.name = if use_names {
+            names[i].clone()
+        } else {
+            format!("WP{}", i + 1)
+        };
+    }
+    let pois = extra
+        .and_then(|e| e.get("pois"))
+        .and_then(Value::as_array)
+        .map(|a| {
+            a.iter()
+                .filter_map(|p| {
+                    Some(Poi {
+                        name: p.get("name")?.as_str()?.to_string(),
+                        lat_deg: p.get("lat_deg")?.as_f64()?,
+                        lon_deg: p.get("lon_deg")?.as_f64()?,
+                        alt_above_home_m: p.get("alt_above_home_m")?.as_f64()?,
+                    })
+                })
+                .collect()
         })
-        .collect();
+        .unwrap_or_default();
     let extra_f64 = |key: &str| extra.and_then(|e| e.get(key)).and_then(Value::as_f64);
     Ok(RawMission {
         name: extra
@@ -212,11 +170,13 @@ pub(super) fn parse(text: &str, file: &str, stem: &str) -> Result<RawMission, Mi
             lon_deg: home[1],
             alt_m: home[2],
         },
-        height_above_home_m: height_above_home_m.unwrap_or(DEFAULT_TAKEOFF_HEIGHT_M),
+        height_above_home_m: seq.height_above_home_m.unwrap_or(DEFAULT_TAKEOFF_HEIGHT_M),
         default_hover_s: extra_f64("default_hover_s").unwrap_or(0.0),
         min_height_above_home_m: extra_f64("min_height_above_home_m")
             .unwrap_or(DEFAULT_MIN_HEIGHT_ABOVE_HOME_M),
-        waypoints,
+        waypoints: seq.waypoints,
+        start_actions: seq.start_actions,
+        pois,
         place: Place::File,
     })
 }
@@ -238,6 +198,25 @@ fn simple_item(id: usize, command: u64, frame: u64, params: [Value; 7]) -> Value
     item
 }
 
+/// A parameter as QGroundControl writes it: NaN as null.
+fn param(v: f64) -> Value {
+    if v.is_nan() {
+        Value::Null
+    } else {
+        json!(v)
+    }
+}
+
+/// A command as a simple item, its parameters as they are.
+fn command_item(id: usize, c: &Command) -> Value {
+    simple_item(
+        id,
+        u64::from(c.command),
+        u64::from(c.frame),
+        c.params.map(param),
+    )
+}
+
 /// The mission as a QGroundControl plan: take-off to the origin, the waypoints in file order,
 /// return to launch. Altitudes relative to home (frame 3).
 pub(super) fn write(mission: &Mission) -> String {
@@ -256,27 +235,37 @@ pub(super) fn write(mission: &Mission) -> String {
             json!(mission.origin.height_above_home_m),
         ],
     )];
-    for (k, w) in mission.waypoints.iter().enumerate() {
+    for c in &mission.start_actions {
+        items.push(command_item(items.len() + 1, c));
+    }
+    for w in &mission.waypoints {
         let g = mission.origin.to_geodetic(w.position);
+        let [p2, p3, p4] = match w.kind {
+            super::WaypointKind::LoiterTime { params } => params.map(param),
+            _ => [json!(0), json!(0), Value::Null],
+        };
         items.push(simple_item(
-            k + 2,
-            NAV_WAYPOINT,
-            3,
+            items.len() + 1,
+            u64::from(w.kind.command()),
+            u64::from(FRAME_GLOBAL_RELATIVE_ALT),
             [
                 json!(w.hover_s),
-                json!(0),
-                json!(0),
-                Value::Null,
+                p2,
+                p3,
+                p4,
                 json!(g.lat_deg),
                 json!(g.lon_deg),
                 json!(g.alt_m - home.alt_m),
             ],
         ));
+        for c in &w.actions {
+            items.push(command_item(items.len() + 1, c));
+        }
     }
     items.push(simple_item(
-        mission.waypoints.len() + 2,
+        items.len() + 1,
         NAV_RETURN_TO_LAUNCH,
-        2,
+        u64::from(FRAME_MISSION),
         [
             json!(0),
             json!(0),
@@ -308,6 +297,12 @@ pub(super) fn write(mission: &Mission) -> String {
             "default_hover_s": mission.default_hover_s,
             "min_height_above_home_m": mission.min_height_above_home_m,
             "waypoint_names": mission.waypoints.iter().map(|w| w.name.clone()).collect::<Vec<_>>(),
+            "pois": mission.pois.iter().map(|p| json!({
+                "name": p.name,
+                "lat_deg": p.lat_deg,
+                "lon_deg": p.lon_deg,
+                "alt_above_home_m": p.alt_above_home_m,
+            })).collect::<Vec<_>>(),
         },
     });
     let mut text = serde_json::to_string_pretty(&doc).unwrap_or_default();

@@ -1,12 +1,20 @@
 //! emplan's own mission format (TOML), documented in docs/mission-files.md. Unknown keys are errors;
 //! every error names its line.
+//!
+//! A waypoint's actions are written readably: keys on the waypoint (`photo = true`,
+//! `gimbal_pitch_deg = -90`, `yaw_deg = 90`, `speed_m_s = 8`, `roi = "mast"`, ...) run in a fixed
+//! order ([`SHORTHAND_ORDER`]), then its `[[waypoints.actions]]` in the order written, each one
+//! readable key or a raw command (`command`, `frame`, `params`). `roi` names a `[[pois]]` point of
+//! interest (`roi = "none"` clears it). The writer uses the shorthand keys when they say exactly
+//! what the waypoint carries, else the ordered list: nothing is lost.
 
 use serde::{Deserialize, Serialize};
 use toml::Spanned;
 
+use super::actions::{id, Command, FRAME_GLOBAL_RELATIVE_ALT, FRAME_MISSION};
 use super::{
-    line_of, Enu, Geodetic, Mission, MissionError, Place, RawMission, RawPosition, RawWaypoint,
-    DEFAULT_MIN_HEIGHT_ABOVE_HOME_M,
+    line_of, Enu, Geodetic, Mission, MissionError, Origin, Place, Poi, RawMission, RawPosition,
+    RawWaypoint, WaypointKind, DEFAULT_MIN_HEIGHT_ABOVE_HOME_M,
 };
 
 #[derive(Deserialize)]
@@ -17,7 +25,71 @@ struct FileMission {
     min_height_above_home_m: Option<f64>,
     origin: Spanned<FileOrigin>,
     #[serde(default)]
+    start_actions: Vec<Spanned<FileAction>>,
+    #[serde(default)]
+    pois: Vec<Spanned<FilePoi>>,
+    #[serde(default)]
     waypoints: Vec<Spanned<FileWaypoint>>,
+}
+
+/// A point of interest: a name and a position (ENU metres or latitude, longitude, altitude
+/// above home).
+#[derive(Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+struct FilePoi {
+    name: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    x_m: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    y_m: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    z_m: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    lat_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    lon_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    alt_above_home_m: Option<f64>,
+}
+
+/// The readable action keys, in the order a waypoint's shorthand keys run (the gimbal and the
+/// region of interest before the photo they aim).
+pub(super) const SHORTHAND_ORDER: [&str; 7] = [
+    "speed_m_s",
+    "roi",
+    "trigger_distance_m",
+    "gimbal_pitch_deg",
+    "yaw_deg",
+    "photo",
+    "delay_s",
+];
+
+/// One action: one readable key (a gimbal may give its yaw with its pitch), or a raw command.
+#[derive(Deserialize, Serialize, Default, Clone, PartialEq)]
+#[serde(deny_unknown_fields)]
+struct FileAction {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    speed_m_s: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    roi: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    trigger_distance_m: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    gimbal_pitch_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    gimbal_yaw_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    yaw_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    photo: Option<bool>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    delay_s: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    command: Option<u16>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    frame: Option<u8>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    params: Option<Vec<f64>>,
 }
 
 #[derive(Deserialize, Serialize)]
@@ -47,6 +119,30 @@ struct FileWaypoint {
     alt_above_home_m: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     hover_s: Option<f64>,
+    /// `spline` (NAV_SPLINE_WAYPOINT) or `loiter` (NAV_LOITER_TIME); a plain waypoint by default.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    kind: Option<String>,
+    /// NAV_LOITER_TIME's parameters 2-4 (`kind = "loiter"`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    loiter_params: Option<Vec<f64>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    speed_m_s: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    roi: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    trigger_distance_m: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    gimbal_pitch_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    gimbal_yaw_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    yaw_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    photo: Option<bool>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    delay_s: Option<f64>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    actions: Vec<FileAction>,
 }
 
 pub(super) fn parse(text: &str, file: &str) -> Result<RawMission, MissionError> {
@@ -58,55 +154,125 @@ pub(super) fn parse(text: &str, file: &str) -> Result<RawMission, MissionError> 
     })?;
     let origin_place = Place::Line(line_of(text, parsed.origin.span().start));
     let origin = parsed.origin.into_inner();
+    let frame = Origin {
+        home: Geodetic {
+            lat_deg: origin.lat_deg,
+            lon_deg: origin.lon_deg,
+            alt_m: origin.home_alt_amsl_m,
+        },
+        height_above_home_m: origin.height_above_home_m,
+    };
+    let mut pois = Vec::with_capacity(parsed.pois.len());
+    for spanned in parsed.pois {
+        let place = Place::Line(line_of(text, spanned.span().start));
+        let p = spanned.into_inner();
+        let what = format!("point of interest {:?}", p.name);
+        let position = position(
+            file,
+            &place,
+            &what,
+            [p.x_m, p.y_m, p.z_m],
+            [p.lat_deg, p.lon_deg, p.alt_above_home_m],
+        )?;
+        let (lat_deg, lon_deg, alt_above_home_m) = match position {
+            RawPosition::Geodetic {
+                lat_deg,
+                lon_deg,
+                alt_above_home_m,
+            } => (lat_deg, lon_deg, alt_above_home_m),
+            RawPosition::Enu(e) => {
+                let g = frame.to_geodetic(e);
+                (g.lat_deg, g.lon_deg, g.alt_m - frame.home.alt_m)
+            }
+        };
+        if pois.iter().any(|q: &Poi| q.name == p.name) || p.name == "none" {
+            return Err(MissionError::invalid(
+                file,
+                place,
+                format!("{what}: the name is taken (names must be unique and not \"none\")"),
+            ));
+        }
+        pois.push(Poi {
+            name: p.name,
+            lat_deg,
+            lon_deg,
+            alt_above_home_m,
+        });
+    }
+    let mut start_actions = Vec::new();
+    for spanned in parsed.start_actions {
+        let place = Place::Line(line_of(text, spanned.span().start));
+        let a = spanned.into_inner();
+        start_actions.push((action(file, &place, "start_actions", &a, &pois)?, place));
+    }
     let mut waypoints = Vec::with_capacity(parsed.waypoints.len());
     for spanned in parsed.waypoints {
         let place = Place::Line(line_of(text, spanned.span().start));
         let w = spanned.into_inner();
         let what = format!("waypoint {:?}", w.name);
-        let enu = [w.x_m, w.y_m, w.z_m];
-        let geo = [w.lat_deg, w.lon_deg, w.alt_above_home_m];
-        let position = match (enu, geo) {
-            ([Some(x), Some(y), Some(z)], [None, None, None]) => RawPosition::Enu(Enu {
-                x_east_m: x,
-                y_north_m: y,
-                z_up_m: z,
-            }),
-            ([None, None, None], [Some(lat_deg), Some(lon_deg), Some(alt_above_home_m)]) => {
-                RawPosition::Geodetic {
-                    lat_deg,
-                    lon_deg,
-                    alt_above_home_m,
+        let mut actions = Vec::new();
+        let keys = FileAction {
+            speed_m_s: w.speed_m_s,
+            roi: w.roi.clone(),
+            trigger_distance_m: w.trigger_distance_m,
+            gimbal_pitch_deg: w.gimbal_pitch_deg,
+            gimbal_yaw_deg: w.gimbal_yaw_deg,
+            yaw_deg: w.yaw_deg,
+            photo: w.photo,
+            delay_s: w.delay_s,
+            ..FileAction::default()
+        };
+        for c in shorthand(file, &place, &what, &keys, &pois)? {
+            actions.push((c, place.clone()));
+        }
+        for a in &w.actions {
+            actions.push((action(file, &place, &what, a, &pois)?, place.clone()));
+        }
+        let kind = match (w.kind.as_deref(), &w.loiter_params) {
+            (None | Some("waypoint"), None) => WaypointKind::Waypoint,
+            (Some("spline"), None) => WaypointKind::Spline,
+            (Some("loiter"), params) => {
+                let p = params.clone().unwrap_or_default();
+                if p.len() > 3 {
+                    return Err(MissionError::invalid(
+                        file,
+                        place,
+                        format!("{what}: loiter_params holds NAV_LOITER_TIME's params 2-4 (at most 3 numbers)"),
+                    ));
+                }
+                let at = |k: usize| p.get(k).copied().unwrap_or(0.0);
+                WaypointKind::LoiterTime {
+                    params: [at(0), at(1), at(2)],
                 }
             }
-            _ => {
-                let given: Vec<&str> = [
-                    "x_m",
-                    "y_m",
-                    "z_m",
-                    "lat_deg",
-                    "lon_deg",
-                    "alt_above_home_m",
-                ]
-                .into_iter()
-                .zip(enu.iter().chain(geo.iter()))
-                .filter(|(_, v)| v.is_some())
-                .map(|(k, _)| k)
-                .collect();
+            (Some(other), None) if !matches!(other, "waypoint" | "spline" | "loiter") => {
                 return Err(MissionError::invalid(
                     file,
                     place,
-                    format!(
-                        "{what}: position needs exactly one of (x_m, y_m, z_m) or \
-                         (lat_deg, lon_deg, alt_above_home_m); given: [{}]",
-                        given.join(", ")
-                    ),
+                    format!("{what}: kind {other:?} is not supported (allowed: \"waypoint\", \"spline\", \"loiter\")"),
+                ));
+            }
+            _ => {
+                return Err(MissionError::invalid(
+                    file,
+                    place,
+                    format!("{what}: loiter_params needs kind = \"loiter\""),
                 ));
             }
         };
+        let position = position(
+            file,
+            &place,
+            &what,
+            [w.x_m, w.y_m, w.z_m],
+            [w.lat_deg, w.lon_deg, w.alt_above_home_m],
+        )?;
         waypoints.push(RawWaypoint {
             name: w.name,
             position,
             hover_s: w.hover_s,
+            kind,
+            actions,
             place,
         });
     }
@@ -123,8 +289,399 @@ pub(super) fn parse(text: &str, file: &str) -> Result<RawMission, MissionError> 
             .min_height_above_home_m
             .unwrap_or(DEFAULT_MIN_HEIGHT_ABOVE_HOME_M),
         waypoints,
+        start_actions,
+        pois,
         place: origin_place,
     })
+}
+
+/// A position given as exactly one of (x_m, y_m, z_m) or (lat_deg, lon_deg, alt_above_home_m).
+fn position(
+    file: &str,
+    place: &Place,
+    what: &str,
+    enu: [Option<f64>; 3],
+    geo: [Option<f64>; 3],
+) -> Result<RawPosition, MissionError> {
+    match (enu, geo) {
+        ([Some(x), Some(y), Some(z)], [None, None, None]) => Ok(RawPosition::Enu(Enu {
+            x_east_m: x,
+            y_north_m: y,
+            z_up_m: z,
+        })),
+        ([None, None, None], [Some(lat_deg), Some(lon_deg), Some(alt_above_home_m)]) => {
+            Ok(RawPosition::Geodetic {
+                lat_deg,
+                lon_deg,
+                alt_above_home_m,
+            })
+        }
+        _ => {
+            let given: Vec<&str> = [
+                "x_m",
+                "y_m",
+                "z_m",
+                "lat_deg",
+                "lon_deg",
+                "alt_above_home_m",
+            ]
+            .into_iter()
+            .zip(enu.iter().chain(geo.iter()))
+            .filter(|(_, v)| v.is_some())
+            .map(|(k, _)| k)
+            .collect();
+            Err(MissionError::invalid(
+                file,
+                place.clone(),
+                format!(
+                    "{what}: position needs exactly one of (x_m, y_m, z_m) or \
+                     (lat_deg, lon_deg, alt_above_home_m); given: [{}]",
+                    given.join(", ")
+                ),
+            ))
+        }
+    }
+}
+
+/// The command each readable key stands for (and back: [`readable`]).
+fn photo() -> Command {
+    // DO_DIGICAM_CONTROL, shoot (param5) 1: as QGroundControl writes "take photo" for ArduPilot.
+    Command::new(id::DO_DIGICAM_CONTROL, [0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0])
+}
+fn speed(v: f64) -> Command {
+    // Speed type 1 (ground speed), no throttle change (-1).
+    Command::new(id::DO_CHANGE_SPEED, [1.0, v, -1.0, 0.0, 0.0, 0.0, 0.0])
+}
+fn gimbal(pitch_deg: f64, yaw_deg: f64) -> Command {
+    // Pitch, roll 0, yaw, MAV_MOUNT_MODE_MAVLINK_TARGETING (2) in param7: QGroundControl's form.
+    Command::new(
+        id::DO_MOUNT_CONTROL,
+        [pitch_deg, 0.0, yaw_deg, 0.0, 0.0, 0.0, 2.0],
+    )
+}
+fn yaw(deg: f64) -> Command {
+    // Absolute heading, the autopilot's rate (0), the shortest way (0).
+    Command::new(id::CONDITION_YAW, [deg, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+}
+fn trigger(m: f64) -> Command {
+    Command::new(id::DO_SET_CAM_TRIGG_DIST, [m, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+}
+fn delay(s: f64) -> Command {
+    // Hour, minute and second of day unused (-1).
+    Command::new(id::NAV_DELAY, [s, -1.0, -1.0, -1.0, 0.0, 0.0, 0.0])
+}
+fn roi_none() -> Command {
+    Command::new(id::DO_SET_ROI_NONE, [0.0; 7])
+}
+fn roi_at(p: &Poi) -> Command {
+    Command {
+        command: id::DO_SET_ROI_LOCATION,
+        frame: FRAME_GLOBAL_RELATIVE_ALT,
+        params: [0.0, 0.0, 0.0, 0.0, p.lat_deg, p.lon_deg, p.alt_above_home_m],
+    }
+}
+
+/// The commands of a waypoint's shorthand keys, in [`SHORTHAND_ORDER`].
+fn shorthand(
+    file: &str,
+    place: &Place,
+    what: &str,
+    a: &FileAction,
+    pois: &[Poi],
+) -> Result<Vec<Command>, MissionError> {
+    if a.command.is_some() || a.frame.is_some() || a.params.is_some() {
+        return Err(MissionError::invalid(
+            file,
+            place.clone(),
+            format!("{what}: a raw command goes in [[waypoints.actions]] (command, frame, params)"),
+        ));
+    }
+    if a.gimbal_yaw_deg.is_some() && a.gimbal_pitch_deg.is_none() {
+        return Err(MissionError::invalid(
+            file,
+            place.clone(),
+            format!("{what}: gimbal_yaw_deg needs gimbal_pitch_deg"),
+        ));
+    }
+    let mut out = Vec::new();
+    if let Some(v) = a.speed_m_s {
+        out.push(speed(positive(file, place, what, "speed_m_s", v)?));
+    }
+    if let Some(name) = &a.roi {
+        out.push(roi(file, place, what, name, pois)?);
+    }
+    if let Some(m) = a.trigger_distance_m {
+        out.push(trigger(non_negative(
+            file,
+            place,
+            what,
+            "trigger_distance_m",
+            m,
+        )?));
+    }
+    if let Some(p) = a.gimbal_pitch_deg {
+        out.push(gimbal(p, a.gimbal_yaw_deg.unwrap_or(0.0)));
+    }
+    if let Some(d) = a.yaw_deg {
+        out.push(yaw(d));
+    }
+    match a.photo {
+        Some(true) => out.push(photo()),
+        Some(false) | None => {}
+    }
+    if let Some(s) = a.delay_s {
+        out.push(delay(non_negative(file, place, what, "delay_s", s)?));
+    }
+    Ok(out)
+}
+
+fn positive(file: &str, place: &Place, what: &str, key: &str, v: f64) -> Result<f64, MissionError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(MissionError::invalid(
+            file,
+            place.clone(),
+            format!("{what}: {key} {v} is not allowed (a positive number is required)"),
+        ))
+    }
+}
+
+fn non_negative(
+    file: &str,
+    place: &Place,
+    what: &str,
+    key: &str,
+    v: f64,
+) -> Result<f64, MissionError> {
+    if v.is_finite() && v >= 0.0 {
+        Ok(v)
+    } else {
+        Err(MissionError::invalid(
+            file,
+            place.clone(),
+            format!("{what}: {key} {v} is not allowed (0 or more is required)"),
+        ))
+    }
+}
+
+fn roi(
+    file: &str,
+    place: &Place,
+    what: &str,
+    name: &str,
+    pois: &[Poi],
+) -> Result<Command, MissionError> {
+    if name == "none" {
+        return Ok(roi_none());
+    }
+    pois.iter().find(|p| p.name == name).map(roi_at).ok_or_else(|| {
+        let known: Vec<&str> = pois.iter().map(|p| p.name.as_str()).collect();
+        MissionError::invalid(
+            file,
+            place.clone(),
+            format!(
+                "{what}: roi {name:?} names no point of interest (defined in [[pois]]: [{}]; \"none\" clears it)",
+                known.join(", ")
+            ),
+        )
+    })
+}
+
+/// One `[[...actions]]` entry: exactly one action.
+fn action(
+    file: &str,
+    place: &Place,
+    what: &str,
+    a: &FileAction,
+    pois: &[Poi],
+) -> Result<Command, MissionError> {
+    if let Some(command) = a.command {
+        let readable = FileAction {
+            command: None,
+            frame: None,
+            params: None,
+            ..a.clone()
+        };
+        if readable != FileAction::default() {
+            return Err(MissionError::invalid(
+                file,
+                place.clone(),
+                format!("{what}: an action is one readable key or one raw command, not both"),
+            ));
+        }
+        let given = a.params.clone().unwrap_or_default();
+        if given.len() > 7 {
+            return Err(MissionError::invalid(
+                file,
+                place.clone(),
+                format!("{what}: command {command} params: at most 7 numbers"),
+            ));
+        }
+        let mut params = [0.0; 7];
+        params[..given.len()].copy_from_slice(&given);
+        return Ok(Command {
+            command,
+            frame: a.frame.unwrap_or(FRAME_MISSION),
+            params,
+        });
+    }
+    if a.frame.is_some() || a.params.is_some() {
+        return Err(MissionError::invalid(
+            file,
+            place.clone(),
+            format!("{what}: frame and params belong to a raw command (command = N)"),
+        ));
+    }
+    let mut commands = shorthand(file, place, what, a, pois)?;
+    match (commands.pop(), commands.is_empty()) {
+        (Some(c), true) => Ok(c),
+        (None, _) => Err(MissionError::invalid(
+            file,
+            place.clone(),
+            format!(
+                "{what}: an empty action (give one of {} or command)",
+                SHORTHAND_ORDER.join(", ")
+            ),
+        )),
+        (Some(_), false) => Err(MissionError::invalid(
+            file,
+            place.clone(),
+            format!("{what}: one action per [[...actions]] entry (list them in order)"),
+        )),
+    }
+}
+
+/// The readable key a command is written as, when it is exactly that key's command.
+fn readable(c: &Command, pois: &[Poi]) -> Option<(&'static str, FileAction)> {
+    let p = &c.params;
+    let candidates: [(&str, Option<FileAction>); 7] = [
+        (
+            "speed_m_s",
+            (*c == speed(p[1])).then(|| FileAction {
+                speed_m_s: Some(p[1]),
+                ..FileAction::default()
+            }),
+        ),
+        ("roi", {
+            let named = pois
+                .iter()
+                .find(|poi| roi_at(poi) == *c)
+                .map(|poi| poi.name.clone());
+            let none = (*c == roi_none()).then(|| "none".to_string());
+            named.or(none).map(|name| FileAction {
+                roi: Some(name),
+                ..FileAction::default()
+            })
+        }),
+        (
+            "trigger_distance_m",
+            (*c == trigger(p[0])).then(|| FileAction {
+                trigger_distance_m: Some(p[0]),
+                ..FileAction::default()
+            }),
+        ),
+        (
+            "gimbal_pitch_deg",
+            (*c == gimbal(p[0], p[2])).then(|| FileAction {
+                gimbal_pitch_deg: Some(p[0]),
+                gimbal_yaw_deg: (p[2] != 0.0).then_some(p[2]),
+                ..FileAction::default()
+            }),
+        ),
+        (
+            "yaw_deg",
+            (*c == yaw(p[0])).then(|| FileAction {
+                yaw_deg: Some(p[0]),
+                ..FileAction::default()
+            }),
+        ),
+        (
+            "photo",
+            (*c == photo()).then(|| FileAction {
+                photo: Some(true),
+                ..FileAction::default()
+            }),
+        ),
+        (
+            "delay_s",
+            (*c == delay(p[0])).then(|| FileAction {
+                delay_s: Some(p[0]),
+                ..FileAction::default()
+            }),
+        ),
+    ];
+    candidates
+        .into_iter()
+        .find_map(|(key, a)| a.map(|a| (key, a)))
+}
+
+/// A command as an `[[...actions]]` entry: its readable key, else raw.
+fn file_action(c: &Command, pois: &[Poi]) -> FileAction {
+    readable(c, pois).map_or_else(
+        || FileAction {
+            command: Some(c.command),
+            frame: Some(c.frame),
+            params: Some(c.params.to_vec()),
+            ..FileAction::default()
+        },
+        |(_, a)| a,
+    )
+}
+
+/// The waypoint's actions as shorthand keys, when they are each a readable key, at most once
+/// each, in [`SHORTHAND_ORDER`]: read back, they give the same commands in the same order.
+fn as_shorthand(actions: &[Command], pois: &[Poi]) -> Option<FileAction> {
+    let mut merged = FileAction::default();
+    let mut last = None;
+    for c in actions {
+        let (key, a) = readable(c, pois)?;
+        let rank = SHORTHAND_ORDER.iter().position(|k| *k == key)?;
+        if last.is_some_and(|l| rank <= l) {
+            return None;
+        }
+        last = Some(rank);
+        merged = FileAction {
+            speed_m_s: merged.speed_m_s.or(a.speed_m_s),
+            roi: merged.roi.or(a.roi),
+            trigger_distance_m: merged.trigger_distance_m.or(a.trigger_distance_m),
+            gimbal_pitch_deg: merged.gimbal_pitch_deg.or(a.gimbal_pitch_deg),
+            gimbal_yaw_deg: merged.gimbal_yaw_deg.or(a.gimbal_yaw_deg),
+            yaw_deg: merged.yaw_deg.or(a.yaw_deg),
+            photo: merged.photo.or(a.photo),
+            delay_s: merged.delay_s.or(a.delay_s),
+            ..FileAction::default()
+        };
+    }
+    Some(merged)
+}
+
+/// Names for the regions of interest the actions look at that no point of interest names yet
+/// (`roi1`, `roi2`, ...), so that the TOML says `roi = "roi1"` rather than a raw command.
+fn named_pois(mission: &Mission) -> Vec<Poi> {
+    let mut pois = mission.pois.clone();
+    let all = mission
+        .start_actions
+        .iter()
+        .chain(mission.waypoints.iter().flat_map(|w| w.actions.iter()));
+    for c in all {
+        let p = &c.params;
+        let candidate = |name: String| Poi {
+            name,
+            lat_deg: p[4],
+            lon_deg: p[5],
+            alt_above_home_m: p[6],
+        };
+        if roi_at(&candidate(String::new())) != *c || pois.iter().any(|q| roi_at(q) == *c) {
+            continue;
+        }
+        let mut k = pois.len() + 1;
+        while pois.iter().any(|q| q.name == format!("roi{k}")) {
+            k += 1;
+        }
+        pois.push(candidate(format!("roi{k}")));
+    }
+    pois
 }
 
 #[derive(Serialize)]
@@ -133,11 +690,16 @@ struct WriteMission<'a> {
     default_hover_s: f64,
     min_height_above_home_m: f64,
     origin: FileOrigin,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    start_actions: Vec<FileAction>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pois: Vec<FilePoi>,
     waypoints: Vec<FileWaypoint>,
 }
 
 /// The mission as emplan TOML, waypoints in local ENU metres (full precision).
 pub(super) fn write(mission: &Mission) -> Result<String, MissionError> {
+    let pois = named_pois(mission);
     let doc = WriteMission {
         name: &mission.name,
         default_hover_s: mission.default_hover_s,
@@ -148,18 +710,62 @@ pub(super) fn write(mission: &Mission) -> Result<String, MissionError> {
             home_alt_amsl_m: mission.origin.home.alt_m,
             height_above_home_m: mission.origin.height_above_home_m,
         },
+        start_actions: mission
+            .start_actions
+            .iter()
+            .map(|c| file_action(c, &pois))
+            .collect(),
+        pois: pois
+            .iter()
+            .map(|p| FilePoi {
+                name: p.name.clone(),
+                x_m: None,
+                y_m: None,
+                z_m: None,
+                lat_deg: Some(p.lat_deg),
+                lon_deg: Some(p.lon_deg),
+                alt_above_home_m: Some(p.alt_above_home_m),
+            })
+            .collect(),
         waypoints: mission
             .waypoints
             .iter()
-            .map(|w| FileWaypoint {
-                name: w.name.clone(),
-                x_m: Some(w.position.x_east_m),
-                y_m: Some(w.position.y_north_m),
-                z_m: Some(w.position.z_up_m),
-                lat_deg: None,
-                lon_deg: None,
-                alt_above_home_m: None,
-                hover_s: Some(w.hover_s),
+            .map(|w| {
+                let (shorthand, actions) = match as_shorthand(&w.actions, &pois) {
+                    Some(s) => (s, Vec::new()),
+                    None => (
+                        FileAction::default(),
+                        w.actions.iter().map(|c| file_action(c, &pois)).collect(),
+                    ),
+                };
+                let (kind, loiter_params) = match w.kind {
+                    WaypointKind::Waypoint => (None, None),
+                    WaypointKind::Spline => (Some("spline".to_string()), None),
+                    WaypointKind::LoiterTime { params } => {
+                        (Some("loiter".to_string()), Some(params.to_vec()))
+                    }
+                };
+                FileWaypoint {
+                    name: w.name.clone(),
+                    x_m: Some(w.position.x_east_m),
+                    y_m: Some(w.position.y_north_m),
+                    z_m: Some(w.position.z_up_m),
+                    lat_deg: None,
+                    lon_deg: None,
+                    alt_above_home_m: None,
+                    hover_s: Some(w.hover_s),
+                    kind,
+                    loiter_params,
+                    speed_m_s: shorthand.speed_m_s,
+                    roi: shorthand.roi,
+                    trigger_distance_m: shorthand.trigger_distance_m,
+                    gimbal_pitch_deg: shorthand.gimbal_pitch_deg,
+                    gimbal_yaw_deg: shorthand.gimbal_yaw_deg,
+                    yaw_deg: shorthand.yaw_deg,
+                    photo: shorthand.photo,
+                    delay_s: shorthand.delay_s,
+                    actions,
+                }
             })
             .collect(),
     };

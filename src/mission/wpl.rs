@@ -4,12 +4,12 @@
 //! home (AMSL altitude). Read: any whitespace, `#` comments and blank lines allowed. Write: tabs,
 //! 10 decimals for degrees (about 0.01 mm). Names are not stored: imported waypoints are WP1..WPn.
 
-use super::qgc_plan::{
-    interpret_item, ItemMeaning, NAV_RETURN_TO_LAUNCH, NAV_TAKEOFF, NAV_WAYPOINT,
-};
+use super::actions::Command;
+use super::qgc_plan::{NAV_RETURN_TO_LAUNCH, NAV_TAKEOFF, NAV_WAYPOINT};
+use super::sequence::{self, Item};
 use super::{
-    Geodetic, Mission, MissionError, Place, RawMission, RawPosition, RawWaypoint,
-    DEFAULT_MIN_HEIGHT_ABOVE_HOME_M, DEFAULT_TAKEOFF_HEIGHT_M,
+    Geodetic, Mission, MissionError, Place, RawMission, DEFAULT_MIN_HEIGHT_ABOVE_HOME_M,
+    DEFAULT_TAKEOFF_HEIGHT_M,
 };
 
 const HEADER: &str = "QGC WPL 110";
@@ -53,8 +53,7 @@ pub(super) fn parse(text: &str, file: &str, stem: &str) -> Result<RawMission, Mi
         }
     }
     let mut home: Option<Geodetic> = None;
-    let mut height_above_home_m = None;
-    let mut waypoints = Vec::new();
+    let mut items = Vec::new();
     for (n, line) in lines {
         let fields: Vec<&str> = line.split_whitespace().collect();
         if fields.len() != COLUMNS.len() {
@@ -96,7 +95,7 @@ pub(super) fn parse(text: &str, file: &str, stem: &str) -> Result<RawMission, Mi
             }
         };
         let (command, frame) = (integer(3)?, integer(2)?);
-        let Some(home) = home else {
+        let Some(_) = home else {
             // The first item is home: latitude, longitude, altitude above mean sea level.
             home = Some(Geodetic {
                 lat_deg: values[8],
@@ -108,20 +107,12 @@ pub(super) fn parse(text: &str, file: &str, stem: &str) -> Result<RawMission, Mi
         let params = [
             values[4], values[5], values[6], values[7], values[8], values[9], values[10],
         ];
-        match interpret_item(command, frame, params, home.alt_m).map_err(|p| bad(n, p))? {
-            ItemMeaning::Waypoint(lat, lon, alt, hover) => waypoints.push(RawWaypoint {
-                name: format!("WP{}", waypoints.len() + 1),
-                position: RawPosition::Geodetic {
-                    lat_deg: lat,
-                    lon_deg: lon,
-                    alt_above_home_m: alt,
-                },
-                hover_s: Some(if hover.is_nan() { 0.0 } else { hover }),
-                place: Place::Line(n),
-            }),
-            ItemMeaning::Takeoff(h) => height_above_home_m = Some(h),
-            ItemMeaning::Ignored => {}
-        }
+        items.push(Item {
+            command,
+            frame,
+            params,
+            place: Place::Line(n),
+        });
     }
     let home = home.ok_or_else(|| {
         MissionError::invalid(
@@ -130,22 +121,52 @@ pub(super) fn parse(text: &str, file: &str, stem: &str) -> Result<RawMission, Mi
             "no home line (the first item must be home)",
         )
     })?;
+    let mut seq = sequence::read(file, items, home.alt_m)?;
+    for (i, w) in seq.waypoints.iter_mut().enumerate() {
+        w.name = format!("WP{}", i + 1);
+    }
     Ok(RawMission {
         name: stem.to_string(),
         home,
-        height_above_home_m: height_above_home_m.unwrap_or(DEFAULT_TAKEOFF_HEIGHT_M),
+        height_above_home_m: seq.height_above_home_m.unwrap_or(DEFAULT_TAKEOFF_HEIGHT_M),
         default_hover_s: 0.0,
         min_height_above_home_m: DEFAULT_MIN_HEIGHT_ABOVE_HOME_M,
-        waypoints,
+        waypoints: seq.waypoints,
+        start_actions: seq.start_actions,
+        pois: Vec::new(),
         place: Place::File,
     })
 }
 
 fn row(seq: usize, frame: u64, command: u64, p1: f64, lat: f64, lon: f64, alt: f64) -> String {
+    full_row(seq, frame, command, [p1, 0.0, 0.0, 0.0, lat, lon, alt])
+}
+
+/// A parameter as Mission Planner writes it (NaN as `nan`, which it reads back).
+fn param(v: f64) -> String {
+    if v.is_nan() {
+        "nan".into()
+    } else {
+        format!("{v}")
+    }
+}
+
+fn full_row(seq: usize, frame: u64, command: u64, p: [f64; 7]) -> String {
     format!(
-        "{seq}\t{}\t{frame}\t{command}\t{p1}\t0\t0\t0\t{lat:.10}\t{lon:.10}\t{alt:.4}\t1\n",
-        u8::from(seq == 0)
+        "{seq}\t{}\t{frame}\t{command}\t{}\t{}\t{}\t{}\t{:.10}\t{:.10}\t{:.4}\t1\n",
+        u8::from(seq == 0),
+        param(p[0]),
+        param(p[1]),
+        param(p[2]),
+        param(p[3]),
+        p[4],
+        p[5],
+        p[6],
     )
+}
+
+fn command_row(seq: usize, c: &Command) -> String {
+    full_row(seq, u64::from(c.frame), u64::from(c.command), c.params)
 }
 
 /// The mission as `QGC WPL 110`: home, take-off to the origin, the waypoints, return to launch.
@@ -170,26 +191,37 @@ pub(super) fn write(mission: &Mission) -> String {
         home.lon_deg,
         mission.origin.height_above_home_m,
     );
-    for (k, w) in mission.waypoints.iter().enumerate() {
-        let g = mission.origin.to_geodetic(w.position);
-        text += &row(
-            k + 2,
-            3,
-            NAV_WAYPOINT,
-            w.hover_s,
-            g.lat_deg,
-            g.lon_deg,
-            g.alt_m - home.alt_m,
-        );
+    let mut seq = 2;
+    for c in &mission.start_actions {
+        text += &command_row(seq, c);
+        seq += 1;
     }
-    text += &row(
-        mission.waypoints.len() + 2,
-        2,
-        NAV_RETURN_TO_LAUNCH,
-        0.0,
-        0.0,
-        0.0,
-        0.0,
-    );
+    for w in &mission.waypoints {
+        let g = mission.origin.to_geodetic(w.position);
+        let [p2, p3, p4] = match w.kind {
+            super::WaypointKind::LoiterTime { params } => params,
+            _ => [0.0; 3],
+        };
+        text += &full_row(
+            seq,
+            3,
+            u64::from(w.kind.command()),
+            [
+                w.hover_s,
+                p2,
+                p3,
+                p4,
+                g.lat_deg,
+                g.lon_deg,
+                g.alt_m - home.alt_m,
+            ],
+        );
+        seq += 1;
+        for c in &w.actions {
+            text += &command_row(seq, c);
+            seq += 1;
+        }
+    }
+    text += &row(seq, 2, NAV_RETURN_TO_LAUNCH, 0.0, 0.0, 0.0, 0.0);
     text
 }

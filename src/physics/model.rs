@@ -53,6 +53,10 @@ pub struct VehicleModel {
     pub table: EnergyTable,
     /// The steady wind legs are priced in (calm: the table).
     pub wind: Wind,
+    /// The horizontal speed legs are flown at when a DO_CHANGE_SPEED set one other than the
+    /// vehicle's (None: the vehicle's own, the table's): every leg then simulated directly at
+    /// it ([`Vehicle::at_speed`]).
+    pub speed_m_s: Option<f64>,
 }
 
 impl VehicleModel {
@@ -79,12 +83,30 @@ impl VehicleModel {
             profile,
             table,
             wind: Wind::CALM,
+            speed_m_s: None,
         })
     }
 
     /// The same vehicle flying in a steady `wind`.
     pub fn with_wind(self, wind: Wind) -> VehicleModel {
         VehicleModel { wind, ..self }
+    }
+
+    /// The horizontal speed the profile cruises at: the autopilot's parameter (ArduPilot's
+    /// WP_SPD for `ardupilot`, PX4's MPC_XY_CRUISE otherwise).
+    pub fn cruise_speed_m_s(&self) -> f64 {
+        self.vehicle
+            .cruise_speed_m_s(self.profile == Profile::Ardupilot)
+    }
+
+    /// The same vehicle flying its legs at `speed_m_s` (a DO_CHANGE_SPEED; None, or the
+    /// profile's own cruise speed: as the table prices them).
+    pub fn at_speed(&self, speed_m_s: Option<f64>) -> VehicleModel {
+        let own = self.cruise_speed_m_s();
+        VehicleModel {
+            speed_m_s: speed_m_s.filter(|v| (v - own).abs() > 1e-6),
+            ..self.clone()
+        }
     }
 
     /// One leg of horizontal distance `xf_m` and signed climb `zf_m`: from the table, or beyond
@@ -122,10 +144,14 @@ impl VehicleModel {
         start: Start,
         heading_deg: f64,
     ) -> Result<LegEnergy, PhysicsError> {
-        if self.wind.is_calm() {
+        if self.wind.is_calm() && self.speed_m_s.is_none() {
             return self.leg_from(xf_m, zf_m, start);
         }
-        let model = Model::new(&self.vehicle).in_wind(self.wind.on_heading(heading_deg));
+        let vehicle = match self.speed_m_s {
+            Some(v) => self.vehicle.at_speed(v),
+            None => self.vehicle.clone(),
+        };
+        let model = Model::new(&vehicle).in_wind(self.wind.on_heading(heading_deg));
         let op = model.operation_from(self.profile, xf_m, zf_m, start)?;
         Ok(LegEnergy::from(&op))
     }

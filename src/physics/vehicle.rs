@@ -778,6 +778,28 @@ impl Vehicle {
         Ok(())
     }
 
+    /// The horizontal speed the autopilot flies a mission at unless told otherwise: ArduPilot's
+    /// WP_SPD (`ardupilot`), else PX4's MPC_XY_CRUISE.
+    pub fn cruise_speed_m_s(&self, ardupilot: bool) -> f64 {
+        if ardupilot {
+            self.ardupilot.wp_spd_m_s
+        } else {
+            self.px4.mpc_xy_cruise_m_s
+        }
+    }
+
+    /// The vehicle flying its missions at `speed_m_s` (a DO_CHANGE_SPEED): every profile's
+    /// horizontal cruise speed set to it, as the autopilots do (PX4 MPC_XY_CRUISE, ArduPilot
+    /// WP_SPD; the paper's profiles' horizontal speed limits).
+    pub fn at_speed(&self, speed_m_s: f64) -> Vehicle {
+        let mut v = self.clone();
+        v.px4.mpc_xy_cruise_m_s = speed_m_s;
+        v.ardupilot.wp_spd_m_s = speed_m_s;
+        v.hvb.speed_xy_m_s = speed_m_s;
+        v.ptf.max_speed_xy_m_s = speed_m_s;
+        v
+    }
+
     /// The profile planning uses unless the user overrides it.
     pub fn default_profile(&self) -> Profile {
         self.planning.default_profile

@@ -40,6 +40,40 @@ pub struct PlanJson {
     /// would choose, priced in that wind.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub wind: Option<WindJson>,
+    /// A mission with actions: those of the flown order, place by place, priced, and the
+    /// commands inserted to keep the file's settings.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub actions: Vec<ActionsAtJson>,
+}
+
+/// The actions at one place of the flown order.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ActionsAtJson {
+    /// "start" or the waypoint's name.
+    pub at: String,
+    pub commands: Vec<ActionJson>,
+    /// Inserted after them: what the file's order has in force on the way to the next place.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub inserted: Vec<InsertedJson>,
+}
+
+/// One command of a place.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ActionJson {
+    pub command: u16,
+    pub what: String,
+    /// The hover it takes (a hold; a turn at the yaw rate); 0 where the autopilot does not wait.
+    pub hold_s: f64,
+    pub energy_kj: f64,
+}
+
+/// One inserted command.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct InsertedJson {
+    pub command: u16,
+    pub what: String,
+    /// The setting it restores ("speed", "region of interest", ...).
+    pub restores: &'static str,
 }
 
 /// The `"wind"` object of `emplan plan --wind S@FROM --json`.
@@ -79,6 +113,10 @@ pub struct OrderJson {
     pub horizontal_m: f64,
     pub vertical_m: f64,
     pub energy_kj: f64,
+    /// The turns in hover the waypoints' yaw actions take in this order (part of
+    /// `energy_kj`); absent without yaw actions.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub actions_kj: Option<f64>,
     pub legs: Vec<LegJson>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub proof: Option<ProofJson>,
@@ -92,6 +130,10 @@ pub struct LegJson {
     pub horizontal_m: f64,
     pub vertical_m: f64,
     pub energy_kj: f64,
+    /// The horizontal speed it is flown at when a DO_CHANGE_SPEED set one (absent: the
+    /// vehicle's own).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub speed_m_s: Option<f64>,
 }
 
 /// What the solver proved, in the objective's printed units (kJ for energy, metres for the
@@ -189,6 +231,7 @@ fn legs(plan: &Plan, legs: &[Leg]) -> Vec<LegJson> {
             horizontal_m: l.horizontal_m,
             vertical_m: l.vertical_m,
             energy_kj: kj(l.energy_j()),
+            speed_m_s: plan.speeds_m_s.get(l.to).copied().flatten(),
         })
         .collect()
 }
@@ -208,7 +251,8 @@ pub fn order_json(plan: &Plan, order: &Order) -> OrderJson {
         distance_m: order.distance_m,
         horizontal_m: order.horizontal_m,
         vertical_m: order.vertical_m,
-        energy_kj: energy_kj(&order.legs),
+        energy_kj: energy_kj(&order.legs) + kj(order.actions_j),
+        actions_kj: (order.actions_j > 0.0).then(|| kj(order.actions_j)),
         legs: legs(plan, &order.legs),
         proof: order.proof.as_ref().map(|p| ProofJson {
             solver: p.solver,
@@ -286,7 +330,41 @@ pub fn plan_document(plan: &Plan) -> PlanJson {
         battery: battery_json(plan),
         sorties: plan.sorties.as_ref().map(|s| sorties_json(plan, s)),
         wind: wind_json(plan),
+        actions: actions_json(plan),
     }
+}
+
+/// The `"actions"` array: empty for a mission without actions.
+pub fn actions_json(plan: &Plan) -> Vec<ActionsAtJson> {
+    plan.actions
+        .iter()
+        .map(|at| ActionsAtJson {
+            at: if at.node == 0 {
+                "start".into()
+            } else {
+                plan.name(at.node).to_string()
+            },
+            commands: at
+                .actions
+                .iter()
+                .map(|a| ActionJson {
+                    command: a.command,
+                    what: a.what.clone(),
+                    hold_s: a.hold_s,
+                    energy_kj: kj(a.energy_j),
+                })
+                .collect(),
+            inserted: at
+                .inserted
+                .iter()
+                .map(|(restores, command, what)| InsertedJson {
+                    command: *command,
+                    what: what.clone(),
+                    restores,
+                })
+                .collect(),
+        })
+        .collect()
 }
 
 /// The `"wind"` object: None in still air. The saving is of the printed kJ.
@@ -298,7 +376,7 @@ pub fn wind_json(plan: &Plan) -> Option<WindJson> {
     let aware = plan.cheapest(Objective::Energy);
     let still_order = still.map(|s| order_json(plan, &s.order));
     let saving_kj = match (&still_order, aware) {
-        (Some(s), Some(a)) => Some(s.energy_kj - energy_kj(&a.legs)),
+        (Some(s), Some(a)) => Some(s.energy_kj - (energy_kj(&a.legs) + kj(a.actions_j))),
         _ => None,
     };
     let saving_pct = match (&still_order, saving_kj) {

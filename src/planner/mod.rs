@@ -26,11 +26,12 @@ pub mod study;
 
 use serde::Serialize;
 
+use crate::mission::actions::{yaw_s, Action};
 use crate::mission::Mission;
 use crate::physics::{
     start_case, BatteryCheck, Budget, LegEnergy, PhysicsError, Pricing, Profile, Start, Wind,
 };
-use crate::tour::energy::energy_matrix_on_headings;
+use crate::tour::energy::energy_matrix_of_legs;
 use crate::tour::orders::{baseline, energy_order, plan_orders, SolvedOrder};
 use crate::tour::sorties::{self, Method, SortieError, SortieOptions, SortieProblem};
 use crate::tour::{
@@ -133,8 +134,12 @@ pub struct Order {
     pub horizontal_m: f64,
     /// Total absolute vertical distance.
     pub vertical_m: f64,
-    /// Sum of the legs' energies (as the plan prices them).
+    /// Sum of the legs' energies (as the plan prices them) and of the turns at the waypoints
+    /// (`actions_j`).
     pub energy_j: f64,
+    /// The turns in hover the waypoints' yaw actions ask for on arriving from the waypoint
+    /// before in this order (0 without yaw actions).
+    pub actions_j: f64,
     /// Sum of the legs' durations.
     pub duration_s: f64,
     /// What the solver proved (in J for the energy order, metres for a baseline); absent on
@@ -191,8 +196,18 @@ pub struct Plan {
     pub flown: usize,
     /// Take-off, landing, hover power and the battery.
     pub budget: Budget,
-    /// Hover time at each waypoint (s), in file order.
+    /// Hold time at each waypoint (s), in file order: its hover and its actions' holds
+    /// (`mission::Waypoint::hold_s`).
     pub hover_s: Vec<f64>,
+    /// The turn in hover (s) at each waypoint (file order) its yaw actions ask for in the
+    /// flown order (arriving from the waypoint before it).
+    pub turn_s: Vec<f64>,
+    /// The horizontal speed on the way to each node (0: home, then the waypoints in file
+    /// order), None for the vehicle's own: the file's, kept in every order
+    /// (`mission::actions`).
+    pub speeds_m_s: Vec<Option<f64>>,
+    /// The actions of the flown order, place by place (empty for a mission without actions).
+    pub actions: Vec<ActionsAt>,
     /// The flown order against one battery.
     pub battery: BatteryCheck,
     /// The split into sorties, when asked for.
@@ -206,6 +221,30 @@ pub struct Plan {
     /// In wind, with the energy order asked for: the order still air would choose, priced in
     /// the wind, to set beside the wind-aware energy order.
     pub still_air: Option<StillAir>,
+}
+
+/// One command at a place of the flown order, priced.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PricedAction {
+    /// Its MAV_CMD id.
+    pub command: u16,
+    /// What it does (`photo`, `speed 8 m/s`).
+    pub what: String,
+    /// The time the vehicle hovers for it: a hold, or a turn at the autopilot's yaw rate; 0
+    /// where the autopilot does not wait (a photo, a gimbal move, a payload, a setting).
+    pub hold_s: f64,
+    pub energy_j: f64,
+}
+
+/// The actions at one place of the flown order (the start, then each waypoint flown), and the
+/// commands emplan inserts after them to restore the file's settings for what comes next.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ActionsAt {
+    /// Node (0: the start, after the take-off).
+    pub node: usize,
+    pub actions: Vec<PricedAction>,
+    /// (the setting restored, its MAV_CMD id, what it does).
+    pub inserted: Vec<(&'static str, u16, String)>,
 }
 
 /// The still-air energy order of a plan made in wind.
@@ -391,6 +430,15 @@ pub enum PlannerError {
     /// Take-off, landing or hover the model cannot price.
     #[error(transparent)]
     Budget(PhysicsError),
+    #[error(
+        "{place}: a speed of {speed_m_s} m/s is above the vehicle's planning.max_speed_m_s of \
+         {max_m_s} m/s (the autopilot would clip it; lower the DO_CHANGE_SPEED)"
+    )]
+    TooFast {
+        place: String,
+        speed_m_s: f64,
+        max_m_s: f64,
+    },
     #[error(
         "waypoint {waypoint} cannot be flown even on a battery of its own: take-off, flying out, \
          hovering {hover_s:.0} s, flying back and landing need {:.1} kJ but one battery has {:.1} \
@@ -587,6 +635,59 @@ fn plan_core<'scope>(
     let names: Vec<String> = std::iter::once("origin".to_string())
         .chain(mission.waypoints.iter().map(|w| w.name.clone()))
         .collect();
+    let budget = model
+        .budget(mission.origin.height_above_home_m)
+        .map_err(PlannerError::Budget)?;
+    // The speed on the way to each node (node 0: home), the file's in every order.
+    let (to_waypoint, home_speed) = mission.speeds_m_s();
+    let speeds: Vec<Option<f64>> = std::iter::once(home_speed).chain(to_waypoint).collect();
+    for (node, speed) in speeds.iter().enumerate() {
+        if let Some(v) = *speed {
+            let max_m_s = model.vehicle.planning.max_speed_m_s;
+            if v > max_m_s {
+                return Err(PlannerError::TooFast {
+                    place: if node == 0 {
+                        "the way home".into()
+                    } else {
+                        format!("the way to waypoint {}", names[node])
+                    },
+                    speed_m_s: v,
+                    max_m_s,
+                });
+            }
+        }
+    }
+    let mut at_speeds: Vec<(Option<f64>, VehicleModel)> = Vec::new();
+    for speed in &speeds {
+        if !at_speeds.iter().any(|(v, _)| v == speed) {
+            at_speeds.push((*speed, model.at_speed(*speed)));
+        }
+    }
+    // The model a leg into `to` is flown with: at the speed in force on the way there.
+    let model_to = |to: usize| -> &VehicleModel {
+        at_speeds
+            .iter()
+            .find(|(v, _)| *v == speeds[to])
+            .map_or(model, |(_, m)| m)
+    };
+    let yaw_rate_deg_s = yaw_rate_deg_s(model.profile);
+    let turns = mission.waypoints.iter().any(|w| {
+        w.actions
+            .iter()
+            .any(|c| matches!(c.action(), Action::Yaw { .. }))
+    });
+    // The turn in hover at `to` arriving from `from` (0 at home or without yaw actions).
+    let turn_s = |from: usize, to: usize| -> f64 {
+        if !turns || to == 0 {
+            return 0.0;
+        }
+        yaw_s(
+            &mission.waypoints[to - 1].actions,
+            geometry.heading_deg(from, to),
+            yaw_rate_deg_s,
+        )
+    };
+    let turn_j = |from: usize, to: usize| budget.hover_j(turn_s(from, to));
     let pricing = |cause| PlannerError::Pricing {
         mission: mission.name.clone(),
         cause,
@@ -624,11 +725,12 @@ fn plan_core<'scope>(
                 }
             })
         });
-        // In still air a leg is the table's; in wind it is simulated on its heading.
-        let energy = energy_matrix_on_headings(&geometry, &names, |x, z, heading| {
-            model
+        // In still air a leg is the table's; in wind, or at a speed a DO_CHANGE_SPEED set, it
+        // is simulated on its heading; a turn at its end is priced with it.
+        let energy = energy_matrix_of_legs(&geometry, &names, |from, to, x, z, heading| {
+            model_to(to)
                 .leg_on_heading(x, z, Start::Behind, heading)
-                .map(|leg| leg.priced_energy_j(options.pricing))
+                .map(|leg| leg.priced_energy_j(options.pricing) + turn_j(from, to))
         })
         .map_err(pricing)?;
         // A leg's price after a turn of less than 90 degrees (the px4 profile's vehicle starts
@@ -636,10 +738,10 @@ fn plan_core<'scope>(
         // it.
         let ahead = if model.table.starts.contains(&Start::Ahead) {
             Some(
-                energy_matrix_on_headings(&geometry, &names, |x, z, heading| {
-                    model
+                energy_matrix_of_legs(&geometry, &names, |from, to, x, z, heading| {
+                    model_to(to)
                         .leg_on_heading(x, z, Start::Ahead, heading)
-                        .map(|leg| leg.priced_energy_j(options.pricing))
+                        .map(|leg| leg.priced_energy_j(options.pricing) + turn_j(from, to))
                 })
                 .map_err(pricing)?,
             )
@@ -697,7 +799,7 @@ fn plan_core<'scope>(
             geometry.vertical_m(from, to),
         );
         let start = start_of(previous, from, to);
-        let predicted = model
+        let predicted = model_to(to)
             .leg_on_heading(
                 horizontal_m,
                 vertical_m,
@@ -735,15 +837,18 @@ fn plan_core<'scope>(
             .map(|(k, w)| leg(k.checked_sub(1).map(|p| stops[p]), w[0], w[1]))
             .collect()
     };
+    let turns_j = |legs: &[Leg]| -> f64 { legs.iter().map(|l| turn_j(l.from, l.to)).sum() };
     let priced = |objective, direction, nodes: Vec<usize>, proof| -> Result<Order, PlannerError> {
         let legs = legs(&nodes)?;
+        let actions_j = turns_j(&legs);
         Ok(Order {
             objective,
             direction,
             distance_m: legs.iter().map(|l| l.distance_m).sum(),
             horizontal_m: legs.iter().map(|l| l.horizontal_m).sum(),
             vertical_m: legs.iter().map(|l| l.vertical_m.abs()).sum(),
-            energy_j: legs.iter().map(Leg::energy_j).sum(),
+            energy_j: legs.iter().map(Leg::energy_j).sum::<f64>() + actions_j,
+            actions_j,
             duration_s: legs.iter().map(Leg::duration_s).sum(),
             nodes,
             legs,
@@ -800,15 +905,70 @@ fn plan_core<'scope>(
         None => None,
     };
 
-    let budget = model
-        .budget(mission.origin.height_above_home_m)
-        .map_err(PlannerError::Budget)?;
-    let hover_s: Vec<f64> = mission.waypoints.iter().map(|w| w.hover_s).collect();
+    let hover_s: Vec<f64> = mission.waypoints.iter().map(|w| w.hold_s()).collect();
     // The battery pays everything, whatever the pricing of the orders.
     let legs_j = orders
         .get(flown)
         .map_or(0.0, |o| o.legs.iter().map(Leg::settled_energy_j).sum());
-    let battery = budget.check(legs_j, budget.hover_j(hover_s.iter().sum()));
+    let mut turn_at = vec![0.0; mission.waypoints.len()];
+    if let Some(order) = orders.get(flown) {
+        for leg in &order.legs {
+            if leg.to > 0 {
+                turn_at[leg.to - 1] = turn_s(leg.from, leg.to);
+            }
+        }
+    }
+    let battery = budget.check(
+        legs_j,
+        budget.hover_j(hover_s.iter().sum::<f64>() + turn_at.iter().sum::<f64>()),
+    );
+    let actions = match orders.get(flown) {
+        Some(order) if mission.has_actions() => {
+            let flown_waypoints = order.waypoints();
+            let inserted = mission.restoring(&flown_waypoints, Some(model.cruise_speed_m_s()));
+            let places = std::iter::once(0).chain(order.nodes.iter().copied());
+            places
+                .zip(inserted)
+                .map(|(node, inserted)| {
+                    let commands = match node {
+                        0 => &mission.start_actions,
+                        n => &mission.waypoints[n - 1].actions,
+                    };
+                    let turn = if node == 0 { 0.0 } else { turn_at[node - 1] };
+                    let yaws = commands
+                        .iter()
+                        .filter(|c| matches!(c.action(), Action::Yaw { .. }))
+                        .count()
+                        .max(1) as f64;
+                    ActionsAt {
+                        node,
+                        actions: commands
+                            .iter()
+                            .map(|c| {
+                                let hold_s = match c.action() {
+                                    Action::Hold { duration_s } => duration_s,
+                                    // The arrival's turn, shared among its yaws.
+                                    Action::Yaw { .. } => turn / yaws,
+                                    _ => 0.0,
+                                };
+                                PricedAction {
+                                    command: c.command,
+                                    what: c.describe(),
+                                    hold_s,
+                                    energy_j: budget.hover_j(hold_s),
+                                }
+                            })
+                            .collect(),
+                        inserted: inserted
+                            .iter()
+                            .map(|(setting, c)| (setting.name(), c.command, c.describe()))
+                            .collect(),
+                    }
+                })
+                .collect()
+        }
+        _ => Vec::new(),
+    };
 
     let sorties = if options.sorties {
         if cancel::requested() {
@@ -838,7 +998,7 @@ fn plan_core<'scope>(
                 let waypoint = node.checked_sub(1).and_then(|k| mission.waypoints.get(k));
                 PlannerError::Unreachable {
                     waypoint: waypoint.map_or(format!("node {node}"), |w| w.name.clone()),
-                    hover_s: waypoint.map_or(0.0, |w| w.hover_s),
+                    hover_s: waypoint.map_or(0.0, |w| w.hold_s()),
                     alone_j,
                     usable_j: budget.usable_j,
                     reserve_pct: budget.reserve_pct,
@@ -858,9 +1018,10 @@ fn plan_core<'scope>(
                 // The split chose on pair-independent costs; its battery check pays the legs
                 // as flown, each after the one before.
                 let legs_j = legs.iter().map(Leg::settled_energy_j).sum();
+                let hover_j = s.hover_j + turns_j(&legs);
                 Ok(Sortie {
                     legs,
-                    battery: budget.check(legs_j, s.hover_j),
+                    battery: budget.check(legs_j, hover_j),
                     nodes: s.order,
                 })
             })
@@ -893,6 +1054,9 @@ fn plan_core<'scope>(
         flown,
         budget,
         hover_s,
+        turn_s: turn_at,
+        speeds_m_s: speeds,
+        actions,
         battery,
         sorties,
         explanation,
@@ -900,6 +1064,21 @@ fn plan_core<'scope>(
         wind: model.wind,
         still_air,
     })
+}
+
+/// CONDITION_YAW's turn rate when it gives none (param2 0): ArduCopter's AUTO_YAW_SLEW_RATE
+/// (ArduCopter/config.h, 60 deg/s).
+const ARDUPILOT_YAW_RATE_DEG_S: f64 = 60.0;
+/// How fast PX4 turns to a waypoint's yaw (the form PX4 flies CONDITION_YAW in,
+/// `link::items::translate`): MPC_YAWRAUTO_MAX, 45 deg/s in PX4's parameter reference.
+const PX4_YAW_RATE_DEG_S: f64 = 45.0;
+
+/// The yaw rate a profile's autopilot turns at when an action gives none.
+fn yaw_rate_deg_s(profile: Profile) -> f64 {
+    match profile {
+        Profile::Ardupilot => ARDUPILOT_YAW_RATE_DEG_S,
+        _ => PX4_YAW_RATE_DEG_S,
+    }
 }
 
 /// The energy order on the pair costs (a `px4` leg priced `behind` or `ahead` by the turn out

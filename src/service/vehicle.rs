@@ -645,7 +645,7 @@ impl Actor {
                 other => (other.stage(), None),
             };
             let status = match e {
-                FlyError::Items
+                FlyError::Items(_)
                 | FlyError::Plan(_)
                 | FlyError::Preflight(session::PreflightError::FarFromHome { .. }) => 422,
                 _ => 502,

@@ -126,9 +126,14 @@ pub async fn load(
     let items_opts = ItemOptions {
         flavour: target.flavour,
         acceptance_radius_m: load.acceptance_radius_m,
+        vehicle_speed_m_s: Some(
+            load.vehicle
+                .cruise_speed_m_s(target.flavour == Flavour::ArduPilot),
+        ),
         ..ItemOptions::default()
     };
-    let items = mission_items(mission, &flight.waypoints(), &items_opts).ok_or(FlyError::Items)?;
+    let items =
+        mission_items(mission, &flight.waypoints(), &items_opts).map_err(FlyError::Items)?;
     let priced_with = params
         .as_ref()
         .filter(|c| !c.differences.is_empty())
@@ -141,6 +146,7 @@ pub async fn load(
                 plan.profile,
                 mission.origin.height_above_home_m,
                 flight,
+                &plan.speeds_m_s,
             )
             .map_err(|e| FlyError::Plan(e.to_string()))?;
             flight_plan_predicted(mission, flight, target.flavour, predicted)
@@ -153,8 +159,16 @@ pub async fn load(
     let predicted = (measured_against.predicted.take())
         .map(|p| {
             let vehicle = priced_with.unwrap_or(load.vehicle);
+            // A chain is flown at one speed: the mission's, when a DO_CHANGE_SPEED set one for
+            // the whole flight; with speeds that change along it the legs keep their rest to
+            // rest prices.
+            let first = plan.speeds_m_s.first().copied().flatten();
+            if plan.speeds_m_s.iter().any(|v| *v != first) {
+                return Ok(p);
+            }
+            let at_speed = first.map(|v| vehicle.at_speed(v));
             with_fast_waypoints(
-                vehicle,
+                at_speed.as_ref().unwrap_or(vehicle),
                 plan.profile,
                 &measured_against.points,
                 p,
@@ -258,8 +272,8 @@ fn repricer(model: VehicleModel, flavour: Flavour, return_alt_m: Option<f64>) ->
 /// Why a flight did not end in a report.
 #[derive(Debug, thiserror::Error)]
 pub enum FlyError {
-    #[error("mission items: the order names a waypoint the mission does not have")]
-    Items,
+    #[error("mission items: {0}")]
+    Items(crate::link::items::ItemsError),
     /// The vehicle is not where the plan starts, or did not say where it is: found before
     /// anything was uploaded or armed.
     #[error(transparent)]
@@ -292,7 +306,7 @@ impl FlyError {
     /// The stage it failed in (the `stage` of the failure JSON).
     pub fn stage(&self) -> String {
         match self {
-            FlyError::Items | FlyError::Plan(_) => "plan".into(),
+            FlyError::Items(_) | FlyError::Plan(_) => "plan".into(),
             FlyError::Preflight(e) => e.stage().into(),
             FlyError::Upload(e) => e.stage.to_string(),
             FlyError::Start(_) => "start".into(),
@@ -314,7 +328,7 @@ impl FlyError {
             | FlyError::Recorder(_)
             | FlyError::NotFlown { .. }
             | FlyError::NoReport { .. } => true,
-            FlyError::Items
+            FlyError::Items(_)
             | FlyError::Plan(_)
             | FlyError::Link(_)
             | FlyError::LogDir(_)

@@ -16,6 +16,7 @@ use crate::link::driver::{upload_verified, UploadReport};
 use crate::link::items::{mission_items, ItemOptions};
 use crate::link::mav::MISSION_ITEM_INT_DATA;
 use crate::link::transfer::TransferConfig;
+use crate::link::Flavour;
 use crate::link::LinkError;
 use crate::physics::Vehicle;
 use crate::sim::{MockAutopilot, MockConfig, MockHandle, SimError};
@@ -143,9 +144,13 @@ impl Session {
         let options = ItemOptions {
             flavour: self.target.flavour,
             acceptance_radius_m: load.acceptance_radius_m,
+            vehicle_speed_m_s: Some(
+                load.vehicle
+                    .cruise_speed_m_s(self.target.flavour == Flavour::ArduPilot),
+            ),
             ..ItemOptions::default()
         };
-        mission_items(load.mission, &load.flight.waypoints(), &options).ok_or(FlyError::Items)
+        mission_items(load.mission, &load.flight.waypoints(), &options).map_err(FlyError::Items)
     }
 
     /// Checks that the vehicle stands at `load`'s mission origin (see [`super::home`]), before

@@ -9,7 +9,7 @@ use crate::flightlog::flight_plan::{
     FlightPlan, PlannedPoint, Predicted, PredictedLeg, ORIGIN_NAME,
 };
 use crate::flightlog::FlightLogError;
-use crate::link::items::{FlightItems, ReadItemsError};
+use crate::link::items::{mission_items_noted, FlightItems, ItemOptions, ReadItemsError};
 use crate::link::Flavour;
 use crate::mission::{Enu, Mission};
 use crate::physics::power::Model;
@@ -38,20 +38,28 @@ pub fn predicted(plan: &Plan, flight: &Flight<'_>) -> Predicted {
 
 /// The prediction of `flight` priced by simulating each leg, the take-off and the landing of
 /// `vehicle` with `profile` directly, not from the table: for an autopilot whose trajectory
-/// parameters differ from the vehicle file's (a few legs simulate in milliseconds).
+/// parameters differ from the vehicle file's (a few legs simulate in milliseconds); each leg at
+/// the speed in force on the way to its end (`speeds_m_s[node]`, the plan's; None: the
+/// vehicle's own).
 pub fn predicted_by_simulation(
     vehicle: &Vehicle,
     profile: Profile,
     origin_height_m: f64,
     flight: &Flight<'_>,
+    speeds_m_s: &[Option<f64>],
 ) -> Result<Predicted, FlightItemsError> {
     let pricing = |e: crate::physics::PhysicsError| FlightItemsError::Pricing(e.to_string());
     let budget = Budget::new(vehicle, profile, origin_height_m).map_err(pricing)?;
-    let model = Model::new(vehicle);
     let legs = flight
         .legs
         .iter()
         .map(|leg| {
+            let at_speed = speeds_m_s
+                .get(leg.to)
+                .copied()
+                .flatten()
+                .map(|v| vehicle.at_speed(v));
+            let model = Model::new(at_speed.as_ref().unwrap_or(vehicle));
             let op = model
                 .operation_from(profile, leg.horizontal_m, leg.vertical_m, leg.start)
                 .map_err(|e| {
@@ -95,7 +103,22 @@ pub fn flight_plan_predicted(
     predicted: Predicted,
 ) -> Result<FlightPlan, FlightLogError> {
     let first_seq = if flavour == Flavour::ArduPilot { 1 } else { 0 };
-    FlightPlan::for_mission(mission, &flight.waypoints(), first_seq, Some(predicted))
+    let plan = FlightPlan::for_mission(mission, &flight.waypoints(), first_seq, Some(predicted))?;
+    if !mission.has_actions() {
+        return Ok(plan);
+    }
+    // Commands sit between the navigation items: number the points as the items do.
+    let options = ItemOptions {
+        flavour,
+        ..ItemOptions::default()
+    };
+    let (_, _, layout) =
+        mission_items_noted(mission, &flight.waypoints(), &options).map_err(|e| {
+            FlightLogError::Plan {
+                reason: format!("mission items: {e}"),
+            }
+        })?;
+    plan.renumbered(layout.takeoff_seq, &layout.point_seqs, layout.land_seq)
 }
 
 /// Why a flight could not be read or priced.

@@ -995,13 +995,7 @@ impl<'v> Flight<'v> {
     /// The vehicle with every profile's cruise speed at the one a DO_CHANGE_SPEED set (None:
     /// none set, the vehicle's own).
     fn cruising(&self) -> Option<Vehicle> {
-        let speed = self.cruise_m_s?;
-        let mut v = self.vehicle.clone();
-        v.px4.mpc_xy_cruise_m_s = speed;
-        v.ardupilot.wp_spd_m_s = speed;
-        v.hvb.speed_xy_m_s = speed;
-        v.ptf.max_speed_xy_m_s = speed;
-        Some(v)
+        Some(self.vehicle.at_speed(self.cruise_m_s?))
     }
 
     /// Heads for the landing point: a horizontal leg first when not above it, else the descent.

@@ -31,6 +31,18 @@ pub fn energy_matrix_on_headings<E: std::fmt::Display + Send>(
     names: &[String],
     leg_energy: impl Fn(f64, f64, f64) -> Result<f64, E> + Sync,
 ) -> Result<CostMatrix, PlanError> {
+    energy_matrix_of_legs(geometry, names, |_, _, x, z, heading| {
+        leg_energy(x, z, heading)
+    })
+}
+
+/// [`energy_matrix_on_headings`] for a leg energy that also depends on which nodes the leg
+/// joins (`leg_energy(from, to, xf_m, zf_m, heading_deg)`): a speed or an action at its end.
+pub fn energy_matrix_of_legs<E: std::fmt::Display + Send>(
+    geometry: &Geometry,
+    names: &[String],
+    leg_energy: impl Fn(usize, usize, f64, f64, f64) -> Result<f64, E> + Sync,
+) -> Result<CostMatrix, PlanError> {
     let n = geometry.len();
     let row = |i: usize| -> Result<Vec<f64>, PlanError> {
         (0..n)
@@ -39,7 +51,7 @@ pub fn energy_matrix_on_headings<E: std::fmt::Display + Send>(
                     return Ok(0.0);
                 }
                 let (xf_m, zf_m) = (geometry.horizontal_m(i, j), geometry.vertical_m(i, j));
-                leg_energy(xf_m, zf_m, geometry.heading_deg(i, j)).map_err(|e| {
+                leg_energy(i, j, xf_m, zf_m, geometry.heading_deg(i, j)).map_err(|e| {
                     PlanError::LegEnergy {
                         from: names.get(i).cloned().unwrap_or_else(|| i.to_string()),
                         to: names.get(j).cloned().unwrap_or_else(|| j.to_string()),

@@ -119,11 +119,14 @@ pub fn random_mission(
                 name: waypoint_name(k),
                 position,
                 hover_s: site.hover_s,
+                ..Default::default()
             })
             .collect(),
         default_hover_s: site.hover_s,
         min_height_above_home_m: crate::mission::DEFAULT_MIN_HEIGHT_ABOVE_HOME_M,
         source: None,
+        start_actions: Vec::new(),
+        pois: Vec::new(),
     })
 }
 

@@ -38,6 +38,7 @@ fn flown_items(mission: &Mission, flavour: Flavour) -> Vec<MISSION_ITEM_INT_DATA
         name: "origin".into(),
         position: Enu::default(),
         hover_s: 0.0,
+        ..Default::default()
     });
     let order: Vec<usize> = (0..with_return.waypoints.len()).collect();
     let opts = ItemOptions {
