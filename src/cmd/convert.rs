@@ -24,6 +24,9 @@ pub struct Args {
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let mission = emplan::mission::load(&args.input)?;
+    if let Some(warning) = mission.unknown_warning() {
+        eprintln!("warning: {warning}");
+    }
     let output = Output::new(&args.output, vec![args.input.clone()], args.force);
     output.check()?;
     let (text, losses) = emplan::mission::convert::convert(&mission, &args.output)?;

@@ -67,6 +67,9 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
     // A flight log that cannot be written ends the command before anything is uploaded.
     emplan::flightlog::recorder::check_log_dir(&args.log_dir).map_err(FlyError::LogDir)?;
     let mission = emplan::mission::load(&args.mission)?;
+    if let Some(warning) = mission.unknown_warning() {
+        eprintln!("warning: {warning}");
+    }
     let resumed = (args.resume.as_deref()).map(|d| resuming(&mission, d));
     let resumed = resumed.transpose()?;
     let mission = resumed.as_ref().map_or(mission, |(_, left)| left.clone());

@@ -61,6 +61,9 @@ const ATSP_UNITS_PER_J: f64 = 10.0;
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let mission = emplan::mission::load(&args.mission)?;
+    if let Some(warning) = mission.unknown_warning() {
+        eprintln!("warning: {warning}");
+    }
     // Each output is checked before planning: never the mission, the vehicle's files or the
     // other output.
     let output = |path: &PathBuf, other: &Option<PathBuf>| {
@@ -184,6 +187,7 @@ fn print_table(plan: &Plan, doc: &PlanJson, waypoints: usize) {
     if let Some(w) = &doc.wind {
         print_wind(w);
     }
+    print_actions(&doc.actions);
     let battery = &doc.battery;
     println!(
         "battery: take-off {:.1} + legs {:.1} + hovering {:.1} + landing {:.1} = {:.1} kJ of {:.1} kJ usable after the {}% reserve: {}",
@@ -196,6 +200,38 @@ fn print_table(plan: &Plan, doc: &PlanJson, waypoints: usize) {
         battery.reserve_pct,
         if battery.feasible { "feasible" } else { "NOT FEASIBLE on one battery" }
     );
+}
+
+/// The flown order's actions, place by place, and what emplan inserts to keep the file's
+/// settings.
+fn print_actions(actions: &[emplan::planner::json::ActionsAtJson]) {
+    if actions.is_empty() {
+        return;
+    }
+    println!("actions in the flown order (hold or turn in hover, its energy):");
+    for at in actions {
+        if at.commands.is_empty() && at.inserted.is_empty() {
+            continue;
+        }
+        let commands: Vec<String> = at
+            .commands
+            .iter()
+            .map(|c| {
+                if c.hold_s > 0.0 {
+                    format!("{} ({:.1} s, {:.2} kJ)", c.what, c.hold_s, c.energy_kj)
+                } else {
+                    c.what.clone()
+                }
+            })
+            .collect();
+        println!("  {:<12} {}", at.at, commands.join("; "));
+        for i in &at.inserted {
+            println!(
+                "  {:<12}   + inserted {} ({}) to restore the file's {}",
+                "", i.command, i.what, i.restores
+            );
+        }
+    }
 }
 
 /// The wind, and the still-air energy order flown in it against the wind-aware one.

@@ -87,6 +87,9 @@ fn upload(args: Args) -> anyhow::Result<ExitCode> {
         return upload_through(&args, &client);
     }
     let mission = emplan::mission::load(&args.mission)?;
+    if let Some(warning) = mission.unknown_warning() {
+        eprintln!("warning: {warning}");
+    }
     if args.flight.live_wind() {
         anyhow::bail!(
             "--wind live: only fly reads the wind from the vehicle; upload takes --wind SPEED@FROM_DEG"

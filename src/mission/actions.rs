@@ -141,7 +141,7 @@ impl Command {
 
     /// The setting this command changes, and what it leaves in force: None when it returns the
     /// setting to the vehicle's own (a speed of -2, the region of interest cleared, the trigger
-    /// distance 0).
+    /// distance 0, the gimbal level and ahead).
     fn sets(&self) -> Option<(Setting, Option<Command>)> {
         let Action::Set(setting) = self.action() else {
             return None;
@@ -153,6 +153,9 @@ impl Command {
             // DO_SET_ROI param1 is MAV_ROI: 0 MAV_ROI_NONE.
             id::DO_SET_ROI => p[0] == 0.0,
             id::DO_SET_CAM_TRIGG_DIST => p[0] == 0.0,
+            // Level and ahead is where a gimbal rests: the vehicle's own.
+            id::DO_MOUNT_CONTROL => p[0] == 0.0 && p[1] == 0.0 && p[2] == 0.0,
+            id::DO_GIMBAL_MANAGER_PITCHYAW => p[0] == 0.0 && p[1] == 0.0,
             _ => false,
         };
         Some((setting, (!cleared).then(|| self.clone())))

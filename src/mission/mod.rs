@@ -611,6 +611,26 @@ impl Mission {
             .collect()
     }
 
+    /// The one warning that lists the commands kept verbatim that emplan does not understand
+    /// (None when there are none).
+    pub fn unknown_warning(&self) -> Option<String> {
+        let unknown = self.unknown_commands();
+        if unknown.is_empty() {
+            return None;
+        }
+        let listed: Vec<String> = unknown
+            .iter()
+            .map(|(at, c)| format!("{} after {}", c.command, at.unwrap_or("the take-off")))
+            .collect();
+        Some(format!(
+            "mission {}: emplan keeps {} command(s) it does not understand with their waypoints, \
+             unpriced: {}",
+            self.name,
+            unknown.len(),
+            listed.join(", ")
+        ))
+    }
+
     /// Whether any waypoint or the start carries actions.
     pub fn has_actions(&self) -> bool {
         !self.start_actions.is_empty() || self.waypoints.iter().any(|w| !w.actions.is_empty())

@@ -172,6 +172,7 @@ mod tests {
             horizontal_m: legs.iter().map(|l| l.horizontal_m).sum(),
             vertical_m: legs.iter().map(|l| l.vertical_m.abs()).sum(),
             energy_j: legs.iter().map(Leg::energy_j).sum(),
+            actions_j: 0.0,
             duration_s: legs.len() as f64,
             legs,
             proof: None,

@@ -1,5 +1,6 @@
 //! The integration test binary: one crate, one link step (modules below).
 
+mod actions;
 mod ardupilot;
 mod cli;
 mod crashes;
