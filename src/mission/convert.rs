@@ -122,6 +122,46 @@ pub fn losses(original: &Mission, converted: &Mission) -> Vec<Loss> {
             });
         }
     }
+    let commands = |setting: String, a: &[super::actions::Command], b: &[super::actions::Command]| {
+        let same = a.len() == b.len()
+            && a.iter().zip(b).all(|(x, y)| {
+                x.command == y.command
+                    && x.frame == y.frame
+                    && x.params.iter().zip(&y.params).all(|(p, q)| {
+                        (p.is_nan() && q.is_nan()) || (p - q).abs() <= 1e-7 * p.abs().max(1.0)
+                    })
+            });
+        let show = |cs: &[super::actions::Command]| {
+            cs.iter()
+                .map(|c| c.command.to_string())
+                .collect::<Vec<_>>()
+                .join(" ")
+        };
+        (!same).then(|| Loss {
+            setting,
+            from: format!("[{}]", show(a)),
+            to: format!("[{}]", show(b)),
+        })
+    };
+    out.extend(commands(
+        "start actions".into(),
+        &original.start_actions,
+        &converted.start_actions,
+    ));
+    for (w, v) in original.waypoints.iter().zip(&converted.waypoints) {
+        out.extend(commands(
+            format!("waypoint {} actions", w.name),
+            &w.actions,
+            &v.actions,
+        ));
+        if w.kind != v.kind {
+            out.push(Loss {
+                setting: format!("waypoint {} kind", w.name),
+                from: format!("{:?}", w.kind),
+                to: format!("{:?}", v.kind),
+            });
+        }
+    }
     if original.name != converted.name {
         out.push(Loss {
             setting: "name".into(),
