@@ -52,6 +52,27 @@ ACTIONS = [
     ("NAV_LOITER_TIME 12.5 s", 19, (12.5, 0.0, 0.0, 0.0), WP[0], WP[1], 25.55, True),
     ("DO_CHANGE_SPEED ground 8.5", 178, (1.0, 8.5, -1.0, 0.0), 0, 0, 0.0, False),
     ("NAV_SPLINE_WAYPOINT hold 2.5 s", 82, (2.5, 0.0, 0.0, 0.0), WP[0], WP[1], 25.55, True),
+    # Fractions, and x, y, z set where the command has no position: what is kept of each.
+    ("DO_DIGICAM_CONTROL fractions and z", 203, (1.5, 2.5, -3.5, 1.5), 1, 3, 3.5, False),
+    ("IMAGE_START_CAPTURE fractions and x y z", 2000, (1.5, 2.5, 3.5, 4.5), 7, 8, 9.5, False),
+    ("DO_MOUNT_CONTROL fractions", 205, (-45.5, 1.25, 30.75, 4.5), 7, 8, 2.0, False),
+    ("DO_GIMBAL_MANAGER_PITCHYAW flags 12 gimbal 1", 1000, (-45.0, 30.0, 5.5, -6.5), 12, 8, 1.0, False),
+    ("CONDITION_YAW fractions", 115, (90.5, 20.5, -1.0, 1.0), 7, 8, 9.5, False),
+    ("DO_SET_SERVO fractions", 183, (9.5, 1900.5, 3.0, 4.0), 7, 8, 9.5, False),
+    ("DO_SET_RELAY fractions", 181, (1.5, 1.0, 3.0, 4.0), 7, 8, 9.5, False),
+    ("DO_GRIPPER fractions", 211, (1.5, 1.0, 3.0, 4.0), 7, 8, 9.5, False),
+    ("DO_WINCH fractions", 42600, (1.5, 2.0, -2.5, 0.75), 7, 8, 9.5, False),
+    ("NAV_DELAY fractions", 93, (7.5, 2.5, 3.5, 4.5), 7, 8, 9.5, False),
+    ("DO_CHANGE_SPEED x y z", 178, (1.5, 8.5, 50.5, 4.0), 7, 8, 9.5, False),
+    ("DO_SET_CAM_TRIGG_DIST fractions", 206, (12.5, 2.5, 1.5, 4.0), 7, 8, 9.5, False),
+    ("VIDEO_START_CAPTURE fractions", 2500, (1.5, 2.5, 3.0, 4.0), 7, 8, 9.5, False),
+    ("IMAGE_STOP_CAPTURE fractions", 2001, (1.5, 2.5, 3.0, 4.0), 7, 8, 9.5, False),
+    ("VIDEO_STOP_CAPTURE fractions", 2501, (1.5, 2.5, 3.0, 4.0), 7, 8, 9.5, False),
+    ("DO_SET_ROI_NONE fractions", 197, (1.5, 2.5, 3.0, 4.0), 7, 8, 9.5, False),
+    ("DO_SET_ROI_LOCATION gimbal 1 and params", 195, (1.0, 2.5, 3.0, 4.0), ROI[0], ROI[1], 10.55, True),
+    ("DO_SET_ROI location and params", 201, (3.0, 2.5, 3.0, 4.0), ROI[0], ROI[1], 10.55, True),
+    ("NAV_LOITER_TIME heading radius ccw xtrack", 19, (12.5, 1.0, -20.5, 1.0), WP[0], WP[1], 25.55, True),
+    ("NAV_SPLINE_WAYPOINT params", 82, (2.5, 1.5, 2.5, 3.5), WP[0], WP[1], 25.55, True),
 ]
 FRAMES = (2, 3)
 FIELDS = ("frame", "command", "param1", "param2", "param3", "param4", "x", "y", "z", "autocontinue")
