@@ -177,7 +177,7 @@ def main():
         raise SystemExit(f"no heartbeat on {url}")
     print(f"{name}: heartbeat from system {m.target_system} autopilot {hb.autopilot}")
     lines = [f"# {name}: what the SITL answered (sitl/probe_actions.py {url} {name} ...)",
-             "# case: command frame ack; then sent and read items, one per line:",
+             "# case: command frame ack label; then the items sent and (if accepted) read, one a line:",
              "# seq frame command param1 param2 param3 param4 x y z autocontinue"]
     for label, command, params, x, y, z, positional in ACTIONS:
         for frame in FRAMES:
@@ -186,6 +186,7 @@ def main():
             verdict = "ACCEPTED" if ack == 0 else f"REFUSED (MISSION_ACK type {ack})"
             print(f"\n{label} ({command}) in frame {frame}: {verdict}")
             lines.append(f"case {command} {frame} {ack if ack is not None else -1} {label}")
+            lines.extend("sent " + s.line() for s in items)
             if ack != 0:
                 continue
             read = download(m)
@@ -197,9 +198,7 @@ def main():
                 a, b = getattr(sent, field), getattr(got, field)
                 same = (a == b) or (isinstance(a, float) and math.isnan(a) and math.isnan(b))
                 print(f"  {field:12} sent {show(a):>14}  read {show(b):>14}{'' if same else '  *'}")
-            for s, r in zip(items, read):
-                lines.append("sent " + s.line())
-                lines.append("read " + r.line())
+            lines.extend("read " + r.line() for r in read)
     with open(out, "w") as f:
         f.write("\n".join(lines) + "\n")
     print(f"\nwritten {out}")
