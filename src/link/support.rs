@@ -148,6 +148,24 @@ const ARDUPILOT: &[MavCmd] = &[
     MAV_CMD_DO_WINCH,
 ];
 
+/// The navigation commands with a position (ArduPilot's `stored_in_location` among them; PX4
+/// parses those it takes only in a global frame): an altitude above home needs frame 3 even
+/// when the caller's item has no latitude/longitude of its own.
+const LOCATED_NAVIGATION: &[MavCmd] = &[
+    MAV_CMD_NAV_WAYPOINT,
+    MAV_CMD_NAV_LOITER_UNLIM,
+    MAV_CMD_NAV_LOITER_TURNS,
+    MAV_CMD_NAV_LOITER_TIME,
+    MAV_CMD_NAV_LAND,
+    MAV_CMD_NAV_TAKEOFF,
+    MAV_CMD_NAV_CONTINUE_AND_CHANGE_ALT,
+    MAV_CMD_NAV_LOITER_TO_ALT,
+    MAV_CMD_NAV_SPLINE_WAYPOINT,
+    MAV_CMD_NAV_VTOL_TAKEOFF,
+    MAV_CMD_NAV_VTOL_LAND,
+    MAV_CMD_NAV_PAYLOAD_PLACE,
+];
+
 fn listed(list: &[MavCmd], command: u16) -> bool {
     list.iter().any(|&c| c as u32 == u32::from(command))
 }
@@ -176,13 +194,13 @@ pub fn takes(flavour: Flavour, command: u16) -> bool {
 /// takes a positional command only in a global frame (DO_SET_ROI_LOCATION and NAV_LOITER_TIME
 /// in frame 2: MAV_MISSION_UNSUPPORTED; DO_SET_ROI at a location in frame 2:
 /// MAV_MISSION_INVALID_PARAM1), and ArduPilot would take its altitude in frame 2 as above sea
-/// level. A command PX4 parses only in a global frame goes there even when the caller says it
-/// has no position. Anything else goes in MAV_FRAME_MISSION (2), the only frame PX4 takes it in
+/// level. A navigation command with a position, and a command PX4 parses only in a global
+/// frame, go there even when the caller says the item has none. Anything else goes in MAV_FRAME_MISSION (2), the only frame PX4 takes it in
 /// (every other command in frame 3: MAV_MISSION_UNSUPPORTED) and the one QGroundControl uses;
 /// ArduPilot does not look at the frame of a command without a location.
 pub fn action_frame(flavour: Flavour, command: u16, has_position: bool) -> MavFrame {
     let global_only = flavour == Flavour::Px4 && px4_global(command) && !px4_mission(command);
-    if has_position || global_only {
+    if has_position || global_only || listed(LOCATED_NAVIGATION, command) {
         MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT
     } else {
         MavFrame::MAV_FRAME_MISSION
@@ -199,27 +217,25 @@ mod tests {
         19, 178, 82,
     ];
 
-    fn measured(flavour: Flavour) -> Vec<Case> {
-        cases(flavour)
-    }
-
     /// What each SITL accepted, per command and frame, is what `takes` and `action_frame` say:
     /// a command is taken when the SITL accepted it in some frame, and the frame `action_frame`
     /// picks is one the SITL accepted it in.
     #[test]
     fn takes_and_the_action_frame_are_what_each_sitl_accepted() {
         for flavour in [Flavour::Px4, Flavour::ArduPilot] {
-            let cases = measured(flavour);
+            let measured = cases(flavour);
             for command in ACTIONS {
-                let of: Vec<&Case> = cases.iter().filter(|c| c.command == command).collect();
+                let of: Vec<&Case> = measured.iter().filter(|c| c.command == command).collect();
                 assert!(!of.is_empty(), "{flavour:?} {command}: not measured");
-                let accepted_in =
-                    |frame: u8| of.iter().filter(|c| c.frame == frame).all(|c| c.accepted());
+                let accepted_in = |frame: u8| {
+                    let sent_in: Vec<_> = of.iter().filter(|c| c.frame == frame).collect();
+                    !sent_in.is_empty() && sent_in.iter().all(|c| c.accepted())
+                };
                 let any = of.iter().any(|c| c.accepted());
                 assert_eq!(takes(flavour, command), any, "{flavour:?} {command}");
                 if any {
-                    let positional = of[0].sent.last().is_some_and(|it| it.x != 0 && it.y != 0)
-                        && matches!(command, 195 | 201 | 19 | 82);
+                    // The probe sent these at a location near the waypoint.
+                    let positional = matches!(command, 195 | 201 | 19 | 82);
                     let frame = action_frame(flavour, command, positional) as u8;
                     assert!(accepted_in(frame), "{flavour:?} {command} in frame {frame}");
                 }
@@ -259,10 +275,12 @@ mod tests {
             action_frame(Flavour::Px4, 201, false),
             MavFrame::MAV_FRAME_MISSION
         );
-        // PX4 parses NAV_LOITER_TIME only in a global frame.
-        assert_eq!(
-            action_frame(Flavour::Px4, 19, false),
-            MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT
-        );
+        // A loiter at the vehicle's own position still has an altitude above home.
+        for flavour in [Flavour::Px4, Flavour::ArduPilot, Flavour::Generic] {
+            assert_eq!(
+                action_frame(flavour, 19, false),
+                MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT
+            );
+        }
     }
 }
