@@ -15,6 +15,7 @@ pub mod items;
 pub mod locate;
 pub mod params;
 pub mod readback;
+pub mod support;
 pub mod telemetry;
 pub mod testing;
 pub mod transfer;

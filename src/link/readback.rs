@@ -181,7 +181,15 @@ fn px4(sent: &MISSION_ITEM_INT_DATA) -> Expect {
         MAV_CMD_NAV_LAND => [zero, p2, zero, yaw],
         MAV_CMD_NAV_LOITER_TIME => [p1, flag(sent.param2), p3, flag(sent.param4)],
         MAV_CMD_NAV_LOITER_UNLIM => [zero, zero, p3, yaw],
-        _ => e.params,
+        MAV_CMD_NAV_LOITER_TO_ALT => [flag(sent.param1), p2, zero, flag(sent.param4)],
+        MAV_CMD_NAV_VTOL_TAKEOFF | MAV_CMD_NAV_VTOL_LAND => [zero, zero, zero, yaw],
+        MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION
+        | MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION
+        | MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION
+        | MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION => [p1, zero, zero, zero],
+        // Every other global command (DO_SET_ROI_LOCATION, DO_SET_ROI at a location, ...) is
+        // answered with its four parameters 0: PX4 SITL answered DO_SET_ROI's mode 3 as 0.
+        _ => [zero; 4],
     };
     e
 }
@@ -222,6 +230,7 @@ fn ap_location(command: MavCmd) -> bool {
             | MAV_CMD_DO_SET_HOME
             | MAV_CMD_DO_LAND_START
             | MAV_CMD_DO_SET_ROI
+            | MAV_CMD_DO_SET_ROI_LOCATION
     )
 }
 
@@ -231,6 +240,104 @@ fn whole(v: f32) -> f32 {
         0.0
     } else {
         v.trunc().min(65_535.0)
+    }
+}
+
+/// How ArduPilot keeps one field of a command it packs into its `Mission_Command` content.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Packed {
+    /// A float field: kept as sent.
+    Float,
+    /// An integer field of this range: the whole part, as C converts a float to it.
+    Int(f32, f32, &'static str),
+    /// Not stored: answered 0.
+    Zero,
+}
+
+const U8: Packed = Packed::Int(0.0, 255.0, AP_U8);
+const I8: Packed = Packed::Int(-128.0, 127.0, AP_I8);
+const U16: Packed = Packed::Int(0.0, 65_535.0, AP_U16);
+const I16: Packed = Packed::Int(-32_768.0, 32_767.0, AP_I16);
+const F: Packed = Packed::Float;
+const Z: Packed = Packed::Zero;
+
+const AP_U8: &str = "ArduPilot stores this field in 8 bits and answers its whole part \
+                     (AP_Mission::mavlink_int_to_mission_cmd, uint8_t)";
+const AP_I8: &str = "ArduPilot stores this field in 8 signed bits and answers its whole part \
+                     (AP_Mission::mavlink_int_to_mission_cmd, int8_t)";
+const AP_U16: &str = "ArduPilot stores this field in 16 bits and answers its whole part \
+                      (AP_Mission::mavlink_int_to_mission_cmd, uint16_t)";
+const AP_I16: &str = "ArduPilot stores this field in 16 signed bits and answers its whole part \
+                      (AP_Mission::mavlink_int_to_mission_cmd, int16_t)";
+
+/// A float stored in an integer field of `[min, max]`: truncated toward zero, NaN as 0, clamped
+/// where C is undefined.
+pub(crate) fn packed_int(v: f32, min: f32, max: f32) -> f32 {
+    if v.is_nan() {
+        0.0
+    } else {
+        v.trunc().clamp(min, max)
+    }
+}
+
+/// What ArduPilot keeps of an action command's param1..4 and (for one without a location) x, y,
+/// z: its `Mission_Command` content (AP_Mission::mavlink_int_to_mission_cmd and
+/// mission_cmd_to_mavlink_int, with the field types of AP_Mission.h), each checked against
+/// ArduCopter SITL with fractions and x, y, z set (tests/fixtures/actions/ardupilot.txt).
+#[allow(deprecated)]
+fn ap_packed(command: MavCmd) -> Option<([Packed; 4], [Packed; 3])> {
+    use MavCmd::*;
+    const NONE: [Packed; 3] = [Z, Z, Z];
+    Some(match command {
+        // session, zoom_pos, zoom_step, focus_lock; shooting_cmd, cmd_id.
+        MAV_CMD_DO_DIGICAM_CONTROL => ([U8, U8, I8, U8], [U8, U8, Z]),
+        // instance, interval_s, total_num_images, start_seq_number.
+        MAV_CMD_IMAGE_START_CAPTURE => ([U8, F, U16, U16], NONE),
+        // cmd.p1: the camera instance.
+        MAV_CMD_IMAGE_STOP_CAPTURE => ([U16, Z, Z, Z], NONE),
+        // video_stream_id.
+        MAV_CMD_VIDEO_START_CAPTURE | MAV_CMD_VIDEO_STOP_CAPTURE => ([U8, Z, Z, Z], NONE),
+        // meters, trigger.
+        MAV_CMD_DO_SET_CAM_TRIGG_DIST => ([F, Z, U8, Z], NONE),
+        // pitch, roll, yaw; ArduCopter SITL also answered z (the mount mode) as sent.
+        MAV_CMD_DO_MOUNT_CONTROL => ([F, F, F, Z], [Z, Z, F]),
+        // pitch_angle_deg, yaw_angle_deg, pitch_rate_degs, yaw_rate_degs; flags, gimbal_id.
+        MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW => ([I8, I16, I8, I8], [U8, Z, U8]),
+        // cmd.p1 (the gimbal device).
+        MAV_CMD_DO_SET_ROI_NONE | MAV_CMD_DO_SET_ROI_LOCATION => ([U16, Z, Z, Z], NONE),
+        // cmd.p1: the ROI mode.
+        MAV_CMD_DO_SET_ROI => ([U16, Z, Z, Z], NONE),
+        // angle_deg, turn_rate_dps, direction, relative_angle.
+        MAV_CMD_CONDITION_YAW => ([F, F, I8, U8], NONE),
+        // channel, pwm.
+        MAV_CMD_DO_SET_SERVO => ([U8, U16, Z, Z], NONE),
+        // num, state.
+        MAV_CMD_DO_SET_RELAY => ([U8, U8, Z, Z], NONE),
+        // num, action.
+        MAV_CMD_DO_GRIPPER => ([U8, U8, Z, Z], NONE),
+        // num, action, release_length, release_rate.
+        MAV_CMD_DO_WINCH => ([U8, U8, F, F], NONE),
+        // seconds, hour_utc, min_utc, sec_utc.
+        MAV_CMD_NAV_DELAY => ([F, I8, I8, I8], NONE),
+        // speed_type, target_ms, throttle_pct.
+        MAV_CMD_DO_CHANGE_SPEED => ([U8, F, F, Z], NONE),
+        _ => return None,
+    })
+}
+
+fn ap_field(packed: Packed, kept: Field, sent: f32) -> Field {
+    match packed {
+        Packed::Float => kept,
+        Packed::Int(min, max, rule) => {
+            let v = packed_int(sent, min, max);
+            if v == sent {
+                kept
+            } else {
+                ruled(Want::Float(v, 0.0), rule)
+            }
+        }
+        Packed::Zero if sent == 0.0 => kept,
+        Packed::Zero => ruled(Want::Float(0.0, 0.0), AP_UNUSED),
     }
 }
 
@@ -283,7 +390,6 @@ fn ardupilot(sent: &MISSION_ITEM_INT_DATA) -> Expect {
         ruled(Want::Float(whole(sent.param1), 0.0), AP_WHOLE)
     };
     let sign = |v: f32| ruled(Want::Float(if v < 0.0 { -1.0 } else { 1.0 }, 0.0), AP_SIGN);
-    let [_, p2, p3, _] = e.params;
     e.params = match sent.command {
         // Copter: cmd.p1 = hold time; acceptance radius, pass radius and yaw are not stored.
         MAV_CMD_NAV_WAYPOINT | MAV_CMD_NAV_TAKEOFF | MAV_CMD_NAV_SPLINE_WAYPOINT => {
@@ -301,10 +407,35 @@ fn ardupilot(sent: &MISSION_ITEM_INT_DATA) -> Expect {
                 AP_SIGN,
             ),
         ],
-        // speed_type (uint8), target_ms and throttle_pct (floats).
-        MAV_CMD_DO_CHANGE_SPEED => [whole_p1, p2, p3, zero],
         _ => e.params,
     };
+    if let Some((params, xyz)) = ap_packed(sent.command) {
+        let p = [sent.param1, sent.param2, sent.param3, sent.param4];
+        for k in 0..4 {
+            e.params[k] = ap_field(params[k], e.params[k], p[k]);
+        }
+        if !ap_location(sent.command) {
+            // x and y are integers on the wire; z a float.
+            let xy = |packed: Packed, v: i32| match packed {
+                Packed::Int(min, max, rule) => {
+                    let w = packed_int(v as f32, min, max);
+                    if w == v as f32 {
+                        kept(Want::Int(i64::from(v)))
+                    } else {
+                        ruled(Want::Int(w as i64), rule)
+                    }
+                }
+                Packed::Float => kept(Want::Int(i64::from(v))),
+                Packed::Zero => ruled(Want::Int(0), AP_NO_LOCATION),
+            };
+            e.x = xy(xyz[0], sent.x);
+            e.y = xy(xyz[1], sent.y);
+            e.z = match xyz[2] {
+                Packed::Zero => ruled(Want::Float(0.0, 0.0), AP_NO_LOCATION),
+                packed => ap_field(packed, kept(relative(sent.z)), sent.z),
+            };
+        }
+    }
     if sent.autocontinue != 1 {
         e.autocontinue = ruled(Want::Int(1), AP_AUTOCONTINUE);
     }
@@ -443,6 +574,94 @@ pub fn verify(
         check(flavour, a, b).map_err(ReadbackError::Mismatch)?;
     }
     Ok(())
+}
+
+/// The SITLs' answers measured by `sitl/probe_actions.py` (tests/fixtures/actions/), for the
+/// tests of `link` and `sim`.
+#[cfg(test)]
+pub(crate) mod fixtures {
+    use num_traits::FromPrimitive;
+
+    use super::super::mav::{MavCmd, MavFrame, MISSION_ITEM_INT_DATA};
+    use super::super::Flavour;
+
+    /// One upload of take-off, a waypoint and one action command (ArduPilot: home first).
+    #[derive(Debug, Clone)]
+    pub struct Case {
+        pub command: u16,
+        /// The frame the action was sent in.
+        pub frame: u8,
+        /// The MISSION_ACK type (0 accepted; -1 no answer).
+        pub ack: i32,
+        pub label: String,
+        pub sent: Vec<MISSION_ITEM_INT_DATA>,
+        /// Empty when the upload was refused.
+        pub read: Vec<MISSION_ITEM_INT_DATA>,
+    }
+
+    impl Case {
+        pub fn accepted(&self) -> bool {
+            self.ack == 0
+        }
+    }
+
+    fn item(fields: &[&str], at: &str) -> MISSION_ITEM_INT_DATA {
+        assert_eq!(fields.len(), 11, "{at}");
+        let f = |k: usize| {
+            fields[k]
+                .parse::<f32>()
+                .unwrap_or_else(|e| panic!("{at}: {e}"))
+        };
+        let i = |k: usize| {
+            fields[k]
+                .parse::<i64>()
+                .unwrap_or_else(|e| panic!("{at}: {e}"))
+        };
+        MISSION_ITEM_INT_DATA {
+            seq: i(0) as u16,
+            frame: MavFrame::from_i64(i(1)).unwrap_or_else(|| panic!("{at}: frame")),
+            command: MavCmd::from_i64(i(2)).unwrap_or_else(|| panic!("{at}: command")),
+            param1: f(3),
+            param2: f(4),
+            param3: f(5),
+            param4: f(6),
+            x: i(7) as i32,
+            y: i(8) as i32,
+            z: f(9),
+            autocontinue: i(10) as u8,
+            ..Default::default()
+        }
+    }
+
+    /// Every case measured on the SITL of `flavour` (PX4 or ArduPilot).
+    pub fn cases(flavour: Flavour) -> Vec<Case> {
+        let (name, text) = match flavour {
+            Flavour::Px4 => ("px4", include_str!("../../tests/fixtures/actions/px4.txt")),
+            _ => (
+                "ardupilot",
+                include_str!("../../tests/fixtures/actions/ardupilot.txt"),
+            ),
+        };
+        let mut cases: Vec<Case> = Vec::new();
+        for (n, line) in text.lines().enumerate() {
+            let at = format!("{name}.txt line {}", n + 1);
+            let fields: Vec<&str> = line.split_whitespace().collect();
+            match fields.first().copied() {
+                Some("case") => cases.push(Case {
+                    command: fields[1].parse().unwrap(),
+                    frame: fields[2].parse().unwrap(),
+                    ack: fields[3].parse().unwrap(),
+                    label: fields[4..].join(" "),
+                    sent: Vec::new(),
+                    read: Vec::new(),
+                }),
+                Some("sent") => cases.last_mut().unwrap().sent.push(item(&fields[1..], &at)),
+                Some("read") => cases.last_mut().unwrap().read.push(item(&fields[1..], &at)),
+                _ => {}
+            }
+        }
+        cases
+    }
 }
 
 #[cfg(test)]
@@ -711,6 +930,142 @@ mod tests {
                 }
             }
         }
+    }
+
+    use super::fixtures::{cases, Case};
+
+    fn accepted(flavour: Flavour) -> Vec<Case> {
+        let all: Vec<Case> = cases(flavour).into_iter().filter(Case::accepted).collect();
+        assert!(all.len() >= 30, "{flavour:?}: {} accepted cases", all.len());
+        all
+    }
+
+    fn case_named(flavour: Flavour, command: u16, label: &str) -> Case {
+        accepted(flavour)
+            .into_iter()
+            .find(|c| c.command == command && c.label == label)
+            .unwrap_or_else(|| panic!("{flavour:?} {command} {label}: not measured"))
+    }
+
+    /// Every action each SITL accepted (tests/fixtures/actions) verifies as that autopilot.
+    #[test]
+    fn what_each_sitl_answered_of_every_action_verifies_as_that_autopilot() {
+        for flavour in [Flavour::Px4, Flavour::ArduPilot] {
+            for case in accepted(flavour) {
+                assert_eq!(
+                    verify(flavour, &case.sent, &case.read),
+                    Ok(()),
+                    "{flavour:?} {} in frame {}",
+                    case.label,
+                    case.frame
+                );
+            }
+        }
+    }
+
+    /// The SITLs change what they store: compared as sent, their answers would fail.
+    #[test]
+    fn what_the_sitls_answered_of_actions_does_not_verify_as_sent() {
+        let gimbal = case_named(Flavour::ArduPilot, 1000, "DO_GIMBAL_MANAGER_PITCHYAW");
+        let mut read = gimbal.read[3].clone();
+        let d = check(Flavour::Generic, &gimbal.sent[3], &read).unwrap_err();
+        assert_eq!(d.field, "frame");
+        read.frame = gimbal.sent[3].frame;
+        let d = check(Flavour::Generic, &gimbal.sent[3], &read).unwrap_err();
+        assert_eq!(
+            d.to_string(),
+            "item 3 param1 differs: sent -45.5, read back -45"
+        );
+        let roi = case_named(Flavour::Px4, 201, "DO_SET_ROI location");
+        let err = verify(Flavour::Generic, &roi.sent, &roi.read).unwrap_err();
+        assert!(err.to_string().contains("item 0 frame differs"), "{err}");
+        // Not as the other autopilot either.
+        assert!(verify(Flavour::Px4, &gimbal.sent, &gimbal.read).is_err());
+        assert!(verify(Flavour::ArduPilot, &roi.sent, &roi.read).is_err());
+    }
+
+    /// A vehicle holding another command, another value of any field the autopilot answers
+    /// (another pitch, speed, shutter count, location) or another frame is caught, and the
+    /// error names the field: every field of every action each SITL accepted, changed.
+    #[test]
+    fn a_real_difference_in_any_field_of_an_action_is_caught() {
+        type Change = (&'static str, fn(&mut MISSION_ITEM_INT_DATA));
+        let changes: [Change; 9] = [
+            ("command", |it| {
+                it.command = if it.command == MAV_CMD_DO_SET_SERVO {
+                    MAV_CMD_DO_SET_RELAY
+                } else {
+                    MAV_CMD_DO_SET_SERVO
+                }
+            }),
+            ("frame", |it| {
+                it.frame = if it.frame == MAV_FRAME_GLOBAL_INT {
+                    MAV_FRAME_GLOBAL_TERRAIN_ALT
+                } else {
+                    MAV_FRAME_GLOBAL_INT
+                }
+            }),
+            ("param1", |it| it.param1 += 1.0),
+            ("param2", |it| it.param2 -= 1.0),
+            ("param3", |it| it.param3 += 1.0),
+            ("param4", |it| it.param4 -= 1.0),
+            ("x (latitude, degE7)", |it| it.x += 1),
+            ("y (longitude, degE7)", |it| it.y -= 1),
+            ("z (altitude, m)", |it| it.z += 0.1),
+        ];
+        for flavour in [Flavour::Px4, Flavour::ArduPilot] {
+            for case in accepted(flavour) {
+                let last = case.read.len() - 1;
+                for (field, change) in changes {
+                    let mut bad = case.read.clone();
+                    change(&mut bad[last]);
+                    match verify(flavour, &case.sent, &bad) {
+                        Err(ReadbackError::Mismatch(d)) => assert_eq!(
+                            (usize::from(d.seq), d.field),
+                            (last, field),
+                            "{flavour:?} {}: {d}",
+                            case.label
+                        ),
+                        other => panic!("{flavour:?} {} {field}: {other:?}", case.label),
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn ardupilot_answers_a_gimbal_pitch_in_whole_degrees_and_the_error_says_so() {
+        let case = case_named(Flavour::ArduPilot, 1000, "DO_GIMBAL_MANAGER_PITCHYAW");
+        let (sent, mut read) = (case.sent[3].clone(), case.read[3].clone());
+        assert_eq!((sent.param1, read.param1), (-45.5, -45.0));
+        assert!(check(Flavour::ArduPilot, &sent, &read).is_ok());
+        read.param1 = -45.5;
+        assert_eq!(
+            check(Flavour::ArduPilot, &sent, &read)
+                .unwrap_err()
+                .to_string(),
+            "item 3 param1 differs: sent -45.5, read back -45.5 (expected -45: ArduPilot stores \
+             this field in 8 signed bits and answers its whole part \
+             (AP_Mission::mavlink_int_to_mission_cmd, int8_t))"
+        );
+    }
+
+    #[test]
+    fn ardupilot_keeps_a_region_of_interest_sent_in_the_mission_frame_above_sea_level() {
+        let case = accepted(Flavour::ArduPilot)
+            .into_iter()
+            .find(|c| c.command == 195 && c.frame == 2)
+            .unwrap();
+        assert_eq!(case.read[3].frame, MAV_FRAME_GLOBAL);
+        assert!(check(Flavour::ArduPilot, &case.sent[3], &case.read[3]).is_ok());
+        let mut relative = case.read[3].clone();
+        relative.frame = MAV_FRAME_GLOBAL_RELATIVE_ALT;
+        assert_eq!(
+            check(Flavour::ArduPilot, &case.sent[3], &relative)
+                .unwrap_err()
+                .field,
+            "frame"
+        );
     }
 
     #[test]

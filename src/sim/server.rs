@@ -142,32 +142,65 @@ pub struct MissionServer {
     pub stats: ServerStats,
 }
 
+/// Whether the flavour takes `item`, and if not the MISSION_ACK it refuses it with.
+/// - PX4 (`parse_mavlink_mission_item`): a global frame takes the commands with a position, and
+///   DO_SET_ROI only in the modes none and location; MAV_FRAME_MISSION the commands without
+///   one, and DO_SET_ROI only in the modes none, next waypoint and waypoint index
+///   (MAV_MISSION_INVALID_PARAM1 otherwise); another command in either is
+///   MAV_MISSION_UNSUPPORTED (CONDITION_YAW, DO_SET_SERVO, DO_SET_RELAY, NAV_SPLINE_WAYPOINT
+///   always), another frame MAV_MISSION_UNSUPPORTED_FRAME.
+/// - ArduPilot (`mavlink_int_to_mission_cmd`): every command it has a case for; the frame is
+///   checked only for one it stores a location for (global frames and MAV_FRAME_MISSION).
+/// - Generic (MAVSDK's MissionRawServer): any command, in a global frame or MAV_FRAME_MISSION.
+#[allow(deprecated)]
 fn supported(flavour: Flavour, item: &MISSION_ITEM_INT_DATA) -> Result<(), MavMissionResult> {
+    use super::storage::{ardupilot_located, ardupilot_takes, px4_global_frame, px4_mission_frame};
     use MavCmd::*;
     use MavFrame::*;
+    use MavMissionResult::*;
     let navigation = super::storage::navigation(item.command);
-    let command = matches!(
-        item.command,
-        MAV_CMD_NAV_RETURN_TO_LAUNCH
-            | MAV_CMD_DO_CHANGE_SPEED
-            | MAV_CMD_NAV_DELAY
-            | MAV_CMD_DO_JUMP
-    );
-    if !navigation && !command {
-        return Err(MavMissionResult::MAV_MISSION_UNSUPPORTED);
-    }
-    #[allow(deprecated)]
-    let frame_ok = match item.frame {
+    let global = matches!(
+        item.frame,
         MAV_FRAME_GLOBAL
-        | MAV_FRAME_GLOBAL_RELATIVE_ALT
-        | MAV_FRAME_GLOBAL_INT
-        | MAV_FRAME_GLOBAL_RELATIVE_ALT_INT => true,
-        MAV_FRAME_MISSION => command,
-        _ => false,
-    };
+            | MAV_FRAME_GLOBAL_RELATIVE_ALT
+            | MAV_FRAME_GLOBAL_INT
+            | MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+    );
+    let mission_frame = item.frame == MAV_FRAME_MISSION;
     let ardupilot_home = flavour == Flavour::ArduPilot && item.seq == 0;
-    if !(frame_ok || ardupilot_home) {
-        return Err(MavMissionResult::MAV_MISSION_UNSUPPORTED_FRAME);
+    let roi_mode = item.param1 as i32;
+    match flavour {
+        Flavour::Px4 if global => {
+            if !px4_global_frame(item.command) {
+                return Err(MAV_MISSION_UNSUPPORTED);
+            }
+            // MAV_ROI_NONE 0, MAV_ROI_LOCATION 3.
+            if item.command == MAV_CMD_DO_SET_ROI && !matches!(roi_mode, 0 | 3) {
+                return Err(MAV_MISSION_INVALID_PARAM1);
+            }
+        }
+        Flavour::Px4 if mission_frame => {
+            if !px4_mission_frame(item.command) {
+                return Err(MAV_MISSION_UNSUPPORTED);
+            }
+            // MAV_ROI_NONE 0, MAV_ROI_WPNEXT 1, MAV_ROI_WPINDEX 2.
+            if item.command == MAV_CMD_DO_SET_ROI && !matches!(roi_mode, 0..=2) {
+                return Err(MAV_MISSION_INVALID_PARAM1);
+            }
+        }
+        Flavour::Px4 => return Err(MAV_MISSION_UNSUPPORTED_FRAME),
+        Flavour::ArduPilot => {
+            if !ardupilot_takes(item.command) {
+                return Err(MAV_MISSION_UNSUPPORTED);
+            }
+            if ardupilot_located(item.command) && !(global || mission_frame || ardupilot_home) {
+                return Err(MAV_MISSION_UNSUPPORTED_FRAME);
+            }
+        }
+        Flavour::Generic if !(global || mission_frame) => {
+            return Err(MAV_MISSION_UNSUPPORTED_FRAME)
+        }
+        Flavour::Generic => {}
     }
     if navigation
         && (item.x == 0 && item.y == 0)
@@ -754,6 +787,98 @@ mod tests {
 
     fn item(it: &MISSION_ITEM_INT_DATA) -> MavMessage {
         MavMessage::MISSION_ITEM_INT(it.clone())
+    }
+
+    /// The mission as a ground station reads it back (REQUEST_LIST, then each item in order).
+    fn read_back(server: &mut MissionServer, now: Duration) -> Vec<MISSION_ITEM_INT_DATA> {
+        let out = server.handle(now, GCS, &list());
+        let count = out
+            .iter()
+            .find_map(|m| match m {
+                MavMessage::MISSION_COUNT(c) => Some(c.count),
+                _ => None,
+            })
+            .expect("a count");
+        (0..count)
+            .map(|seq| answered(&server.handle(now, GCS, &req(seq))).expect("an item"))
+            .collect()
+    }
+
+    /// Equal as the SITL answered it: integers exactly, floats to 1e-4, NaN only as NaN.
+    fn assert_same_item(mock: &MISSION_ITEM_INT_DATA, sitl: &MISSION_ITEM_INT_DATA, at: &str) {
+        let ints = |i: &MISSION_ITEM_INT_DATA| {
+            (
+                i.seq,
+                i.frame as u32,
+                i.command as u32,
+                i.x,
+                i.y,
+                i.autocontinue,
+            )
+        };
+        assert_eq!(ints(mock), ints(sitl), "{at} item {}", sitl.seq);
+        let floats = |i: &MISSION_ITEM_INT_DATA| [i.param1, i.param2, i.param3, i.param4, i.z];
+        for (k, (a, b)) in floats(mock).into_iter().zip(floats(sitl)).enumerate() {
+            let same = (a.is_nan() && b.is_nan()) || (a - b).abs() <= 1e-4;
+            assert!(same, "{at} item {} field {k}: mock {a}, SITL {b}", sitl.seq);
+        }
+    }
+
+    /// The mock takes what each SITL took (the same MISSION_ACK) and answers the read-back of
+    /// every action as the SITL did, field for field (tests/fixtures/actions).
+    #[test]
+    fn each_flavour_takes_and_answers_every_action_as_its_sitl_did() {
+        use crate::link::readback::{fixtures::cases, verify};
+        for flavour in [Flavour::Px4, Flavour::ArduPilot] {
+            let all = cases(flavour);
+            assert!(all.len() >= 80, "{flavour:?}: {} cases", all.len());
+            for case in all {
+                let at = format!(
+                    "{flavour:?} {} ({}) in frame {}",
+                    case.label, case.command, case.frame
+                );
+                let mut s = server(flavour);
+                let mut out = upload(&mut s, ms(0), &case.sent);
+                out.extend(s.tick(ms(600)));
+                let ack = acks(&out).first().map(|a| *a as i32);
+                assert_eq!(ack, Some(case.ack), "{at}");
+                if !case.accepted() {
+                    continue;
+                }
+                let read = read_back(&mut s, ms(700));
+                assert_eq!(read.len(), case.read.len(), "{at}");
+                for (mock, sitl) in read.iter().zip(&case.read) {
+                    assert_same_item(mock, sitl, &at);
+                }
+                // And the upload's verification passes on the mock's answer.
+                assert_eq!(verify(flavour, &case.sent, &read), Ok(()), "{at}");
+            }
+        }
+    }
+
+    #[test]
+    fn px4_refuses_a_do_item_in_a_global_frame_and_a_located_one_in_the_mission_frame() {
+        let mut s = server(Flavour::Px4);
+        let mut speed = mission(Flavour::Px4, 3);
+        speed[1] = MISSION_ITEM_INT_DATA {
+            command: MavCmd::MAV_CMD_DO_CHANGE_SPEED,
+            frame: MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
+            param1: 1.0,
+            param2: 8.5,
+            ..speed[1].clone()
+        };
+        assert_eq!(
+            acks(&upload(&mut s, ms(0), &speed)),
+            vec![MavMissionResult::MAV_MISSION_UNSUPPORTED]
+        );
+        let mut roi = mission(Flavour::Px4, 3);
+        roi[1].command = MavCmd::MAV_CMD_DO_SET_ROI_LOCATION;
+        roi[1].frame = MavFrame::MAV_FRAME_MISSION;
+        assert_eq!(
+            acks(&upload(&mut s, ms(10_000), &roi)),
+            vec![MavMissionResult::MAV_MISSION_UNSUPPORTED]
+        );
+        assert!(s.mission().is_empty());
     }
 
     #[test]

@@ -42,6 +42,68 @@ pub fn navigation(command: MavCmd) -> bool {
     )
 }
 
+/// The commands ArduPilot stores a location for (`AP_Mission::stored_in_location`) among those
+/// the mock takes: the navigation commands, the spline waypoint and the two regions of interest
+/// at a location.
+#[allow(deprecated)]
+pub fn ardupilot_located(command: MavCmd) -> bool {
+    use MavCmd::*;
+    navigation(command)
+        || matches!(
+            command,
+            MAV_CMD_NAV_SPLINE_WAYPOINT | MAV_CMD_DO_SET_ROI_LOCATION | MAV_CMD_DO_SET_ROI
+        )
+}
+
+/// The action commands (camera, gimbal, payload, delay, speed) PX4 parses in MAV_FRAME_MISSION
+/// (`parse_mavlink_mission_item`'s second switch) among those the mock takes.
+#[allow(deprecated)]
+pub fn px4_mission_frame(command: MavCmd) -> bool {
+    use MavCmd::*;
+    matches!(
+        command,
+        MAV_CMD_NAV_RETURN_TO_LAUNCH
+            | MAV_CMD_DO_CHANGE_SPEED
+            | MAV_CMD_NAV_DELAY
+            | MAV_CMD_DO_JUMP
+            | MAV_CMD_DO_DIGICAM_CONTROL
+            | MAV_CMD_IMAGE_START_CAPTURE
+            | MAV_CMD_IMAGE_STOP_CAPTURE
+            | MAV_CMD_VIDEO_START_CAPTURE
+            | MAV_CMD_VIDEO_STOP_CAPTURE
+            | MAV_CMD_DO_SET_CAM_TRIGG_DIST
+            | MAV_CMD_DO_MOUNT_CONTROL
+            | MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW
+            | MAV_CMD_DO_SET_ROI_NONE
+            | MAV_CMD_DO_SET_ROI
+            | MAV_CMD_DO_GRIPPER
+            | MAV_CMD_DO_WINCH
+    )
+}
+
+/// The commands PX4 parses only in a global frame among those the mock takes: the navigation
+/// commands and the region of interest at a location (`parse_mavlink_mission_item`'s first
+/// switch; DO_SET_ROI is in both).
+#[allow(deprecated)]
+pub fn px4_global_frame(command: MavCmd) -> bool {
+    use MavCmd::*;
+    navigation(command) || matches!(command, MAV_CMD_DO_SET_ROI_LOCATION | MAV_CMD_DO_SET_ROI)
+}
+
+/// The commands ArduPilot takes among those the mock knows (`mavlink_int_to_mission_cmd`'s
+/// cases): every one PX4 takes, and CONDITION_YAW, DO_SET_SERVO, DO_SET_RELAY and
+/// NAV_SPLINE_WAYPOINT, which PX4 refuses.
+#[allow(deprecated)]
+pub fn ardupilot_takes(command: MavCmd) -> bool {
+    use MavCmd::*;
+    px4_mission_frame(command)
+        || ardupilot_located(command)
+        || matches!(
+            command,
+            MAV_CMD_CONDITION_YAW | MAV_CMD_DO_SET_SERVO | MAV_CMD_DO_SET_RELAY
+        )
+}
+
 /// PX4's `mission_item_s`, the fields the commands the mock accepts use.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Px4Item {
@@ -131,6 +193,12 @@ fn px4_parse(item: &MISSION_ITEM_INT_DATA) -> Px4Item {
             p.land_precision = item.param2;
         }
         MAV_CMD_NAV_TAKEOFF => p.yaw = yaw,
+        // The ROI mode and the altitude go to params[0] and params[6]; neither is answered.
+        MAV_CMD_DO_SET_ROI => {
+            p.params[0] = f64::from(item.param1.trunc());
+            p.params[6] = f64::from(item.z);
+        }
+        MAV_CMD_DO_SET_ROI_LOCATION => p.params[6] = f64::from(item.z),
         _ => {}
     }
     p
@@ -204,12 +272,89 @@ struct ApCommand {
     relative_alt: bool,
     loiter_ccw: bool,
     loiter_xtrack: bool,
-    speed_type: u8,
-    target_ms: f32,
-    throttle_pct: f32,
-    jump_target: u16,
-    jump_times: i16,
-    delay_s: f32,
+    content: Content,
+}
+
+/// The `Mission_Command::content` union of ArduPilot (AP_Mission.h), the members the mock's
+/// commands use, with their C field types.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Content {
+    None,
+    Speed {
+        speed_type: u8,
+        target_ms: f32,
+        throttle_pct: f32,
+    },
+    Jump {
+        target: u16,
+        num_times: i16,
+    },
+    NavDelay {
+        seconds: f32,
+        hour_utc: i8,
+        min_utc: i8,
+        sec_utc: i8,
+    },
+    Yaw {
+        angle_deg: f32,
+        turn_rate_dps: f32,
+        direction: i8,
+        relative_angle: u8,
+    },
+    Relay {
+        num: u8,
+        state: u8,
+    },
+    Servo {
+        channel: u8,
+        pwm: u16,
+    },
+    Gripper {
+        num: u8,
+        action: u8,
+    },
+    Winch {
+        num: u8,
+        action: u8,
+        release_length: f32,
+        release_rate: f32,
+    },
+    DigicamControl {
+        session: u8,
+        zoom_pos: u8,
+        zoom_step: i8,
+        focus_lock: u8,
+        shooting_cmd: u8,
+        cmd_id: u8,
+    },
+    /// pitch, roll, yaw; and the z ArduCopter SITL answered as sent (the mount mode).
+    MountControl {
+        pitch: f32,
+        roll: f32,
+        yaw: f32,
+        mode: f32,
+    },
+    CamTriggDist {
+        meters: f32,
+        trigger: u8,
+    },
+    GimbalPitchyaw {
+        pitch_angle_deg: i8,
+        yaw_angle_deg: i16,
+        pitch_rate_degs: i8,
+        yaw_rate_degs: i8,
+        flags: u8,
+        gimbal_id: u8,
+    },
+    ImageStartCapture {
+        instance: u8,
+        interval_s: f32,
+        total_num_images: u16,
+        start_seq_number: u16,
+    },
+    VideoCapture {
+        video_stream_id: u8,
+    },
 }
 
 /// C's float to unsigned 16-bit conversion (truncation), clamped where C is undefined.
@@ -221,11 +366,36 @@ fn to_u16(v: f32) -> u16 {
     }
 }
 
+/// C's float to 8-bit conversions (truncation toward zero), clamped where C is undefined.
+fn to_u8(v: f32) -> u8 {
+    if v.is_nan() {
+        0
+    } else {
+        v.clamp(0.0, 255.0) as u8
+    }
+}
+
+fn to_i8(v: f32) -> i8 {
+    if v.is_nan() {
+        0
+    } else {
+        v.clamp(-128.0, 127.0) as i8
+    }
+}
+
+fn to_i16(v: f32) -> i16 {
+    if v.is_nan() {
+        0
+    } else {
+        v.clamp(-32_768.0, 32_767.0) as i16
+    }
+}
+
 #[allow(deprecated)]
 fn ap_parse(item: &MISSION_ITEM_INT_DATA) -> ApCommand {
     use MavCmd::*;
     use MavFrame::*;
-    let has_location = navigation(item.command);
+    let has_location = ardupilot_located(item.command);
     let mut c = ApCommand {
         id: item.command,
         p1: 0,
@@ -236,41 +406,136 @@ fn ap_parse(item: &MISSION_ITEM_INT_DATA) -> ApCommand {
         relative_alt: false,
         loiter_ccw: false,
         loiter_xtrack: false,
-        speed_type: 0,
-        target_ms: 0.0,
-        throttle_pct: 0.0,
-        jump_target: 0,
-        jump_times: 0,
-        delay_s: 0.0,
+        content: Content::None,
     };
+    let (p1, p2, p3, p4) = (item.param1, item.param2, item.param3, item.param4);
     match item.command {
         // Copter build: the hold time only.
-        MAV_CMD_NAV_WAYPOINT | MAV_CMD_NAV_TAKEOFF => c.p1 = to_u16(item.param1),
+        MAV_CMD_NAV_WAYPOINT | MAV_CMD_NAV_TAKEOFF | MAV_CMD_NAV_SPLINE_WAYPOINT => {
+            c.p1 = to_u16(p1)
+        }
         MAV_CMD_NAV_LAND => {
-            c.p1 = to_u16(item.param1);
-            if !item.param4.is_nan() {
-                c.loiter_ccw = item.param4 < 0.0;
+            c.p1 = to_u16(p1);
+            if !p4.is_nan() {
+                c.loiter_ccw = p4 < 0.0;
             }
         }
         MAV_CMD_NAV_LOITER_TIME => {
-            c.p1 = to_u16(item.param1);
-            c.loiter_ccw = item.param3 < 0.0;
-            c.loiter_xtrack = item.param4 > 0.0;
+            c.p1 = to_u16(p1);
+            c.loiter_ccw = p3 < 0.0;
+            c.loiter_xtrack = p4 > 0.0;
         }
         MAV_CMD_NAV_LOITER_UNLIM => {
-            c.p1 = to_u16(item.param3.abs());
-            c.loiter_ccw = item.param3 < 0.0;
+            c.p1 = to_u16(p3.abs());
+            c.loiter_ccw = p3 < 0.0;
         }
         MAV_CMD_DO_CHANGE_SPEED => {
-            c.speed_type = item.param1.clamp(0.0, 255.0) as u8;
-            c.target_ms = item.param2;
-            c.throttle_pct = item.param3;
+            c.content = Content::Speed {
+                speed_type: to_u8(p1),
+                target_ms: p2,
+                throttle_pct: p3,
+            }
         }
         MAV_CMD_DO_JUMP => {
-            c.jump_target = to_u16(item.param1);
-            c.jump_times = item.param2.clamp(-32_768.0, 32_767.0) as i16;
+            c.content = Content::Jump {
+                target: to_u16(p1),
+                num_times: to_i16(p2),
+            }
         }
-        MAV_CMD_NAV_DELAY => c.delay_s = item.param1,
+        MAV_CMD_NAV_DELAY => {
+            c.content = Content::NavDelay {
+                seconds: p1,
+                hour_utc: to_i8(p2),
+                min_utc: to_i8(p3),
+                sec_utc: to_i8(p4),
+            }
+        }
+        MAV_CMD_CONDITION_YAW => {
+            c.content = Content::Yaw {
+                angle_deg: p1,
+                turn_rate_dps: p2,
+                direction: to_i8(p3),
+                relative_angle: to_u8(p4),
+            }
+        }
+        MAV_CMD_DO_SET_RELAY => {
+            c.content = Content::Relay {
+                num: to_u8(p1),
+                state: to_u8(p2),
+            }
+        }
+        MAV_CMD_DO_SET_SERVO => {
+            c.content = Content::Servo {
+                channel: to_u8(p1),
+                pwm: to_u16(p2),
+            }
+        }
+        MAV_CMD_DO_GRIPPER => {
+            c.content = Content::Gripper {
+                num: to_u8(p1),
+                action: to_u8(p2),
+            }
+        }
+        MAV_CMD_DO_WINCH => {
+            c.content = Content::Winch {
+                num: to_u8(p1),
+                action: to_u8(p2),
+                release_length: p3,
+                release_rate: p4,
+            }
+        }
+        MAV_CMD_DO_DIGICAM_CONTROL => {
+            c.content = Content::DigicamControl {
+                session: to_u8(p1),
+                zoom_pos: to_u8(p2),
+                zoom_step: to_i8(p3),
+                focus_lock: to_u8(p4),
+                shooting_cmd: to_u8(item.x as f32),
+                cmd_id: to_u8(item.y as f32),
+            }
+        }
+        MAV_CMD_DO_MOUNT_CONTROL => {
+            c.content = Content::MountControl {
+                pitch: p1,
+                roll: p2,
+                yaw: p3,
+                mode: item.z,
+            }
+        }
+        MAV_CMD_DO_SET_CAM_TRIGG_DIST => {
+            c.content = Content::CamTriggDist {
+                meters: p1,
+                trigger: to_u8(p3),
+            }
+        }
+        MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW => {
+            c.content = Content::GimbalPitchyaw {
+                pitch_angle_deg: to_i8(p1),
+                yaw_angle_deg: to_i16(p2),
+                pitch_rate_degs: to_i8(p3),
+                yaw_rate_degs: to_i8(p4),
+                flags: to_u8(item.x as f32),
+                gimbal_id: to_u8(item.z),
+            }
+        }
+        MAV_CMD_IMAGE_START_CAPTURE => {
+            c.content = Content::ImageStartCapture {
+                instance: to_u8(p1),
+                interval_s: p2,
+                total_num_images: to_u16(p3),
+                start_seq_number: to_u16(p4),
+            }
+        }
+        MAV_CMD_VIDEO_START_CAPTURE | MAV_CMD_VIDEO_STOP_CAPTURE => {
+            c.content = Content::VideoCapture {
+                video_stream_id: to_u8(p1),
+            }
+        }
+        // cmd.p1: the camera instance, the gimbal device, the ROI mode.
+        MAV_CMD_IMAGE_STOP_CAPTURE
+        | MAV_CMD_DO_SET_ROI_NONE
+        | MAV_CMD_DO_SET_ROI_LOCATION
+        | MAV_CMD_DO_SET_ROI => c.p1 = to_u16(p1),
         _ => {}
     }
     if has_location {
@@ -278,6 +543,7 @@ fn ap_parse(item: &MISSION_ITEM_INT_DATA) -> ApCommand {
         c.lng = item.y;
         // `cmd.content.location.alt = packet.z * 100.0f;` (float to integer: truncation).
         c.alt_cm = (item.z * 100.0) as i32;
+        // MAV_FRAME_MISSION and the global frames: above sea level.
         c.relative_alt = matches!(
             item.frame,
             MAV_FRAME_GLOBAL_RELATIVE_ALT | MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
@@ -286,6 +552,7 @@ fn ap_parse(item: &MISSION_ITEM_INT_DATA) -> ApCommand {
     c
 }
 
+#[allow(deprecated)]
 fn ap_format(c: &ApCommand, seq: u16) -> MISSION_ITEM_INT_DATA {
     use MavCmd::*;
     let mut out = MISSION_ITEM_INT_DATA {
@@ -295,31 +562,132 @@ fn ap_format(c: &ApCommand, seq: u16) -> MISSION_ITEM_INT_DATA {
         autocontinue: 1,
         ..Default::default()
     };
+    let ccw = |ccw: bool| if ccw { -1.0 } else { 1.0 };
     match c.id {
-        MAV_CMD_NAV_WAYPOINT | MAV_CMD_NAV_TAKEOFF => out.param1 = f32::from(c.p1),
+        MAV_CMD_NAV_WAYPOINT
+        | MAV_CMD_NAV_TAKEOFF
+        | MAV_CMD_NAV_SPLINE_WAYPOINT
+        | MAV_CMD_IMAGE_STOP_CAPTURE
+        | MAV_CMD_DO_SET_ROI_NONE
+        | MAV_CMD_DO_SET_ROI_LOCATION
+        | MAV_CMD_DO_SET_ROI => out.param1 = f32::from(c.p1),
         MAV_CMD_NAV_LAND => {
             out.param1 = f32::from(c.p1);
-            out.param4 = if c.loiter_ccw { -1.0 } else { 1.0 };
+            out.param4 = ccw(c.loiter_ccw);
         }
         MAV_CMD_NAV_LOITER_TIME => {
             out.param1 = f32::from(c.p1);
-            out.param3 = if c.loiter_ccw { -1.0 } else { 1.0 };
+            out.param3 = ccw(c.loiter_ccw);
             out.param4 = if c.loiter_xtrack { 1.0 } else { 0.0 };
         }
-        MAV_CMD_NAV_LOITER_UNLIM => {
-            out.param3 = f32::from(c.p1) * if c.loiter_ccw { -1.0 } else { 1.0 };
-        }
-        MAV_CMD_DO_CHANGE_SPEED => {
-            out.param1 = f32::from(c.speed_type);
-            out.param2 = c.target_ms;
-            out.param3 = c.throttle_pct;
-        }
-        MAV_CMD_DO_JUMP => {
-            out.param1 = f32::from(c.jump_target);
-            out.param2 = f32::from(c.jump_times);
-        }
-        MAV_CMD_NAV_DELAY => out.param1 = c.delay_s,
+        MAV_CMD_NAV_LOITER_UNLIM => out.param3 = f32::from(c.p1) * ccw(c.loiter_ccw),
         _ => {}
+    }
+    let mut params = |p: [f32; 4]| {
+        (out.param1, out.param2, out.param3, out.param4) = (p[0], p[1], p[2], p[3]);
+    };
+    match c.content {
+        Content::None => {}
+        Content::Speed {
+            speed_type,
+            target_ms,
+            throttle_pct,
+        } => params([f32::from(speed_type), target_ms, throttle_pct, 0.0]),
+        Content::Jump { target, num_times } => {
+            params([f32::from(target), f32::from(num_times), 0.0, 0.0])
+        }
+        Content::NavDelay {
+            seconds,
+            hour_utc,
+            min_utc,
+            sec_utc,
+        } => params([
+            seconds,
+            f32::from(hour_utc),
+            f32::from(min_utc),
+            f32::from(sec_utc),
+        ]),
+        Content::Yaw {
+            angle_deg,
+            turn_rate_dps,
+            direction,
+            relative_angle,
+        } => params([
+            angle_deg,
+            turn_rate_dps,
+            f32::from(direction),
+            f32::from(relative_angle),
+        ]),
+        Content::Relay { num, state } => params([f32::from(num), f32::from(state), 0.0, 0.0]),
+        Content::Servo { channel, pwm } => params([f32::from(channel), f32::from(pwm), 0.0, 0.0]),
+        Content::Gripper { num, action } => params([f32::from(num), f32::from(action), 0.0, 0.0]),
+        Content::Winch {
+            num,
+            action,
+            release_length,
+            release_rate,
+        } => params([
+            f32::from(num),
+            f32::from(action),
+            release_length,
+            release_rate,
+        ]),
+        Content::DigicamControl {
+            session,
+            zoom_pos,
+            zoom_step,
+            focus_lock,
+            shooting_cmd,
+            cmd_id,
+        } => {
+            params([
+                f32::from(session),
+                f32::from(zoom_pos),
+                f32::from(zoom_step),
+                f32::from(focus_lock),
+            ]);
+            (out.x, out.y) = (i32::from(shooting_cmd), i32::from(cmd_id));
+        }
+        Content::MountControl {
+            pitch,
+            roll,
+            yaw,
+            mode,
+        } => {
+            params([pitch, roll, yaw, 0.0]);
+            out.z = mode;
+        }
+        Content::CamTriggDist { meters, trigger } => params([meters, 0.0, f32::from(trigger), 0.0]),
+        Content::GimbalPitchyaw {
+            pitch_angle_deg,
+            yaw_angle_deg,
+            pitch_rate_degs,
+            yaw_rate_degs,
+            flags,
+            gimbal_id,
+        } => {
+            params([
+                f32::from(pitch_angle_deg),
+                f32::from(yaw_angle_deg),
+                f32::from(pitch_rate_degs),
+                f32::from(yaw_rate_degs),
+            ]);
+            (out.x, out.z) = (i32::from(flags), f32::from(gimbal_id));
+        }
+        Content::ImageStartCapture {
+            instance,
+            interval_s,
+            total_num_images,
+            start_seq_number,
+        } => params([
+            f32::from(instance),
+            interval_s,
+            f32::from(total_num_images),
+            f32::from(start_seq_number),
+        ]),
+        Content::VideoCapture { video_stream_id } => {
+            params([f32::from(video_stream_id), 0.0, 0.0, 0.0])
+        }
     }
     if c.has_location {
         out.x = c.lat;

@@ -1,7 +1,7 @@
 //! Verified upload over loopback UDP against the mock autopilot with the settings every user gets
 //! (no tuning): seeded loss, duplication and reordering, NACKs, a lost final ack, a reboot
-//! mid-upload, each flavour's storage rules, a vehicle holding something else than was sent, and
-//! the CLI's failure document.
+//! mid-upload, each flavour's storage rules (the action commands included), a vehicle holding
+//! something else than was sent, and the CLI's failure document.
 
 use std::path::Path;
 use std::time::Duration;
@@ -232,6 +232,138 @@ async fn an_ardupilot_mock_is_waited_out_while_it_boots_and_verifies_despite_its
     // Home, take-off, the 8 waypoints, the return to the origin, the landing.
     assert_eq!(stored.len(), 1 + 1 + 8 + 1 + 1);
     assert_eq!(stored[0].z, items[0].z);
+}
+
+/// Take-off, a waypoint, then every action command (camera, gimbal, region of interest, yaw,
+/// payload, delay, speed, spline) with typical values, each in the frame `link::support` gives
+/// for `flavour`; with `all`, also those the flavour does not take. ArduPilot: its home first.
+fn actions(flavour: Flavour, all: bool) -> Vec<MISSION_ITEM_INT_DATA> {
+    use emplan::link::items::item;
+    use emplan::link::mav::{MavCmd, MavFrame};
+    use emplan::link::support::{action_frame, takes};
+    use num_traits::FromPrimitive;
+    let (lat, lon) = (385_362_000, -1_217_875_000);
+    let (wp_lat, wp_lon) = (385_366_500, -1_217_869_300);
+    let relative = MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT;
+    let mut items = Vec::new();
+    if flavour == Flavour::ArduPilot {
+        let home = [0.0; 4];
+        items.push(item(
+            MavCmd::MAV_CMD_NAV_WAYPOINT,
+            MavFrame::MAV_FRAME_GLOBAL,
+            home,
+            lat,
+            lon,
+            16.0,
+        ));
+    }
+    let nan = f32::NAN;
+    items.push(item(
+        MavCmd::MAV_CMD_NAV_TAKEOFF,
+        relative,
+        [0.0, 0.0, 0.0, nan],
+        lat,
+        lon,
+        20.0,
+    ));
+    items.push(item(
+        MavCmd::MAV_CMD_NAV_WAYPOINT,
+        relative,
+        [2.5, 0.0, 0.0, nan],
+        wp_lat,
+        wp_lon,
+        25.0,
+    ));
+    // (command, params, x, y, z, has a position): as sitl/probe_actions.py sent them.
+    let commands: [(u16, [f32; 4], i32, i32, f32, bool); 20] = [
+        (203, [1.0, 2.0, 0.0, 0.0], 1, 3, 0.0, false),
+        (2000, [0.0, 2.5, 3.0, 4.0], 0, 0, 0.0, false),
+        (2001, [0.0; 4], 0, 0, 0.0, false),
+        (2500, [0.0; 4], 0, 0, 0.0, false),
+        (2501, [0.0; 4], 0, 0, 0.0, false),
+        (206, [12.5, 0.0, 1.0, 0.0], 0, 0, 0.0, false),
+        (205, [-90.0, 0.0, 30.0, 0.0], 0, 0, 2.0, false),
+        (1000, [-45.5, 30.5, 0.0, 0.0], 12, 0, 1.0, false),
+        (195, [0.0; 4], 385_367_000, -1_217_868_000, 10.55, true),
+        (197, [0.0; 4], 0, 0, 0.0, false),
+        (
+            201,
+            [3.0, 0.0, 0.0, 0.0],
+            385_367_000,
+            -1_217_868_000,
+            10.55,
+            true,
+        ),
+        (115, [90.0, 20.0, 1.0, 0.0], 0, 0, 0.0, false),
+        (183, [9.0, 1900.0, 0.0, 0.0], 0, 0, 0.0, false),
+        (181, [0.0, 1.0, 0.0, 0.0], 0, 0, 0.0, false),
+        (211, [1.0, 0.0, 0.0, 0.0], 0, 0, 0.0, false),
+        (42600, [1.0, 1.0, 2.5, 0.5], 0, 0, 0.0, false),
+        (93, [7.5, -1.0, -1.0, -1.0], 0, 0, 0.0, false),
+        (19, [12.5, 0.0, 0.0, 0.0], wp_lat, wp_lon, 25.55, true),
+        (178, [1.0, 8.5, -1.0, 0.0], 0, 0, 0.0, false),
+        (82, [2.5, 0.0, 0.0, 0.0], wp_lat, wp_lon, 25.55, true),
+    ];
+    for (command, params, x, y, z, located) in commands {
+        if !all && !takes(flavour, command) {
+            continue;
+        }
+        let frame = action_frame(flavour, command, located);
+        items.push(item(
+            MavCmd::from_u16(command).unwrap(),
+            frame,
+            params,
+            x,
+            y,
+            z,
+        ));
+    }
+    for (seq, it) in items.iter_mut().enumerate() {
+        it.seq = seq as u16;
+    }
+    items
+}
+
+#[tokio::test]
+async fn every_action_each_flavour_takes_uploads_to_its_mock_and_verifies_by_its_storage() {
+    for (flavour, taken) in [
+        (Flavour::Px4, 16),
+        (Flavour::ArduPilot, 20),
+        (Flavour::Generic, 20),
+    ] {
+        let config = MockConfig {
+            flavour,
+            ..MockConfig::default()
+        };
+        let items = actions(flavour, false);
+        let before = if flavour == Flavour::ArduPilot { 3 } else { 2 };
+        assert_eq!(items.len(), before + taken, "{flavour:?}");
+        let (result, _, stored) = upload_once(config, Some(items.clone()), None).await;
+        let report = result.unwrap_or_else(|e| panic!("{flavour:?}: {e}"));
+        assert!(report.verified, "{flavour:?}");
+        assert_eq!(stored.len(), items.len(), "{flavour:?}");
+    }
+}
+
+#[tokio::test]
+async fn a_px4_mock_refuses_a_condition_yaw_by_name_and_item() {
+    let items = actions(Flavour::Px4, true);
+    let yaw = items
+        .iter()
+        .position(|it| it.command as u32 == 115)
+        .unwrap();
+    let (result, _, stored) = upload_once(MockConfig::default(), Some(items), None).await;
+    let err = result.expect_err("PX4 takes no CONDITION_YAW");
+    assert_eq!(
+        (err.stage, err.accepted, err.item, err.refusal),
+        (
+            Stage::Upload,
+            false,
+            Some(yaw as u16),
+            Some(MavMissionResult::MAV_MISSION_UNSUPPORTED)
+        )
+    );
+    assert!(stored.is_empty());
 }
 
 #[tokio::test]
