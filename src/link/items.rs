@@ -150,15 +150,25 @@ pub fn translate(
     let mut yaw_deg = f32::NAN;
     let mut notes = Vec::new();
     let mut out = Vec::with_capacity(actions.len());
-    if flavour != Flavour::Px4 {
-        return Ok((command, yaw_deg, actions.to_vec(), notes));
-    }
     let unsupported = |c: &Command| ItemsError::Unsupported {
         place: place.to_string(),
         command: c.command,
         what: c.describe(),
-        autopilot: "PX4",
+        autopilot: match flavour {
+            Flavour::Px4 => "PX4",
+            Flavour::ArduPilot => "ArduPilot",
+            Flavour::Generic => "the autopilot",
+        },
     };
+    if flavour != Flavour::Px4 {
+        if let Some(c) = actions
+            .iter()
+            .find(|c| !super::support::takes(flavour, c.command))
+        {
+            return Err(unsupported(c));
+        }
+        return Ok((command, yaw_deg, actions.to_vec(), notes));
+    }
     if kind == WaypointKind::Spline {
         command = id::NAV_WAYPOINT;
         notes.push(format!(
@@ -181,9 +191,8 @@ pub fn translate(
                      (PX4 does not take CONDITION_YAW in a mission)"
                 ));
             }
-            (id::CONDITION_YAW | id::DO_SET_SERVO | id::DO_SET_RELAY, _) => {
-                return Err(unsupported(c))
-            }
+            (id::CONDITION_YAW, _) => return Err(unsupported(c)),
+            _ if !super::support::takes(flavour, c.command) => return Err(unsupported(c)),
             _ => out.push(c.clone()),
         }
     }
@@ -191,8 +200,13 @@ pub fn translate(
 }
 
 /// A command as a mission item for `flavour`: a position in degE7 where it has one (frame as
-/// the file gave it), else parameters 5 and 6 as integers in the mission frame.
-fn command_item(c: &Command, place: &str) -> Result<MISSION_ITEM_INT_DATA, ItemsError> {
+/// the file gave it), else parameters 5 and 6 as integers in the frame the autopilot takes it
+/// in ([`super::support::action_frame`]).
+fn command_item(
+    c: &Command,
+    place: &str,
+    flavour: Flavour,
+) -> Result<MISSION_ITEM_INT_DATA, ItemsError> {
     use num_traits::FromPrimitive;
     let command = MavCmd::from_u16(c.command).ok_or_else(|| ItemsError::UnknownCommand {
         place: place.to_string(),
@@ -288,7 +302,7 @@ pub fn mission_items_noted(
                          place: &str|
      -> Result<(), ItemsError> {
         for c in commands {
-            items.push(command_item(c, place)?);
+            items.push(command_item(c, place, opts.flavour)?);
         }
         Ok(())
     };
