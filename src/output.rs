@@ -16,7 +16,7 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use crate::flightlog::recorder::is_flight_dir;
+use crate::flightlog::recorder::flight_dir_holding;
 
 /// Why a file was not written; each names it.
 #[derive(Debug, thiserror::Error)]
@@ -230,19 +230,6 @@ fn same_file(output: &Path, input: &Path) -> bool {
         (Some(a), Some(b)) => a == b,
         _ => false,
     }
-}
-
-/// The flight directory `path` would be written in, if any: its directory or one above.
-fn flight_dir_holding(path: &Path) -> Option<PathBuf> {
-    let mut dirs = vec![parent_of(path)?];
-    // A directory being created is itself checked: writing into a flight's own directory.
-    if path.is_dir() {
-        dirs.extend(path.canonicalize().ok());
-    }
-    dirs.iter()
-        .flat_map(|d| d.ancestors())
-        .find(|d| is_flight_dir(d))
-        .map(Path::to_path_buf)
 }
 
 #[cfg(test)]

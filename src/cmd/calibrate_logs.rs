@@ -69,8 +69,14 @@ pub fn run(
     // (unforced) one holding anything.
     let out = args.out.as_ref().map(|path| {
         let mut inputs = args.from_logs.clone();
-        if let Some(dir) = vehicle_dir {
-            inputs.push(dir.to_path_buf());
+        // The source vehicle's directory, or the built-in vehicle's (models/s1000), however
+        // the output is spelled.
+        let sources = match vehicle_dir {
+            Some(dir) => vec![dir.to_path_buf()],
+            None => emplan::physics::builtin::source_dirs().to_vec(),
+        };
+        for dir in &sources {
+            inputs.push(dir.clone());
             inputs.extend(super::vehicle_files(dir));
         }
         Output::new(path, inputs, args.force)

@@ -35,8 +35,9 @@ pub struct Args {
     #[arg(long, default_value_t = 3600.0)]
     timeout_s: f64,
     /// Resume an earlier flight of this mission cut short (sent home, a battery swap): fly only
-    /// the waypoints it did not visit (a hover cut short is not a visit), planned again from
-    /// the origin; the new flight's plan.json names it (`resumes`)
+    /// the waypoints it did not visit (a hover cut short is not a visit), nor any flight that
+    /// resumed it since (found beside it or in --log-dir), planned again from the origin; the
+    /// new flight's plan.json names the last of them (`resumes`)
     #[arg(long, value_name = "FLIGHT_DIR", conflicts_with = "service")]
     resume: Option<PathBuf>,
     /// The energy guard in flight: warn when the battery is projected to land below its
@@ -70,7 +71,7 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
     if let Some(warning) = mission.unknown_warning() {
         eprintln!("warning: {warning}");
     }
-    let resumed = (args.resume.as_deref()).map(|d| resuming(&mission, d));
+    let resumed = (args.resume.as_deref()).map(|d| resuming(&mission, d, &args.log_dir));
     let resumed = resumed.transpose()?;
     let mission = resumed.as_ref().map_or(mission, |(_, left)| left.clone());
     let (model, planned) = args.flight.plan_first(&mission)?;
@@ -163,16 +164,21 @@ fn autopilot_profile(
     Ok((reopened, planned))
 }
 
-/// `fly --resume DIR`: the name of the flight in `dir` and the mission of the waypoints it left
-/// (said on stderr).
+/// `fly --resume DIR`: the flight the new one resumes (the one in `dir`, or the last that
+/// resumed it since, found beside it or in `log_dir`) and the mission of the waypoints none of
+/// them visited (said on stderr, with any warning of a torn log).
 fn resuming(
     mission: &emplan::mission::Mission,
     dir: &std::path::Path,
+    log_dir: &std::path::Path,
 ) -> anyhow::Result<(String, emplan::mission::Mission)> {
-    let resumption = emplan::session::resume_flight(dir, mission)
+    let resumption = emplan::session::resume_flight(dir, mission, &[log_dir])
         .map_err(|e| anyhow::Error::new(e).context(format!("--resume {}", dir.display())))?;
     eprintln!("{}", resumption.summary());
-    Ok((resumption.flight, resumption.mission))
+    for note in &resumption.notes {
+        eprintln!("warning: {note}");
+    }
+    Ok((resumption.resumes().to_string(), resumption.mission))
 }
 
 /// `fly --service URL`: upload, start and follow the flight through a running service, once

@@ -168,6 +168,15 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             anyhow::bail!("--allow-host {name:?}: expected a host name (letters, digits, '-', '.'), without a port");
         }
     }
+    // A flight's directory holds that flight's files only: the token is never made there.
+    if let Some(flight) = emplan::flightlog::recorder::flight_dir_holding(&token_file) {
+        anyhow::bail!(
+            "--token-file {}: inside the flight directory {}; refusing to keep the token there \
+             (a flight's files are its record: give a file outside it)",
+            token_file.display(),
+            flight.display()
+        );
+    }
     let (token, created) = Token::load_or_create(&token_file)?;
     for weakness in emplan::service::token::weaknesses(&token_file, &token) {
         tracing::warn!("{weakness}");

@@ -41,6 +41,27 @@ pub fn is_flight_dir(dir: &Path) -> bool {
     dir.join(TLOG_FILE).is_file()
 }
 
+/// The flight directory that `path` is or lies inside, if any: the nearest of `path` and the
+/// directories above it that exists, symlinks resolved, then each directory above that. A
+/// path that does not exist yet (a file or directory about to be written) is judged by where
+/// it would be made. Nothing but a flight's own files is ever written in one.
+pub fn flight_dir_holding(path: &Path) -> Option<PathBuf> {
+    let existing = path
+        .ancestors()
+        .map(|p| {
+            if p.as_os_str().is_empty() {
+                Path::new(".")
+            } else {
+                p
+            }
+        })
+        .find_map(|p| p.canonicalize().ok())?;
+    existing
+        .ancestors()
+        .find(|d| is_flight_dir(d))
+        .map(Path::to_path_buf)
+}
+
 /// When the recorder hands data to the OS and to the disk.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RecorderConfig {
@@ -115,8 +136,9 @@ fn sync_dir(dir: &Path) {
     }
 }
 
-/// Proves that flight directories can be made in `log_dir` before anything is flown: creates it
-/// (and its parents) when missing, then creates, writes, syncs and removes a probe file in it.
+/// Proves that flight directories can be made in `log_dir` before anything is flown: refuses a
+/// flight directory or a directory inside one ([`flight_dir_holding`]), creates it (and its
+/// parents) when missing, then creates, writes, syncs and removes a probe file in it.
 /// A directory that cannot be written (an existing file, a path under a file, a read-only
 /// filesystem, no permission, no space) is an error naming the path and the system's reason.
 pub fn check_log_dir(log_dir: &Path) -> Result<(), FlightLogError> {
@@ -126,6 +148,13 @@ pub fn check_log_dir(log_dir: &Path) -> Result<(), FlightLogError> {
     };
     if log_dir.exists() && !log_dir.is_dir() {
         return Err(refused("exists and is not a directory".into()));
+    }
+    if let Some(flight) = flight_dir_holding(log_dir) {
+        return Err(refused(format!(
+            "it is inside the flight directory {}: flights are recorded beside one another, \
+             never inside one (give the directory that holds the flights)",
+            flight.display()
+        )));
     }
     std::fs::create_dir_all(log_dir).map_err(|e| refused(format!("cannot create it: {e}")))?;
     let probe = log_dir.join(format!(".emplan-write-check-{}", std::process::id()));

@@ -136,8 +136,21 @@ pub enum ResumeError {
         mission: String,
         distance_m: f64,
     },
-    #[error("every waypoint was reached in {flight}: nothing left to fly")]
-    NothingLeft { flight: String },
+    #[error("every waypoint was reached in {flight}{}: nothing left to fly", and_later(.later))]
+    NothingLeft {
+        flight: String,
+        /// The flights that resumed it already, in the order they flew.
+        later: Vec<String>,
+    },
+}
+
+/// ` and in B, C, which resumed it` (nothing when no flight did).
+fn and_later(later: &[String]) -> String {
+    match later {
+        [] => String::new(),
+        [one] => format!(" and in {one}, which resumed it"),
+        more => format!(" and in {}, which resumed it", more.join(", ")),
+    }
 }
 
 /// Checks that `plan` (of `flight`) is a flight of `mission`: the same name, an origin within
@@ -215,6 +228,21 @@ pub struct Resumption {
     pub mission: Mission,
     /// What the flight did at each waypoint of its plan.
     pub visits: Vec<PointVisit>,
+    /// The flights that resumed it already (each resuming it or one of these), in the order
+    /// they flew: what they visited is not flown again.
+    pub later: Vec<Resumer>,
+    /// What the user should know of how the visits were judged (a torn log), one sentence
+    /// each.
+    pub notes: Vec<String>,
+}
+
+/// A flight that resumed the flight resumed now, or one that resumed it in turn.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Resumer {
+    /// Its name (its flight directory's).
+    pub flight: String,
+    /// The waypoints it visited, in flying order.
+    pub visited: Vec<String>,
 }
 
 impl Resumption {
@@ -226,8 +254,14 @@ impl Resumption {
             .collect()
     }
 
-    /// One line for the user: `resuming FLIGHT: visited A, B; hover cut short at C; flying the
-    /// 2 left: C, D`.
+    /// The flight a new flight resumes: the last that resumed this one, else this one (so a
+    /// mission's flights stay one chain).
+    pub fn resumes(&self) -> &str {
+        self.later.last().map_or(&self.flight, |r| &r.flight)
+    }
+
+    /// One line for the user: `resuming FLIGHT: visited A, B; hover cut short at C; resumed
+    /// since by F2 (visited D); flying the 2 left: C, E`.
     pub fn summary(&self) -> String {
         let list = |visit| match self.named(visit).join(", ") {
             none if none.is_empty() => None,
@@ -238,8 +272,21 @@ impl Resumption {
         let left: Vec<&str> = (self.mission.waypoints.iter())
             .map(|w| w.name.as_str())
             .collect();
+        let later = match self.later.as_slice() {
+            [] => String::new(),
+            later => format!(
+                "; resumed since by {}",
+                (later.iter())
+                    .map(|r| match r.visited.join(", ") {
+                        none if none.is_empty() => format!("{} (visited none)", r.flight),
+                        some => format!("{} (visited {some})", r.flight),
+                    })
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        };
         format!(
-            "resuming {}: visited {}{cut_short}; flying the {} left: {}",
+            "resuming {}: visited {}{cut_short}{later}; flying the {} left: {}",
             self.flight,
             list(Visit::Visited).unwrap_or_else(|| "none".into()),
             left.len(),
@@ -259,11 +306,36 @@ pub fn resume(
     flight: &str,
 ) -> Result<Resumption, ResumeError> {
     check_same_mission(mission, plan, flight)?;
-    let visits = visits(plan, report);
+    resume_chain(
+        mission,
+        Resumption {
+            flight: report.flight.clone(),
+            mission: mission.clone(),
+            visits: visits(plan, report),
+            later: Vec::new(),
+            notes: Vec::new(),
+        },
+        flight,
+    )
+}
+
+/// The mission that resumes the flight `resumed` describes (its visits judged, checked to be
+/// a flight of `mission`; `resumed.mission` is replaced; `flight` names it in errors), after the
+/// flights in `resumed.later` that resumed it already: the waypoints its plan held that neither
+/// it nor any of them visited, in the mission file's order. Refused when nothing is left,
+/// naming them.
+pub fn resume_chain(
+    mission: &Mission,
+    resumed: Resumption,
+    flight: &str,
+) -> Result<Resumption, ResumeError> {
+    let by_later = |name: &str| (resumed.later.iter()).any(|r| r.visited.iter().any(|v| v == name));
     let left = |name: &str| {
-        visits
+        resumed
+            .visits
             .iter()
             .any(|v| v.name == name && v.visit != Visit::Visited)
+            && !by_later(name)
     };
     let waypoints: Vec<_> = (mission.waypoints.iter())
         .filter(|w| left(&w.name))
@@ -272,15 +344,15 @@ pub fn resume(
     if waypoints.is_empty() {
         return Err(ResumeError::NothingLeft {
             flight: flight.to_string(),
+            later: resumed.later.iter().map(|r| r.flight.clone()).collect(),
         });
     }
     Ok(Resumption {
-        flight: report.flight.clone(),
         mission: Mission {
             waypoints,
             ..mission.clone()
         },
-        visits,
+        ..resumed
     })
 }
 
@@ -687,6 +759,47 @@ mod tests {
         assert_eq!(
             err.to_string(),
             "every waypoint was reached in flights/f1: nothing left to fly"
+        );
+    }
+
+    #[test]
+    fn a_flight_resumed_already_leaves_only_what_neither_it_nor_its_resumptions_visited() {
+        let plan = square_plan();
+        let report = flown(&plan, "f1", Some(SegmentKind::Leg(1)));
+        let first = resume(&square(), &plan, &report, "flights/f1").expect("resumable");
+        assert_eq!(first.resumes(), "f1");
+        let with = |later: &[(&str, &[&str])]| Resumption {
+            later: (later.iter())
+                .map(|(f, v)| Resumer {
+                    flight: f.to_string(),
+                    visited: v.iter().map(|v| v.to_string()).collect(),
+                })
+                .collect(),
+            ..first.clone()
+        };
+        // f2 resumed f1 and visited B: only C is left, and the next flight resumes f2.
+        let resumed =
+            resume_chain(&square(), with(&[("f2", &["B"])]), "flights/f1").expect("resumable");
+        assert_eq!(names(&resumed.mission.waypoints), ["C"]);
+        assert_eq!(resumed.resumes(), "f2");
+        assert!(
+            resumed
+                .summary()
+                .contains("resumed since by f2 (visited B)"),
+            "{}",
+            resumed.summary()
+        );
+        // f2 visited nothing, f3 (resuming f2) visited C and B: nothing left, both named.
+        let err = resume_chain(
+            &square(),
+            with(&[("f2", &[]), ("f3", &["C", "B"])]),
+            "flights/f1",
+        )
+        .expect_err("nothing left");
+        assert_eq!(
+            err.to_string(),
+            "every waypoint was reached in flights/f1 and in f2, f3, which resumed it: \
+             nothing left to fly"
         );
     }
 

@@ -195,8 +195,8 @@ fn header(fitted: &[Fitted], to: &FittedTo) -> String {
 
 /// Writes the calibrated vehicle.toml into the directory `out` (new or empty unless forced,
 /// never an input such as the source `source_dir`, through `crate::output`; `source_dir` None:
-/// the built-in vehicle), reads it back and checks the fitted values; returns the vehicle as
-/// read.
+/// the built-in vehicle, whose source directories are never written either), reads it back
+/// and checks the fitted values; returns the vehicle as read.
 pub fn write_vehicle(
     source_dir: Option<&Path>,
     out: &Output,
@@ -222,7 +222,14 @@ pub fn write_vehicle(
     let out_file = out.path.join("vehicle.toml").display().to_string();
     // Never over the source vehicle, whatever the caller counted as inputs.
     let mut out = out.clone();
-    out.inputs.extend(source_dir.map(Path::to_path_buf));
+    match source_dir {
+        Some(dir) => out.inputs.push(dir.to_path_buf()),
+        None => out.inputs.extend(
+            crate::physics::builtin::source_dirs()
+                .into_iter()
+                .flat_map(|dir| [dir.join("vehicle.toml"), dir]),
+        ),
+    }
     out.check_dir()?;
     let values: Vec<(&str, f64, String)> = fitted
         .iter()

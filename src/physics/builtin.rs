@@ -12,6 +12,16 @@ pub const NAME: &str = "models/s1000 (built in)";
 /// given).
 pub const VEHICLE_TOML: &str = include_str!("../../models/s1000/vehicle.toml");
 
+/// The directories the built-in vehicle's files come from: the repository's `models/s1000` as
+/// a command run from the repository names it, and as the build saw it. A command writing a
+/// vehicle directory never writes over them, whatever the vehicle it read.
+pub fn source_dirs() -> [std::path::PathBuf; 2] {
+    [
+        std::path::PathBuf::from("models/s1000"),
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/s1000"),
+    ]
+}
+
 /// The shipped S1000's parameters.
 pub fn vehicle() -> Result<Vehicle, PhysicsError> {
     Vehicle::from_toml(VEHICLE_TOML, "models/s1000/vehicle.toml (built in)")

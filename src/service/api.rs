@@ -9,8 +9,10 @@
 //!   "acceptance_radius_m", "profile", "solver", "time_limit_s", "seed", "kicks"}` (all
 //!   optional); answers `emplan upload --json`'s document plus `"link"`, or the failure
 //!   document `{"ok": false, "stage", "accepted", "error", "item", "result"}`. Refused (409)
-//!   when the file is changing or its bytes are not the ones planned (`missions::unchanged`).
-//! - `POST /api/vehicle/start` (token): arm and start the mission the vehicle holds.
+//!   when the file is changing or its bytes are not the ones planned (`missions::unchanged`),
+//!   and while another upload is under way (`vehicle::UploadSlot`).
+//! - `POST /api/vehicle/start` (token): arm and start the mission the vehicle holds (refused
+//!   while an upload is under way).
 //! - `GET /api/vehicle`, `GET /api/link`, `GET /api/battery?since_ms=`: link, vehicle and
 //!   battery state, the flight in progress with its parts so far, the battery's last minutes.
 //! - `GET /api/flights`, `GET /api/flights/{name}`, `GET /api/flights/{name}/report`,
@@ -43,7 +45,9 @@ use super::missions::CatalogRx;
 use super::vehicle::{UploadJob, VehicleHandle};
 use super::wire::{Event, UploadRequest};
 use super::{escape_controls, Refusal, Token};
-use crate::flightlog::recorder::{read_report, PLAN_FILE, REPORT_FILE, SAMPLES_FILE, TLOG_FILE};
+use crate::flightlog::recorder::{
+    is_flight_dir, read_report, PLAN_FILE, REPORT_FILE, SAMPLES_FILE, TLOG_FILE,
+};
 use crate::physics::{Profile, VehicleModel};
 use crate::planner::FlightChoice;
 use crate::session::flight_dirs;
@@ -359,6 +363,8 @@ async fn upload_mission(
     let entry = catalog
         .get(name)
         .ok_or_else(|| unknown_mission(&catalog.dir, name))?;
+    // One upload at a time, from its planning to its verified read-back.
+    let slot = s.vehicle.begin_upload(name)?;
     super::missions::unchanged(&catalog, entry).await?;
     let Some(mission) = entry.mission.clone() else {
         let message = match &entry.outcome {
@@ -413,16 +419,19 @@ async fn upload_mission(
         return Err(Refusal::new(422, "plan", &format!("{e}{hint}")));
     }
     s.vehicle
-        .upload(UploadJob {
-            name: name.to_string(),
-            mission,
-            plan: Arc::new(plan),
-            choice,
-            acceptance_radius_m,
-            origin: request.origin,
-            solver,
-            span,
-        })
+        .upload(
+            UploadJob {
+                name: name.to_string(),
+                mission,
+                plan: Arc::new(plan),
+                choice,
+                acceptance_radius_m,
+                origin: request.origin,
+                solver,
+                span,
+            },
+            slot,
+        )
         .await
 }
 
@@ -464,7 +473,7 @@ pub fn flight_dir(log_dir: &FsPath, name: &str) -> Option<PathBuf> {
     let plain =
         !name.is_empty() && !name.starts_with('.') && !name.contains(['/', '\\']) && name != "..";
     let dir = log_dir.join(name);
-    (plain && dir.join(TLOG_FILE).is_file()).then_some(dir)
+    (plain && is_flight_dir(&dir)).then_some(dir)
 }
 
 /// The files of a flight directory that exist, as API paths.

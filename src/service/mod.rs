@@ -184,6 +184,26 @@ pub async fn run(
             reason: other.to_string(),
         },
     })?;
+    // A flight cut off when the service last stopped (killed, the machine down) is measured
+    // from its log before the recorder starts: it never stays without a report.
+    let log_dir = cfg.log_dir.clone();
+    let unfinished =
+        tokio::task::spawn_blocking(move || crate::session::report_unfinished(&log_dir))
+            .await
+            .unwrap_or_default();
+    for (dir, reported) in unfinished {
+        match reported {
+            Ok(report) => tracing::warn!(
+                "flight {}: its recording stopped before its report was written; measured from its log ({})",
+                escape_controls(&crate::flightlog::recorder::flight_name(&dir)),
+                if report.complete { "complete" } else { "incomplete: the log ends in flight" }
+            ),
+            Err(e) => tracing::warn!(
+                "flight {}: its recording stopped before its report was written, and it cannot be measured: {e}",
+                escape_controls(&crate::flightlog::recorder::flight_name(&dir))
+            ),
+        }
+    }
     let (http_stop_tx, http_stop) = watch::channel(false);
     let (stop_tx, stop) = watch::channel(false);
     let hub = Arc::new(events::Hub::new());

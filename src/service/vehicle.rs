@@ -89,6 +89,7 @@ pub struct UploadJob {
 enum Command {
     Upload(
         Box<UploadJob>,
+        UploadSlot,
         oneshot::Sender<Result<serde_json::Value, Refusal>>,
     ),
     Start(oneshot::Sender<Result<(), Refusal>>),
@@ -99,12 +100,51 @@ enum Command {
 pub struct VehicleHandle {
     commands: mpsc::Sender<Command>,
     status: watch::Receiver<LinkStatus>,
+    /// The mission of the upload under way, if any (see [`UploadSlot`]).
+    uploading: Arc<std::sync::Mutex<Option<String>>>,
+}
+
+/// The one upload under way, from the moment its request is taken (before it is planned) until
+/// the vehicle's copy is verified or the upload fails: a second upload, or a start, asked
+/// meanwhile is refused (409) rather than run after it, so that no answer says "verified" for a
+/// mission the vehicle no longer holds. The request holds it, then the vehicle actor while it
+/// transfers (a client that hangs up does not free it early); dropping it frees it.
+#[derive(Debug)]
+pub struct UploadSlot {
+    uploading: Arc<std::sync::Mutex<Option<String>>>,
+}
+
+impl Drop for UploadSlot {
+    fn drop(&mut self) {
+        *lock(&self.uploading) = None;
+    }
+}
+
+/// The lock of the upload under way (never held across an await; a panic while it was held
+/// leaves the name, which is still true or soon cleared).
+fn lock(uploading: &std::sync::Mutex<Option<String>>) -> std::sync::MutexGuard<'_, Option<String>> {
+    uploading
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+/// The refusal of what cannot run while the upload of `mission` is under way.
+fn upload_under_way(mission: &str, asked: &str) -> Refusal {
+    Refusal::new(
+        409,
+        "vehicle",
+        &format!(
+            "the upload of {} is under way: one transfer at a time; {asked} refused (ask again \
+             once it has answered)",
+            super::escape_controls(mission)
+        ),
+    )
 }
 
 impl std::fmt::Debug for Command {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            Command::Upload(job, _) => write!(f, "Upload({})", job.name),
+            Command::Upload(job, _, _) => write!(f, "Upload({})", job.name),
             Command::Start(_) => f.write_str("Start"),
         }
     }
@@ -115,18 +155,43 @@ fn gone() -> Refusal {
 }
 
 impl VehicleHandle {
-    /// Uploads (verified) and answers the upload document, or refuses.
-    pub async fn upload(&self, job: UploadJob) -> Result<serde_json::Value, Refusal> {
+    /// Takes the one upload's place for `mission`, refused (409) while another upload is
+    /// under way.
+    pub fn begin_upload(&self, mission: &str) -> Result<UploadSlot, Refusal> {
+        let mut uploading = lock(&self.uploading);
+        if let Some(other) = uploading.as_deref() {
+            return Err(upload_under_way(
+                other,
+                &format!("this upload of {}", super::escape_controls(mission)),
+            ));
+        }
+        *uploading = Some(mission.to_string());
+        Ok(UploadSlot {
+            uploading: self.uploading.clone(),
+        })
+    }
+
+    /// Uploads (verified) and answers the upload document, or refuses; `slot` is held until
+    /// the vehicle actor is done with it.
+    pub async fn upload(
+        &self,
+        job: UploadJob,
+        slot: UploadSlot,
+    ) -> Result<serde_json::Value, Refusal> {
         let (tx, rx) = oneshot::channel();
         self.commands
-            .send(Command::Upload(Box::new(job), tx))
+            .send(Command::Upload(Box::new(job), slot, tx))
             .await
             .map_err(|_| gone())?;
         rx.await.unwrap_or_else(|_| Err(gone()))
     }
 
-    /// Arms the vehicle and starts the mission it holds.
+    /// Arms the vehicle and starts the mission it holds; refused (409) while an upload is
+    /// under way (the mission is about to change).
     pub async fn start(&self) -> Result<(), Refusal> {
+        if let Some(mission) = lock(&self.uploading).clone() {
+            return Err(upload_under_way(&mission, "the start"));
+        }
         let (tx, rx) = oneshot::channel();
         self.commands
             .send(Command::Start(tx))
@@ -184,7 +249,12 @@ pub fn spawn(
             runtime.block_on(run(cfg, model, catalog, hub, stop, rx, status_tx));
             let _ = done_tx.send(());
         })?;
-    Ok((VehicleHandle { commands, status }, done))
+    let handle = VehicleHandle {
+        commands,
+        status,
+        uploading: Default::default(),
+    };
+    Ok((handle, done))
 }
 
 /// The built-in mock and how to start it again elsewhere.
@@ -278,7 +348,7 @@ pub fn same_flight(a: &FlightPlan, b: &FlightPlan) -> bool {
 /// Answers a command that cannot be served now.
 fn refuse(command: Command, refusal: Refusal) {
     match command {
-        Command::Upload(_, reply) => {
+        Command::Upload(_, _, reply) => {
             let _ = reply.send(Err(refusal));
         }
         Command::Start(reply) => {
@@ -429,9 +499,11 @@ impl Actor {
             tokio::select! {
                 _ = stop.changed() => return,
                 command = commands.recv() => match command {
-                    Some(Command::Upload(job, reply)) => {
+                    Some(Command::Upload(job, slot, reply)) => {
                         let span = job.span.clone();
                         let outcome = self.upload(*job).instrument(span).await;
+                        // Free before the answer: a client told "verified" may upload again.
+                        drop(slot);
                         let _ = reply.send(outcome);
                     }
                     Some(Command::Start(reply)) => {

@@ -41,5 +41,6 @@ pub use recorder::{
     flight_dirs, spawn_recorder, FlightEvent, Live, RecorderConfig, RecorderHandle,
 };
 pub use replay::{
-    plan_for_tlog, replay, replay_priced, resume_flight, ReplayError, ResumeFlightError,
+    plan_for_tlog, replay, replay_priced, report_unfinished, resume_flight, FlightVisits,
+    ReplayError, ResumeFlightError,
 };

@@ -727,7 +727,7 @@ pub fn flight_dirs(log_dir: &Path) -> std::io::Result<Vec<PathBuf>> {
     let mut dirs: Vec<PathBuf> = std::fs::read_dir(log_dir)?
         .filter_map(|e| e.ok())
         .map(|e| e.path())
-        .filter(|p| p.join(crate::flightlog::recorder::TLOG_FILE).is_file())
+        .filter(|p| crate::flightlog::recorder::is_flight_dir(p))
         .collect();
     dirs.sort();
     Ok(dirs)

@@ -28,7 +28,7 @@ fn now_us() -> u64 {
 
 /// The frames of a synthetic flight, as PX4 would send them, with the ground station's own
 /// traffic (heartbeat once a second, the stream-rate requests) in between: (wall us, frame).
-fn frames(flight: &SyntheticFlight) -> Vec<(u64, Vec<u8>)> {
+pub(crate) fn frames(flight: &SyntheticFlight) -> Vec<(u64, Vec<u8>)> {
     let vehicle = |sequence: u8| MavHeader {
         system_id: 1,
         component_id: 1,

@@ -21,6 +21,7 @@ mod onboard_ulog;
 mod outputs;
 mod physics;
 mod preflight;
+mod races;
 mod reprice;
 mod resume;
 mod service;

@@ -34,7 +34,7 @@ pub(crate) fn model() -> Arc<VehicleModel> {
 }
 
 /// The built-in mock, flying at `speedup`.
-fn builtin(speedup: f64) -> VehicleLink {
+pub(crate) fn builtin(speedup: f64) -> VehicleLink {
     VehicleLink::Mock {
         config: Box::new(MockConfig {
             flight: Some(FlightConfig::default()),
@@ -86,10 +86,20 @@ impl Running {
 
 /// Starts the service on 127.0.0.1:0 with the shipped missions `files` in its folder.
 pub(crate) async fn serve(vehicle: VehicleLink, files: &[&str]) -> Running {
+    serve_after(vehicle, files, |_| {}).await
+}
+
+/// [`serve`], its log directory made by `prepare` first (flights left by an earlier run).
+pub(crate) async fn serve_after(
+    vehicle: VehicleLink,
+    files: &[&str],
+    prepare: impl FnOnce(&Path),
+) -> Running {
     let work = tempfile::tempdir().expect("temp dir");
     let missions = work.path().join("missions");
     let log_dir = work.path().join("flights");
     std::fs::create_dir_all(&missions).expect("missions dir");
+    prepare(&log_dir);
     for f in files {
         std::fs::copy(root().join("missions").join(f), missions.join(f)).expect("copied");
     }
