@@ -337,10 +337,12 @@ pub fn resume_chain(
             .any(|v| v.name == name && v.visit != Visit::Visited)
             && !by_later(name)
     };
-    let waypoints: Vec<_> = (mission.waypoints.iter())
-        .filter(|w| left(&w.name))
-        .cloned()
+    let kept: Vec<usize> = (mission.waypoints.iter().enumerate())
+        .filter(|(_, w)| left(&w.name))
+        .map(|(k, _)| k)
         .collect();
+    // The waypoints left, each in the state the whole file has there (their actions kept).
+    let waypoints = mission.keeping(&kept).waypoints;
     if waypoints.is_empty() {
         return Err(ResumeError::NothingLeft {
             flight: flight.to_string(),
@@ -350,7 +352,7 @@ pub fn resume_chain(
     Ok(Resumption {
         mission: Mission {
             waypoints,
-            ..mission.clone()
+            ..mission.keeping(&kept)
         },
         ..resumed
     })

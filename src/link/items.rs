@@ -217,7 +217,7 @@ fn command_item(
         let frame = MavFrame::from_u8(c.frame).unwrap_or(MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT);
         (frame, deg_e7(c.params[4]), deg_e7(c.params[5]))
     } else {
-        // MAV_FRAME_MISSION: x and y are parameters 5 and 6 as integers (MISSION_ITEM_INT).
+        // x and y are parameters 5 and 6 as integers (MISSION_ITEM_INT).
         let int = |v: f64| {
             if v.is_finite() {
                 v.round().clamp(f64::from(i32::MIN), f64::from(i32::MAX)) as i32
@@ -225,11 +225,8 @@ fn command_item(
                 0
             }
         };
-        (
-            MavFrame::MAV_FRAME_MISSION,
-            int(c.params[4]),
-            int(c.params[5]),
-        )
+        let frame = super::support::action_frame(flavour, c.command, false);
+        (frame, int(c.params[4]), int(c.params[5]))
     };
     let z = if p[6].is_nan() { 0.0 } else { p[6] };
     Ok(item(command, frame, [p[0], p[1], p[2], p[3]], x, y, z))

@@ -675,6 +675,38 @@ impl Mission {
         actions::restore(&states, &start, &refs, order, default_speed_m_s)
     }
 
+    /// The mission of the waypoints `kept` (indices, in file order) alone, each in the state
+    /// the whole file has there: the commands that would have changed a setting at a waypoint
+    /// left out are carried, as restoring commands, by the waypoint before it (the start
+    /// before the first), so a resume or any subset flies what remains as the file does.
+    pub fn keeping(&self, kept: &[usize]) -> Mission {
+        let inserted = self.restoring(kept, None);
+        let commands = |i: usize| {
+            inserted
+                .get(i)
+                .into_iter()
+                .flatten()
+                .map(|(_, c)| c.clone())
+                .collect::<Vec<_>>()
+        };
+        let mut start_actions = self.start_actions.clone();
+        start_actions.extend(commands(0));
+        let waypoints = kept
+            .iter()
+            .enumerate()
+            .filter_map(|(i, &k)| {
+                let mut w = self.waypoints.get(k)?.clone();
+                w.actions.extend(commands(i + 1));
+                Some(w)
+            })
+            .collect();
+        Mission {
+            waypoints,
+            start_actions,
+            ..self.clone()
+        }
+    }
+
     /// Geodetic position of waypoint `k`, with altitude above home (MAVLink's relative frame).
     pub fn waypoint_relative(&self, k: usize) -> Option<(f64, f64, f64)> {
         let w = self.waypoints.get(k)?;
