@@ -240,9 +240,12 @@ fn text(raw: &[u8]) -> String {
     String::from_utf8_lossy(&raw[..end]).into_owned()
 }
 
+/// A message as its FMT record describes it: its length, name and fields (see [`DfRecord`]).
+type Described = (usize, String, Vec<(String, u8, usize)>);
+
 /// The records of an undamaged DataFlash log, and each message's id by name.
 fn df_records(bytes: &[u8]) -> (Vec<DfRecord>, Vec<(String, u8)>) {
-    let mut formats: Vec<Option<(usize, String, Vec<(String, u8, usize)>)>> = vec![None; 256];
+    let mut formats: Vec<Option<Described>> = vec![None; 256];
     let mut ids = Vec::new();
     let mut out = Vec::new();
     let mut pos = 0;

@@ -13,7 +13,10 @@
 //! Damage: bytes that are not a record (no header, an id no FMT described) are skipped up to the
 //! next header and counted; a record after skipped bytes counts only if a header or the file's
 //! end follows it. A last record cut short, or bytes after the last record that never become one,
-//! are the tear: everything before it is kept and the tear says where it is.
+//! are the tear: everything before it is kept and the tear says where it is. A record that lies
+//! is refused, located ([`OnboardLog::skipped`]) and read as if it were not there: a `TimeUS`
+//! that jumps (see [`MAX_TIME_STEP_US`]), a BAT sample no battery gives, an FMT record describing
+//! again, otherwise, an id already described.
 //!
 //! Readings (times: `TimeUS`, the autopilot's microseconds since boot):
 //! - BAT (`Volt`, `Curr`, `CurrTot` mAh, `EnrgTot` Wh, `RemPct`; NaN is unknown) -> Battery of

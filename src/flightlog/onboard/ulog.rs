@@ -8,7 +8,10 @@
 //! into a few record kinds without checking their length (a subscription shorter than 3 bytes, a
 //! parameter whose key runs past its end), and a format with no fields, an array of zero or
 //! fewer elements, or thousands of formats nested in one another would make it loop or recurse
-//! without bound. Such records are refused here, naming the byte.
+//! without bound. Such records are refused here, naming the byte, and so are formats that would
+//! flatten past [`MAX_FLATTENED_BYTES`] (the crate names every array element's field in full,
+//! several times over, and would allocate gigabytes for a few kilobytes of formats). The crate's
+//! errors are said without its debug dumps, naming the topic where it is known.
 //!
 //! How each topic becomes a reading (the topics' definitions in PX4's msg directory; PX4's MAVLink
 //! streams for what a ground station would have seen of the same flight):
