@@ -426,14 +426,15 @@ fn an_fmt_record_redescribing_bat_is_refused_located_and_bat_read_as_first_descr
         .find(|(n, _)| n == "BAT")
         .expect("BAT described")
         .1;
-    // BAT described again mid-flight: 16 bytes of time, voltage and instance.
+    // BAT described again before the first BAT record: 16 bytes of time, voltage and instance
+    // (read so, no BAT record would hold a current).
     let mut fmt = vec![0xA3, 0x95, 128, bat, 16];
     for (text, n) in [("BAT", 4), ("QfB", 16), ("TimeUS,Volt,Inst", 64)] {
         let mut field = text.as_bytes().to_vec();
         field.resize(n, 0);
         fmt.extend_from_slice(&field);
     }
-    let at = nth(&records, "BAT", 1000).offset;
+    let at = nth(&records, "BAT", 0).offset;
     let path = write(dir.path(), "fmt.bin", &inserted(&bytes, at, &fmt));
     let (report, stderr) = report_json(&path, &[]);
     refused(
