@@ -1051,3 +1051,36 @@ pub fn parse_scanned(file: &str, bytes: &[u8]) -> Result<(OnboardLog, Scan), Onb
     };
     Ok((log, scan))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The offsets `time_jumps` refuses among records at offsets 0, 1, 2, ... of `times_s`.
+    fn refused(times_s: &[f64]) -> Vec<usize> {
+        let times: Vec<(usize, u64)> = (times_s.iter().enumerate())
+            .map(|(k, t)| (k, (t * 1e6) as u64))
+            .collect();
+        time_jumps(&times).into_iter().map(|(at, _)| at).collect()
+    }
+
+    #[test]
+    fn a_time_far_from_both_sides_is_refused_and_a_pause_in_logging_is_kept() {
+        // Records 0.1 s apart, a pause of a minute: all kept.
+        assert!(refused(&[10.0, 10.1, 10.2, 70.2, 70.3, 70.4]).is_empty());
+        // A small step back (records written a little out of order): kept.
+        assert!(refused(&[10.0, 10.1, 9.8, 10.2]).is_empty());
+        // One record a long way forward or back, mid-log, first or last: refused.
+        assert_eq!(refused(&[10.0, 10.1, 4e6, 10.2, 10.3]), [2]);
+        assert_eq!(refused(&[10.0, 10.1, 0.0, 10.2, 10.3]), [2]);
+        assert_eq!(refused(&[4e6, 10.0, 10.1, 10.2]), [0]);
+        assert_eq!(refused(&[10.0, 10.1, 10.2, 4e6]), [3]);
+        // Two in a row, each its own jump: both refused.
+        assert_eq!(refused(&[10.0, 10.1, 4e6, 8e6, 10.2, 10.3]), [2, 3]);
+        let reason = time_jumps(&[(0, 10_000_000), (1, 4_000_000_000_000), (2, 10_100_000)]);
+        assert_eq!(
+            reason[0].1,
+            "its TimeUS jumps +4.0e6 s from the records around it"
+        );
+    }
+}
