@@ -63,11 +63,12 @@ const MAX_FORMATS: usize = 1024;
 /// What flattening the formats may cost, in bytes (see [`Flattening`]). The crate flattens every
 /// format into one named field per array element, each name the whole path (`esc[3].esc_rpm`),
 /// and keeps three copies of each name (the field list and a name index) and one more field list
-/// per subscription. PX4's formats come to far less: the fixture's (`px4-sih-8wp.ulg`) to about
-/// 0.2 MB, and PX4's whole uORB set (about 250 messages, the largest arrays of nested messages a
-/// few hundred fields) to a few MB. 64 MiB is ten times that, and keeps what a few kilobytes of
-/// formats can make the crate allocate (a 32 000-element array with a 60 000-character name would
-/// be 5.8 GB) within a fixed bound whatever the formats say.
+/// per subscription. PX4's formats come to far less: the fixture's (`px4-sih-8wp.ulg`, 10
+/// formats, 292 fields, 10 subscriptions) to 97 KB by this count, and PX4's whole uORB set (about
+/// 250 messages, the largest arrays of nested messages a few hundred fields) would by estimate
+/// come to a few MB. 64 MiB is well above that, and keeps what a few kilobytes of formats can
+/// make the crate allocate (a 32 000-element array with a 60 000-character name would be 5.8 GB)
+/// within a fixed bound whatever the formats say.
 const MAX_FLATTENED_BYTES: u64 = 64 << 20;
 
 /// Bytes a flattened field costs beside its name: the crate's field (a `String`, its type and
