@@ -204,13 +204,23 @@ pub fn warn_skipped(tlog: &Path, replay: &emplan::flightlog::replay::Replay) {
     }
 }
 
-/// Says on stderr where an onboard log tore.
+/// Says on stderr where an onboard log tore, and the records it refused as corrupt.
 fn warn_torn(path: &Path, analysis: &Analysis) {
-    let tear = analysis
-        .report
-        .source
-        .as_ref()
-        .and_then(|s| s.tear.as_ref());
+    let source = analysis.report.source.as_ref();
+    if let Some(s) = source.and_then(|s| s.skipped.as_ref()) {
+        eprintln!(
+            "warning: {}: {} record{} refused as corrupt, the first at byte {} ({}: {}): measured without {} (parts overlapping {} flagged log_gap)",
+            path.display(),
+            s.count,
+            if s.count == 1 { "" } else { "s" },
+            s.offset,
+            s.record,
+            s.reason,
+            if s.count == 1 { "it" } else { "them" },
+            if s.count == 1 { "it" } else { "them" },
+        );
+    }
+    let tear = source.and_then(|s| s.tear.as_ref());
     if let Some(t) = tear {
         eprintln!(
             "warning: {}: the log tore at byte {} ({}){}: measured up to it",

@@ -34,6 +34,19 @@ pub struct LogSource {
     /// Where the log tore (a power cut mid-flight): the parts after it are missing.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tear: Option<TearJson>,
+    /// The records of an onboard log refused as corrupt (only when there were any).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub skipped: Option<SkippedJson>,
+}
+
+/// The records of an onboard log refused as corrupt: how many, and the first of them (its byte
+/// offset, its message and why). Each is also one of the report's `log_gaps`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SkippedJson {
+    pub count: usize,
+    pub offset: u64,
+    pub record: String,
+    pub reason: String,
 }
 
 /// Where a log tore: its byte offset, the log time of the last reading before it, and why.
@@ -57,6 +70,7 @@ impl LogSource {
             format: format.to_string(),
             battery_hz,
             tear: None,
+            skipped: None,
         }
     }
 }
@@ -534,7 +548,7 @@ pub struct ReportJson {
     /// What the energy guard saw and decided (absent when the flight was not guarded).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub guard: Option<GuardReport>,
-    /// The log measured: `{"format": "tlog"|"ulog"|"dataflash", "battery_hz", "tear"?}` (absent
+    /// The log measured: `{"format": "tlog"|"ulog"|"dataflash", "battery_hz", "tear"?, "skipped"?}` (absent
     /// from reports written before it was said).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub source: Option<LogSource>,

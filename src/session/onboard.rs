@@ -10,8 +10,9 @@ use std::path::Path;
 use crate::flightlog::flight_plan::FlightPlan;
 use crate::flightlog::onboard::{self, Format, OnboardError, OnboardLog};
 use crate::flightlog::replay::{analyse, Analysis, Replay};
-use crate::flightlog::report::TearJson;
+use crate::flightlog::report::{SkippedJson, TearJson};
 use crate::flightlog::segment::SegmentConfig;
+use crate::flightlog::tlog::TlogGap;
 use crate::flightlog::FlightLogError;
 use crate::link::items::{item_from_numbers, read_flight};
 use crate::link::Flavour;
@@ -163,11 +164,29 @@ pub fn replay_onboard(
             );
     }
     let name = log_name(path);
+    // A record refused as corrupt is a span of the file skipped, as a .tlog's corrupt spans are:
+    // the parts overlapping it are flagged `log_gap`.
+    let gaps = (log.skipped.iter())
+        .map(|s| TlogGap {
+            offset: s.offset,
+            bytes: s.bytes,
+            from_s: s.from_s,
+            to_s: s.to_s,
+            from_wall_us: None,
+            to_wall_us: None,
+        })
+        .collect();
+    let skipped = log.skipped.first().map(|first| SkippedJson {
+        count: log.skipped.len(),
+        offset: first.offset,
+        record: first.record.clone(),
+        reason: first.reason.clone(),
+    });
     let replay = Replay {
         frames: log.stamped.len() as u64,
         undecodable: 0,
         torn_tail: log.tear.as_ref().map(|t| t.offset),
-        gaps: Vec::new(),
+        gaps,
         stamped: log.stamped,
     };
     // The log's own energy counter (ArduPilot's EnrgTot) cross-checks each part where it has one.
@@ -181,6 +200,7 @@ pub fn replay_onboard(
             after_s: t.after_s,
             reason: t.reason,
         });
+        source.skipped = skipped;
     }
     Ok(analysis)
 }

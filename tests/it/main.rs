@@ -16,6 +16,7 @@ mod home;
 mod install;
 mod mission;
 mod onboard;
+mod onboard_corrupt;
 mod onboard_dataflash;
 mod onboard_ulog;
 mod outputs;

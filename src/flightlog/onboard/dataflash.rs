@@ -13,7 +13,10 @@
 //! Damage: bytes that are not a record (no header, an id no FMT described) are skipped up to the
 //! next header and counted; a record after skipped bytes counts only if a header or the file's
 //! end follows it. A last record cut short, or bytes after the last record that never become one,
-//! are the tear: everything before it is kept and the tear says where it is.
+//! are the tear: everything before it is kept and the tear says where it is. A record that lies
+//! is refused, located ([`OnboardLog::skipped`]) and read as if it were not there: a `TimeUS`
+//! that jumps (see [`MAX_TIME_STEP_US`]), a BAT sample no battery gives, an FMT record describing
+//! again, otherwise, an id already described.
 //!
 //! Readings (times: `TimeUS`, the autopilot's microseconds since boot):
 //! - BAT (`Volt`, `Curr`, `CurrTot` mAh, `EnrgTot` Wh, `RemPct`; NaN is unknown) -> Battery of
@@ -45,7 +48,8 @@
 //! - EV 18 (land complete) -> Landed(OnGround), EV 28 (not landed) -> Landed(InAir).
 //! - MSG -> StatusText of severity 6 (info: DataFlash keeps no severity).
 
-use super::{Format, MissionCommand, OnboardError, OnboardLog, Tear};
+use super::{Format, MissionCommand, OnboardError, OnboardLog, Skipped, Tear};
+use crate::flightlog::csv::{MAX_CURRENT_A, MAX_VOLTAGE_V};
 use crate::flightlog::telemetry::{
     Battery, BatterySource, FlightMode, LandedState, MissionState, Position, Reading, Stamped,
 };
@@ -68,6 +72,13 @@ const HEARTBEAT_INTERVAL_US: u64 = 1_000_000;
 
 /// MAV_SEVERITY_INFO, for MSG records (which carry no severity).
 const MSG_SEVERITY: u8 = 6;
+
+/// How far a record's `TimeUS` may be from the records either side of it. ArduPilot stamps each
+/// record as it puts it in the one buffer the log is written from, so records follow one another
+/// by milliseconds (the fixture `arducopter-8wp.bin`: never backwards, at most 0.1 s forward). A
+/// record further than this from both sides is corrupt (a bit flipped at or above bit 20 of its
+/// `TimeUS`); a pause in logging moves the records after it as well, and is kept.
+const MAX_TIME_STEP_US: u64 = 1_000_000;
 
 /// One field's value, in the units its format character means (see the module doc): `c C e E`
 /// divided by 100, `L` in degrees.
@@ -222,6 +233,8 @@ struct Message {
     kind: Kind,
     /// The offset of a `TimeUS` field of type `Q`.
     time_offset: Option<usize>,
+    /// The FMT record's bytes after its own header (what a redescription is compared with).
+    definition: Vec<u8>,
 }
 
 impl Message {
@@ -263,6 +276,7 @@ impl Message {
             },
             fields,
             time_offset,
+            definition: Vec::new(),
         }
     }
 
@@ -304,8 +318,15 @@ fn next_head(bytes: &[u8], from: usize) -> Option<usize> {
 }
 
 /// Walks the records of a DataFlash file, FMT records defining the rest, calling `on_record`
-/// with each non-FMT record's message and bytes (header included).
-fn walk(bytes: &[u8], mut on_record: impl FnMut(&Message, &[u8])) -> Scan {
+/// with each non-FMT record's message and bytes (header included), and `on_refused` with the
+/// offset, length and reason of each FMT record refused: one that describes an id already
+/// described otherwise (ArduPilot describes each id once in a log: the records of that id go on
+/// being read as first described).
+fn walk(
+    bytes: &[u8],
+    mut on_record: impl FnMut(&Message, &[u8]),
+    mut on_refused: impl FnMut(usize, usize, String),
+) -> Scan {
     let mut table: Vec<Option<Message>> = vec![None; 256];
     table[usize::from(FMT_ID)] = Some(Message::fmt());
     let mut scan = Scan::default();
@@ -364,7 +385,9 @@ fn walk(bytes: &[u8], mut on_record: impl FnMut(&Message, &[u8])) -> Scan {
             }
         };
         if let Some(record) = definition {
-            define(&mut table, record);
+            if let Err(reason) = define(&mut table, record) {
+                on_refused(pos - record.len(), record.len(), reason);
+            }
         }
         if let Some(reason) = unreadable {
             bad.get_or_insert((pos, reason));
@@ -379,21 +402,38 @@ fn walk(bytes: &[u8], mut on_record: impl FnMut(&Message, &[u8])) -> Scan {
     scan
 }
 
-/// Takes in an FMT record: the message it describes replaces any earlier description of its id
-/// (FMT's own description is fixed).
-fn define(table: &mut [Option<Message>], record: &[u8]) {
+/// Takes in an FMT record: the message it describes, unless its id is described already
+/// otherwise (refused, saying how; the same description again changes nothing). FMT's own
+/// description is fixed.
+fn define(table: &mut [Option<Message>], record: &[u8]) -> Result<(), String> {
     let (Some(&id), Some(&len)) = (record.get(3), record.get(4)) else {
-        return;
+        return Ok(());
     };
     let len = usize::from(len);
     if id == FMT_ID || len < HEAD.len() + 1 {
-        return;
+        return Ok(());
     }
+    let definition = record.get(3..).unwrap_or_default();
     let name = text(record.get(5..9).unwrap_or_default());
     let format = text(record.get(9..25).unwrap_or_default());
     let labels = text(record.get(25..FMT_LEN).unwrap_or_default());
-    if let Some(slot) = table.get_mut(usize::from(id)) {
-        *slot = Some(Message::new(&name, len, format.as_bytes(), &labels));
+    let Some(slot) = table.get_mut(usize::from(id)) else {
+        return Ok(());
+    };
+    match slot {
+        Some(first) if first.definition != definition => Err(format!(
+            "it describes message id {id} ({}) again, as {} of {len} bytes ({}): read as first described",
+            first.name,
+            if name.is_empty() { "nameless".to_string() } else { name },
+            if format.is_empty() { "no fields".to_string() } else { format },
+        )),
+        Some(_) => Ok(()),
+        None => {
+            let mut message = Message::new(&name, len, format.as_bytes(), &labels);
+            message.definition = definition.to_vec();
+            *slot = Some(message);
+            Ok(())
+        }
     }
 }
 
@@ -415,19 +455,23 @@ impl Record {
 /// whose format does not add up to their length come with no fields.
 pub fn records(bytes: &[u8]) -> (Vec<Record>, Scan) {
     let mut out = Vec::new();
-    let scan = walk(bytes, |message, record| {
-        out.push(Record {
-            name: message.name.clone(),
-            fields: message
-                .fields
-                .iter()
-                .filter_map(|f| {
-                    let value = decode_field(f.format, record.get(f.offset..)?)?;
-                    Some((f.label.clone(), value))
-                })
-                .collect(),
-        });
-    });
+    let scan = walk(
+        bytes,
+        |message, record| {
+            out.push(Record {
+                name: message.name.clone(),
+                fields: message
+                    .fields
+                    .iter()
+                    .filter_map(|f| {
+                        let value = decode_field(f.format, record.get(f.offset..)?)?;
+                        Some((f.label.clone(), value))
+                    })
+                    .collect(),
+            });
+        },
+        |_, _, _| {},
+    );
     (out, scan)
 }
 
@@ -474,6 +518,87 @@ struct Builder {
     mission: Option<Vec<MissionCommand>>,
     /// The navigation command flying, and whether it was reported reached.
     current_nav: Option<(u16, bool)>,
+    /// The records refused, with the raw times of the records read either side of them.
+    skipped: Vec<SkippedAt>,
+    /// The first of `skipped` whose time after is not known yet.
+    open_skips: usize,
+}
+
+/// A record refused, located in the raw times of the records either side of it.
+struct SkippedAt {
+    offset: usize,
+    bytes: usize,
+    record: String,
+    reason: String,
+    before_us: Option<u64>,
+    after_us: Option<u64>,
+}
+
+/// A number from the file as a message shows it: huge ones in scientific notation.
+fn shown(v: f64) -> String {
+    if v.abs() >= 1e6 {
+        format!("{v:.1e}")
+    } else {
+        format!("{}", (v * 1000.0).round() / 1000.0)
+    }
+}
+
+/// Why a BAT record is not a battery's: a voltage or current that is infinite or out of the
+/// range any sample can hold (the bounds samples.csv's reader holds a .tlog's samples to); NaN
+/// is ArduPilot's "unknown" and is not refused.
+fn unphysical_battery(m: &Message, r: &[u8]) -> Option<String> {
+    let bounds = [
+        ("Volt", "V", 0.0, MAX_VOLTAGE_V),
+        ("Curr", "A", -MAX_CURRENT_A, MAX_CURRENT_A),
+    ];
+    bounds.into_iter().find_map(|(label, unit, low, high)| {
+        let v = m.number(r, label).filter(|v| !v.is_nan())?;
+        (!(low..=high).contains(&v)).then(|| {
+            format!(
+                "its {label} {} {unit} is not physical (outside {low} to {high} {unit})",
+                shown(v)
+            )
+        })
+    })
+}
+
+/// The offsets of the records whose `TimeUS` jumps (see [`MAX_TIME_STEP_US`]), each with why,
+/// from every timed record's offset and time in file order: a record further than the step
+/// from the last record kept and from the next one is refused (the first record of the log, from
+/// the next one when the one after that agrees with it; the last, from the last kept).
+fn time_jumps(times: &[(usize, u64)]) -> Vec<(usize, String)> {
+    let far = |a: u64, b: u64| a.abs_diff(b) > MAX_TIME_STEP_US;
+    let mut kept: Option<u64> = None;
+    let mut jumps = Vec::new();
+    for (k, &(offset, t)) in times.iter().enumerate() {
+        let next = times.get(k + 1).map(|&(_, t)| t);
+        let jumped = match (kept, next) {
+            (Some(before), Some(next)) => far(t, before) && far(t, next),
+            (Some(before), None) => far(t, before),
+            (None, Some(next)) => {
+                far(t, next)
+                    && times
+                        .get(k + 2)
+                        .is_some_and(|&(_, after)| !far(next, after))
+            }
+            (None, None) => false,
+        };
+        if jumped {
+            let from = kept.or(next).unwrap_or(t);
+            let step_s = (t as f64 - from as f64) * 1e-6;
+            jumps.push((
+                offset,
+                format!(
+                    "its TimeUS jumps {}{} s from the records around it",
+                    if step_s > 0.0 { "+" } else { "" },
+                    shown(step_s)
+                ),
+            ));
+        } else {
+            kept = Some(t);
+        }
+    }
+    jumps
 }
 
 /// The number a text starts with after `prefix`.
@@ -525,10 +650,26 @@ impl Builder {
         }
     }
 
+    /// Refuses the record at `offset` (its message `m`, `bytes` long) for `reason`.
+    fn skip(&mut self, offset: usize, bytes: usize, record: &str, reason: String) {
+        self.skipped.push(SkippedAt {
+            offset,
+            bytes,
+            record: record.to_string(),
+            reason,
+            before_us: self.first_us.map(|_| self.now_us),
+            after_us: None,
+        });
+    }
+
     /// Log time moved on to `time_us`: the heartbeat repeats once a second.
     fn tick(&mut self, time_us: u64) {
         self.first_us.get_or_insert(time_us);
         self.now_us = time_us;
+        for skip in &mut self.skipped[self.open_skips..] {
+            skip.after_us = Some(time_us);
+        }
+        self.open_skips = self.skipped.len();
         if let Some(last) = self.last_heartbeat_us {
             if time_us >= last.saturating_add(HEARTBEAT_INTERVAL_US) {
                 self.heartbeat();
@@ -536,9 +677,15 @@ impl Builder {
         }
     }
 
-    fn record(&mut self, m: &Message, r: &[u8]) {
+    fn record(&mut self, m: &Message, r: &[u8], offset: usize) {
         if let Some(t) = m.time_us(r) {
             self.tick(t);
+        }
+        if m.kind == Kind::Bat {
+            if let Some(reason) = unphysical_battery(m, r) {
+                self.skip(offset, r.len(), &m.name, reason);
+                return;
+            }
         }
         match m.kind {
             Kind::Bat => self.battery(m, r),
@@ -771,8 +918,8 @@ impl Builder {
     }
 
     /// The readings stamped in log time, of one battery instance: the lowest that logs a
-    /// current, else the lowest.
-    fn stamped(self) -> (Vec<Stamped>, Option<Vec<MissionCommand>>) {
+    /// current, else the lowest; and the records refused.
+    fn stamped(self) -> (Vec<Stamped>, Option<Vec<MissionCommand>>, Vec<Skipped>) {
         let with_current =
             |e: &&Event| matches!(&e.reading, Reading::Battery(b) if b.current_a.is_some());
         let battery = self
@@ -789,6 +936,17 @@ impl Builder {
             wall_us: time_us.saturating_sub(first),
             reading,
         };
+        let in_log_s = |t: Option<u64>| t.map(|t| (t as f64 - first as f64) * 1e-6);
+        let skipped = (self.skipped.into_iter())
+            .map(|s| Skipped {
+                offset: s.offset as u64,
+                bytes: s.bytes as u64,
+                record: s.record,
+                reason: s.reason,
+                from_s: in_log_s(s.before_us),
+                to_s: in_log_s(s.after_us),
+            })
+            .collect();
         let other_vehicle = self.other_vehicle;
         let mode = |number: Option<u64>| match number {
             Some(n) if other_vehicle => FlightMode::Other(format!("custom {n}")),
@@ -830,7 +988,7 @@ impl Builder {
             };
             stamped.push(stamp(e.time_us, reading));
         }
-        (stamped, self.mission)
+        (stamped, self.mission, skipped)
     }
 }
 
@@ -848,9 +1006,35 @@ pub fn parse_scanned(file: &str, bytes: &[u8]) -> Result<(OnboardLog, Scan), Onb
             reason: "not a DataFlash log: it does not start with an FMT record".into(),
         });
     }
-    let mut builder = Builder::default();
-    let scan = walk(bytes, |message, record| builder.record(message, record));
-    let (stamped, mission) = builder.stamped();
+    let offset_of = |record: &[u8]| record.as_ptr() as usize - bytes.as_ptr() as usize;
+    let mut times = Vec::new();
+    walk(
+        bytes,
+        |message, record| {
+            if let Some(t) = message.time_us(record) {
+                times.push((offset_of(record), t));
+            }
+        },
+        |_, _, _| {},
+    );
+    let jumps = time_jumps(&times);
+    drop(times);
+    let mut jumps = jumps.into_iter().peekable();
+    // Both callbacks feed the one builder, in file order.
+    let builder = std::cell::RefCell::new(Builder::default());
+    let scan = walk(
+        bytes,
+        |message, record| {
+            let offset = offset_of(record);
+            let mut builder = builder.borrow_mut();
+            match jumps.next_if(|(at, _)| *at == offset) {
+                Some((_, reason)) => builder.skip(offset, record.len(), &message.name, reason),
+                None => builder.record(message, record, offset),
+            }
+        },
+        |offset, bytes, reason| builder.borrow_mut().skip(offset, bytes, "FMT", reason),
+    );
+    let (stamped, mission, skipped) = builder.into_inner().stamped();
     let tear = scan.tear.as_ref().map(|(offset, reason)| Tear {
         offset: *offset,
         after_s: stamped.last().map(|s| s.t_s),
@@ -863,6 +1047,40 @@ pub fn parse_scanned(file: &str, bytes: &[u8]) -> Result<(OnboardLog, Scan), Onb
         stamped,
         mission,
         tear,
+        skipped,
     };
     Ok((log, scan))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The offsets `time_jumps` refuses among records at offsets 0, 1, 2, ... of `times_s`.
+    fn refused(times_s: &[f64]) -> Vec<usize> {
+        let times: Vec<(usize, u64)> = (times_s.iter().enumerate())
+            .map(|(k, t)| (k, (t * 1e6) as u64))
+            .collect();
+        time_jumps(&times).into_iter().map(|(at, _)| at).collect()
+    }
+
+    #[test]
+    fn a_time_far_from_both_sides_is_refused_and_a_pause_in_logging_is_kept() {
+        // Records 0.1 s apart, a pause of a minute: all kept.
+        assert!(refused(&[10.0, 10.1, 10.2, 70.2, 70.3, 70.4]).is_empty());
+        // A small step back (records written a little out of order): kept.
+        assert!(refused(&[10.0, 10.1, 9.8, 10.2]).is_empty());
+        // One record a long way forward or back, mid-log, first or last: refused.
+        assert_eq!(refused(&[10.0, 10.1, 4e6, 10.2, 10.3]), [2]);
+        assert_eq!(refused(&[10.0, 10.1, 0.0, 10.2, 10.3]), [2]);
+        assert_eq!(refused(&[4e6, 10.0, 10.1, 10.2]), [0]);
+        assert_eq!(refused(&[10.0, 10.1, 10.2, 4e6]), [3]);
+        // Two in a row, each its own jump: both refused.
+        assert_eq!(refused(&[10.0, 10.1, 4e6, 8e6, 10.2, 10.3]), [2, 3]);
+        let reason = time_jumps(&[(0, 10_000_000), (1, 4_000_000_000_000), (2, 10_100_000)]);
+        assert_eq!(
+            reason[0].1,
+            "its TimeUS jumps +4.0e6 s from the records around it"
+        );
+    }
 }

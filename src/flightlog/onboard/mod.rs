@@ -50,6 +50,23 @@ pub struct Tear {
     pub reason: String,
 }
 
+/// A record read but refused as corrupt (a time that jumps, a battery sample no battery gives, a
+/// format redescribing a message): skipped, and the flight measured as without it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Skipped {
+    /// The record's byte offset and length.
+    pub offset: u64,
+    pub bytes: u64,
+    /// The record's message (`BAT`, `PARM`, ...).
+    pub record: String,
+    /// Why it was refused (`its TimeUS jumps 4.6e12 s from the records around it`, ...).
+    pub reason: String,
+    /// The log time (seconds, as the readings' `t_s`) of the readings either side of it; None:
+    /// none on that side.
+    pub from_s: Option<f64>,
+    pub to_s: Option<f64>,
+}
+
 /// One mission item as DataFlash's CMD records it (the whole mission is written at log start):
 /// ArduPilot's stored item as MAVLink would send it back (`AP_Mission::mission_cmd_to_mavlink_int`).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -87,6 +104,8 @@ pub struct OnboardLog {
     pub mission: Option<Vec<MissionCommand>>,
     /// Where the file tore, when it did: what came before is kept.
     pub tear: Option<Tear>,
+    /// The records refused as corrupt, in file order.
+    pub skipped: Vec<Skipped>,
 }
 
 impl OnboardLog {
@@ -207,6 +226,7 @@ mod tests {
                 .collect(),
             mission: None,
             tear: None,
+            skipped: Vec::new(),
         }
     }
 

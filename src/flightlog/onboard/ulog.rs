@@ -8,7 +8,10 @@
 //! into a few record kinds without checking their length (a subscription shorter than 3 bytes, a
 //! parameter whose key runs past its end), and a format with no fields, an array of zero or
 //! fewer elements, or thousands of formats nested in one another would make it loop or recurse
-//! without bound. Such records are refused here, naming the byte.
+//! without bound. Such records are refused here, naming the byte, and so are formats that would
+//! flatten past [`MAX_FLATTENED_BYTES`] (the crate names every array element's field in full,
+//! several times over, and would allocate gigabytes for a few kilobytes of formats). The crate's
+//! errors are said without its debug dumps, naming the topic where it is known.
 //!
 //! How each topic becomes a reading (the topics' definitions in PX4's msg directory; PX4's MAVLink
 //! streams for what a ground station would have seen of the same flight):
@@ -34,6 +37,7 @@
 //! own microseconds since boot.
 
 use std::cell::RefCell;
+use std::collections::{HashMap, HashSet};
 
 use px4_ulog::stream_parser::model::{FlattenedFieldType, FlattenedFormat};
 use px4_ulog::stream_parser::{DataMessage, LogParser, LoggedStringMessage};
@@ -55,6 +59,22 @@ const RECORD_HEADER_LEN: usize = 3;
 /// More formats than any PX4 build defines (about 250 uORB messages): beyond it, a file is
 /// refused rather than have the crate recurse through formats nested in one another.
 const MAX_FORMATS: usize = 1024;
+
+/// What flattening the formats may cost, in bytes (see [`Flattening`]). The crate flattens every
+/// format into one named field per array element, each name the whole path (`esc[3].esc_rpm`),
+/// and keeps three copies of each name (the field list and a name index) and one more field list
+/// per subscription. PX4's formats come to far less: the fixture's (`px4-sih-8wp.ulg`, 10
+/// formats, 292 fields, 10 subscriptions) to 97 KB by this count, and PX4's whole uORB set (about
+/// 250 messages, the largest arrays of nested messages a few hundred fields) would by estimate
+/// come to a few MB. 64 MiB is well above that, and keeps what a few kilobytes of formats can
+/// make the crate allocate (a 32 000-element array with a 60 000-character name would be 5.8 GB)
+/// within a fixed bound whatever the formats say.
+const MAX_FLATTENED_BYTES: u64 = 64 << 20;
+
+/// Bytes a flattened field costs beside its name: the crate's field (a `String`, its type and
+/// offset: 32 bytes) in the field list and again in the name index, with the index's own key and
+/// slot.
+const FLATTENED_FIELD_BYTES: u64 = 128;
 
 /// The heartbeat is repeated at least this often, as PX4 sends HEARTBEAT at 1 Hz.
 const HEARTBEAT_PERIOD_US: u64 = 1_000_000;
@@ -91,6 +111,7 @@ pub fn parse(file: &str, bytes: &[u8]) -> Result<OnboardLog, OnboardError> {
 
     let mut walk = Walk::new(bytes);
     let mut formats = 0usize;
+    let mut flattening = Flattening::default();
     let mut tear = None;
     while let Some(step) = walk.next_record() {
         let (offset, kind, record) = match step {
@@ -106,7 +127,8 @@ pub fn parse(file: &str, bytes: &[u8]) -> Result<OnboardLog, OnboardError> {
         if kind == b'F' {
             formats += 1;
         }
-        let checked = check_record(kind, record.get(RECORD_HEADER_LEN..).unwrap_or(&[]))
+        let payload = record.get(RECORD_HEADER_LEN..).unwrap_or(&[]);
+        let checked = check_record(kind, payload)
             .and_then(|()| {
                 if formats > MAX_FORMATS {
                     Err(format!("more than {MAX_FORMATS} formats"))
@@ -114,13 +136,15 @@ pub fn parse(file: &str, bytes: &[u8]) -> Result<OnboardLog, OnboardError> {
                     Ok(())
                 }
             })
+            .map_err(|reason| (offset, format!("{}: {reason}", kind_name(kind))))
+            .and_then(|()| flattening.admit(offset, kind, payload, parser.in_data()))
             .and_then(|()| {
-                parser
-                    .consume_bytes(record)
-                    .map_err(|e| crate_reason(&e.description))
+                parser.consume_bytes(record).map_err(|e| {
+                    let reason = flattening.crate_reason(&e.description, kind, payload);
+                    (offset, format!("{}: {reason}", kind_name(kind)))
+                })
             });
-        if let Err(reason) = checked {
-            let reason = format!("{}: {reason}", kind_name(kind));
+        if let Err((offset, reason)) = checked {
             if parser.in_data() {
                 tear = Some((offset, reason));
                 break;
@@ -152,12 +176,19 @@ pub fn parse(file: &str, bytes: &[u8]) -> Result<OnboardLog, OnboardError> {
         stamped,
         mission: None,
         tear,
+        skipped: Vec::new(),
     })
 }
 
-/// The crate's error text as ours: lowercase first letter, one line, bounded length.
+/// The crate's error text as ours: lowercase first letter, one line, bounded length, without
+/// the crate's debug dumps of its structures or of the bytes at fault.
 fn crate_reason(description: &str) -> String {
-    let line = description.lines().next().unwrap_or("");
+    let mut line = description.lines().next().unwrap_or("");
+    for dump in [", format:", " [", " {", "{", "["] {
+        if let Some(at) = line.find(dump) {
+            line = &line[..at];
+        }
+    }
     let mut reason: String = line.chars().take(120).collect();
     if let Some(first) = reason.get(..1) {
         reason.replace_range(..1, &first.to_lowercase());
@@ -222,6 +253,235 @@ fn check_format(payload: &[u8]) -> Result<(), String> {
     } else {
         Err(format!("{name} has no fields"))
     }
+}
+
+/// One field of a format as the crate will flatten it.
+#[derive(Debug, Clone)]
+struct FormatField {
+    /// The field's type: a primitive or the name of another format.
+    ty: String,
+    /// Elements: None for a single value.
+    count: Option<u64>,
+    name_len: u64,
+}
+
+/// What a format costs the crate once flattened: its fields (one per array element, nested
+/// formats expanded) and the bytes of their path names.
+#[derive(Debug, Clone, Copy, Default)]
+struct Cost {
+    fields: u64,
+    name_bytes: u64,
+}
+
+impl Cost {
+    fn bytes(self) -> u64 {
+        (self.fields.saturating_mul(FLATTENED_FIELD_BYTES))
+            .saturating_add(self.name_bytes.saturating_mul(3))
+    }
+}
+
+/// The formats and subscriptions read so far, so that what flattening them will cost the crate
+/// is known, and bounded by [`MAX_FLATTENED_BYTES`], before the crate does it: when the data
+/// section begins it flattens every format defined, and each subscription copies its topic's.
+#[derive(Debug, Default)]
+struct Flattening {
+    /// Each format defined before the data section: its record's offset, name and fields.
+    formats: Vec<(usize, String, Vec<FormatField>)>,
+    /// The flattened cost of each format, once the data section has begun.
+    costs: HashMap<String, Cost>,
+    spent_bytes: u64,
+    /// The topic each message id was subscribed as.
+    topics: HashMap<u16, String>,
+}
+
+const PRIMITIVES: [&str; 12] = [
+    "int8_t", "uint8_t", "int16_t", "uint16_t", "int32_t", "uint32_t", "int64_t", "uint64_t",
+    "float", "double", "bool", "char",
+];
+
+/// The characters of the element suffixes `[0]` to `[n-1]`.
+fn brackets_len(n: u64) -> u64 {
+    let mut total = 0u64;
+    let mut digits = 1u64;
+    let mut from = 0u64;
+    while from < n {
+        let to = n.min(from.saturating_mul(10).max(10));
+        total = total.saturating_add((to - from).saturating_mul(digits + 2));
+        from = to;
+        digits += 1;
+    }
+    total
+}
+
+impl Flattening {
+    /// Checks a record before the crate sees it: the formats, when the data section begins, and
+    /// each subscription, against what flattening may cost; a subscription's topic name. The
+    /// error is the offset and reason of the record at fault.
+    fn admit(
+        &mut self,
+        offset: usize,
+        kind: u8,
+        payload: &[u8],
+        in_data: bool,
+    ) -> Result<(), (usize, String)> {
+        if kind == b'F' && !in_data {
+            if let Some(format) = parse_format(payload) {
+                self.formats.push((offset, format.0, format.1));
+            }
+            return Ok(());
+        }
+        if !in_data && matches!(kind, b'A' | b'L' | b'C' | b'O' | b'S' | b'R') {
+            self.flatten()?;
+        }
+        if kind != b'A' {
+            return Ok(());
+        }
+        let at = |reason: String| (offset, format!("{}: {reason}", kind_name(kind)));
+        let (Some(id), Some(name)) = (payload.get(1..3), payload.get(3..)) else {
+            return Ok(()); // checked before
+        };
+        let id = u16::from_le_bytes([id[0], id[1]]);
+        let name = std::str::from_utf8(name)
+            .map_err(|_| at(format!("the topic name of message id {id} is not text")))?;
+        if let Some(first) = self.topics.get(&id) {
+            return Err(at(format!(
+                "message id {id} subscribed twice ({first}, then {})",
+                bounded(name)
+            )));
+        }
+        let cost = self.costs.get(name).copied().unwrap_or_default();
+        self.spent_bytes = self.spent_bytes.saturating_add(cost.bytes());
+        if self.spent_bytes > MAX_FLATTENED_BYTES {
+            return Err(at(format!(
+                "subscribing {} (message id {id}) takes the formats past {} MiB flattened",
+                bounded(name),
+                MAX_FLATTENED_BYTES >> 20
+            )));
+        }
+        self.topics.insert(id, bounded(name));
+        Ok(())
+    }
+
+    /// The cost of every format, as the crate will flatten them all; the format at which the
+    /// total passes the bound is refused.
+    fn flatten(&mut self) -> Result<(), (usize, String)> {
+        let defined: HashMap<&str, &[FormatField]> = (self.formats.iter())
+            .map(|(_, name, fields)| (name.as_str(), fields.as_slice()))
+            .collect();
+        let mut costs = HashMap::new();
+        for (offset, name, _) in &self.formats {
+            let cost = cost_of(name, &defined, &mut costs, &mut Default::default());
+            self.spent_bytes = self.spent_bytes.saturating_add(cost.bytes());
+            if self.spent_bytes > MAX_FLATTENED_BYTES {
+                return Err((
+                    *offset,
+                    format!(
+                        "{}: {} flattens to {} fields with {} bytes of names: the formats come to more than the {} MiB PX4's ever need",
+                        kind_name(b'F'),
+                        bounded(name),
+                        cost.fields,
+                        cost.name_bytes,
+                        MAX_FLATTENED_BYTES >> 20
+                    ),
+                ));
+            }
+        }
+        self.costs = costs;
+        self.formats = Vec::new();
+        Ok(())
+    }
+
+    /// The crate's error for a record, said our way (see [`crate_reason`]).
+    fn crate_reason(&self, description: &str, kind: u8, payload: &[u8]) -> String {
+        let id = payload
+            .get(..2)
+            .map(|id| u16::from_le_bytes([id[0], id[1]]));
+        match (kind, id) {
+            (b'D', Some(id)) if description.starts_with("data message had wrong size") => {
+                let topic = self.topics.get(&id).map_or("?", String::as_str);
+                format!(
+                    "{} bytes of topic {topic} (message id {id}), not the size of its format",
+                    payload.len()
+                )
+            }
+            _ => crate_reason(description),
+        }
+    }
+}
+
+/// At most 64 characters of a name from the file, for messages.
+fn bounded(name: &str) -> String {
+    match name.char_indices().nth(64) {
+        Some((at, _)) => format!("{}...", &name[..at]),
+        None => name.to_string(),
+    }
+}
+
+/// A format record's name and fields, when the crate would read it.
+fn parse_format(payload: &[u8]) -> Option<(String, Vec<FormatField>)> {
+    let text = std::str::from_utf8(payload).ok()?;
+    let (name, fields) = text.split_once(':')?;
+    let fields = (fields.split(';').filter(|f| !f.is_empty()))
+        .map(|field| {
+            let (ty, field_name) = field.split_once(' ')?;
+            let (ty, count) = match ty.split_once('[') {
+                Some((ty, n)) => (ty, Some(n.trim_end_matches(']').parse::<u64>().ok()?)),
+                None => (ty, None),
+            };
+            Some(FormatField {
+                ty: ty.to_string(),
+                count,
+                name_len: field_name.len() as u64,
+            })
+        })
+        .collect::<Option<Vec<_>>>()?;
+    Some((name.to_string(), fields))
+}
+
+/// The flattened cost of format `name` (memoised in `costs`); a format nesting itself costs
+/// what it has before the loop (the crate refuses it).
+fn cost_of(
+    name: &str,
+    defined: &HashMap<&str, &[FormatField]>,
+    costs: &mut HashMap<String, Cost>,
+    open: &mut HashSet<String>,
+) -> Cost {
+    if let Some(cost) = costs.get(name) {
+        return *cost;
+    }
+    let Some(fields) = defined.get(name) else {
+        return Cost::default();
+    };
+    if !open.insert(name.to_string()) {
+        return Cost::default();
+    }
+    let mut cost = Cost::default();
+    for f in fields.iter() {
+        let n = f.count.unwrap_or(1);
+        let suffixes = f.count.map_or(0, brackets_len);
+        let element = if PRIMITIVES.contains(&f.ty.as_str()) {
+            Cost {
+                fields: 1,
+                name_bytes: 0,
+            }
+        } else {
+            let inner = cost_of(&f.ty, defined, costs, open);
+            // Each inner field's name carries this field's name and a dot before its own.
+            Cost {
+                fields: inner.fields,
+                name_bytes: inner.name_bytes.saturating_add(inner.fields),
+            }
+        };
+        cost.fields = cost.fields.saturating_add(n.saturating_mul(element.fields));
+        cost.name_bytes = cost
+            .name_bytes
+            .saturating_add(n.saturating_mul(element.name_bytes))
+            .saturating_add(n.saturating_mul(element.fields).saturating_mul(f.name_len))
+            .saturating_add(suffixes.saturating_mul(element.fields));
+    }
+    open.remove(name);
+    costs.insert(name.to_string(), cost);
+    cost
 }
 
 /// The record framing: each record's offset and bytes, or where and why it cannot be read.
