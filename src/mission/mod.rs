@@ -559,7 +559,7 @@ fn check_actions(
                 return Err(MissionError::invalid(
                     file,
                     place,
-                    format!("command {} is refused: {why}", c.command),
+                    format!("command {} is not supported: {why}", c.command),
                 ));
             }
             for (k, v) in c.params.iter().enumerate() {
