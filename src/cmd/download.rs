@@ -10,8 +10,10 @@ use std::process::ExitCode;
 pub struct Args {
     #[command(flatten)]
     link: super::LinkArgs,
-    /// File to write: the mission items as JSON (MISSION_ITEM_INT fields; frame and command as
-    /// MAVLink numbers, x/y in degE7, NaN params as null)
+    /// File to write: a mission file when it ends in .plan, .waypoints or .toml (the waypoints
+    /// and their actions as the vehicle holds them), else the mission items as JSON
+    /// (MISSION_ITEM_INT fields; frame and command as MAVLink numbers, x/y in degE7, NaN params
+    /// as null)
     out: PathBuf,
     /// Replace an existing file (never a file inside a flight directory)
     #[arg(long)]
@@ -37,9 +39,24 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         let items = download(&opened.link, &target, opened.transfer)
             .await
             .with_context(|| format!("downloading from {}", opened.describe))?;
-        let json: Vec<serde_json::Value> =
-            items.iter().map(emplan::link::items::item_json).collect();
-        out.write(serde_json::to_string_pretty(&json)?.as_bytes())?;
+        let as_mission = emplan::mission::Format::from_path(&args.out).ok();
+        match as_mission {
+            Some(format) => {
+                let name = args
+                    .out
+                    .file_stem()
+                    .and_then(|s| s.to_str())
+                    .unwrap_or("mission");
+                let mission = emplan::link::items::mission_of_items(&items, target.flavour, name)
+                    .with_context(|| format!("reading the {} items as a mission", items.len()))?;
+                out.write(emplan::mission::to_string(&mission, format)?.as_bytes())?;
+            }
+            None => {
+                let json: Vec<serde_json::Value> =
+                    items.iter().map(emplan::link::items::item_json).collect();
+                out.write(serde_json::to_string_pretty(&json)?.as_bytes())?;
+            }
+        }
         println!(
             "wrote {} ({} items from {:?} autopilot {})",
             args.out.display(),

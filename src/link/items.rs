@@ -578,6 +578,77 @@ pub fn read_flight(
     })
 }
 
+/// The mission `items` (held by an autopilot of `flavour`) hold, as a mission file would give it
+/// (`download OUT.plan`): home (ArduPilot's item 0; else the take-off's place at 0 m above sea
+/// level, since only heights above home matter), the take-off, each waypoint with the commands
+/// that follow it, read as `mission::load_str` reads a `.waypoints` file. The return to the
+/// origin emplan appends before its landing (a waypoint at the take-off's place and height,
+/// no hold, then NAV_LAND) is its ending, not a waypoint.
+pub fn mission_of_items(
+    items: &[MISSION_ITEM_INT_DATA],
+    flavour: Flavour,
+    name: &str,
+) -> Result<Mission, crate::mission::MissionError> {
+    let takeoff = items.iter().find(|i| i.command == MavCmd::MAV_CMD_NAV_TAKEOFF);
+    let home = match (flavour, items.first(), takeoff) {
+        (Flavour::ArduPilot, Some(h), _) if h.seq == 0 => (degrees(h.x), degrees(h.y), f64::from(h.z)),
+        (_, _, Some(t)) => (degrees(t.x), degrees(t.y), 0.0),
+        _ => (0.0, 0.0, 0.0),
+    };
+    let skip_home = flavour == Flavour::ArduPilot && items.first().is_some_and(|i| i.seq == 0);
+    let body = if skip_home { &items[1..] } else { items };
+    // emplan's ending: the return waypoint just before the landing, at the take-off.
+    let ending = body.windows(2).position(|w| {
+        w[1].command == MavCmd::MAV_CMD_NAV_LAND
+            && w[0].command == MavCmd::MAV_CMD_NAV_WAYPOINT
+            && w[0].param1 == 0.0
+            && takeoff.is_some_and(|t| (t.x, t.y, t.z) == (w[0].x, w[0].y, w[0].z))
+    });
+    #[allow(deprecated)]
+    let global = |f: MavFrame| {
+        matches!(
+            f,
+            MavFrame::MAV_FRAME_GLOBAL
+                | MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT
+                | MavFrame::MAV_FRAME_GLOBAL_INT
+                | MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+        )
+    };
+    let mut text = format!(
+        "QGC WPL 110\n0\t1\t0\t16\t0\t0\t0\t0\t{:.10}\t{:.10}\t{:.4}\t1\n",
+        home.0, home.1, home.2
+    );
+    let param = |v: f32| if v.is_nan() { "nan".to_string() } else { format!("{v}") };
+    for (k, i) in body.iter().enumerate() {
+        if Some(k) == ending {
+            continue;
+        }
+        let (x, y) = if global(i.frame) {
+            (format!("{:.10}", degrees(i.x)), format!("{:.10}", degrees(i.y)))
+        } else {
+            (i.x.to_string(), i.y.to_string())
+        };
+        text += &format!(
+            "{}\t0\t{}\t{}\t{}\t{}\t{}\t{}\t{x}\t{y}\t{}\t1\n",
+            k + 1,
+            i.frame as u8,
+            i.command as u16,
+            param(i.param1),
+            param(i.param2),
+            param(i.param3),
+            param(i.param4),
+            param(i.z),
+        );
+    }
+    let mut mission = crate::mission::load_str(
+        &text,
+        crate::mission::Format::Wpl,
+        Some(std::path::Path::new(&format!("{name}.waypoints"))),
+    )?;
+    mission.source = None;
+    Ok(mission)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -644,6 +715,32 @@ mod tests {
         assert_eq!(items[2].command, MavCmd::MAV_CMD_DO_CHANGE_SPEED);
         assert_eq!(items.last().unwrap().command, MavCmd::MAV_CMD_NAV_LAND);
         assert_eq!(items.len(), 7);
+    }
+
+    #[test]
+    fn the_items_of_a_mission_with_actions_read_back_as_that_mission_in_the_order_flown() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("missions/orchard-inspection.plan");
+        let m = load(&path).unwrap();
+        let order: Vec<usize> = (0..m.waypoints.len()).collect();
+        for flavour in [Flavour::ArduPilot, Flavour::Generic] {
+            let opts = ItemOptions {
+                flavour,
+                ..ItemOptions::default()
+            };
+            let items = mission_items(&m, &order, &opts).unwrap();
+            let back = mission_of_items(&items, flavour, "held").unwrap();
+            assert_eq!(back.waypoints.len(), m.waypoints.len(), "{flavour:?}");
+            for (a, b) in m.waypoints.iter().zip(&back.waypoints) {
+                let moved = (a.position.x_east_m - b.position.x_east_m)
+                    .hypot(a.position.y_north_m - b.position.y_north_m);
+                assert!(moved < 0.02, "{flavour:?} {}: {moved} m", a.name);
+                let commands = |w: &crate::mission::Waypoint| {
+                    w.actions.iter().map(|c| c.command).collect::<Vec<_>>()
+                };
+                assert_eq!(commands(a), commands(b), "{flavour:?} {}", a.name);
+            }
+        }
     }
 
     #[test]
