@@ -12,7 +12,9 @@
 //! cut short (the vehicle sent home while it hovered there, the log cut off) is not visited and
 //! is flown again: the hover is what a waypoint is for (a photograph, a measurement), and flying
 //! it again costs a leg where skipping it loses what it was for. A waypoint with no hover time
-//! counts on arrival.
+//! counts on arrival. A waypoint whose photos (its plan point's `photos`, the mission's photo
+//! actions there) the autopilot did not all report taking is not visited either and is flown
+//! again (`flightlog::photos` assigns the photos to the points).
 //!
 //! A flight links to the one it resumes by its plan.json's `resumes` (the resumed flight's
 //! directory name, [`FlightPlan::resumes`]).
@@ -40,6 +42,9 @@ pub enum Visit {
     Visited,
     /// Arrived, but the hover was cut short: not counted as visited.
     CutShort,
+    /// Arrived and hovered, but the autopilot reported fewer photos there than the mission takes:
+    /// not counted as visited.
+    PhotosMissing,
     NotReached,
 }
 
@@ -73,11 +78,15 @@ pub fn visits(plan: &FlightPlan, report: &FlightReport) -> Vec<PointVisit> {
         .map(|(k, point)| {
             let at_point = arrivals[k].cloned();
             let leg = legs[k].cloned();
+            let photos_taken = (report.photos.points.iter())
+                .find(|p| p.seq == point.seq && p.point == point.name)
+                .map_or(0, |p| p.photos_taken);
             let visit = match &at_point {
                 None => Visit::NotReached,
                 Some(p) if p.flags.contains(&Flag::Incomplete) && point.hold_s > 0.0 => {
                     Visit::CutShort
                 }
+                Some(_) if photos_taken < point.photos => Visit::PhotosMissing,
                 Some(_) => Visit::Visited,
             };
             PointVisit {
@@ -235,11 +244,13 @@ impl Resumption {
         };
         let cut_short =
             list(Visit::CutShort).map_or(String::new(), |c| format!("; hover cut short at {c}"));
+        let photos = list(Visit::PhotosMissing)
+            .map_or(String::new(), |c| format!("; photos missing at {c}"));
         let left: Vec<&str> = (self.mission.waypoints.iter())
             .map(|w| w.name.as_str())
             .collect();
         format!(
-            "resuming {}: visited {}{cut_short}; flying the {} left: {}",
+            "resuming {}: visited {}{cut_short}{photos}; flying the {} left: {}",
             self.flight,
             list(Visit::Visited).unwrap_or_else(|| "none".into()),
             left.len(),
@@ -289,9 +300,11 @@ pub fn resume(
 pub struct MissionFlight {
     pub flight: String,
     pub resumes: Option<String>,
-    /// Waypoints visited, and arrived at with the hover cut short, in flying order.
+    /// Waypoints visited, and arrived at with the hover cut short or photos missing, in flying
+    /// order.
     pub visited: Vec<String>,
     pub cut_short: Vec<String>,
+    pub photos_missing: Vec<String>,
     pub predicted_j: Option<f64>,
     pub measured_j: Option<f64>,
     pub duration_s: f64,
@@ -306,6 +319,8 @@ pub struct MissionWaypoint {
     pub visited_by: Vec<String>,
     /// The flights that arrived there but cut its hover short.
     pub cut_short_in: Vec<String>,
+    /// The flights that arrived there but did not report all its photos.
+    pub photos_missing_in: Vec<String>,
     /// Measured energy of the leg that arrived there and of its settle and hover, in the
     /// first flight that visited it.
     pub leg_j: Option<f64>,
@@ -347,6 +362,7 @@ impl FlownMission {
                     resumes: f.resumes.clone(),
                     visited: f.visited.clone(),
                     cut_short: f.cut_short.clone(),
+                    photos_missing: f.photos_missing.clone(),
                     predicted_kj: kj(f.predicted_j),
                     measured_kj: kj(f.measured_j),
                     duration_s: f.duration_s,
@@ -358,6 +374,7 @@ impl FlownMission {
                     name: w.name.clone(),
                     visited_by: w.visited_by.clone(),
                     cut_short_in: w.cut_short_in.clone(),
+                    photos_missing_in: w.photos_missing_in.clone(),
                     leg_kj: kj(w.leg_j),
                     at_point_kj: kj(w.at_point_j),
                 })
@@ -416,6 +433,7 @@ fn flown_mission(chain: &[(&FlightPlan, &FlightReport)]) -> FlownMission {
             name: p.name.clone(),
             visited_by: Vec::new(),
             cut_short_in: Vec::new(),
+            photos_missing_in: Vec::new(),
             leg_j: None,
             at_point_j: None,
         })
@@ -443,6 +461,7 @@ fn flown_mission(chain: &[(&FlightPlan, &FlightReport)]) -> FlownMission {
                         name: v.name.clone(),
                         visited_by: Vec::new(),
                         cut_short_in: Vec::new(),
+                        photos_missing_in: Vec::new(),
                         leg_j: None,
                         at_point_j: None,
                     });
@@ -461,6 +480,7 @@ fn flown_mission(chain: &[(&FlightPlan, &FlightReport)]) -> FlownMission {
                     waypoint.visited_by.push(report.flight.clone());
                 }
                 Visit::CutShort => waypoint.cut_short_in.push(report.flight.clone()),
+                Visit::PhotosMissing => waypoint.photos_missing_in.push(report.flight.clone()),
                 Visit::NotReached => {}
             }
         }
@@ -475,6 +495,7 @@ fn flown_mission(chain: &[(&FlightPlan, &FlightReport)]) -> FlownMission {
             resumes: plan.resumes.clone(),
             visited: named(Visit::Visited),
             cut_short: named(Visit::CutShort),
+            photos_missing: named(Visit::PhotosMissing),
             predicted_j: report.predicted_j,
             measured_j: report.measured_j,
             duration_s: report.duration_s,
@@ -521,6 +542,9 @@ pub struct MissionFlightJson {
     pub resumes: Option<String>,
     pub visited: Vec<String>,
     pub cut_short: Vec<String>,
+    /// Waypoints arrived at whose photos the autopilot did not all report (absent when none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub photos_missing: Vec<String>,
     pub predicted_kj: Option<f64>,
     pub measured_kj: Option<f64>,
     pub duration_s: f64,
@@ -533,6 +557,9 @@ pub struct MissionWaypointJson {
     pub name: String,
     pub visited_by: Vec<String>,
     pub cut_short_in: Vec<String>,
+    /// Flights that arrived there without reporting all its photos (absent when none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub photos_missing_in: Vec<String>,
     pub leg_kj: Option<f64>,
     pub at_point_kj: Option<f64>,
 }

@@ -630,6 +630,7 @@ mod tests {
                 guard: None,
                 source: None,
                 repriced: Vec::new(),
+                photos: Default::default(),
             })),
         }
     }

@@ -152,6 +152,9 @@ fn supported(flavour: Flavour, item: &MISSION_ITEM_INT_DATA) -> Result<(), MavMi
             | MAV_CMD_DO_CHANGE_SPEED
             | MAV_CMD_NAV_DELAY
             | MAV_CMD_DO_JUMP
+            | MAV_CMD_DO_DIGICAM_CONTROL
+            | MAV_CMD_IMAGE_START_CAPTURE
+            | MAV_CMD_IMAGE_STOP_CAPTURE
     );
     if !navigation && !command {
         return Err(MavMissionResult::MAV_MISSION_UNSUPPORTED);
