@@ -21,6 +21,8 @@ use super::flight_plan::FlightPlan;
 use super::part::{Segment, SegmentKind};
 use super::telemetry::{Photo, PhotoMessage, Position};
 use crate::mission::Enu;
+#[cfg(test)]
+use crate::mission::Geodetic;
 
 /// How far from a point a photo may be taken and still be that point's (m, 3D): the distance
 /// the report already allows between a point and where the leg leaving it begins
@@ -315,4 +317,189 @@ pub fn lines(report: &PhotoReport) -> Vec<String> {
         ));
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::flightlog::report::FlightReport;
+    use crate::flightlog::segment::{SegmentConfig, Segmenter};
+    use crate::flightlog::synthetic::{square_plan, SyntheticConfig, SyntheticFlight};
+    use crate::flightlog::telemetry::{PhotoPosition, Reading, Stamped};
+
+    /// The square with photos: one at A, two at B, one at C, none at the origin.
+    fn plan() -> FlightPlan {
+        let mut plan = square_plan();
+        for (point, photos) in plan.points.iter_mut().zip([1, 2, 1, 0]) {
+            point.photos = photos;
+        }
+        plan
+    }
+
+    fn report_of(plan: &FlightPlan, stamped: &[Stamped]) -> FlightReport {
+        let s = Segmenter::run(plan.clone(), SegmentConfig::default(), stamped).expect("valid");
+        FlightReport::build("f", &s)
+    }
+
+    fn flown(plan: &FlightPlan) -> Vec<Stamped> {
+        SyntheticFlight::fly(plan, &SyntheticConfig::default()).stamped()
+    }
+
+    fn is_photo(m: &Stamped, index: i64) -> bool {
+        matches!(&m.reading, Reading::Photo(p) if p.index == index)
+    }
+
+    #[test]
+    fn each_photo_of_a_flight_is_assigned_to_the_waypoint_it_was_taken_at() {
+        let plan = plan();
+        let report = report_of(&plan, &flown(&plan));
+        let photos = &report.photos;
+        assert!(photos.apart.is_empty(), "{:?}", photos.apart);
+        let counts: Vec<(&str, u32, u32)> = (photos.points.iter())
+            .map(|p| (p.point.as_str(), p.photos_expected, p.photos_taken))
+            .collect();
+        assert_eq!(counts, [("A", 1, 1), ("B", 2, 2), ("C", 1, 1)]);
+        for p in &photos.points {
+            assert_eq!(p.missing, None);
+            for x in &p.photos {
+                // Taken on the point (the scripted vehicle stops on it): PX4's two messages are
+                // one photo, placed where CAMERA_IMAGE_CAPTURED says.
+                assert!(x.distance_m.expect("placed") < 0.01, "{x:?}");
+                assert_eq!(
+                    x.photo.messages,
+                    ["CAMERA_TRIGGER", "CAMERA_IMAGE_CAPTURED"]
+                );
+                assert_eq!(x.photo.located_by, Some(LocatedBy::Message));
+            }
+        }
+        let lines = lines(photos);
+        assert_eq!(lines.len(), 3, "{lines:?}");
+        assert_eq!(
+            lines[1],
+            "photos at B: 2 taken of 2 expected (0.0 m, 0.0 m from it)"
+        );
+    }
+
+    #[test]
+    fn a_waypoint_with_a_photo_unreported_is_flagged_with_why() {
+        let plan = plan();
+        // The second photo at B (index 2) never reported.
+        let stamped: Vec<Stamped> = (flown(&plan).into_iter())
+            .filter(|m| !is_photo(m, 2))
+            .collect();
+        let report = report_of(&plan, &stamped);
+        let b = &report.photos.points[1];
+        assert_eq!((b.point.as_str(), b.photos_taken), ("B", 1));
+        assert!(!b.complete());
+        assert_eq!(
+            b.missing.as_deref(),
+            Some("1 of 2 photos reported taken: not visited")
+        );
+        assert!(report.photos.points[0].complete() && report.photos.points[2].complete());
+        assert!(lines(&report.photos)[1].ends_with(": 1 of 2 photos reported taken: not visited"));
+    }
+
+    #[test]
+    fn a_trigger_without_its_capture_is_placed_where_the_vehicle_was() {
+        let plan = plan();
+        let stamped: Vec<Stamped> = (flown(&plan).into_iter())
+            .filter(|m| {
+                !matches!(&m.reading, Reading::Photo(p) if p.message == PhotoMessage::ImageCaptured)
+            })
+            .collect();
+        let report = report_of(&plan, &stamped);
+        let taken: Vec<u32> = report
+            .photos
+            .points
+            .iter()
+            .map(|p| p.photos_taken)
+            .collect();
+        assert_eq!(taken, [1, 2, 1]);
+        for x in report.photos.points.iter().flat_map(|p| &p.photos) {
+            assert_eq!(x.photo.located_by, Some(LocatedBy::Vehicle));
+            // The latest position, at most one 10 Hz sample before the photo, on the point.
+            assert!(x.distance_m.expect("placed") < 0.5, "{x:?}");
+        }
+    }
+
+    #[test]
+    fn a_photo_near_no_point_is_listed_apart_with_the_nearest_and_a_failed_capture_is_not_counted()
+    {
+        let plan = plan();
+        let mut stamped = flown(&plan);
+        let far = plan.origin().to_geodetic(Enu {
+            x_east_m: 30.0,
+            y_north_m: 30.0,
+            z_up_m: 0.0,
+        });
+        let t_s = stamped[stamped.len() / 2].t_s;
+        let photo = |index: i64, at: Geodetic, captured: bool| Stamped {
+            t_s,
+            wall_us: 0,
+            reading: Reading::Photo(Photo {
+                message: PhotoMessage::CameraFeedback,
+                index,
+                at: Some(PhotoPosition {
+                    lat_deg: at.lat_deg,
+                    lon_deg: at.lon_deg,
+                    alt_amsl_m: at.alt_m,
+                    relative_alt_m: at.alt_m - plan.home.alt_m,
+                }),
+                camera_time_s: None,
+                captured,
+            }),
+        };
+        // A photo in the middle of the square, and a failed capture at C.
+        stamped.push(photo(90, far, true));
+        let c = plan.origin().to_geodetic(plan.points[2].enu);
+        stamped.push(photo(91, c, false));
+        stamped.sort_by(|a, b| a.t_s.total_cmp(&b.t_s));
+        let report = report_of(&plan, &stamped);
+        assert_eq!(report.photos.apart.len(), 1);
+        let apart = &report.photos.apart[0];
+        assert_eq!(apart.photo.index, 90);
+        // 30 m across, 30 m along: 42.4 m from every corner, nearest A (first of the ties
+        // in the plan's order) and the origin.
+        assert!(
+            (apart.distance_m.expect("known") - 42.43).abs() < 0.1,
+            "{apart:?}"
+        );
+        assert!(apart.nearest.is_some());
+        let c = &report.photos.points[2];
+        assert_eq!(
+            (c.point.as_str(), c.photos.len(), c.photos_taken),
+            ("C", 2, 1)
+        );
+        assert!(lines(&report.photos)
+            .last()
+            .expect("a line")
+            .contains("taken near no point"));
+    }
+
+    #[test]
+    fn the_photos_survive_the_report_json_as_a_replay_reads_it_back() {
+        let plan = plan();
+        let report = report_of(&plan, &flown(&plan));
+        let text = serde_json::to_string(&report.json()).expect("serialises");
+        let back: crate::flightlog::report::ReportJson =
+            serde_json::from_str(&text).expect("parses");
+        let again = FlightReport::from_json(&back).photos;
+        // What a point's photos say, as the text and resume read them.
+        let said = |r: &PhotoReport| -> Vec<(String, u32, u32, Vec<(i64, Vec<String>)>)> {
+            (r.points.iter())
+                .map(|p| {
+                    let photos = (p.photos.iter())
+                        .map(|x| (x.photo.index, x.photo.messages.clone()))
+                        .collect();
+                    (p.point.clone(), p.photos_expected, p.photos_taken, photos)
+                })
+                .collect()
+        };
+        assert_eq!(said(&again), said(&report.photos));
+        assert_eq!(lines(&again), lines(&report.photos));
+        // A report without photos has no photo keys at all (report.json files stay as they were).
+        let plain = report_of(&square_plan(), &flown(&square_plan()));
+        let text = serde_json::to_string(&plain.json()).expect("serialises");
+        assert!(!text.contains("photo"), "{text}");
+    }
 }

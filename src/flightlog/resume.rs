@@ -843,4 +843,46 @@ mod tests {
         // A resumption given without the flight it resumes: its own mission is not one.
         assert!(missions(&[(&plan2, &f2), (&plan1, &f3)]).is_empty());
     }
+
+    #[test]
+    fn a_waypoint_whose_photo_the_autopilot_did_not_report_is_not_visited_and_flown_again() {
+        let mut plan = square_plan();
+        for (point, photos) in plan.points.iter_mut().zip([1, 2, 1, 0]) {
+            point.photos = photos;
+        }
+        let stamped = SyntheticFlight::fly(&plan, &SyntheticConfig::default()).stamped();
+        let report = |keep: &dyn Fn(&Stamped) -> bool| {
+            let kept: Vec<Stamped> = stamped.iter().filter(|m| keep(m)).cloned().collect();
+            let s = Segmenter::run(plan.clone(), SegmentConfig::default(), &kept).expect("valid");
+            FlightReport::build("f1", &s)
+        };
+        // Every photo reported: every waypoint visited, nothing to resume.
+        let all = report(&|_| true);
+        let visited: Vec<Visit> = visits(&plan, &all).iter().map(|v| v.visit).collect();
+        assert_eq!(visited, [Visit::Visited; 3]);
+        assert!(resume(&square(), &plan, &all, "f1").is_err());
+        // B's second photo (index 2) never reported: B is not visited, and flown again.
+        let short = report(&|m| !matches!(&m.reading, Reading::Photo(p) if p.index == 2));
+        let resumed = resume(&square(), &plan, &short, "f1").expect("B left");
+        assert_eq!(resumed.named(Visit::Visited), ["A", "C"]);
+        assert_eq!(resumed.named(Visit::PhotosMissing), ["B"]);
+        assert_eq!(names(&resumed.mission.waypoints), ["B"]);
+        assert!(
+            resumed.summary().contains("; photos missing at B;"),
+            "{}",
+            resumed.summary()
+        );
+        // A plan expecting photos from a flight that reported none: none visited.
+        let none = report(&|m| !matches!(m.reading, Reading::Photo(_)));
+        let visited: Vec<Visit> = visits(&plan, &none).iter().map(|v| v.visit).collect();
+        assert_eq!(visited, [Visit::PhotosMissing; 3]);
+        // The mission view of the flight and its resumption says where photos were missing.
+        let mut again = plan.clone();
+        again.resumes = Some("f1".into());
+        let view = missions(&[(&plan, &short), (&again, &all)]);
+        let json = view[0].json();
+        assert_eq!(json.flights[0].photos_missing, ["B"]);
+        let b = json.waypoints.iter().find(|w| w.name == "B").expect("B");
+        assert_eq!(b.photos_missing_in, ["f1"]);
+    }
 }
