@@ -1,6 +1,7 @@
 //! The integration test binary: one crate, one link step (modules below).
 
 mod ardupilot;
+mod camera;
 mod cli;
 mod crashes;
 mod failfast;
