@@ -485,7 +485,8 @@ mod tests {
             serde_json::from_str(&text).expect("parses");
         let again = FlightReport::from_json(&back).photos;
         // What a point's photos say, as the text and resume read them.
-        let said = |r: &PhotoReport| -> Vec<(String, u32, u32, Vec<(i64, Vec<String>)>)> {
+        type Said = (String, u32, u32, Vec<(i64, Vec<String>)>);
+        let said = |r: &PhotoReport| -> Vec<Said> {
             (r.points.iter())
                 .map(|p| {
                     let photos = (p.photos.iter())
