@@ -1,4 +1,4 @@
-//! Photos at waypoints on the built-in mock (a PX4): a mission whose items carry a photo
+//! Photos at waypoints on the built-in mock (a PX4, and an ArduCopter): a mission whose items carry a photo
 //! (DO_DIGICAM_CONTROL, shoot 1) after each waypoint, uploaded by a ground station of the test's
 //! own and flown by the mock, recorded and measured against the items the vehicle holds, as
 //! `record` measures a flight: as many photos as photo items, each within 2 m of its waypoint,
@@ -25,8 +25,12 @@ fn mission() -> Mission {
 
 /// The sample's items (B, C, A: the energy order) with a photo after each of its waypoints (not
 /// after the return to the origin), numbered.
-fn items_with_photos(mission: &Mission) -> Vec<MISSION_ITEM_INT_DATA> {
-    let items = mission_items(mission, &[1, 2, 0], &ItemOptions::default()).expect("items");
+fn items_with_photos(mission: &Mission, flavour: Flavour) -> Vec<MISSION_ITEM_INT_DATA> {
+    let opts = ItemOptions {
+        flavour,
+        ..ItemOptions::default()
+    };
+    let items = mission_items(mission, &[1, 2, 0], &opts).expect("items");
     let last_waypoint = items
         .iter()
         .rposition(|i| i.command == MavCmd::MAV_CMD_NAV_WAYPOINT);
@@ -41,7 +45,9 @@ fn items_with_photos(mission: &Mission) -> Vec<MISSION_ITEM_INT_DATA> {
     let mut out = Vec::new();
     for (k, it) in items.iter().enumerate() {
         out.push(it.clone());
-        if it.command == MavCmd::MAV_CMD_NAV_WAYPOINT && Some(k) != last_waypoint {
+        // Not after ArduPilot's home (seq 0) either.
+        let home = flavour == Flavour::ArduPilot && k == 0;
+        if it.command == MavCmd::MAV_CMD_NAV_WAYPOINT && Some(k) != last_waypoint && !home {
             out.push(photo.clone());
         }
     }
@@ -51,14 +57,20 @@ fn items_with_photos(mission: &Mission) -> Vec<MISSION_ITEM_INT_DATA> {
     out
 }
 
-/// Uploads the items to a mock that starts what it stores (its camera missing photo `missed`,
-/// if any), records the flight in `log_dir` against the plan read from the items, and returns
-/// the plan, the report and the flight directory.
-async fn fly(log_dir: &Path, missed: Option<u32>) -> (FlightPlan, FlightReport, PathBuf) {
+/// Uploads the items to a mock of `flavour` that starts what it stores (its camera missing
+/// photo `missed`, if any), records the flight in `log_dir` against the plan read from the
+/// items, and returns the plan, the report and the flight directory.
+async fn fly(
+    log_dir: &Path,
+    flavour: Flavour,
+    missed: Option<u32>,
+) -> (FlightPlan, FlightReport, PathBuf) {
     let mission = mission();
     let mock = emplan::sim::MockAutopilot::spawn(
         "udpin:127.0.0.1:0",
         emplan::sim::MockConfig {
+            flavour,
+            boot: Duration::from_millis(100),
             flight: Some(emplan::sim::FlightConfig {
                 home: mission.origin.home,
                 missed_photo: missed,
@@ -72,8 +84,8 @@ async fn fly(log_dir: &Path, missed: Option<u32>) -> (FlightPlan, FlightReport, 
     .await
     .expect("mock");
     let (link, target, cfg) = ground_station(&mock).await;
-    let items = items_with_photos(&mission);
-    let read = read_flight(&items, Flavour::Px4, mission.origin.home.alt_m).expect("a flight");
+    let items = items_with_photos(&mission, flavour);
+    let read = read_flight(&items, flavour, mission.origin.home.alt_m).expect("a flight");
     let plan = plan_from_items(&mission.name, &read, Some(&mission), None).expect("a plan");
     let recorder = spawn_recorder(&link, RecorderConfig::new(log_dir));
     let mut events = recorder.subscribe();
@@ -102,7 +114,7 @@ async fn fly(log_dir: &Path, missed: Option<u32>) -> (FlightPlan, FlightReport, 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_photo_after_each_waypoint_is_reported_at_its_waypoint_and_every_waypoint_is_visited() {
     let log_dir = tempfile::tempdir().expect("temp dir");
-    let (plan, report, dir) = fly(log_dir.path(), None).await;
+    let (plan, report, dir) = fly(log_dir.path(), Flavour::Px4, None).await;
     // The plan read from the items expects one photo at each waypoint, none at the origin.
     let expected: Vec<(&str, u32)> = (plan.points.iter())
         .map(|p| (p.name.as_str(), p.photos))
@@ -177,7 +189,7 @@ async fn a_photo_after_each_waypoint_is_reported_at_its_waypoint_and_every_waypo
 async fn a_photo_the_camera_missed_leaves_its_waypoint_not_visited_naming_why() {
     let log_dir = tempfile::tempdir().expect("temp dir");
     // The second photo (at C) is never taken.
-    let (plan, report, _) = fly(log_dir.path(), Some(1)).await;
+    let (plan, report, _) = fly(log_dir.path(), Flavour::Px4, Some(1)).await;
     let at: Vec<(&str, u32)> = (report.photos.points.iter())
         .map(|p| (p.point.as_str(), p.photos_taken))
         .collect();
@@ -203,4 +215,30 @@ async fn a_photo_the_camera_missed_leaves_its_waypoint_not_visited_naming_why() 
         .map(|w| w.name.as_str())
         .collect();
     assert_eq!(left, ["C"]);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn on_ardupilot_one_camera_feedback_per_photo_item_is_reported_at_its_waypoint() {
+    let log_dir = tempfile::tempdir().expect("temp dir");
+    let (plan, report, _) = fly(log_dir.path(), Flavour::ArduPilot, None).await;
+    // Home at seq 0, take-off at 1: B at 2, its photo at 3, and so on.
+    let expected: Vec<(u16, &str, u32)> = (plan.points.iter())
+        .map(|p| (p.seq, p.name.as_str(), p.photos))
+        .collect();
+    assert_eq!(
+        expected,
+        [(2, "B", 1), (4, "C", 1), (6, "A", 1), (8, "origin", 0)]
+    );
+    assert!(report.photos.apart.is_empty(), "{:?}", report.photos.apart);
+    assert_eq!(report.photos.points.len(), 3);
+    for (k, p) in report.photos.points.iter().enumerate() {
+        assert_eq!((p.photos_expected, p.photos_taken), (1, 1), "{}", p.point);
+        let photo = &p.photos[0];
+        assert_eq!(photo.photo.messages, ["CAMERA_FEEDBACK"]);
+        assert_eq!(photo.photo.index, k as i64, "img_idx counts the photos");
+        let d = photo.distance_m.expect("located");
+        assert!(d < 2.0, "{}: photo {d:.2} m from its waypoint", p.point);
+    }
+    let visited: Vec<Visit> = visits(&plan, &report).iter().map(|v| v.visit).collect();
+    assert_eq!(visited, [Visit::Visited; 3]);
 }
