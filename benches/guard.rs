@@ -27,6 +27,7 @@ fn plan() -> FlightPlan {
                 z_up_m: (k as f64 * 11.0) % 40.0 - 20.0,
             },
             hold_s: 5.0,
+            photos: 0,
         })
         .collect();
     points.push(PlannedPoint {
@@ -34,6 +35,7 @@ fn plan() -> FlightPlan {
         name: "origin".into(),
         enu: Enu::default(),
         hold_s: 0.0,
+        photos: 0,
     });
     let n = points.len();
     FlightPlan {

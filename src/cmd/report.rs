@@ -144,7 +144,10 @@ pub fn print(report: &FlightReport) {
             .map(|f| f.name())
             .collect::<Vec<_>>()
             .join(",")
-    );
+    ); // The photos the autopilot reported: one line per point with photos, one per photo apart.
+    for line in emplan::flightlog::photos::lines(&report.photos) {
+        println!("{line}");
+    }
 }
 
 /// The logs named: a .tlog, a flight directory's flight.tlog, the flight.tlog of each flight

@@ -35,6 +35,16 @@ pub struct PlannedPoint {
     pub enu: Enu,
     /// Planned hover time at the point (its hover and its actions' holds).
     pub hold_s: f64,
+    /// The photos the mission takes at the point (its photo actions: the autopilot runs them
+    /// as it leaves the point for the next). A point whose photos the autopilot did not all
+    /// report is not visited (`flightlog::resume`). Absent from plan.json when none (and from
+    /// files written before it was kept).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub photos: u32,
+}
+
+fn is_zero(n: &u32) -> bool {
+    *n == 0
 }
 
 /// The prediction of one leg (legs[k] ends at points[k]).
@@ -188,6 +198,7 @@ impl FlightPlan {
                 name: waypoint.name.clone(),
                 enu: waypoint.position,
                 hold_s: waypoint.hold_s(),
+                photos: waypoint.photos(),
             });
         }
         points.push(PlannedPoint {
@@ -195,6 +206,7 @@ impl FlightPlan {
             name: ORIGIN_NAME.to_string(),
             enu: Enu::default(),
             hold_s: 0.0,
+            photos: 0,
         });
         let plan = FlightPlan {
             mission: mission.name.clone(),
@@ -562,6 +574,26 @@ mod tests {
         let back = plan.to_local(&jumpy, Some(home));
         assert!((back.z_up_m - b.z_up_m).abs() < 1e-6, "{back:?}");
         assert!((plan.to_local(&jumpy, None).z_up_m - b.z_up_m - 2.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_points_photos_survive_plan_json_and_a_plan_json_without_them_reads_as_none() {
+        let mut plan = plan_with_prediction();
+        plan.points[1].photos = 2;
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("plan.json");
+        plan.write_json(&path).expect("written");
+        let text = std::fs::read_to_string(&path).expect("read");
+        assert_eq!(text.matches("\"photos\"").count(), 1, "{text}");
+        assert_eq!(FlightPlan::read_json(&path).expect("read"), plan);
+        // A plan.json written before photos were kept.
+        plan.points[1].photos = 0;
+        plan.write_json(&path).expect("written");
+        assert!(!std::fs::read_to_string(&path)
+            .expect("read")
+            .contains("photos"));
+        let back = FlightPlan::read_json(&path).expect("read");
+        assert!(back.points.iter().all(|p| p.photos == 0));
     }
 
     #[test]

@@ -14,6 +14,7 @@ pub mod flight_plan;
 pub mod guard;
 pub mod onboard;
 pub mod part;
+pub mod photos;
 pub mod recorder;
 pub mod replay;
 pub mod report;

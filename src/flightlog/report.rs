@@ -13,6 +13,7 @@ use serde::{Deserialize, Serialize};
 
 use super::energy::{Flag, Measurement};
 use super::flight_plan::ORIGIN_NAME;
+use super::photos::{PhotoReport, PlacedPhoto, PointPhotos};
 use super::segment::{Segment, SegmentKind, Segmenter};
 use super::tlog::TlogGap;
 use super::watch::GuardReport;
@@ -135,6 +136,9 @@ pub struct FlightReport {
     pub source: Option<LogSource>,
     /// The rest of the flight priced again in the wind the vehicle estimated in flight.
     pub repriced: Vec<RepricedNote>,
+    /// The photos the autopilot reported, per point of the plan and apart
+    /// (`flightlog::photos`).
+    pub photos: PhotoReport,
 }
 
 /// The rest of a flight priced again in a wind heard in flight (`fly --wind live`).
@@ -251,8 +255,11 @@ impl FlightReport {
                     .collect::<Vec<_>>(),
             )),
             repriced,
+            photos: PhotoReport::default(),
         };
-        for segment in segmenter.segments() {
+        let segments = segmenter.segments();
+        report.photos = super::photos::assign(plan, &segments, segmenter.photos().photos());
+        for segment in segments {
             match segment.kind {
                 SegmentKind::Takeoff => {
                     let p = predicted.map(|p| (p.takeoff_j, None));
@@ -387,6 +394,8 @@ impl FlightReport {
             guard: self.guard.clone(),
             source: self.source.clone(),
             repriced: self.repriced.clone(),
+            photo_points: self.photos.points.clone(),
+            photos_apart: self.photos.apart.clone(),
         }
     }
 
@@ -409,6 +418,10 @@ impl FlightReport {
             guard: json.guard.clone(),
             source: json.source.clone(),
             repriced: json.repriced.clone(),
+            photos: PhotoReport {
+                points: json.photo_points.clone(),
+                apart: json.photos_apart.clone(),
+            },
         }
     }
 }
@@ -556,6 +569,13 @@ pub struct ReportJson {
     /// (`fly --wind live`; absent when it was not).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub repriced: Vec<RepricedNote>,
+    /// Per point of the plan with photo actions or photos: the photos expected and taken there
+    /// (`flightlog::photos`; absent when there are none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub photo_points: Vec<PointPhotos>,
+    /// The photos taken near no point of the plan (absent when there are none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub photos_apart: Vec<PlacedPhoto>,
 }
 
 /// One leg of a flight measured from two logs of it: the ground station's `.tlog` and the flight
@@ -892,6 +912,7 @@ mod tests {
             guard: None,
             source: None,
             repriced: vec![],
+            photos: PhotoReport::default(),
         }
     }
 

@@ -12,7 +12,9 @@
 //! cut short (the vehicle sent home while it hovered there, the log cut off) is not visited and
 //! is flown again: the hover is what a waypoint is for (a photograph, a measurement), and flying
 //! it again costs a leg where skipping it loses what it was for. A waypoint with no hover time
-//! counts on arrival.
+//! counts on arrival. A waypoint whose photos (its plan point's `photos`, the mission's photo
+//! actions there) the autopilot did not all report taking is not visited either and is flown
+//! again (`flightlog::photos` assigns the photos to the points).
 //!
 //! A flight links to the one it resumes by its plan.json's `resumes` (the resumed flight's
 //! directory name, [`FlightPlan::resumes`]).
@@ -40,6 +42,9 @@ pub enum Visit {
     Visited,
     /// Arrived, but the hover was cut short: not counted as visited.
     CutShort,
+    /// Arrived and hovered, but the autopilot reported fewer photos there than the mission takes:
+    /// not counted as visited.
+    PhotosMissing,
     NotReached,
 }
 
@@ -73,11 +78,15 @@ pub fn visits(plan: &FlightPlan, report: &FlightReport) -> Vec<PointVisit> {
         .map(|(k, point)| {
             let at_point = arrivals[k].cloned();
             let leg = legs[k].cloned();
+            let photos_taken = (report.photos.points.iter())
+                .find(|p| p.seq == point.seq && p.point == point.name)
+                .map_or(0, |p| p.photos_taken);
             let visit = match &at_point {
                 None => Visit::NotReached,
                 Some(p) if p.flags.contains(&Flag::Incomplete) && point.hold_s > 0.0 => {
                     Visit::CutShort
                 }
+                Some(_) if photos_taken < point.photos => Visit::PhotosMissing,
                 Some(_) => Visit::Visited,
             };
             PointVisit {
@@ -269,6 +278,8 @@ impl Resumption {
         };
         let cut_short =
             list(Visit::CutShort).map_or(String::new(), |c| format!("; hover cut short at {c}"));
+        let photos = list(Visit::PhotosMissing)
+            .map_or(String::new(), |c| format!("; photos missing at {c}"));
         let left: Vec<&str> = (self.mission.waypoints.iter())
             .map(|w| w.name.as_str())
             .collect();
@@ -286,7 +297,7 @@ impl Resumption {
             ),
         };
         format!(
-            "resuming {}: visited {}{cut_short}{later}; flying the {} left: {}",
+            "resuming {}: visited {}{cut_short}{photos}{later}; flying the {} left: {}",
             self.flight,
             list(Visit::Visited).unwrap_or_else(|| "none".into()),
             left.len(),
@@ -363,9 +374,11 @@ pub fn resume_chain(
 pub struct MissionFlight {
     pub flight: String,
     pub resumes: Option<String>,
-    /// Waypoints visited, and arrived at with the hover cut short, in flying order.
+    /// Waypoints visited, and arrived at with the hover cut short or photos missing, in flying
+    /// order.
     pub visited: Vec<String>,
     pub cut_short: Vec<String>,
+    pub photos_missing: Vec<String>,
     pub predicted_j: Option<f64>,
     pub measured_j: Option<f64>,
     pub duration_s: f64,
@@ -380,6 +393,8 @@ pub struct MissionWaypoint {
     pub visited_by: Vec<String>,
     /// The flights that arrived there but cut its hover short.
     pub cut_short_in: Vec<String>,
+    /// The flights that arrived there but did not report all its photos.
+    pub photos_missing_in: Vec<String>,
     /// Measured energy of the leg that arrived there and of its settle and hover, in the
     /// first flight that visited it.
     pub leg_j: Option<f64>,
@@ -421,6 +436,7 @@ impl FlownMission {
                     resumes: f.resumes.clone(),
                     visited: f.visited.clone(),
                     cut_short: f.cut_short.clone(),
+                    photos_missing: f.photos_missing.clone(),
                     predicted_kj: kj(f.predicted_j),
                     measured_kj: kj(f.measured_j),
                     duration_s: f.duration_s,
@@ -432,6 +448,7 @@ impl FlownMission {
                     name: w.name.clone(),
                     visited_by: w.visited_by.clone(),
                     cut_short_in: w.cut_short_in.clone(),
+                    photos_missing_in: w.photos_missing_in.clone(),
                     leg_kj: kj(w.leg_j),
                     at_point_kj: kj(w.at_point_j),
                 })
@@ -490,6 +507,7 @@ fn flown_mission(chain: &[(&FlightPlan, &FlightReport)]) -> FlownMission {
             name: p.name.clone(),
             visited_by: Vec::new(),
             cut_short_in: Vec::new(),
+            photos_missing_in: Vec::new(),
             leg_j: None,
             at_point_j: None,
         })
@@ -517,6 +535,7 @@ fn flown_mission(chain: &[(&FlightPlan, &FlightReport)]) -> FlownMission {
                         name: v.name.clone(),
                         visited_by: Vec::new(),
                         cut_short_in: Vec::new(),
+                        photos_missing_in: Vec::new(),
                         leg_j: None,
                         at_point_j: None,
                     });
@@ -535,6 +554,7 @@ fn flown_mission(chain: &[(&FlightPlan, &FlightReport)]) -> FlownMission {
                     waypoint.visited_by.push(report.flight.clone());
                 }
                 Visit::CutShort => waypoint.cut_short_in.push(report.flight.clone()),
+                Visit::PhotosMissing => waypoint.photos_missing_in.push(report.flight.clone()),
                 Visit::NotReached => {}
             }
         }
@@ -549,6 +569,7 @@ fn flown_mission(chain: &[(&FlightPlan, &FlightReport)]) -> FlownMission {
             resumes: plan.resumes.clone(),
             visited: named(Visit::Visited),
             cut_short: named(Visit::CutShort),
+            photos_missing: named(Visit::PhotosMissing),
             predicted_j: report.predicted_j,
             measured_j: report.measured_j,
             duration_s: report.duration_s,
@@ -595,6 +616,9 @@ pub struct MissionFlightJson {
     pub resumes: Option<String>,
     pub visited: Vec<String>,
     pub cut_short: Vec<String>,
+    /// Waypoints arrived at whose photos the autopilot did not all report (absent when none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub photos_missing: Vec<String>,
     pub predicted_kj: Option<f64>,
     pub measured_kj: Option<f64>,
     pub duration_s: f64,
@@ -607,6 +631,9 @@ pub struct MissionWaypointJson {
     pub name: String,
     pub visited_by: Vec<String>,
     pub cut_short_in: Vec<String>,
+    /// Flights that arrived there without reporting all its photos (absent when none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub photos_missing_in: Vec<String>,
     pub leg_kj: Option<f64>,
     pub at_point_kj: Option<f64>,
 }
@@ -933,5 +960,47 @@ mod tests {
         assert!(missions(&[(&plan1, &f1), (&plan1, &f3)]).is_empty());
         // A resumption given without the flight it resumes: its own mission is not one.
         assert!(missions(&[(&plan2, &f2), (&plan1, &f3)]).is_empty());
+    }
+
+    #[test]
+    fn a_waypoint_whose_photo_the_autopilot_did_not_report_is_not_visited_and_flown_again() {
+        let mut plan = square_plan();
+        for (point, photos) in plan.points.iter_mut().zip([1, 2, 1, 0]) {
+            point.photos = photos;
+        }
+        let stamped = SyntheticFlight::fly(&plan, &SyntheticConfig::default()).stamped();
+        let report = |keep: &dyn Fn(&Stamped) -> bool| {
+            let kept: Vec<Stamped> = stamped.iter().filter(|m| keep(m)).cloned().collect();
+            let s = Segmenter::run(plan.clone(), SegmentConfig::default(), &kept).expect("valid");
+            FlightReport::build("f1", &s)
+        };
+        // Every photo reported: every waypoint visited, nothing to resume.
+        let all = report(&|_| true);
+        let visited: Vec<Visit> = visits(&plan, &all).iter().map(|v| v.visit).collect();
+        assert_eq!(visited, [Visit::Visited; 3]);
+        assert!(resume(&square(), &plan, &all, "f1").is_err());
+        // B's second photo (index 2) never reported: B is not visited, and flown again.
+        let short = report(&|m| !matches!(&m.reading, Reading::Photo(p) if p.index == 2));
+        let resumed = resume(&square(), &plan, &short, "f1").expect("B left");
+        assert_eq!(resumed.named(Visit::Visited), ["A", "C"]);
+        assert_eq!(resumed.named(Visit::PhotosMissing), ["B"]);
+        assert_eq!(names(&resumed.mission.waypoints), ["B"]);
+        assert!(
+            resumed.summary().contains("; photos missing at B;"),
+            "{}",
+            resumed.summary()
+        );
+        // A plan expecting photos from a flight that reported none: none visited.
+        let none = report(&|m| !matches!(m.reading, Reading::Photo(_)));
+        let visited: Vec<Visit> = visits(&plan, &none).iter().map(|v| v.visit).collect();
+        assert_eq!(visited, [Visit::PhotosMissing; 3]);
+        // The mission view of the flight and its resumption says where photos were missing.
+        let mut again = plan.clone();
+        again.resumes = Some("f1".into());
+        let view = missions(&[(&plan, &short), (&again, &all)]);
+        let json = view[0].json();
+        assert_eq!(json.flights[0].photos_missing, ["B"]);
+        let b = json.waypoints.iter().find(|w| w.name == "B").expect("B");
+        assert_eq!(b.photos_missing_in, ["f1"]);
     }
 }

@@ -32,6 +32,7 @@
 use super::energy::{EnergyConfig, Measurement, PowerSeries};
 use super::flight_plan::{FlightPlan, Target};
 pub use super::part::{Segment, SegmentKind, StartState};
+use super::photos::PhotoLog;
 use super::samples::{BatteryFeed, FeedConfig};
 use super::telemetry::{FlightMode, LandedState, Reading, Stamped, VehicleState};
 use super::watch::{GuardNote, Watch};
@@ -126,6 +127,8 @@ pub struct Segmenter {
     /// The vehicle's wind estimate, and how many of the plan's repricings the guard has.
     wind: WindTrack,
     repricings_applied: usize,
+    /// The photos the autopilot reported, where they were taken.
+    photos: PhotoLog,
 }
 
 /// One position of the vehicle in the mission frame.
@@ -216,6 +219,7 @@ impl Segmenter {
             fresh_notes: Vec::new(),
             wind: WindTrack::new(),
             repricings_applied: 0,
+            photos: PhotoLog::new(),
             plan,
             feed: BatteryFeed::new(cfg.feed),
             series: PowerSeries::new(cfg.energy),
@@ -328,6 +332,11 @@ impl Segmenter {
     /// The primary battery's samples so far.
     pub fn series(&self) -> &PowerSeries {
         &self.series
+    }
+
+    /// The photos the autopilot reported so far.
+    pub fn photos(&self) -> &PhotoLog {
+        &self.photos
     }
 
     /// The vehicle's latest state.
@@ -957,6 +966,11 @@ impl Segmenter {
             } => self.on_home(*alt_amsl_m, *set_boot_s),
             Reading::StatusText { .. } => {}
             Reading::Wind(wind) => self.wind.push(t_s, *wind),
+            Reading::Photo(photo) => {
+                let vehicle = (self.state.position).zip(self.recent.back().map(|s| s.at));
+                self.photos
+                    .push(t_s, photo, &self.plan, self.frame_home_m, vehicle);
+            }
         }
     }
 }

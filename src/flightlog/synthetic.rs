@@ -4,7 +4,9 @@
 //! a constant electrical power per part (take-off, leg, settle, hover, landing). Telemetry comes
 //! as PX4 sends it: positions and battery at `rate_hz` (battery half a period later, without
 //! boot time), HEARTBEAT, MISSION_CURRENT and EXTENDED_SYS_STATE at 1 Hz and on change, and
-//! MISSION_ITEM_REACHED when an item is left, repeated once a second, never for the last point.
+//! MISSION_ITEM_REACHED when an item is left, repeated once a second, never for the last point,
+//! and each photo a point's `photos` asks for as the vehicle leaves it (CAMERA_TRIGGER, then
+//! CAMERA_IMAGE_CAPTURED where it is, 20 ms later, as PX4 sends them).
 //! Each part's true span and energy (power x duration) is known exactly.
 //!
 //! This is not the physics model's flight (that is `sim`'s); it exists so segmentation and
@@ -13,7 +15,8 @@
 use super::flight_plan::{FlightPlan, PlannedPoint, Predicted, PredictedLeg, ORIGIN_NAME};
 use super::segment::SegmentKind;
 use super::telemetry::{
-    Battery, BatterySource, FlightMode, LandedState, MissionState, Position, Reading, Stamped,
+    Battery, BatterySource, FlightMode, LandedState, MissionState, Photo, PhotoMessage,
+    PhotoPosition, Position, Reading, Stamped,
 };
 use crate::mission::{Enu, Geodetic};
 
@@ -30,6 +33,7 @@ pub fn square_plan() -> FlightPlan {
             z_up_m: z,
         },
         hold_s,
+        photos: 0,
     };
     let leg = PredictedLeg {
         energy_j: 25_000.0,
@@ -244,6 +248,8 @@ impl SyntheticFlight {
         // (time, reading) of the event messages.
         let mut events: Vec<(f64, Reading)> = Vec::new();
         let mut reached: Vec<(f64, u16)> = Vec::new();
+        // (time, where) of each photo.
+        let mut photos: Vec<(f64, Enu)> = Vec::new();
         let mut landed: Vec<(f64, LandedState)> = vec![(0.0, LandedState::OnGround)];
         let current = |seq: u16, state: MissionState| Reading::MissionCurrent {
             seq,
@@ -307,6 +313,7 @@ impl SyntheticFlight {
                 end_s: leave,
                 power_w: cfg.hover_power_w,
             });
+            photos.extend((0..point.photos).map(|_| (leave, q)));
             from = q;
             t = leave;
             if k == last {
@@ -445,6 +452,32 @@ impl SyntheticFlight {
                 .map(|(s, seq)| (*s, None, Reading::ItemReached { seq: *seq })),
         );
         out.extend(landed.iter().map(|(s, l)| (*s, None, Reading::Landed(*l))));
+        for (index, (s, at)) in photos.iter().enumerate() {
+            let g = origin_frame.to_geodetic(*at);
+            let photo = |message, at, dt_s: f64| Photo {
+                message,
+                index: index as i64,
+                at,
+                camera_time_s: Some(f64::from(cfg.boot_ms) * 1e-3 + s + dt_s),
+                captured: true,
+            };
+            let position = PhotoPosition {
+                lat_deg: g.lat_deg,
+                lon_deg: g.lon_deg,
+                alt_amsl_m: g.alt_m,
+                relative_alt_m: g.alt_m - plan.home.alt_m,
+            };
+            out.push((
+                *s,
+                None,
+                Reading::Photo(photo(PhotoMessage::CameraTrigger, None, 0.0)),
+            ));
+            out.push((
+                s + 0.02,
+                None,
+                Reading::Photo(photo(PhotoMessage::ImageCaptured, Some(position), 0.02)),
+            ));
+        }
         out.sort_by(|a, b| a.0.total_cmp(&b.0));
         let messages = out
             .into_iter()

@@ -45,6 +45,61 @@ pub enum Reading {
     },
     /// The autopilot's wind estimate (PX4's WIND_COV, ArduPilot's WIND).
     Wind(crate::mission::wind::Wind),
+    /// A photo the autopilot reports taking (ArduPilot's CAMERA_FEEDBACK, PX4's CAMERA_TRIGGER
+    /// and CAMERA_IMAGE_CAPTURED).
+    Photo(Photo),
+}
+
+/// Which message reported a photo.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PhotoMessage {
+    /// ArduPilot's CAMERA_FEEDBACK: one per photo, with where it was taken.
+    CameraFeedback,
+    /// PX4's CAMERA_TRIGGER: the trigger's sequence number only (no position).
+    CameraTrigger,
+    /// CAMERA_IMAGE_CAPTURED (PX4): the image's index, where and whether it was captured.
+    ImageCaptured,
+}
+
+impl PhotoMessage {
+    /// The MAVLink message's name.
+    pub fn name(self) -> &'static str {
+        match self {
+            PhotoMessage::CameraFeedback => "CAMERA_FEEDBACK",
+            PhotoMessage::CameraTrigger => "CAMERA_TRIGGER",
+            PhotoMessage::ImageCaptured => "CAMERA_IMAGE_CAPTURED",
+        }
+    }
+}
+
+/// Where a photo was taken, as the autopilot says.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PhotoPosition {
+    pub lat_deg: f64,
+    pub lon_deg: f64,
+    /// Altitude above mean sea level.
+    pub alt_amsl_m: f64,
+    /// Altitude above the vehicle's home.
+    pub relative_alt_m: f64,
+}
+
+/// One photo the autopilot reported, in SI units.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Photo {
+    pub message: PhotoMessage,
+    /// The image's number as the autopilot counts them (CAMERA_FEEDBACK `img_idx`,
+    /// CAMERA_TRIGGER `seq`, CAMERA_IMAGE_CAPTURED `image_index`): PX4 numbers a photo's
+    /// trigger and its capture alike.
+    pub index: i64,
+    /// Where it was taken (None: CAMERA_TRIGGER, which does not say).
+    pub at: Option<PhotoPosition>,
+    /// The autopilot's own time of the image (s; since boot or the UNIX epoch, as the autopilot
+    /// fills it), when given: informative, never a clock anchor.
+    pub camera_time_s: Option<f64>,
+    /// Whether the camera says it captured the image (CAMERA_IMAGE_CAPTURED
+    /// `capture_result`); the other messages report photos taken.
+    pub captured: bool,
 }
 
 /// Where a battery reading came from.
@@ -229,7 +284,8 @@ impl VehicleState {
             | Reading::ItemReached { .. }
             | Reading::StatusText { .. }
             | Reading::Home { .. }
-            | Reading::Wind(_) => {}
+            | Reading::Wind(_)
+            | Reading::Photo(_) => {}
         }
     }
 }

@@ -455,6 +455,9 @@ pub struct FlightItems {
     pub takeoff_seq: u16,
     /// (seq, position in the origin frame, hold s) of every waypoint after the take-off.
     pub points: Vec<(u16, Enu, f64)>,
+    /// The photos each point takes (one per point, in `points`' order): the photo commands
+    /// that follow its waypoint item before the next navigation item (see [`read_flight`]).
+    pub photos: Vec<u32>,
     pub land_seq: Option<u16>,
 }
 
@@ -469,6 +472,14 @@ fn degrees(e7: i32) -> f64 {
 /// landing or RTL ends the flight. The home altitude (AMSL) is
 /// ArduPilot's home item when there is one, else `home_alt_m` (what only the geometry of the
 /// positions needs: altitudes are relative to home).
+///
+/// The photo commands after a waypoint item, up to the next navigation item (a MAV_CMD below
+/// MAV_CMD_NAV_LAST, 95: ArduPilot `AP_Mission::is_nav_cmd`), are its photos, taken as the
+/// autopilot leaves it: DO_DIGICAM_CONTROL with its shoot parameter (param5, MISSION_ITEM_INT
+/// `x`, read as an integer by ArduPilot `AP_Mission::mavlink_int_to_mission_cmd` and PX4) 1,
+/// one photo; IMAGE_START_CAPTURE with no interval (param2 0) and a number of images (param3)
+/// of one or more, that many. A capture at an interval is a series in time, not photos of the
+/// point, and is not counted.
 pub fn read_flight(
     items: &[MISSION_ITEM_INT_DATA],
     flavour: Flavour,
@@ -514,9 +525,24 @@ pub fn read_flight(
         height_above_home_m: f64::from(takeoff.z),
     };
     let mut points: Vec<(u16, Enu, f64)> = Vec::new();
+    // The photos the commands after each point take (until the next point: a delay or a
+    // loiter where it is holds there, and its photos are its own).
+    let mut photos: Vec<u32> = Vec::new();
     let mut land_seq = None;
     for item in items.iter().filter(|i| i.seq > takeoff.seq) {
         let here = |i: &MISSION_ITEM_INT_DATA| i.x == 0 && i.y == 0;
+        let taken = match item.command {
+            MavCmd::MAV_CMD_DO_DIGICAM_CONTROL => u32::from(item.x == 1),
+            MavCmd::MAV_CMD_IMAGE_START_CAPTURE
+                if item.param2 == 0.0 && item.param3 >= 1.0 && item.param3.is_finite() =>
+            {
+                item.param3.min(u32::MAX as f32) as u32
+            }
+            _ => 0,
+        };
+        if let Some(count) = photos.last_mut() {
+            *count = count.saturating_add(taken);
+        }
         match item.command {
             // A hold where the vehicle is: the waypoint before holds longer.
             MavCmd::MAV_CMD_NAV_DELAY => {
@@ -556,7 +582,10 @@ pub fn read_flight(
                 });
                 match (same.is_some(), points.last_mut()) {
                     (true, Some(last)) => last.2 += hold_s,
-                    _ => points.push((item.seq, enu, hold_s)),
+                    _ => {
+                        points.push((item.seq, enu, hold_s));
+                        photos.push(0);
+                    }
                 }
             }
             MavCmd::MAV_CMD_NAV_LAND | MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH => {
@@ -574,6 +603,7 @@ pub fn read_flight(
         origin_height_m: origin.height_above_home_m,
         takeoff_seq: takeoff.seq,
         points,
+        photos,
         land_seq,
     })
 }
@@ -741,6 +771,41 @@ mod tests {
                 assert_eq!(commands(a), commands(b), "{flavour:?} {}", a.name);
             }
         }
+    }
+
+    #[test]
+    fn the_photo_commands_after_a_waypoint_up_to_the_next_navigation_item_are_its_photos() {
+        let m = sample();
+        let items = mission_items(&m, &[0, 1, 2], &ItemOptions::default()).unwrap();
+        let command = |command: MavCmd, params: [f32; 4], x: i32| {
+            item(command, MavFrame::MAV_FRAME_MISSION, params, x, 0, 0.0)
+        };
+        let digicam = |shoot: i32| command(MavCmd::MAV_CMD_DO_DIGICAM_CONTROL, [0.0; 4], shoot);
+        let capture = |interval_s: f32, images: f32| {
+            command(
+                MavCmd::MAV_CMD_IMAGE_START_CAPTURE,
+                [0.0, interval_s, images, 0.0],
+                0,
+            )
+        };
+        let delay = command(MavCmd::MAV_CMD_NAV_DELAY, [2.0, -1.0, -1.0, -1.0], 0);
+        // take-off, A, a photo; B, a photo, a capture of one image, a shoot 0; C, a delay, a
+        // photo (after C's delay, at C: C's); the origin, a capture of 3 images at once and a
+        // series at an interval (no photo of the point); the landing.
+        let mut with = vec![items[0].clone(), items[1].clone(), digicam(1)];
+        with.extend([items[2].clone(), digicam(1), capture(0.0, 1.0), digicam(0)]);
+        with.extend([items[3].clone(), delay, digicam(1)]);
+        with.extend([items[4].clone(), capture(0.0, 3.0), capture(2.0, 5.0)]);
+        with.push(items[5].clone());
+        for (seq, it) in with.iter_mut().enumerate() {
+            it.seq = seq as u16;
+        }
+        let read = read_flight(&with, Flavour::Px4, m.origin.home.alt_m).unwrap();
+        assert_eq!(read.points.len(), 4);
+        assert_eq!(read.photos, [1, 2, 1, 3]);
+        // Without photo commands, none.
+        let plain = read_flight(&items, Flavour::Px4, m.origin.home.alt_m).unwrap();
+        assert_eq!(plain.photos, [0, 0, 0, 0]);
     }
 
     #[test]

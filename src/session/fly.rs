@@ -644,6 +644,7 @@ mod tests {
                 guard: None,
                 source: None,
                 repriced: Vec::new(),
+                photos: Default::default(),
             })),
         }
     }

@@ -170,11 +170,13 @@ pub fn plan_from_items(
     let points: Vec<PlannedPoint> = read
         .points
         .iter()
-        .map(|&(seq, enu, hold_s)| PlannedPoint {
+        .enumerate()
+        .map(|(k, &(seq, enu, hold_s))| PlannedPoint {
             seq,
             name: name_of(&enu).unwrap_or_else(|| format!("item {seq}")),
             enu,
             hold_s,
+            photos: read.photos.get(k).copied().unwrap_or(0),
         })
         .collect();
     let predicted = match model {
@@ -388,6 +390,7 @@ mod tests {
                 z_up_m: z,
             },
             hold_s,
+            photos: 0,
         };
         let points = |hold_s: f64| {
             vec![

@@ -25,7 +25,12 @@
 //! reaching the radius); a take-off flown with the px4 profile completes NAV_MC_ALT_RAD below
 //! its height, still climbing; NAV_LOITER_TIME / NAV_LOITER_UNLIM as waypoints with param1 /
 //! forever; NAV_DELAY hovers param1 s; DO_CHANGE_SPEED sets the cruise speed of later legs;
-//! DO_JUMP jumps param2 times; NAV_LAND flies above the point at the current height (when not
+//! DO_JUMP jumps param2 times; DO_DIGICAM_CONTROL with shoot (param5, MISSION_ITEM_INT `x`) 1
+//! takes a photo, IMAGE_START_CAPTURE with no interval (param2 0) and param3 images (1 or more)
+//! takes that many, at the moment the item runs (after the waypoint before it completes: ArduPilot
+//! `AP_Mission::advance_current_nav_cmd` starts the DO commands that follow a navigation command
+//! once it completes, PX4's navigator likewise) and without holding the flight (neither autopilot
+//! waits for the camera); NAV_LAND flies above the point at the current height (when not
 //! there), settles, descends and touches down; NAV_RETURN_TO_LAUNCH (simplified: no climb to a
 //! return altitude) flies above home, settles, descends and touches down. The descent is the
 //! profile's landing (PX4's NAV_LAND, slowing near the ground, for the px4 profile), as the
@@ -82,6 +87,8 @@ pub enum Command {
     Delay { duration_s: f64 },
     /// Continue at item `to`, `repeat` times (negative: forever).
     Jump { to: u16, repeat: i32 },
+    /// Take `count` photos now, where the vehicle is, and go on at once.
+    Photo { count: u32 },
     /// Not flown (ArduPilot's home at seq 0, or a command the flight ignores).
     Skip,
 }
@@ -91,7 +98,10 @@ impl Command {
     pub fn is_navigation(&self) -> bool {
         !matches!(
             self,
-            Command::ChangeSpeed { .. } | Command::Jump { .. } | Command::Skip
+            Command::ChangeSpeed { .. }
+                | Command::Jump { .. }
+                | Command::Photo { .. }
+                | Command::Skip
         )
     }
 
@@ -125,6 +135,8 @@ pub enum Event {
     Landed,
     /// The last item is done.
     Complete,
+    /// A photo was taken, now, where the vehicle is.
+    Photo,
 }
 
 /// Errors setting up a flight.
@@ -245,6 +257,14 @@ fn command(item: &MISSION_ITEM_INT_DATA, frame: &Origin) -> Result<Command, Flig
             Command::Jump {
                 to: to as u16,
                 repeat: finite(item.param2, 0.0) as i32,
+            }
+        }
+        MavCmd::MAV_CMD_DO_DIGICAM_CONTROL if item.x == 1 => Command::Photo { count: 1 },
+        MavCmd::MAV_CMD_IMAGE_START_CAPTURE
+            if finite(item.param2, -1.0) == 0.0 && finite(item.param3, 0.0) >= 1.0 =>
+        {
+            Command::Photo {
+                count: f64::from(item.param3).min(f64::from(u32::MAX)) as u32,
             }
         }
         _ => Command::Skip,
@@ -799,6 +819,12 @@ impl<'v> Flight<'v> {
                     self.finish(progress.seq, events);
                 }
             }
+            Command::Photo { count } => {
+                if self.in_mission {
+                    events.extend((0..count).map(|_| Event::Photo));
+                }
+                self.finish(progress.seq, events);
+            }
             Command::Skip => self.finish(progress.seq, events),
         }
     }
@@ -846,7 +872,7 @@ impl<'v> Flight<'v> {
         // mock, as the planner prices it).
         let next_across = self
             .progress
-            .and_then(|p| self.commands.get(usize::from(p.seq) + 1))
+            .and_then(|p| self.flown_after(usize::from(p.seq)))
             .is_some_and(|c| match c {
                 Command::Waypoint { at, .. } | Command::Loiter { at, .. } => {
                     (at[0] - to[0]).hypot(at[1] - to[1]) > 0.1
@@ -953,15 +979,19 @@ impl<'v> Flight<'v> {
             Some(Command::Waypoint { at, hold_s, .. }) => Some((*at, *hold_s)),
             _ => None,
         };
+        // The waypoint after item k, past the photos between (the autopilots look ahead to the
+        // next navigation item, ArduPilot `AP_Mission::get_next_nav_cmd`).
+        let next = |k: usize| (k + 1..self.commands.len()).find(|&j| !self.is_photo(j));
         let mut points = Vec::new();
         let mut k = usize::from(seq);
         while let Some((at, hold_s)) = waypoint(k) {
-            let fast = ardupilot_chain::is_fast(hold_s, waypoint(k + 1).is_some());
+            let after = next(k);
+            let fast = ardupilot_chain::is_fast(hold_s, after.and_then(waypoint).is_some());
             points.push((k, ChainPoint { enu_m: at, fast }));
-            if !fast {
-                break;
+            match after {
+                Some(j) if fast => k = j,
+                _ => break,
             }
-            k += 1;
         }
         if points.first().is_none_or(|(_, p)| !p.fast) {
             return None;
@@ -982,6 +1012,18 @@ impl<'v> Flight<'v> {
                 .push_back((seq, trajectory, Arc::new(track)));
         }
         self.chain_ahead.pop_front().map(|(_, t, track)| (t, track))
+    }
+
+    /// Whether item `k` is a photo (run in passing, between the items the vehicle flies).
+    fn is_photo(&self, k: usize) -> bool {
+        matches!(self.commands.get(k), Some(Command::Photo { .. }))
+    }
+
+    /// The first command after item `k` that is not a photo.
+    fn flown_after(&self, k: usize) -> Option<&Command> {
+        (k + 1..self.commands.len())
+            .find(|&j| !self.is_photo(j))
+            .and_then(|j| self.commands.get(j))
     }
 
     /// The profile's trajectory, at the cruise speed a DO_CHANGE_SPEED set.

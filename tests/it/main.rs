@@ -2,6 +2,7 @@
 
 mod actions;
 mod ardupilot;
+mod camera;
 mod cli;
 mod crashes;
 mod failfast;

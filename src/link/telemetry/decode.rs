@@ -12,6 +12,12 @@
 //! - SYS_STATUS `voltage_battery` mV (UINT16_MAX unknown), `current_battery` cA (-1 unknown).
 //! - GLOBAL_POSITION_INT degE7, mm, cm/s (north, east, down); lat = lon = 0 is no fix.
 //! - HOME_POSITION `altitude` mm AMSL; lat = lon = 0 is no home yet.
+//! - CAMERA_FEEDBACK (ardupilotmega.xml) `lat`/`lng` degE7, `alt_msl`/`alt_rel` m, `time_usec` us
+//!   (ArduPilot `AP_Camera_Backend::send_camera_feedback`), `img_idx` counting photos; a
+//!   feedback flagged VIDEO is no photo. CAMERA_TRIGGER `time_usec` us and `seq` only.
+//!   CAMERA_IMAGE_CAPTURED `lat`/`lon` degE7, `alt`/`relative_alt` mm, `time_boot_ms`,
+//!   `image_index`, `capture_result` 1 captured (common.xml). A MAVLink camera is a component of
+//!   its own, so photos are heard from every component of the autopilot's system.
 //! - HEARTBEAT of the autopilot only (not a GCS, camera or companion: `autopilot` INVALID or a
 //!   ground-station type); armed = `MAV_MODE_FLAG_SAFETY_ARMED`; the mode from `custom_mode`: PX4
 //!   main mode in byte 2, sub mode in byte 3; ArduCopter's mode numbers.
@@ -19,10 +25,11 @@
 use mavlink::MavHeader;
 
 use crate::flightlog::telemetry::{
-    Battery, BatterySource, FlightMode, LandedState, MissionState, Position, Reading,
+    Battery, BatterySource, FlightMode, LandedState, MissionState, Photo, PhotoMessage,
+    PhotoPosition, Position, Reading,
 };
 use crate::link::mav::{
-    self, MavAutopilot, MavLandedState, MavMessage, MavModeFlag, MavType,
+    self, CameraFeedbackFlags, MavAutopilot, MavLandedState, MavMessage, MavModeFlag, MavType,
     MissionState as MavMissionState,
 };
 
@@ -189,6 +196,36 @@ fn landed_state(s: MavLandedState) -> LandedState {
     }
 }
 
+fn camera_feedback(f: &mav::CAMERA_FEEDBACK_DATA) -> Option<Photo> {
+    (f.flags != CameraFeedbackFlags::CAMERA_FEEDBACK_VIDEO).then(|| Photo {
+        message: PhotoMessage::CameraFeedback,
+        index: i64::from(f.img_idx),
+        at: Some(PhotoPosition {
+            lat_deg: f64::from(f.lat) * 1e-7,
+            lon_deg: f64::from(f.lng) * 1e-7,
+            alt_amsl_m: f64::from(f.alt_msl),
+            relative_alt_m: f64::from(f.alt_rel),
+        }),
+        camera_time_s: (f.time_usec > 0).then_some(f.time_usec as f64 * 1e-6),
+        captured: true,
+    })
+}
+
+fn image_captured(c: &mav::CAMERA_IMAGE_CAPTURED_DATA) -> Photo {
+    Photo {
+        message: PhotoMessage::ImageCaptured,
+        index: i64::from(c.image_index),
+        at: (c.lat != 0 || c.lon != 0).then(|| PhotoPosition {
+            lat_deg: f64::from(c.lat) * 1e-7,
+            lon_deg: f64::from(c.lon) * 1e-7,
+            alt_amsl_m: f64::from(c.alt) * 1e-3,
+            relative_alt_m: f64::from(c.relative_alt) * 1e-3,
+        }),
+        camera_time_s: (c.time_boot_ms > 0).then_some(f64::from(c.time_boot_ms) * 1e-3),
+        captured: c.capture_result == mav::MavBool::MAV_BOOL_TRUE,
+    }
+}
+
 /// Decodes one message from the vehicle into SI units (see the module doc for every rule).
 pub fn decode(header: &MavHeader, message: &MavMessage) -> Decoded {
     match message {
@@ -247,6 +284,19 @@ pub fn decode(header: &MavHeader, message: &MavMessage) -> Decoded {
                 text: String::from_utf8_lossy(&bytes[..end]).into_owned(),
             })
         }
+        // Untimed: their times are the image's, not when the message was sent.
+        MavMessage::CAMERA_FEEDBACK(f) => match camera_feedback(f) {
+            Some(photo) => Decoded::reading(Reading::Photo(photo)),
+            None => Decoded::NOTHING,
+        },
+        MavMessage::CAMERA_TRIGGER(t) => Decoded::reading(Reading::Photo(Photo {
+            message: PhotoMessage::CameraTrigger,
+            index: i64::from(t.seq),
+            at: None,
+            camera_time_s: (t.time_usec > 0).then_some(t.time_usec as f64 * 1e-6),
+            captured: true,
+        })),
+        MavMessage::CAMERA_IMAGE_CAPTURED(c) => Decoded::reading(Reading::Photo(image_captured(c))),
         MavMessage::WIND_COV(_) | MavMessage::WIND(_) => {
             match crate::link::wind::wind_of(message) {
                 Some(wind) => Decoded::reading(Reading::Wind(wind)),
@@ -258,8 +308,9 @@ pub fn decode(header: &MavHeader, message: &MavMessage) -> Decoded {
 }
 
 /// [`decode`] behind a source filter: once an autopilot's HEARTBEAT is seen, only its system is
-/// listened to, and only its component for everything but BATTERY_STATUS (a smart battery may be
-/// a component of its own). Before that every message counts (a log may start mid-flight).
+/// listened to, and only its component for everything but BATTERY_STATUS and the camera's
+/// messages (a smart battery, a MAVLink camera may be a component of its own). Before that every
+/// message counts (a log may start mid-flight).
 #[derive(Debug, Clone, Default)]
 pub struct TelemetryDecoder {
     autopilot: Option<(u32, u8)>,
@@ -289,8 +340,14 @@ impl TelemetryDecoder {
             }
         }
         if let Some((system, component)) = self.autopilot {
-            let battery = matches!(message, MavMessage::BATTERY_STATUS(_));
-            if header.system_id != system || (!battery && header.component_id != component) {
+            let own_component = matches!(
+                message,
+                MavMessage::BATTERY_STATUS(_)
+                    | MavMessage::CAMERA_FEEDBACK(_)
+                    | MavMessage::CAMERA_TRIGGER(_)
+                    | MavMessage::CAMERA_IMAGE_CAPTURED(_)
+            );
+            if header.system_id != system || (!own_component && header.component_id != component) {
                 return Decoded::NOTHING;
             }
         }
@@ -302,10 +359,11 @@ impl TelemetryDecoder {
 mod tests {
     use super::*;
     use crate::flightlog::telemetry::{
-        Battery, BatterySource, FlightMode, LandedState, MissionState, Reading,
+        Battery, BatterySource, FlightMode, LandedState, MissionState, Photo, PhotoMessage,
+        PhotoPosition, Reading,
     };
     use crate::link::mav::{
-        self, MavAutopilot, MavLandedState, MavMessage, MavModeFlag, MavType,
+        self, CameraFeedbackFlags, MavAutopilot, MavLandedState, MavMessage, MavModeFlag, MavType,
         MissionState as MavMissionState,
     };
     use crate::link::telemetry::*;
@@ -694,5 +752,153 @@ mod tests {
             ..vehicle()
         };
         assert_eq!(decoder.decode(&camera, &camera_clock), Decoded::NOTHING);
+    }
+
+    fn photo_of(message: &MavMessage) -> Option<Photo> {
+        let (header, back) = parse_frame(&frame_bytes(&vehicle(), message)).expect("a frame");
+        match decode(&header, &back).reading {
+            Some(Reading::Photo(photo)) => Some(photo),
+            _ => None,
+        }
+    }
+
+    #[test]
+    fn camera_feedback_gives_a_photo_in_degrees_and_metres_and_a_video_frame_gives_none() {
+        let feedback = mav::CAMERA_FEEDBACK_DATA {
+            time_usec: 1_764_361_200_250_000,
+            lat: 385_362_150,
+            lng: -1_217_874_250,
+            alt_msl: 46.25,
+            alt_rel: 30.5,
+            img_idx: 3,
+            flags: CameraFeedbackFlags::CAMERA_FEEDBACK_PHOTO,
+            ..Default::default()
+        };
+        let photo = photo_of(&MavMessage::CAMERA_FEEDBACK(feedback.clone())).expect("a photo");
+        assert_eq!(photo.message, PhotoMessage::CameraFeedback);
+        assert_eq!(photo.index, 3);
+        assert!(photo.captured);
+        let at = photo.at.expect("a position");
+        assert!((at.lat_deg - 38.536_215).abs() < 1e-9, "{at:?}");
+        assert!((at.lon_deg + 121.787_425).abs() < 1e-9, "{at:?}");
+        assert_eq!((at.alt_amsl_m, at.relative_alt_m), (46.25, 30.5));
+        assert!((photo.camera_time_s.expect("a time") - 1_764_361_200.25).abs() < 1e-6);
+        // Untimed: never a clock anchor.
+        let decoded = decode(&vehicle(), &MavMessage::CAMERA_FEEDBACK(feedback.clone()));
+        assert_eq!(decoded.time_boot_ms, None);
+        let video = mav::CAMERA_FEEDBACK_DATA {
+            flags: CameraFeedbackFlags::CAMERA_FEEDBACK_VIDEO,
+            ..feedback
+        };
+        assert_eq!(photo_of(&MavMessage::CAMERA_FEEDBACK(video)), None);
+    }
+
+    #[test]
+    fn px4_camera_trigger_and_image_captured_give_photos_of_the_same_index() {
+        let trigger = photo_of(&MavMessage::CAMERA_TRIGGER(mav::CAMERA_TRIGGER_DATA {
+            time_usec: 61_500_000,
+            seq: 2,
+        }))
+        .expect("a photo");
+        assert_eq!(trigger.message, PhotoMessage::CameraTrigger);
+        assert_eq!((trigger.index, trigger.at), (2, None));
+        assert_eq!(trigger.camera_time_s, Some(61.5));
+        let captured = photo_of(&MavMessage::CAMERA_IMAGE_CAPTURED(
+            mav::CAMERA_IMAGE_CAPTURED_DATA {
+                time_boot_ms: 61_520,
+                lat: 385_362_000,
+                lon: -1_217_875_000,
+                alt: 46_250,
+                relative_alt: 30_250,
+                image_index: 2,
+                capture_result: mav::MavBool::MAV_BOOL_TRUE,
+                ..Default::default()
+            },
+        ))
+        .expect("a photo");
+        assert_eq!(captured.message, PhotoMessage::ImageCaptured);
+        assert_eq!(captured.index, trigger.index);
+        assert!(captured.captured);
+        let at = captured.at.expect("a position");
+        assert!((at.lat_deg - 38.5362).abs() < 1e-9 && (at.lon_deg + 121.7875).abs() < 1e-9);
+        assert!((at.alt_amsl_m - 46.25).abs() < 1e-9 && (at.relative_alt_m - 30.25).abs() < 1e-9);
+        assert_eq!(captured.camera_time_s, Some(61.52));
+        let failed = photo_of(&MavMessage::CAMERA_IMAGE_CAPTURED(
+            mav::CAMERA_IMAGE_CAPTURED_DATA {
+                image_index: 3,
+                capture_result: mav::MavBool::MAV_BOOL_FALSE,
+                ..Default::default()
+            },
+        ))
+        .expect("a photo");
+        assert!(!failed.captured);
+        assert_eq!(failed.at, None);
+    }
+
+    #[test]
+    fn every_photo_reading_survives_encode_then_decode() {
+        let at = Some(PhotoPosition {
+            lat_deg: 38.536_215,
+            lon_deg: -121.787_425,
+            alt_amsl_m: 46.25,
+            relative_alt_m: 30.5,
+        });
+        let photos = [
+            Photo {
+                message: PhotoMessage::CameraFeedback,
+                index: 7,
+                at,
+                camera_time_s: Some(12.5),
+                captured: true,
+            },
+            Photo {
+                message: PhotoMessage::CameraTrigger,
+                index: 7,
+                at: None,
+                camera_time_s: Some(12.5),
+                captured: true,
+            },
+            Photo {
+                message: PhotoMessage::ImageCaptured,
+                index: 7,
+                at,
+                camera_time_s: Some(12.5),
+                captured: true,
+            },
+        ];
+        for photo in photos {
+            let back = photo_of(&encode(&Reading::Photo(photo), Flavour::Px4)).expect("a photo");
+            assert_eq!(back, photo);
+        }
+    }
+
+    #[test]
+    fn a_mavlink_camera_of_the_autopilots_system_is_heard_and_another_systems_is_not() {
+        let mut decoder = TelemetryDecoder::new();
+        let hb = heartbeat(
+            MavAutopilot::MAV_AUTOPILOT_PX4,
+            MavType::MAV_TYPE_QUADROTOR,
+            0,
+            true,
+        );
+        decoder.decode(&vehicle(), &hb);
+        let captured = MavMessage::CAMERA_IMAGE_CAPTURED(mav::CAMERA_IMAGE_CAPTURED_DATA {
+            image_index: 0,
+            capture_result: mav::MavBool::MAV_BOOL_TRUE,
+            ..Default::default()
+        });
+        let camera = MavHeader {
+            component_id: 100,
+            ..vehicle()
+        };
+        let other = MavHeader {
+            system_id: 9,
+            ..camera
+        };
+        assert!(matches!(
+            decoder.decode(&camera, &captured).reading,
+            Some(Reading::Photo(_))
+        ));
+        assert_eq!(decoder.decode(&other, &captured), Decoded::NOTHING);
     }
 }

@@ -1,7 +1,9 @@
 //! The inverse of `decode`, for tests and simulations: a flight-log reading as the MAVLink
 //! message an autopilot of a flavour would send.
 
-use crate::flightlog::telemetry::{BatterySource, FlightMode, LandedState, MissionState, Reading};
+use crate::flightlog::telemetry::{
+    BatterySource, FlightMode, LandedState, MissionState, Photo, PhotoMessage, Reading,
+};
 use crate::link::mav::{
     self, MavAutopilot, MavLandedState, MavMessage, MavModeFlag, MavSeverity, MavType,
     MissionState as MavMissionState,
@@ -173,6 +175,7 @@ pub fn encode(reading: &Reading, flavour: Flavour) -> MavMessage {
                 })
             }
         },
+        Reading::Photo(photo) => photo_message(photo),
         Reading::StatusText { severity, text } => {
             let mut bytes = [0u8; 50];
             for (slot, b) in bytes.iter_mut().zip(text.bytes()) {
@@ -181,6 +184,53 @@ pub fn encode(reading: &Reading, flavour: Flavour) -> MavMessage {
             MavMessage::STATUSTEXT(mav::STATUSTEXT_DATA {
                 severity: severity_from(*severity),
                 text: bytes.into(),
+                ..Default::default()
+            })
+        }
+    }
+}
+
+/// A photo as the message it names (see `decode` for the units).
+fn photo_message(photo: &Photo) -> MavMessage {
+    let e7 = |deg: f64| (deg * 1e7).round() as i32;
+    let (lat, lon, alt_amsl_m, relative_alt_m) = photo.at.map_or((0, 0, 0.0, 0.0), |p| {
+        (e7(p.lat_deg), e7(p.lon_deg), p.alt_amsl_m, p.relative_alt_m)
+    });
+    let usec = photo
+        .camera_time_s
+        .map_or(0, |t| (t * 1e6).round().max(0.0) as u64);
+    match photo.message {
+        PhotoMessage::CameraFeedback => MavMessage::CAMERA_FEEDBACK(mav::CAMERA_FEEDBACK_DATA {
+            time_usec: usec,
+            lat,
+            lng: lon,
+            alt_msl: alt_amsl_m as f32,
+            alt_rel: relative_alt_m as f32,
+            img_idx: photo.index.clamp(0, i64::from(u16::MAX)) as u16,
+            flags: mav::CameraFeedbackFlags::CAMERA_FEEDBACK_PHOTO,
+            completed_captures: photo.index.clamp(0, i64::from(u16::MAX)) as u16,
+            ..Default::default()
+        }),
+        PhotoMessage::CameraTrigger => MavMessage::CAMERA_TRIGGER(mav::CAMERA_TRIGGER_DATA {
+            time_usec: usec,
+            seq: photo.index.clamp(0, i64::from(u32::MAX)) as u32,
+        }),
+        PhotoMessage::ImageCaptured => {
+            MavMessage::CAMERA_IMAGE_CAPTURED(mav::CAMERA_IMAGE_CAPTURED_DATA {
+                time_boot_ms: photo.camera_time_s.map_or(0, |t| {
+                    (t * 1e3).round().clamp(0.0, f64::from(u32::MAX)) as u32
+                }),
+                lat,
+                lon,
+                alt: (alt_amsl_m * 1e3).round() as i32,
+                relative_alt: (relative_alt_m * 1e3).round() as i32,
+                q: [1.0, 0.0, 0.0, 0.0],
+                image_index: photo.index.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32,
+                capture_result: if photo.captured {
+                    mav::MavBool::MAV_BOOL_TRUE
+                } else {
+                    mav::MavBool::MAV_BOOL_FALSE
+                },
                 ..Default::default()
             })
         }

@@ -34,6 +34,11 @@
 //!   (LAND_DETECTOR_TRIGGER_SEC), without reporting the LAND item reached (`verify_land`);
 //!   BATTERY_STATUS unfiltered with energy_consumed in hJ (GCS_Common.cpp
 //!   `send_battery_status`); the mission total excludes home at seq 0.
+//! - Photos (a mission's DO_DIGICAM_CONTROL or IMAGE_START_CAPTURE, `sim::flight`): ArduCopter
+//!   with a camera (CAM1_TYPE set) sends one CAMERA_FEEDBACK per photo, where the vehicle is, its
+//!   `img_idx` counting from 0 (AP_Camera_Backend `send_camera_feedback`; one per photo on
+//!   ArduCopter SITL); PX4 sends CAMERA_TRIGGER and CAMERA_IMAGE_CAPTURED, both numbered by the
+//!   trigger's sequence (mavlink streams CAMERA_TRIGGER.hpp and CAMERA_IMAGE_CAPTURED.hpp).
 //!
 //! The vehicle is cut as PX4 is: `mode` (the flight modes and their numbers), `commander`
 //! (arming, mission start, mode changes, the automatic disarms), `progress` (the navigator's
@@ -118,6 +123,9 @@ pub struct FlightConfig {
     pub wind: Option<crate::physics::Wind>,
     /// The wind changes (and is reported changed) this long after the first arming.
     pub wind_change: Option<WindChange>,
+    /// The camera misses this photo (0 the first the mission takes): it is neither taken nor
+    /// reported, as a camera that did not fire.
+    pub missed_photo: Option<u32>,
 }
 
 /// A change of the wind in flight: `after_armed_s` after the first arming, the vehicle flies
@@ -161,6 +169,7 @@ impl Default for FlightConfig {
             seed: 1,
             wind: None,
             wind_change: None,
+            missed_photo: None,
         }
     }
 }
@@ -224,6 +233,9 @@ pub struct SimVehicle<'v> {
     /// When the land detector confirmed a landing (the disarm follows).
     landed_s: Option<f64>,
     heading_rad: f64,
+    /// Photos the mission asked for so far (the camera's trigger count), and taken.
+    photos_asked: u32,
+    photos_taken: u32,
     /// The parameters it answers: a PX4's trajectory parameters (the vehicle's [px4] section,
     /// by PX4 name) or an ArduPilot's navigation parameters ([ardupilot], by ArduCopter name),
     /// and either flavour's return altitude (`link::params::ReturnAltitude`).
@@ -286,6 +298,8 @@ impl<'v> SimVehicle<'v> {
             first_armed_s: None,
             landed_s: None,
             heading_rad: 0.0,
+            photos_asked: 0,
+            photos_taken: 0,
             params: params::held(flavour, vehicle),
             out: Vec::new(),
         })

@@ -49,7 +49,10 @@ impl<'v> SimVehicle<'v> {
             .any(|c| {
                 !matches!(
                     c,
-                    Command::Skip | Command::ChangeSpeed { .. } | Command::Jump { .. }
+                    Command::Skip
+                        | Command::ChangeSpeed { .. }
+                        | Command::Jump { .. }
+                        | Command::Photo { .. }
                 )
             })
             .then_some(commands)
@@ -80,6 +83,7 @@ impl<'v> SimVehicle<'v> {
                     }
                 }
                 Event::Liftoff => {}
+                Event::Photo => self.photo(),
             }
         }
     }

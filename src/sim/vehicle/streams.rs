@@ -8,11 +8,12 @@ use super::mode::Mode;
 use super::{SimVehicle, STEP_S};
 
 use crate::link::mav::{
-    MavAutopilot, MavBatteryChargeState, MavBatteryFunction, MavBatteryType, MavLandedState,
-    MavMessage, MavModeFlag, MavResult, MavState, MavSysStatusSensor, MavType, MavVtolState,
-    ATTITUDE_DATA, BATTERY_STATUS_DATA, EXTENDED_SYS_STATE_DATA, GLOBAL_POSITION_INT_DATA,
-    HEARTBEAT_DATA, HOME_POSITION_DATA, LOCAL_POSITION_NED_DATA, MISSION_CURRENT_DATA,
-    SYS_STATUS_DATA, WIND_COV_DATA, WIND_DATA,
+    CameraFeedbackFlags, MavAutopilot, MavBatteryChargeState, MavBatteryFunction, MavBatteryType,
+    MavBool, MavLandedState, MavMessage, MavModeFlag, MavResult, MavState, MavSysStatusSensor,
+    MavType, MavVtolState, ATTITUDE_DATA, BATTERY_STATUS_DATA, CAMERA_FEEDBACK_DATA,
+    CAMERA_IMAGE_CAPTURED_DATA, CAMERA_TRIGGER_DATA, EXTENDED_SYS_STATE_DATA,
+    GLOBAL_POSITION_INT_DATA, HEARTBEAT_DATA, HOME_POSITION_DATA, LOCAL_POSITION_NED_DATA,
+    MISSION_CURRENT_DATA, SYS_STATUS_DATA, WIND_COV_DATA, WIND_DATA,
 };
 use crate::link::Flavour;
 use crate::mission::{Enu, Origin};
@@ -270,6 +271,78 @@ impl<'v> SimVehicle<'v> {
             vz: cm_s(-v[2]),
             hdg: (heading_cdeg.round() as u16) % 36000,
         })
+    }
+
+    /// A photo taken now, where the vehicle is: what the flavour sends (see the module doc of
+    /// `vehicle`). The configured missed photo is neither taken nor sent.
+    pub(super) fn photo(&mut self) {
+        let asked = self.photos_asked;
+        self.photos_asked = self.photos_asked.saturating_add(1);
+        if self.config.missed_photo == Some(asked) {
+            return;
+        }
+        let index = self.photos_taken;
+        self.photos_taken = self.photos_taken.saturating_add(1);
+        let home = self.config.home;
+        let p = self.flight.position();
+        let g = Origin {
+            home,
+            height_above_home_m: 0.0,
+        }
+        .to_geodetic(Enu {
+            x_east_m: p[0],
+            y_north_m: p[1],
+            z_up_m: p[2],
+        });
+        let (lat, lon) = (
+            (g.lat_deg * 1e7).round() as i32,
+            (g.lon_deg * 1e7).round() as i32,
+        );
+        let t = self.now_s;
+        let time_usec = (t * 1e6).round() as u64;
+        match self.flavour {
+            Flavour::ArduPilot => {
+                self.out
+                    .push(MavMessage::CAMERA_FEEDBACK(CAMERA_FEEDBACK_DATA {
+                        time_usec,
+                        target_system: 0,
+                        cam_idx: 0,
+                        img_idx: (index % (u32::from(u16::MAX) + 1)) as u16,
+                        lat,
+                        lng: lon,
+                        alt_msl: g.alt_m as f32,
+                        alt_rel: (g.alt_m - home.alt_m) as f32,
+                        roll: 0.0,
+                        pitch: 0.0,
+                        yaw: self.heading_rad.to_degrees().rem_euclid(360.0) as f32,
+                        foc_len: 0.0,
+                        flags: CameraFeedbackFlags::CAMERA_FEEDBACK_PHOTO,
+                        completed_captures: (index.saturating_add(1) % (u32::from(u16::MAX) + 1))
+                            as u16,
+                    }));
+            }
+            Flavour::Px4 | Flavour::Generic => {
+                self.out
+                    .push(MavMessage::CAMERA_TRIGGER(CAMERA_TRIGGER_DATA {
+                        time_usec,
+                        seq: index,
+                    }));
+                self.out.push(MavMessage::CAMERA_IMAGE_CAPTURED(
+                    CAMERA_IMAGE_CAPTURED_DATA {
+                        time_boot_ms: boot_ms(t),
+                        lat,
+                        lon,
+                        alt: (g.alt_m * 1000.0).round() as i32,
+                        relative_alt: ((g.alt_m - home.alt_m) * 1000.0).round() as i32,
+                        q: [1.0, 0.0, 0.0, 0.0],
+                        image_index: i32::try_from(index).unwrap_or(i32::MAX),
+                        camera_id: 1,
+                        capture_result: MavBool::MAV_BOOL_TRUE,
+                        ..Default::default()
+                    },
+                ));
+            }
+        }
     }
 
     /// Current (cA) and consumed charge (mAh) as the battery reports them now, faults applied.

@@ -913,3 +913,145 @@ fn the_same_seed_gives_the_same_telemetry_and_another_seed_other_noise() {
     assert_eq!(a, b);
     assert_ne!(a, c);
 }
+
+/// `items` with a photo (DO_DIGICAM_CONTROL, shoot 1) after each of the mission's waypoints
+/// (not ArduPilot's home nor the return to the origin), renumbered.
+fn with_photos(items: &[MISSION_ITEM_INT_DATA]) -> Vec<MISSION_ITEM_INT_DATA> {
+    let last_waypoint = items
+        .iter()
+        .rposition(|i| i.command == MavCmd::MAV_CMD_NAV_WAYPOINT);
+    let mut out = Vec::new();
+    for (k, item) in items.iter().enumerate() {
+        out.push(item.clone());
+        let home = k == 0 && item.frame == crate::link::mav::MavFrame::MAV_FRAME_GLOBAL;
+        if item.command == MavCmd::MAV_CMD_NAV_WAYPOINT && !home && Some(k) != last_waypoint {
+            out.push(crate::link::items::item(
+                MavCmd::MAV_CMD_DO_DIGICAM_CONTROL,
+                crate::link::mav::MavFrame::MAV_FRAME_MISSION,
+                [0.0; 4],
+                1,
+                0,
+                0.0,
+            ));
+        }
+    }
+    for (seq, item) in out.iter_mut().enumerate() {
+        item.seq = seq as u16;
+    }
+    out
+}
+
+/// Flies the sample as `flavour` flies it (with photo items when `photos`) to the disarm.
+fn fly_sample_with(flavour: Flavour, photos: bool, config: FlightConfig) -> (Mission, Log) {
+    let (mission, mut v) = with_sample(flavour, config);
+    if photos {
+        let items = with_photos(v.mission());
+        v.set_mission(&items, 0);
+    }
+    let mut log = Log::new();
+    if flavour == Flavour::ArduPilot {
+        assert_eq!(set_mode(&mut v, Mode::Guided), OK);
+        assert_eq!(
+            command(&mut v, MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, p1(1.0)),
+            OK
+        );
+        assert_eq!(set_mode(&mut v, Mode::Mission), OK);
+    }
+    assert_eq!(command(&mut v, MavCmd::MAV_CMD_MISSION_START, p1(0.0)), OK);
+    run_until(&mut v, &mut log, 900.0, landed_and_disarmed);
+    assert!(
+        landed_and_disarmed(&v),
+        "{flavour:?}: not down by {} s",
+        v.now_s()
+    );
+    (mission, log)
+}
+
+/// Each photo the log reports: (time, image index, east-north-up from home).
+fn photos_in(log: &Log, home: Geodetic) -> Vec<(f64, i64, [f64; 3])> {
+    let at = |lat: i32, lon: i32, alt_m: f64| {
+        let e = Origin {
+            home,
+            height_above_home_m: 0.0,
+        }
+        .to_enu(Geodetic {
+            lat_deg: f64::from(lat) * 1e-7,
+            lon_deg: f64::from(lon) * 1e-7,
+            alt_m,
+        });
+        [e.x_east_m, e.y_north_m, e.z_up_m]
+    };
+    log.iter()
+        .filter_map(|(t, m)| match m {
+            MavMessage::CAMERA_FEEDBACK(f) => Some((
+                *t,
+                i64::from(f.img_idx),
+                at(f.lat, f.lng, f64::from(f.alt_msl)),
+            )),
+            MavMessage::CAMERA_IMAGE_CAPTURED(c) => Some((
+                *t,
+                i64::from(c.image_index),
+                at(c.lat, c.lon, f64::from(c.alt) * 1e-3),
+            )),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn each_flavour_reports_a_photo_at_each_waypoint_as_its_autopilot_does_without_holding_the_flight()
+{
+    for flavour in [Flavour::ArduPilot, Flavour::Px4] {
+        let (mission, log) = fly_sample_with(flavour, true, FlightConfig::default());
+        let home = mission.origin.home;
+        let photos = photos_in(&log, home);
+        let n = mission.waypoints.len();
+        assert_eq!(photos.len(), n, "{flavour:?}");
+        let indices: Vec<i64> = photos.iter().map(|p| p.1).collect();
+        assert_eq!(indices, (0..n as i64).collect::<Vec<_>>(), "{flavour:?}");
+        for (k, (_, _, at)) in photos.iter().enumerate() {
+            let w = mission.waypoints[k].position;
+            let up = w.z_up_m + mission.origin.height_above_home_m;
+            let d = ((at[0] - w.x_east_m).powi(2)
+                + (at[1] - w.y_north_m).powi(2)
+                + (at[2] - up).powi(2))
+            .sqrt();
+            assert!(d < 2.0, "{flavour:?}: photo {k} {d:.2} m from its waypoint");
+        }
+        let count = |pick: fn(&MavMessage) -> bool| log.iter().filter(|(_, m)| pick(m)).count();
+        let feedbacks = count(|m| matches!(m, MavMessage::CAMERA_FEEDBACK(_)));
+        let triggers = count(|m| matches!(m, MavMessage::CAMERA_TRIGGER(_)));
+        match flavour {
+            Flavour::ArduPilot => assert_eq!((feedbacks, triggers), (n, 0)),
+            _ => assert_eq!((feedbacks, triggers), (0, n)),
+        }
+        // The photos neither stall nor hold the flight: it ends when it ends without them.
+        let (_, plain) = fly_sample_with(flavour, false, FlightConfig::default());
+        let end = |log: &Log| log.last().map_or(0.0, |(t, _)| *t);
+        assert!(
+            (end(&log) - end(&plain)).abs() <= STEP_S + 1e-9,
+            "{flavour:?}: {} s with photos, {} s without",
+            end(&log),
+            end(&plain)
+        );
+    }
+}
+
+#[test]
+fn a_camera_that_misses_a_photo_reports_the_others_numbered_on() {
+    let config = FlightConfig {
+        missed_photo: Some(2),
+        ..FlightConfig::default()
+    };
+    let (mission, log) = fly_sample_with(Flavour::ArduPilot, true, config);
+    let photos = photos_in(&log, mission.origin.home);
+    assert_eq!(photos.len(), mission.waypoints.len() - 1);
+    // Taken at waypoints 0, 1, 3, ...: the third waypoint has none.
+    let w = mission.waypoints[3].position;
+    let at = photos[2].2;
+    assert!(
+        (at[0] - w.x_east_m).hypot(at[1] - w.y_north_m) < 2.0,
+        "{at:?}"
+    );
+    assert_eq!(photos[2].1, 2, "the camera numbers the photos it takes");
+}
