@@ -1,4 +1,4 @@
-//! Criterion bench of planning a mission with actions at every waypoint (issue 43's target:
+//! Criterion bench of planning a mission with actions at every waypoint (the target:
 //! `plan` of a 30-waypoint mission with actions at every point as fast as without them):
 //! `plan_mission` (every order) of a generated 30-waypoint mission (the study's 30 m, 25 m
 //! distribution, 5 s holds) with the shipped S1000's px4 table, `bare`; with a gimbal pitch, a
@@ -23,11 +23,16 @@ fn with_actions(m: &Mission, speed: bool) -> Mission {
         w.actions = vec![
             Command::new(id::DO_MOUNT_CONTROL, [-45.0, 0.0, 0.0, 0.0, 0.0, 0.0, 2.0]),
             Command::new(id::DO_DIGICAM_CONTROL, [0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0]),
-            Command::new(id::CONDITION_YAW, [(k * 37 % 360) as f64, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+            Command::new(
+                id::CONDITION_YAW,
+                [(k * 37 % 360) as f64, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            ),
         ];
         if speed && k == 0 {
-            w.actions
-                .push(Command::new(id::DO_CHANGE_SPEED, [1.0, 8.0, -1.0, 0.0, 0.0, 0.0, 0.0]));
+            w.actions.push(Command::new(
+                id::DO_CHANGE_SPEED,
+                [1.0, 8.0, -1.0, 0.0, 0.0, 0.0, 0.0],
+            ));
         }
     }
     m

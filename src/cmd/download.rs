@@ -48,7 +48,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                     .and_then(|s| s.to_str())
                     .unwrap_or("mission");
                 let mission = emplan::link::items::mission_of_items(&items, target.flavour, name)
-                    .with_context(|| format!("reading the {} items as a mission", items.len()))?;
+                    .with_context(|| {
+                    format!("reading the {} items as a mission", items.len())
+                })?;
                 out.write(emplan::mission::to_string(&mission, format)?.as_bytes())?;
             }
             None => {

@@ -212,7 +212,18 @@ fn command_item(
         place: place.to_string(),
         command: c.command,
     })?;
-    let p = c.params.map(|v| v as f32);
+    let mut p = c.params.map(|v| v as f32);
+    if flavour == Flavour::ArduPilot {
+        // ArduPilot refuses a NaN in parameters 1-4 of a command other than a waypoint,
+        // take-off or landing (AP_Mission::sanity_check_params: MAV_MISSION_INVALID_PARAMn);
+        // MAVLink's NaN there is "unused" or "the default", which 0 is for these commands
+        // (QGroundControl writes NaN for IMAGE_START_CAPTURE's sequence number).
+        for v in p.iter_mut().take(4) {
+            if v.is_nan() {
+                *v = 0.0;
+            }
+        }
+    }
     let (frame, x, y) = if c.has_position() {
         let frame = MavFrame::from_u8(c.frame).unwrap_or(MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT);
         (frame, deg_e7(c.params[4]), deg_e7(c.params[5]))
@@ -619,9 +630,13 @@ pub fn mission_of_items(
     flavour: Flavour,
     name: &str,
 ) -> Result<Mission, crate::mission::MissionError> {
-    let takeoff = items.iter().find(|i| i.command == MavCmd::MAV_CMD_NAV_TAKEOFF);
+    let takeoff = items
+        .iter()
+        .find(|i| i.command == MavCmd::MAV_CMD_NAV_TAKEOFF);
     let home = match (flavour, items.first(), takeoff) {
-        (Flavour::ArduPilot, Some(h), _) if h.seq == 0 => (degrees(h.x), degrees(h.y), f64::from(h.z)),
+        (Flavour::ArduPilot, Some(h), _) if h.seq == 0 => {
+            (degrees(h.x), degrees(h.y), f64::from(h.z))
+        }
         (_, _, Some(t)) => (degrees(t.x), degrees(t.y), 0.0),
         _ => (0.0, 0.0, 0.0),
     };
@@ -648,13 +663,22 @@ pub fn mission_of_items(
         "QGC WPL 110\n0\t1\t0\t16\t0\t0\t0\t0\t{:.10}\t{:.10}\t{:.4}\t1\n",
         home.0, home.1, home.2
     );
-    let param = |v: f32| if v.is_nan() { "nan".to_string() } else { format!("{v}") };
+    let param = |v: f32| {
+        if v.is_nan() {
+            "nan".to_string()
+        } else {
+            format!("{v}")
+        }
+    };
     for (k, i) in body.iter().enumerate() {
         if Some(k) == ending {
             continue;
         }
         let (x, y) = if global(i.frame) {
-            (format!("{:.10}", degrees(i.x)), format!("{:.10}", degrees(i.y)))
+            (
+                format!("{:.10}", degrees(i.x)),
+                format!("{:.10}", degrees(i.y)),
+            )
         } else {
             (i.x.to_string(), i.y.to_string())
         };

@@ -122,27 +122,28 @@ pub fn losses(original: &Mission, converted: &Mission) -> Vec<Loss> {
             });
         }
     }
-    let commands = |setting: String, a: &[super::actions::Command], b: &[super::actions::Command]| {
-        let same = a.len() == b.len()
-            && a.iter().zip(b).all(|(x, y)| {
-                x.command == y.command
-                    && x.frame == y.frame
-                    && x.params.iter().zip(&y.params).all(|(p, q)| {
-                        (p.is_nan() && q.is_nan()) || (p - q).abs() <= 1e-7 * p.abs().max(1.0)
-                    })
-            });
-        let show = |cs: &[super::actions::Command]| {
-            cs.iter()
-                .map(|c| c.command.to_string())
-                .collect::<Vec<_>>()
-                .join(" ")
+    let commands =
+        |setting: String, a: &[super::actions::Command], b: &[super::actions::Command]| {
+            let same = a.len() == b.len()
+                && a.iter().zip(b).all(|(x, y)| {
+                    x.command == y.command
+                        && x.frame == y.frame
+                        && x.params.iter().zip(&y.params).all(|(p, q)| {
+                            (p.is_nan() && q.is_nan()) || (p - q).abs() <= 1e-7 * p.abs().max(1.0)
+                        })
+                });
+            let show = |cs: &[super::actions::Command]| {
+                cs.iter()
+                    .map(|c| c.command.to_string())
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            };
+            (!same).then(|| Loss {
+                setting,
+                from: format!("[{}]", show(a)),
+                to: format!("[{}]", show(b)),
+            })
         };
-        (!same).then(|| Loss {
-            setting,
-            from: format!("[{}]", show(a)),
-            to: format!("[{}]", show(b)),
-        })
-    };
     out.extend(commands(
         "start actions".into(),
         &original.start_actions,

@@ -69,7 +69,10 @@ pub(super) fn read(
         let nav_alt = || altitude(item.command, item.frame, p[6], home_amsl_m);
         match actions::take(command) {
             Taken::Refused(why) => {
-                return Err(bad(&place, format!("command {command} is not supported: {why}")))
+                return Err(bad(
+                    &place,
+                    format!("command {command} is not supported: {why}"),
+                ))
             }
             Taken::Navigation => match command {
                 id::NAV_TAKEOFF => {

@@ -213,7 +213,8 @@ fn command(item: &MISSION_ITEM_INT_DATA, frame: &Origin) -> Result<Command, Flig
             }
             Command::Takeoff { up_m }
         }
-        MavCmd::MAV_CMD_NAV_WAYPOINT => Command::Waypoint {
+        // A spline waypoint flown as a straight one (emplan prices it so: mission::actions).
+        MavCmd::MAV_CMD_NAV_WAYPOINT | MavCmd::MAV_CMD_NAV_SPLINE_WAYPOINT => Command::Waypoint {
             at: position()?,
             hold_s: finite(item.param1, 0.0).max(0.0),
             radius_m: match finite(item.param2, 0.0) {
@@ -1014,12 +1015,18 @@ impl<'v> Flight<'v> {
         self.chain_ahead.pop_front().map(|(_, t, track)| (t, track))
     }
 
-    /// Whether item `k` is a photo (run in passing, between the items the vehicle flies).
+    /// Whether item `k` runs in passing, between the items the vehicle flies: a photo, a speed
+    /// change, a command the flight ignores (a gimbal, a region of interest, a servo: the
+    /// autopilots look past them to the next navigation item, ArduPilot
+    /// `AP_Mission::get_next_nav_cmd`).
     fn is_photo(&self, k: usize) -> bool {
-        matches!(self.commands.get(k), Some(Command::Photo { .. }))
+        matches!(
+            self.commands.get(k),
+            Some(Command::Photo { .. } | Command::ChangeSpeed { .. } | Command::Skip)
+        )
     }
 
-    /// The first command after item `k` that is not a photo.
+    /// The first command after item `k` that does not run in passing.
     fn flown_after(&self, k: usize) -> Option<&Command> {
         (k + 1..self.commands.len())
             .find(|&j| !self.is_photo(j))
