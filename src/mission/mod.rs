@@ -577,7 +577,7 @@ fn check_actions(
             if c.has_position() {
                 check_lat_lon(file, &place, &name, c.params[4], c.params[5])?;
             }
-            if c.command == actions::id::NAV_DELAY && !(c.params[0] >= 0.0) {
+            if c.command == actions::id::NAV_DELAY && (c.params[0].is_nan() || c.params[0] < 0.0) {
                 return Err(MissionError::invalid(
                     file,
                     place,

@@ -425,9 +425,8 @@ fn shorthand(
     if let Some(d) = a.yaw_deg {
         out.push(yaw(d));
     }
-    match a.photo {
-        Some(true) => out.push(photo()),
-        Some(false) | None => {}
+    if a.photo == Some(true) {
+        out.push(photo());
     }
     if let Some(s) = a.delay_s {
         out.push(delay(non_negative(file, place, what, "delay_s", s)?));
