@@ -254,6 +254,24 @@ pub struct Layout {
     pub land_seq: u16,
 }
 
+/// The commands run between two navigation items with the horizontal speed first. ArduPilot
+/// starts only the first of them before the next leg begins (AP_Mission::advance_current_nav_cmd
+/// loads one command, the rest start one per update once the leg is under way), and a speed set
+/// once a leg's S-curve is planned applies to it only in part: ArduCopter SITL flew 40 m "at
+/// 4 m/s" in 8.6 s where 4 m/s takes 12, with the speed third after its waypoint. So the speed
+/// the leg is flown at goes first; of several, the last is the one in force and the earlier are
+/// left out (they would be overridden within milliseconds).
+fn speed_first(commands: Vec<Command>) -> Vec<Command> {
+    use crate::mission::actions::Setting;
+    let is_speed = |c: &Command| c.action() == Action::Set(Setting::Speed);
+    let Some(last) = commands.iter().rev().find(|c| is_speed(c)).cloned() else {
+        return commands;
+    };
+    std::iter::once(last)
+        .chain(commands.into_iter().filter(|c| !is_speed(c)))
+        .collect()
+}
+
 /// The items that fly `mission` in `order` (indices into `mission.waypoints`), numbered from 0,
 /// the notes of what was inserted or translated for the autopilot, and where its navigation
 /// items are.
@@ -321,7 +339,6 @@ pub fn mission_items_noted(
         &mission.start_actions,
     )?;
     notes.extend(start_notes);
-    push_commands(&mut items, &start, "the start")?;
     let restore = |i: usize, before: &str, notes: &mut Vec<String>| -> Vec<Command> {
         let inserted = restoring.get(i).cloned().unwrap_or_default();
         for (setting, c) in &inserted {
@@ -339,7 +356,11 @@ pub fn mission_items_noted(
     });
     let inserted = restore(0, &first, &mut notes);
     let (_, _, inserted, _) = translate(opts.flavour, &first, WaypointKind::Waypoint, &inserted)?;
-    push_commands(&mut items, &inserted, &first)?;
+    push_commands(
+        &mut items,
+        &speed_first([start, inserted].concat()),
+        "the start",
+    )?;
     for (i, &k) in order.iter().enumerate() {
         let w = &mission.waypoints[k];
         let place = format!("waypoint {}", w.name);
@@ -369,14 +390,17 @@ pub fn mission_items_noted(
             deg_e7(wlon),
             alt as f32,
         ));
-        push_commands(&mut items, &actions, &place)?;
         let next = order.get(i + 1).map_or("the way home".to_string(), |&n| {
             format!("after {}, before {}", w.name, mission.waypoints[n].name)
         });
         let inserted = restore(i + 1, &next, &mut notes);
         let (_, _, inserted, _) =
             translate(opts.flavour, &next, WaypointKind::Waypoint, &inserted)?;
-        push_commands(&mut items, &inserted, &next)?;
+        push_commands(
+            &mut items,
+            &speed_first([actions, inserted].concat()),
+            &place,
+        )?;
     }
     if opts.ending == Ending::ReturnAndLand {
         point_seqs.push(items.len() as u16);

@@ -441,14 +441,30 @@ async fn uploaded_in_the_energy_order_to_the_mock_every_waypoint_holds_its_actio
                 "{flavour:?}: region of interest on the way to {}",
                 w.name
             );
-            // Its own actions follow it, in order (PX4 flies the yaw as the waypoint's own).
+            // Its own actions follow it (PX4 flies the yaw as the waypoint's own; the speed goes
+            // first, link::items::speed_first), in order but for the speed.
             let own: Vec<u16> = w
                 .actions
                 .iter()
                 .map(|c| c.command)
                 .filter(|&c| !(flavour == Flavour::Px4 && c == id::CONDITION_YAW))
                 .collect();
-            assert_eq!(&after[..own.len()], &own[..], "{flavour:?} {}", w.name);
+            let others = |cs: &[u16]| -> Vec<u16> {
+                cs.iter()
+                    .copied()
+                    .filter(|&c| c != id::DO_CHANGE_SPEED)
+                    .collect()
+            };
+            let held = others(after);
+            assert_eq!(
+                &held[..others(&own).len()],
+                &others(&own)[..],
+                "{flavour:?} {}",
+                w.name
+            );
+            if own.contains(&id::DO_CHANGE_SPEED) {
+                assert_eq!(after[0], id::DO_CHANGE_SPEED, "{flavour:?} {}", w.name);
+            }
         }
     }
 }
