@@ -246,18 +246,24 @@ impl<'v> SimVehicle<'v> {
         })
     }
 
-    pub(super) fn global_position(&self, t: f64) -> MavMessage {
-        let (p, v) = (self.flight.position(), self.flight.velocity());
-        let home = self.config.home;
-        let g = Origin {
-            home,
+    /// Where the vehicle is, on the WGS84 ellipsoid.
+    fn geodetic_here(&self) -> crate::mission::Geodetic {
+        let p = self.flight.position();
+        Origin {
+            home: self.config.home,
             height_above_home_m: 0.0,
         }
         .to_geodetic(Enu {
             x_east_m: p[0],
             y_north_m: p[1],
             z_up_m: p[2],
-        });
+        })
+    }
+
+    pub(super) fn global_position(&self, t: f64) -> MavMessage {
+        let v = self.flight.velocity();
+        let home = self.config.home;
+        let g = self.geodetic_here();
         let cm_s = |x: f64| (x * 100.0).round().clamp(-32767.0, 32767.0) as i16;
         let heading_cdeg = self.heading_rad.to_degrees().rem_euclid(360.0) * 100.0;
         MavMessage::GLOBAL_POSITION_INT(GLOBAL_POSITION_INT_DATA {
@@ -284,16 +290,7 @@ impl<'v> SimVehicle<'v> {
         let index = self.photos_taken;
         self.photos_taken = self.photos_taken.saturating_add(1);
         let home = self.config.home;
-        let p = self.flight.position();
-        let g = Origin {
-            home,
-            height_above_home_m: 0.0,
-        }
-        .to_geodetic(Enu {
-            x_east_m: p[0],
-            y_north_m: p[1],
-            z_up_m: p[2],
-        });
+        let g = self.geodetic_here();
         let (lat, lon) = (
             (g.lat_deg * 1e7).round() as i32,
             (g.lon_deg * 1e7).round() as i32,
