@@ -28,7 +28,7 @@ fn bench_heuristic(c: &mut Criterion) {
 
     let path = concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/../shared/tsplib-atsp/rbg443.atsp"
+        "/tests/fixtures/tsplib/rbg443.atsp"
     );
     match std::fs::read_to_string(path).map(|text| tsplib::parse(&text)) {
         Ok(Ok(instance)) => {

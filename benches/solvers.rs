@@ -27,7 +27,7 @@ fn branch_cut_bench(c: &mut Criterion) {
     group.sample_size(10);
     group.measurement_time(Duration::from_secs(30));
     for name in ["ftv70", "kro124p", "ftv170"] {
-        let text = std::fs::read_to_string(format!("../shared/tsplib-atsp/{name}.atsp"))
+        let text = std::fs::read_to_string(format!("tests/fixtures/tsplib/{name}.atsp"))
             .expect("TSPLIB instance beside the project");
         let inst = tsplib::parse(&text).expect("valid instance");
         let options = solver::Options {

@@ -353,18 +353,15 @@ pub fn resume_chain(
         .map(|(k, _)| k)
         .collect();
     // The waypoints left, each in the state the whole file has there (their actions kept).
-    let waypoints = mission.keeping(&kept).waypoints;
-    if waypoints.is_empty() {
+    let left_mission = mission.keeping(&kept);
+    if left_mission.waypoints.is_empty() {
         return Err(ResumeError::NothingLeft {
             flight: flight.to_string(),
             later: resumed.later.iter().map(|r| r.flight.clone()).collect(),
         });
     }
     Ok(Resumption {
-        mission: Mission {
-            waypoints,
-            ..mission.keeping(&kept)
-        },
+        mission: left_mission,
         ..resumed
     })
 }

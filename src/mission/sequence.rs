@@ -67,7 +67,8 @@ pub(super) fn read(
         })?;
         let p = item.params;
         let nav_alt = || altitude(item.command, item.frame, p[6], home_amsl_m);
-        match actions::take(command) {
+        // What the item is: a waypoint of its own, or a command of the waypoint before it.
+        let kind = match actions::take(command) {
             Taken::Refused(why) => {
                 return Err(bad(
                     &place,
@@ -76,21 +77,14 @@ pub(super) fn read(
             }
             Taken::Navigation => match command {
                 id::NAV_TAKEOFF => {
-                    height_above_home_m = Some(nav_alt().map_err(|e| bad(&place, e))?)
+                    height_above_home_m = Some(nav_alt().map_err(|e| bad(&place, e))?);
+                    continue;
                 }
                 id::NAV_RETURN_TO_LAUNCH | id::NAV_LAND => {
                     ended.get_or_insert(place);
+                    continue;
                 }
-                id::NAV_DELAY => attach(
-                    &mut waypoints,
-                    &mut start_actions,
-                    &ended,
-                    command,
-                    item.frame,
-                    p,
-                    place,
-                    file,
-                )?,
+                id::NAV_DELAY => None,
                 id::NAV_LOITER_TIME => {
                     let at_last = match waypoints.last() {
                         _ if (p[4] == 0.0 && p[5] == 0.0) || p[4].is_nan() || p[5].is_nan() => true,
@@ -100,48 +94,12 @@ pub(super) fn read(
                             same_place(&last.position, p[4], p[5], alt)
                         }
                     };
-                    if at_last {
-                        attach(
-                            &mut waypoints,
-                            &mut start_actions,
-                            &ended,
-                            command,
-                            item.frame,
-                            p,
-                            place,
-                            file,
-                        )?;
-                    } else {
-                        let alt = nav_alt().map_err(|e| bad(&place, e))?;
-                        waypoints.push(waypoint(
-                            p,
-                            alt,
-                            WaypointKind::LoiterTime {
-                                params: [p[1], p[2], p[3]],
-                            },
-                            place,
-                        ));
-                    }
+                    (!at_last).then_some(WaypointKind::LoiterTime {
+                        params: [p[1], p[2], p[3]],
+                    })
                 }
-                // NAV_WAYPOINT and NAV_SPLINE_WAYPOINT.
-                _ => {
-                    let alt = nav_alt().map_err(|e| bad(&place, e))?;
-                    let kind = if command == id::NAV_SPLINE_WAYPOINT {
-                        WaypointKind::Spline
-                    } else {
-                        WaypointKind::Waypoint
-                    };
-                    if let Some(end) = &ended {
-                        return Err(bad(
-                            &place,
-                            format!(
-                                "a waypoint after the flight's end ({}) is never flown",
-                                describe(end)
-                            ),
-                        ));
-                    }
-                    waypoints.push(waypoint(p, alt, kind, place));
-                }
+                id::NAV_SPLINE_WAYPOINT => Some(WaypointKind::Spline),
+                _ => Some(WaypointKind::Waypoint),
             },
             Taken::Action | Taken::Unknown => {
                 if matches!(item.frame, 10 | 11) {
@@ -153,16 +111,37 @@ pub(super) fn read(
                         ),
                     ));
                 }
-                attach(
-                    &mut waypoints,
-                    &mut start_actions,
-                    &ended,
+                None
+            }
+        };
+        if let Some(end) = &ended {
+            let what = match kind {
+                Some(_) => "a waypoint after the flight's end".to_string(),
+                None => format!("command {command} after the flight's end"),
+            };
+            let never = if kind.is_some() { "flown" } else { "run" };
+            return Err(bad(
+                &place,
+                format!("{what} ({}) is never {never}", describe(end)),
+            ));
+        }
+        match kind {
+            Some(kind) => {
+                let alt = nav_alt().map_err(|e| bad(&place, e))?;
+                waypoints.push(waypoint(p, alt, kind, place));
+            }
+            None => {
+                let frame = u8::try_from(item.frame)
+                    .map_err(|_| bad(&place, format!("frame {} is not a MAV_FRAME", item.frame)))?;
+                let c = Command {
                     command,
-                    item.frame,
-                    p,
-                    place,
-                    file,
-                )?
+                    frame,
+                    params: p,
+                };
+                match waypoints.last_mut() {
+                    Some(w) => w.actions.push((c, place)),
+                    None => start_actions.push((c, place)),
+                }
             }
         }
     }
@@ -210,45 +189,4 @@ fn same_place(position: &RawPosition, lat_deg: f64, lon_deg: f64, alt_m: f64) ->
     let north_m = (lat_deg - a) * 111_320.0;
     let east_m = (lon_deg - b) * 111_320.0 * a.to_radians().cos();
     north_m.hypot(east_m) <= SAME_PLACE_M && (alt_m - h).abs() <= SAME_PLACE_M
-}
-
-/// Attaches a command to the last waypoint (the start before the first).
-#[allow(clippy::too_many_arguments)]
-fn attach(
-    waypoints: &mut [RawWaypoint],
-    start: &mut Vec<(Command, Place)>,
-    ended: &Option<Place>,
-    command: u16,
-    frame: u64,
-    params: [f64; 7],
-    place: Place,
-    file: &str,
-) -> Result<(), MissionError> {
-    if let Some(end) = ended {
-        return Err(MissionError::invalid(
-            file,
-            place,
-            format!(
-                "command {command} after the flight's end ({}) is never run",
-                describe(end)
-            ),
-        ));
-    }
-    let frame = u8::try_from(frame).map_err(|_| {
-        MissionError::invalid(
-            file,
-            place.clone(),
-            format!("frame {frame} is not a MAV_FRAME"),
-        )
-    })?;
-    let c = Command {
-        command,
-        frame,
-        params,
-    };
-    match waypoints.last_mut() {
-        Some(w) => w.actions.push((c, place)),
-        None => start.push((c, place)),
-    }
-    Ok(())
 }

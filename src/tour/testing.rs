@@ -25,11 +25,11 @@ pub fn drone(n: usize, seed: u64) -> CostMatrix {
     })
 }
 
-/// The TSPLIB instance `name` (TSPLIB95's ATSP files, kept beside the repository as .ci/run
-/// arranges).
+/// The TSPLIB instance `name` (TSPLIB95's ATSP files, copied into tests/fixtures/tsplib so that
+/// a clone alone passes its tests).
 pub fn tsplib_instance(name: &str) -> CostMatrix {
     let path = format!(
-        "{}/../shared/tsplib-atsp/{name}.atsp",
+        "{}/tests/fixtures/tsplib/{name}.atsp",
         env!("CARGO_MANIFEST_DIR")
     );
     let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"));

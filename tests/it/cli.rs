@@ -46,7 +46,7 @@ fn plan_json_of_the_three_waypoint_sample_has_the_papers_distance_metrics() {
 
 #[test]
 fn tsp_solves_tsplib_br17_to_its_known_optimum_of_39() {
-    let br17 = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/tsplib-atsp/br17.atsp");
+    let br17 = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/tsplib/br17.atsp");
     let report = json(&["tsp", br17.to_str().unwrap(), "--json"]);
     assert_eq!(report["instance"], "br17");
     assert_eq!(report["dimension"], 17);

@@ -265,7 +265,7 @@ fn an_origin_a_billion_metres_up_is_refused_naming_the_waypoint_and_the_limit_ev
 #[test]
 fn progress_never_reaches_stderr_when_it_is_not_a_terminal() {
     let dir = tempfile::tempdir().unwrap();
-    let ftv33 = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/tsplib-atsp/ftv33.atsp");
+    let ftv33 = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/tsplib/ftv33.atsp");
     let mission = sample("paper-sample-8wp.toml");
     let logs = dir.path().join("flights");
     let runs: Vec<Vec<&str>> = vec![

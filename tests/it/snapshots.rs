@@ -21,7 +21,7 @@ const TIMING_KEYS: [&str; 5] = [
     "items_sent",
 ];
 
-const TSPLIB: &str = "../shared/tsplib-atsp";
+const TSPLIB: &str = "tests/fixtures/tsplib";
 const LONG: &str = "missions/long-inspection.toml";
 const SURVEY: &str = "missions/long-survey.toml";
 const SAMPLE_3: &str = "missions/paper-sample-3wp.toml";

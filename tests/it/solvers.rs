@@ -57,7 +57,7 @@ fn held_karp_and_branch_and_cut_agree_on_random_energy_missions_of_up_to_fifteen
 
 fn tsplib_instance(name: &str) -> tsplib::Instance {
     let path =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../shared/tsplib-atsp/{name}.atsp"));
+        Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("tests/fixtures/tsplib/{name}.atsp"));
     let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     tsplib::parse(&text).unwrap()
 }

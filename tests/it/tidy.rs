@@ -584,6 +584,25 @@ fn no_test_is_ignored_or_expected_to_panic() {
 }
 
 #[test]
+fn no_source_or_test_reads_the_shared_folder_beside_the_repository() {
+    // A clone alone passes its tests: what a test needs is copied into tests/fixtures. The
+    // needle is built so that this file does not name it.
+    let needle = format!("../{}/", "shared");
+    let mut problems = Vec::new();
+    for s in sources() {
+        for (k, line) in s.text.lines().enumerate() {
+            if line.contains(&needle) && !line.trim_start().starts_with("//") {
+                problems.push(format!("{}:{}: {}", s.rel, k + 1, line.trim()));
+            }
+        }
+    }
+    fail(
+        "a clone without the shared folder beside it must pass its tests and benches",
+        &problems,
+    );
+}
+
+#[test]
 fn no_two_files_import_each_other() {
     let sources = sources();
     // file -> (imported file -> first line importing it)
