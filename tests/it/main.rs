@@ -24,6 +24,7 @@ mod outputs;
 mod physics;
 mod preflight;
 mod races;
+mod radio;
 mod reprice;
 mod resume;
 mod service;
