@@ -30,23 +30,30 @@ const IFLAG_SYSID32: u8 = 0x02;
 /// Largest frame: MAVLink 2 with the widest header, 255 bytes of payload and a signature.
 pub const MAX_FRAME_LEN: usize = 1 + 12 + 255 + 2 + 13;
 
+/// Why three bytes do not begin a MAVLink frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum NotAFrame {
+    #[error("unknown MAVLink 2 incompatibility flags {0:#04x}")]
+    Flags(u8),
+    #[error("byte {0:#04x} is not a MAVLink start byte")]
+    Start(u8),
+}
+
 /// The total length of the frame whose first three bytes are `head`, or why it is not a frame.
-pub fn frame_len(head: [u8; 3]) -> Result<usize, String> {
+pub fn frame_len(head: [u8; 3]) -> Result<usize, NotAFrame> {
     let payload = usize::from(head[1]);
     match head[0] {
         STX_V1 => Ok(1 + 5 + payload + 2),
         STX_V2 => {
             let flags = head[2];
             if flags & !(IFLAG_SIGNED | IFLAG_SYSID32) != 0 {
-                return Err(format!(
-                    "unknown MAVLink 2 incompatibility flags {flags:#04x}"
-                ));
+                return Err(NotAFrame::Flags(flags));
             }
             let header = if flags & IFLAG_SYSID32 != 0 { 12 } else { 9 };
             let signature = if flags & IFLAG_SIGNED != 0 { 13 } else { 0 };
             Ok(1 + header + payload + 2 + signature)
         }
-        other => Err(format!("byte {other:#04x} is not a MAVLink start byte")),
+        other => Err(NotAFrame::Start(other)),
     }
 }
 
@@ -291,7 +298,7 @@ impl<R: Read> TlogReader<R> {
 
     /// The timestamp and total length (timestamp and frame) of the record `at` bytes past the
     /// position, whose first 11 bytes must be buffered.
-    fn head(&self, at: usize) -> Result<(u64, usize), String> {
+    fn head(&self, at: usize) -> Result<(u64, usize), NotAFrame> {
         let b = &self.buf[self.pos + at..self.pos + at + 11];
         let mut stamp = [0u8; 8];
         stamp.copy_from_slice(&b[..8]);
@@ -457,7 +464,7 @@ impl<R: Read> TlogReader<R> {
         }
         let (wall_us, total) = match self.head(0) {
             Ok(head) => head,
-            Err(reason) => return self.corrupt(self.offset + 8, reason),
+            Err(reason) => return self.corrupt(self.offset + 8, reason.to_string()),
         };
         match self.fill(total) {
             Ok(n) if n < total => self.end(),

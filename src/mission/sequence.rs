@@ -29,19 +29,24 @@ pub(super) struct Sequence {
 /// (horizontally and vertically; the autopilots' acceptance radius is 2 m by default).
 const SAME_PLACE_M: f64 = 1.0;
 
+/// A navigation item's frame that emplan cannot place a waypoint in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+enum UnsupportedFrame {
+    #[error("frame {0} (terrain-relative altitude) is not supported (allowed: 0, 3, 5, 6)")]
+    Terrain(u64),
+    #[error("frame {frame} is not supported for command {command} (allowed: 0, 3, 5, 6)")]
+    Other { frame: u64, command: u64 },
+}
+
 /// The altitude above home of a navigation item's parameter 7 in `frame`.
-fn altitude(command: u64, frame: u64, alt: f64, home_amsl_m: f64) -> Result<f64, String> {
+fn altitude(command: u64, frame: u64, alt: f64, home_amsl_m: f64) -> Result<f64, UnsupportedFrame> {
     match frame {
         // MAV_FRAME_GLOBAL_RELATIVE_ALT (3) and its _INT twin (6).
         3 | 6 => Ok(alt),
         // MAV_FRAME_GLOBAL (0) and GLOBAL_INT (5): altitude above mean sea level.
         0 | 5 => Ok(alt - home_amsl_m),
-        10 | 11 => Err(format!(
-            "frame {frame} (terrain-relative altitude) is not supported (allowed: 0, 3, 5, 6)"
-        )),
-        _ => Err(format!(
-            "frame {frame} is not supported for command {command} (allowed: 0, 3, 5, 6)"
-        )),
+        10 | 11 => Err(UnsupportedFrame::Terrain(frame)),
+        _ => Err(UnsupportedFrame::Other { frame, command }),
     }
 }
 
@@ -77,7 +82,7 @@ pub(super) fn read(
             }
             Taken::Navigation => match command {
                 id::NAV_TAKEOFF => {
-                    height_above_home_m = Some(nav_alt().map_err(|e| bad(&place, e))?);
+                    height_above_home_m = Some(nav_alt().map_err(|e| bad(&place, e.to_string()))?);
                     continue;
                 }
                 id::NAV_RETURN_TO_LAUNCH | id::NAV_LAND => {
@@ -90,7 +95,7 @@ pub(super) fn read(
                         _ if (p[4] == 0.0 && p[5] == 0.0) || p[4].is_nan() || p[5].is_nan() => true,
                         None => false,
                         Some(last) => {
-                            let alt = nav_alt().map_err(|e| bad(&place, e))?;
+                            let alt = nav_alt().map_err(|e| bad(&place, e.to_string()))?;
                             same_place(&last.position, p[4], p[5], alt)
                         }
                     };
@@ -127,7 +132,7 @@ pub(super) fn read(
         }
         match kind {
             Some(kind) => {
-                let alt = nav_alt().map_err(|e| bad(&place, e))?;
+                let alt = nav_alt().map_err(|e| bad(&place, e.to_string()))?;
                 waypoints.push(waypoint(p, alt, kind, place));
             }
             None => {

@@ -185,7 +185,7 @@ pub fn dfj_bound(m: &CostMatrix, tour: &[usize], time_limit: Duration) -> Result
         ) {
             Ok(Some(p)) => p,
             Ok(None) => break Stop::TimeLimit,
-            Err(e) => break Stop::LpFailure(e),
+            Err(e) => break Stop::LpFailure(e.to_string()),
         };
         rounds += 1;
         let duals = match solve_dual(
@@ -198,7 +198,7 @@ pub fn dfj_bound(m: &CostMatrix, tour: &[usize], time_limit: Duration) -> Result
         ) {
             Ok(Some(d)) => d,
             Ok(None) => break Stop::TimeLimit,
-            Err(e) => break Stop::LpFailure(e),
+            Err(e) => break Stop::LpFailure(e.to_string()),
         };
         let lagrangian = Lagrangian::new(m, &cuts, &duals.multipliers);
         let pricing = lagrangian.price(m, &duals, &candidates);
@@ -395,10 +395,6 @@ struct Primal {
     forms: Vec<(Form, Vec<usize>)>,
 }
 
-fn lp_error(e: microlp::Error) -> String {
-    e.to_string()
-}
-
 /// A solved restricted LP: the solution, its arc variables, and the form of every cut.
 type Built = (microlp::Solution, Vec<Variable>, Vec<(Form, Vec<usize>)>);
 
@@ -408,7 +404,7 @@ fn solve_built(
     arcs: &[(usize, usize)],
     cuts: &[Vec<bool>],
     deadline: Instant,
-) -> Result<Option<Built>, String> {
+) -> Result<Option<Built>, microlp::Error> {
     let n = m.len();
     let mut problem = Problem::new(OptimizationDirection::Minimize);
     let vars: Vec<Variable> = arcs
@@ -435,7 +431,7 @@ fn solve_built(
         forms.push((form, members));
     }
     problem.set_time_limit(deadline.saturating_duration_since(Instant::now()));
-    match problem.solve().map_err(lp_error)?.into_solution() {
+    match problem.solve()?.into_solution() {
         Ok(solution) => Ok(Some((solution, vars, forms))),
         Err(_) => Ok(None),
     }
@@ -452,7 +448,7 @@ fn solve_primal(
     keys: &mut HashSet<Vec<bool>>,
     soft_deadline: Instant,
     deadline: Instant,
-) -> Result<Option<Primal>, String> {
+) -> Result<Option<Primal>, microlp::Error> {
     let n = m.len();
     let built = Instant::now();
     let Some((mut solution, mut vars, mut forms)) = solve_built(m, arcs, cuts, deadline)? else {
@@ -518,8 +514,7 @@ fn solve_primal(
             let expr: Vec<(Variable, f64)> = members.iter().map(|&k| (vars[k], 1.0)).collect();
             let rhs = form.rhs(&in_s);
             solution = match solution
-                .add_constraint(expr, form.op(), rhs)
-                .map_err(lp_error)?
+                .add_constraint(expr, form.op(), rhs)?
                 .into_solution()
             {
                 Ok(s) => s,
@@ -635,7 +630,7 @@ fn solve_dual(
     primal: &Primal,
     deadline: Instant,
     core: &HashSet<(usize, usize)>,
-) -> Result<Option<Duals>, String> {
+) -> Result<Option<Duals>, microlp::Error> {
     match solve_dual_with(m, arcs, cuts, primal, deadline, true, core) {
         Ok(found) => Ok(found),
         Err(e) => {
@@ -656,7 +651,7 @@ fn solve_dual_with(
     deadline: Instant,
     support_equations: bool,
     core: &HashSet<(usize, usize)>,
-) -> Result<Option<Duals>, String> {
+) -> Result<Option<Duals>, microlp::Error> {
     // The cuts in the dual and, for every arc, the cuts (indices into `tight`) it is in.
     let mut tight: Vec<(usize, Form, f64)> = Vec::new();
     let mut arc_cuts: Vec<Vec<usize>> = vec![Vec::new(); arcs.len()];
@@ -754,7 +749,7 @@ impl DualLp {
         rows: &[usize],
         support_equations: bool,
         deadline: Instant,
-    ) -> Result<Option<DualLp>, String> {
+    ) -> Result<Option<DualLp>, microlp::Error> {
         let n = m.len();
         let mut problem = Problem::new(OptimizationDirection::Maximize);
         let free = (f64::NEG_INFINITY, f64::INFINITY);
@@ -774,7 +769,7 @@ impl DualLp {
             problem.add_constraint(row_expr(&u, &v, &y, arcs, arc_cuts, k), op, m.cost(i, j));
         }
         problem.set_time_limit(deadline.saturating_duration_since(Instant::now()));
-        let Ok(solution) = problem.solve().map_err(lp_error)?.into_solution() else {
+        let Ok(solution) = problem.solve()?.into_solution() else {
             return Ok(None);
         };
         Ok(Some(DualLp {
@@ -794,7 +789,7 @@ impl DualLp {
         arc_cuts: &[Vec<usize>],
         ks: &[usize],
         deadline: Instant,
-    ) -> Result<Option<DualLp>, String> {
+    ) -> Result<Option<DualLp>, microlp::Error> {
         for &k in ks {
             if Instant::now() >= deadline {
                 return Ok(None);
@@ -803,8 +798,7 @@ impl DualLp {
             let expr = row_expr(&self.u, &self.v, &self.y, arcs, arc_cuts, k);
             self.solution = match self
                 .solution
-                .add_constraint(expr, ComparisonOp::Le, m.cost(i, j))
-                .map_err(lp_error)?
+                .add_constraint(expr, ComparisonOp::Le, m.cost(i, j))?
                 .into_solution()
             {
                 Ok(s) => s,

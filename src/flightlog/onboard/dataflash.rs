@@ -386,7 +386,7 @@ fn walk(
         };
         if let Some(record) = definition {
             if let Err(reason) = define(&mut table, record) {
-                on_refused(pos - record.len(), record.len(), reason);
+                on_refused(pos - record.len(), record.len(), reason.to_string());
             }
         }
         if let Some(reason) = unreadable {
@@ -402,10 +402,21 @@ fn walk(
     scan
 }
 
+/// An FMT record that describes an already described message otherwise.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("it describes message id {id} ({first}) again, as {name} of {len} bytes ({format}): read as first described")]
+struct Redefined {
+    id: u8,
+    first: String,
+    name: String,
+    len: usize,
+    format: String,
+}
+
 /// Takes in an FMT record: the message it describes, unless its id is described already
 /// otherwise (refused, saying how; the same description again changes nothing). FMT's own
 /// description is fixed.
-fn define(table: &mut [Option<Message>], record: &[u8]) -> Result<(), String> {
+fn define(table: &mut [Option<Message>], record: &[u8]) -> Result<(), Redefined> {
     let (Some(&id), Some(&len)) = (record.get(3), record.get(4)) else {
         return Ok(());
     };
@@ -421,12 +432,21 @@ fn define(table: &mut [Option<Message>], record: &[u8]) -> Result<(), String> {
         return Ok(());
     };
     match slot {
-        Some(first) if first.definition != definition => Err(format!(
-            "it describes message id {id} ({}) again, as {} of {len} bytes ({}): read as first described",
-            first.name,
-            if name.is_empty() { "nameless".to_string() } else { name },
-            if format.is_empty() { "no fields".to_string() } else { format },
-        )),
+        Some(first) if first.definition != definition => Err(Redefined {
+            id,
+            first: first.name.clone(),
+            name: if name.is_empty() {
+                "nameless".to_string()
+            } else {
+                name
+            },
+            len,
+            format: if format.is_empty() {
+                "no fields".to_string()
+            } else {
+                format
+            },
+        }),
         Some(_) => Ok(()),
         None => {
             let mut message = Message::new(&name, len, format.as_bytes(), &labels);

@@ -131,7 +131,7 @@ pub fn parse(file: &str, bytes: &[u8]) -> Result<OnboardLog, OnboardError> {
         let checked = check_record(kind, payload)
             .and_then(|()| {
                 if formats > MAX_FORMATS {
-                    Err(format!("more than {MAX_FORMATS} formats"))
+                    Err(Unsafe::TooManyFormats)
                 } else {
                     Ok(())
                 }
@@ -216,13 +216,28 @@ fn kind_name(kind: u8) -> String {
     format!("a {name} record")
 }
 
+/// What is wrong with a record the crate would index past or loop on.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+enum Unsafe {
+    #[error("{0} bytes, fewer than 3")]
+    Short(usize),
+    #[error("its key runs past its end")]
+    KeyPastEnd,
+    #[error("{name}: an array of {count} elements")]
+    EmptyArray { name: String, count: String },
+    #[error("{0} has no fields")]
+    NoFields(String),
+    #[error("more than {MAX_FORMATS} formats")]
+    TooManyFormats,
+}
+
 /// Refuses what the crate would index past or loop on (see the module doc).
-fn check_record(kind: u8, payload: &[u8]) -> Result<(), String> {
+fn check_record(kind: u8, payload: &[u8]) -> Result<(), Unsafe> {
     match kind {
-        b'A' if payload.len() < 3 => Err(format!("{} bytes, fewer than 3", payload.len())),
+        b'A' if payload.len() < 3 => Err(Unsafe::Short(payload.len())),
         b'P' => match payload.first() {
             Some(&key_len) if usize::from(key_len) < payload.len() => Ok(()),
-            _ => Err("its key runs past its end".into()),
+            _ => Err(Unsafe::KeyPastEnd),
         },
         b'F' => check_format(payload),
         _ => Ok(()),
@@ -230,7 +245,7 @@ fn check_record(kind: u8, payload: &[u8]) -> Result<(), String> {
 }
 
 /// A format `name:type field;type field;...` whose every field is one or more elements.
-fn check_format(payload: &[u8]) -> Result<(), String> {
+fn check_format(payload: &[u8]) -> Result<(), Unsafe> {
     let Ok(text) = std::str::from_utf8(payload) else {
         return Ok(()); // the crate refuses it
     };
@@ -244,14 +259,17 @@ fn check_format(payload: &[u8]) -> Result<(), String> {
         if let Some((_, count)) = ty.split_once('[') {
             let count = count.trim_end_matches(']');
             if count.parse::<i64>().is_ok_and(|n| n <= 0) {
-                return Err(format!("{name}: an array of {count} elements"));
+                return Err(Unsafe::EmptyArray {
+                    name: name.to_string(),
+                    count: count.to_string(),
+                });
             }
         }
     }
     if any {
         Ok(())
     } else {
-        Err(format!("{name} has no fields"))
+        Err(Unsafe::NoFields(name.to_string()))
     }
 }
 
@@ -1154,6 +1172,7 @@ pub fn synthetic_long(template: &[u8], minutes: f64) -> Result<Vec<u8>, OnboardE
     let mut end = HEADER_LEN;
     while let Some(Ok((offset, kind, record))) = walk.next_record() {
         check_record(kind, record.get(RECORD_HEADER_LEN..).unwrap_or(&[]))
+            .map_err(|problem| problem.to_string())
             .and_then(|()| {
                 parser
                     .consume_bytes(record)
