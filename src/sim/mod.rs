@@ -7,9 +7,11 @@
 //! motion along the mission, physics power), `battery` (pack and monitor) and `vehicle`
 //! (commands, modes, telemetry streams and faults, per flavour). `battery_sim` is the same pack
 //! for a real autopilot that has none (PX4 SITL): it follows the vehicle's motion in its
-//! telemetry and reports the physics model's battery as a smart battery (`emplan battery-sim`).
+//! telemetry and reports the physics model's battery as a smart battery (`emplan battery-sim`);
+//! `battery_link` is its socket.
 
 pub mod battery;
+pub mod battery_link;
 pub mod battery_sim;
 pub mod flight;
 pub mod mock;

@@ -130,11 +130,9 @@ pub fn parse(file: &str, bytes: &[u8]) -> Result<OnboardLog, OnboardError> {
         let payload = record.get(RECORD_HEADER_LEN..).unwrap_or(&[]);
         let checked = check_record(kind, payload)
             .and_then(|()| {
-                if formats > MAX_FORMATS {
-                    Err(Unsafe::TooManyFormats)
-                } else {
-                    Ok(())
-                }
+                (formats <= MAX_FORMATS)
+                    .then_some(())
+                    .ok_or(Unsafe::TooManyFormats)
             })
             .map_err(|reason| (offset, format!("{}: {reason}", kind_name(kind))))
             .and_then(|()| flattening.admit(offset, kind, payload, parser.in_data()))
