@@ -337,7 +337,7 @@ pub fn print(report: &FlightReport, doc: &FlyJson, json: bool) -> anyhow::Result
 
 /// Warns (stderr) of every parameter the autopilot holds at another value than the vehicle
 /// file, and of the ones it did not answer.
-fn warn_params(params: &Px4Parameters, section: ParamSection) {
+pub fn warn_params(params: &Px4Parameters, section: ParamSection) {
     let autopilot = section.autopilot();
     for d in &params.differing {
         eprintln!(

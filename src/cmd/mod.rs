@@ -430,32 +430,6 @@ impl FlightArgs {
         }
     }
 
-    /// `--origin vehicle`: `mission` re-expressed from the vehicle's home, learned over
-    /// `session`'s link; says (unless `quiet`) how far the origin moved.
-    pub async fn rehome(
-        &self,
-        session: &emplan::session::Session,
-        mission: &emplan::mission::Mission,
-        quiet: bool,
-    ) -> anyhow::Result<emplan::mission::Mission> {
-        use emplan::mission::rehome::{rehomed, HomeOffset};
-        let located = emplan::session::vehicle_home(&session.link, &session.target)
-            .await
-            .map_err(emplan::session::FlyError::from)?;
-        let offset = HomeOffset::of(mission, located.home);
-        if !quiet {
-            eprintln!(
-                "origin moved to the vehicle's home ({:.6}, {:.6}), {:.0} m from the mission's ({:.6}, {:.6})",
-                located.home.lat_deg,
-                located.home.lon_deg,
-                offset.horizontal_m,
-                mission.origin.home.lat_deg,
-                mission.origin.home.lon_deg
-            );
-        }
-        Ok(rehomed(mission, located.home))
-    }
-
     /// The model and, from the mission's origin, the plan, made before connecting (a refusal
     /// needs no vehicle); with `--origin vehicle` the plan waits for the vehicle to say where
     /// its home is ([`FlightArgs::planned_at`]).
@@ -472,8 +446,9 @@ impl FlightArgs {
     }
 
     /// The mission and plan to fly: `planned`, planned from the mission's origin before
-    /// connecting, or (`planned` None) planned now: with `--origin vehicle` the mission re-homed
-    /// to the vehicle's home over `session`; with `--wind live` alone from its own origin.
+    /// connecting, or (`planned` None) planned now: with `--origin vehicle` re-planned by the
+    /// session from the vehicle's home (said on stderr unless `quiet`); with `--wind live` alone
+    /// from its own origin.
     pub async fn planned_at(
         &self,
         session: &emplan::session::Session,
@@ -484,13 +459,38 @@ impl FlightArgs {
     ) -> anyhow::Result<(emplan::mission::Mission, emplan::planner::Plan)> {
         match planned {
             Some(plan) => Ok((mission, plan)),
+            None if self.plans_from_vehicle() => {
+                let origin = mission.origin.home;
+                let replanned = emplan::session::replan_from_vehicle(
+                    &session.link,
+                    &session.target,
+                    &mission,
+                    |rehomed, moved| {
+                        if !quiet {
+                            eprintln!(
+                                "origin moved to the vehicle's home ({:.6}, {:.6}), {:.0} m from the mission's ({:.6}, {:.6})",
+                                moved.home.lat_deg,
+                                moved.home.lon_deg,
+                                moved.offset.horizontal_m,
+                                origin.lat_deg,
+                                origin.lon_deg
+                            );
+                        }
+                        std::future::ready(self.plan_with(rehomed, model))
+                    },
+                )
+                .await
+                .map_err(|e| match e {
+                    emplan::session::ReplanError::Home(e) => {
+                        anyhow::Error::new(emplan::session::FlyError::from(e))
+                    }
+                    emplan::session::ReplanError::Plan(e) => e,
+                })?;
+                self.flight(&replanned.plan)?;
+                Ok((replanned.mission, replanned.plan))
+            }
             None => {
-                let mission = if self.plans_from_vehicle() {
-                    self.rehome(session, &mission, quiet).await?
-                } else {
-                    // `--wind live` alone: planned from the mission's origin, in the wind heard.
-                    mission
-                };
+                // `--wind live` alone: planned from the mission's origin, in the wind heard.
                 let plan = self.plan_with(&mission, model)?;
                 self.flight(&plan)?;
                 Ok((mission, plan))
@@ -550,10 +550,12 @@ impl LinkArgs {
     }
 
     /// As [`LinkArgs::open`], the built-in mock (when no `--connect` is given) standing at
-    /// `home` (a mission's origin: the mock is where the mission starts).
+    /// `home` (a mission's origin: the mock is where the mission starts), its autopilot
+    /// holding `vehicle`'s trajectory parameters (what the session's load checks).
     pub async fn open_at(
         &self,
         home: emplan::mission::Geodetic,
+        vehicle: &emplan::physics::Vehicle,
     ) -> anyhow::Result<emplan::session::Session> {
         if self.connect.is_some() {
             return self.open().await;
@@ -564,9 +566,15 @@ impl LinkArgs {
                 lon_e7: emplan::link::items::deg_e7(home.lon_deg),
                 alt_m: home.alt_m as f32,
             },
+            // Standing at its home, unarmed: its parameter server answers, as an autopilot's.
+            flight: Some(emplan::sim::FlightConfig {
+                home,
+                ..Default::default()
+            }),
             ..Default::default()
         };
-        self.open_target(Some(config), None).await
+        self.open_target(Some((config, vehicle.clone())), None)
+            .await
     }
 
     /// As [`LinkArgs::open`], the built-in mock (when no `--connect` is given) started as
@@ -578,11 +586,11 @@ impl LinkArgs {
         self.open_target(None, mock).await
     }
 
-    /// Opens `--connect`, else the built-in mock: flying as `mock` says, else quiet as
-    /// `quiet` says (default: a quiet mock of the default configuration).
+    /// Opens `--connect`, else the built-in mock: flying as `mock` says, else as `quiet` says
+    /// with its vehicle (default: a quiet mock of the default configuration).
     async fn open_target(
         &self,
-        quiet: Option<emplan::sim::MockConfig>,
+        quiet: Option<(emplan::sim::MockConfig, emplan::physics::Vehicle)>,
         mock: Option<emplan::session::MockFlight>,
     ) -> anyhow::Result<emplan::session::Session> {
         use emplan::session::{LinkOptions, Target};
@@ -609,13 +617,19 @@ impl LinkArgs {
                 ..mock
             }
             .target(),
-            (None, None) => Target::Mock {
-                config: Box::new(emplan::sim::MockConfig {
-                    signing_key,
-                    ..quiet.unwrap_or_default()
-                }),
-                vehicle: None,
-            },
+            (None, None) => {
+                let (config, vehicle) = match quiet {
+                    Some((config, vehicle)) => (config, Some(Box::new(vehicle))),
+                    None => (Default::default(), None),
+                };
+                Target::Mock {
+                    config: Box::new(emplan::sim::MockConfig {
+                        signing_key,
+                        ..config
+                    }),
+                    vehicle,
+                }
+            }
         };
         Ok(emplan::session::open(target, &options).await?)
     }

@@ -1,6 +1,7 @@
 //! `emplan record --connect URL --log-dir DIR`: records a flight flown from any ground station:
-//! asks for the telemetry it needs, waits for arming, reads the mission the autopilot holds to
-//! know the legs (named after `--mission`'s waypoints, priced with the vehicle model), logs
+//! asks for the telemetry it needs, waits for arming, has the session measure the mission the
+//! autopilot holds (`emplan::session::held`: named after `--mission`'s waypoints, priced with
+//! the vehicle model), logs
 //! until the vehicle has landed and disarmed (or Ctrl-C, which closes the files cleanly), and
 //! prints the report.
 
@@ -9,7 +10,8 @@ use std::process::ExitCode;
 
 use emplan::flightlog::watch::Policy;
 use emplan::session::{
-    keep_streams, plan_from_items, request_streams, spawn_recorder, FlightEvent, RecorderConfig,
+    held_flight_plan, keep_streams, request_streams, spawn_recorder, FlightEvent, Known,
+    RecorderConfig,
 };
 
 #[derive(Debug, clap::Args)]
@@ -73,33 +75,18 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                     Ok(FlightEvent::Started { dir, .. }) => {
                         eprintln!("armed: recording to {}", dir.display());
                         // What the vehicle flies: its mission, read back now.
-                        match emplan::link::driver::download(link, &target, opened.transfer).await {
-                            Ok(items) => match emplan::link::items::read_flight(
-                                &items,
-                                target.flavour,
-                                mission.as_ref().map_or(0.0, |m| m.origin.home.alt_m),
-                            )
-                            .map_err(Into::into)
-                            .and_then(|read| {
-                                plan_from_items(
-                                    mission.as_ref().map_or("flight", |m| m.name.as_str()),
-                                    &read,
-                                    mission.as_ref(),
-                                    Some(&model),
-                                )
-                            }) {
-                                Ok(mut plan) => {
-                                    if args.guard != Policy::Off {
-                                        match emplan::session::guard::setup(&model.vehicle, model.profile, target.flavour, &plan, args.guard, return_alt_m, model.wind) {
-                                            Ok(setup) => plan.guard = Some(setup),
-                                            Err(e) => eprintln!("the energy guard cannot price the way home: {e}; not guarding this flight"),
-                                        }
+                        let known = Known::Named(mission.as_ref());
+                        match held_flight_plan(link, &target, opened.transfer, known, &model).await {
+                            Ok(mut plan) => {
+                                if args.guard != Policy::Off {
+                                    match emplan::session::guard::setup(&model.vehicle, model.profile, target.flavour, &plan, args.guard, return_alt_m, model.wind) {
+                                        Ok(setup) => plan.guard = Some(setup),
+                                        Err(e) => eprintln!("the energy guard cannot price the way home: {e}; not guarding this flight"),
                                     }
-                                    recorder.set_plan(plan)
                                 }
-                                Err(e) => eprintln!("the vehicle's mission cannot be measured: {e}; recording the telemetry only"),
-                            },
-                            Err(e) => eprintln!("reading the vehicle's mission failed: {e}; recording the telemetry only"),
+                                recorder.set_plan(plan)
+                            }
+                            Err(e) => eprintln!("{e}; recording the telemetry only"),
                         }
                     }
                     Ok(FlightEvent::Part { kind, part, .. }) => {

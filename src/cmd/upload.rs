@@ -6,11 +6,10 @@
 //! accepted the mission and the item, and with `--json` a failure prints one JSON document too:
 //! `{"ok": false, "stage", "accepted", "error", "item", "result"}`.
 
-use anyhow::Context;
 use emplan::link::driver::UploadError;
 use emplan::planner::json::upload_document;
 use emplan::session::upload::UploadJson;
-use emplan::session::FlyError;
+use emplan::session::{FlyError, Px4Parameters};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -99,7 +98,8 @@ fn upload(args: Args) -> anyhow::Result<ExitCode> {
     let runtime = super::runtime()?;
     runtime.block_on(async {
         // The built-in mock stands at the mission's origin.
-        let session = (args.link.open_at(mission.origin.home).await).map_err(|cause| Staged {
+        let opened = args.link.open_at(mission.origin.home, &model.vehicle).await;
+        let session = opened.map_err(|cause| Staged {
             stage: "connect",
             cause,
         })?;
@@ -109,36 +109,43 @@ fn upload(args: Args) -> anyhow::Result<ExitCode> {
         let flight = args.flight.flight(&plan)?;
         let planned = upload_document(&plan, &flight);
         let load = (args.flight).load(&mission, &plan, &flight, &model.vehicle);
-        session.check_home(&load).await?;
         let target = session.target;
-        let items = session.items(&load).context("building mission items")?;
-        if !args.json {
-            eprintln!(
-                "uploading {} items to {:?} autopilot {} on {}",
-                items.len(),
-                target.flavour,
-                target.system_id,
-                session.describe
-            );
-        }
-        let bar = super::progress::bar(items.len() as u64, "{msg} [{bar:30}] item {pos}/{len}");
-        bar.set_message("uploading");
+        let bar = super::progress::bar(0, "{msg} [{bar:30}] item {pos}/{len}");
+        // The session's load: the home check, the autopilot's parameter check (warned of here,
+        // as `fly` warns), the items, the verified upload.
+        let checked = |check: Option<&emplan::session::ParamCheck>| {
+            if let Some(check) = check {
+                super::flying::warn_params(&Px4Parameters::from(check), check.section);
+            }
+            // The items the session sends (an error is the session's own, below).
+            let count = session.items(&load).map_or(0, |items| items.len());
+            if !args.json {
+                eprintln!(
+                    "uploading {count} items to {:?} autopilot {} on {}",
+                    target.flavour, target.system_id, session.describe
+                );
+            }
+            bar.set_length(count as u64);
+            bar.set_message("uploading");
+        };
         let uploaded = session
-            .upload(items, |done, total| {
+            .load(None, &load, checked, |done, total| {
                 if done == total {
                     bar.set_message("reading back");
                 }
                 bar.set_position(done as u64);
             })
             .await
-            .with_context(|| {
-                format!(
+            .map_err(|e| match e {
+                FlyError::Items(_) => anyhow::Error::new(e).context("building mission items"),
+                FlyError::Upload(_) => anyhow::Error::new(e).context(format!(
                     "uploading {} to {}",
                     args.mission.display(),
                     session.describe
-                )
+                )),
+                other => other.into(),
             })?;
-        let report = uploaded.report;
+        let report = uploaded.upload;
         if args.json {
             let doc = UploadJson {
                 plan: planned,

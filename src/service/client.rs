@@ -237,7 +237,7 @@ impl std::fmt::Debug for EventStream {
 }
 
 /// The JSON of one SSE block (its `data:` lines joined), None for a comment or keep-alive.
-fn parse_block(block: &[u8]) -> Option<Result<serde_json::Value, String>> {
+fn parse_block(block: &[u8]) -> Option<Result<serde_json::Value, serde_json::Error>> {
     let text = String::from_utf8_lossy(block);
     let data: Vec<&str> = text
         .lines()
@@ -247,7 +247,7 @@ fn parse_block(block: &[u8]) -> Option<Result<serde_json::Value, String>> {
     if data.is_empty() {
         return None;
     }
-    Some(serde_json::from_str(&data.join("\n")).map_err(|e| e.to_string()))
+    Some(serde_json::from_str(&data.join("\n")))
 }
 
 /// Where the first block separator (a blank line) ends, if there is one.
@@ -278,7 +278,7 @@ impl EventStream {
                         return Some(parsed.map_err(|reason| ClientError::Http {
                             url: self.url.clone(),
                             what: "event".into(),
-                            reason,
+                            reason: reason.to_string(),
                         }))
                     }
                 }

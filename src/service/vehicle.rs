@@ -1,8 +1,11 @@
 //! The vehicle actor: one task owns everything that talks to the vehicle (the `Link`, the
 //! autopilot found on it, the flight recorder on its tap, the built-in mock when there is no
 //! `--connect`). Handlers send it `(command, oneshot)`: uploads and starts run one at a time, in
-//! the order asked, so two clients never interleave on the radio. Between commands it keeps the
-//! link (connect until it works, the autopilot's heartbeat watched: `connecting`,
+//! the order asked, so two clients never interleave on the radio. It keeps the queue and the
+//! state; every decision about a flight is the session's (`session::connect_until_open`,
+//! `session::load`, `session::arm_and_start`, `session::replan_from_vehicle`,
+//! `session::held_flight_plan`). Between commands it keeps the
+//! link (the session connecting until it works, the autopilot's heartbeat watched: `connecting`,
 //! `waiting_for_heartbeat`, `connected`, `lost`), asks for the telemetry streams again after
 //! every reconnect or return of the heartbeat, and when a flight starts reads back the mission
 //! the vehicle holds: the flight is measured against what it flies, whoever uploaded it.
@@ -31,15 +34,14 @@ use super::wire::{Failure, LinkNumbers, LinkState, LinkStatus, UploadAnswer};
 use super::Refusal;
 use crate::flightlog::flight_plan::FlightPlan;
 use crate::flightlog::watch::{NoteKind, Policy};
-use crate::link::commands::{drive, heartbeats, Heard};
-use crate::link::connection::{Autopilot, Identity, Link};
+use crate::link::commands::{heartbeats, Heard};
+use crate::link::connection::{Autopilot, Link};
 use crate::link::driver::download;
-use crate::link::flight::{Start, StartConfig, StartError};
-use crate::link::items::{item_json, read_flight, FlightItems};
+use crate::link::flight::{StartConfig, StartError};
+use crate::link::items::item_json;
 use crate::link::mav::MISSION_ITEM_INT_DATA;
 use crate::link::transfer::TransferConfig;
 use crate::link::Flavour;
-use crate::mission::rehome::HomeOffset;
 use crate::mission::{Geodetic, Mission, Origin};
 use crate::physics::{Vehicle, VehicleModel};
 use crate::planner::json::upload_document;
@@ -47,8 +49,8 @@ use crate::planner::{FlightChoice, Plan};
 use crate::session::upload::UploadJson;
 use crate::session::PlanOrigin;
 use crate::session::{
-    self, discard_unflown, plan_from_items, request_streams, spawn_recorder, FlightEvent, FlyError,
-    Load, Px4Parameters, RecorderConfig, RecorderHandle,
+    self, request_streams, spawn_recorder, FlightEvent, FlyError, Known, Load, ParamCheck,
+    Px4Parameters, RecorderConfig, RecorderHandle,
 };
 use crate::sim::{MockAutopilot, MockConfig, MockHandle};
 
@@ -257,6 +259,16 @@ pub fn spawn(
     Ok((handle, done))
 }
 
+/// Why the built-in mock did not start.
+#[derive(Debug, thiserror::Error)]
+pub enum MockError {
+    /// The built-in vehicle it flies did not load.
+    #[error(transparent)]
+    Vehicle(#[from] crate::physics::PhysicsError),
+    #[error(transparent)]
+    Sim(#[from] crate::sim::SimError),
+}
+
 /// The built-in mock and how to start it again elsewhere.
 struct BuiltinMock {
     handle: Option<MockHandle>,
@@ -269,15 +281,13 @@ impl BuiltinMock {
     async fn spawn(
         config: MockConfig,
         vehicle: Option<Box<Vehicle>>,
-    ) -> Result<BuiltinMock, String> {
+    ) -> Result<BuiltinMock, MockError> {
         let vehicle = match vehicle {
             Some(v) => *v,
-            None => crate::physics::builtin::vehicle().map_err(|e| e.to_string())?,
+            None => crate::physics::builtin::vehicle()?,
         };
         let handle =
-            MockAutopilot::spawn_with_vehicle("udpin:127.0.0.1:0", config, vehicle.clone())
-                .await
-                .map_err(|e| e.to_string())?;
+            MockAutopilot::spawn_with_vehicle("udpin:127.0.0.1:0", config, vehicle.clone()).await?;
         Ok(BuiltinMock {
             addr: handle.local_addr(),
             handle: Some(handle),
@@ -291,7 +301,7 @@ impl BuiltinMock {
     }
 
     /// Stops the mock and starts it again at `home`, on the same port.
-    async fn move_home(&mut self, home: Geodetic) -> Result<(), String> {
+    async fn move_home(&mut self, home: Geodetic) -> Result<(), MockError> {
         let Some(mut flight) = self.config.flight else {
             return Ok(());
         };
@@ -305,8 +315,7 @@ impl BuiltinMock {
             self.config,
             self.vehicle.clone(),
         )
-        .await
-        .map_err(|e| e.to_string())?;
+        .await?;
         self.handle = Some(handle);
         Ok(())
     }
@@ -326,23 +335,6 @@ fn same_home(a: Geodetic, b: Geodetic) -> bool {
     };
     let d = origin.to_enu(b);
     d.x_east_m.hypot(d.y_north_m) < 0.5 && d.z_up_m.abs() < 0.1
-}
-
-/// Whether two flight plans fly the same points (same items, positions within 0.5 m, holds
-/// within 1 s: ArduPilot keeps whole seconds), whatever their names and predictions.
-pub fn same_flight(a: &FlightPlan, b: &FlightPlan) -> bool {
-    a.takeoff_seq == b.takeoff_seq
-        && a.land_seq == b.land_seq
-        && (a.origin_height_m - b.origin_height_m).abs() < 0.5
-        && a.points.len() == b.points.len()
-        && a.points.iter().zip(&b.points).all(|(p, q)| {
-            p.seq == q.seq
-                && (p.hold_s - q.hold_s).abs() < 1.0
-                && (p.enu.x_east_m - q.enu.x_east_m)
-                    .hypot(p.enu.y_north_m - q.enu.y_north_m)
-                    .hypot(p.enu.z_up_m - q.enu.z_up_m)
-                    < 0.5
-        })
 }
 
 /// Answers a command that cannot be served now.
@@ -366,14 +358,13 @@ async fn run(
     mut commands: mpsc::Receiver<Command>,
     status: watch::Sender<LinkStatus>,
 ) {
-    let (url, signing, mock) = match cfg.link.clone() {
-        VehicleLink::Connect { url, signing_key } => {
-            (url, signing_key.map(crate::link::signing_config), None)
-        }
+    let (url, signing_key, mock) = match cfg.link.clone() {
+        VehicleLink::Connect { url, signing_key } => (url, signing_key, None),
         VehicleLink::Mock { config, vehicle } => match BuiltinMock::spawn(*config, vehicle).await {
             Ok(mock) => (format!("udpout:{}", mock.addr), None, Some(mock)),
             Err(e) => {
                 tracing::error!("the built-in mock autopilot did not start: {e}");
+                let e = e.to_string();
                 status.send_modify(|s| s.error = Some(e.clone()));
                 loop {
                     tokio::select! {
@@ -387,25 +378,25 @@ async fn run(
             }
         },
     };
-    // Connect until it works (a serial device plugged in later, a TCP port opened later).
-    let link = loop {
-        tokio::select! {
-            _ = stop.changed() => {
-                if let Some(mock) = mock { mock.shutdown().await; }
-                return;
-            }
-            command = commands.recv() => match command {
-                Some(c) => refuse(c, Refusal::new(503, "connect", &format!("not connected to {url} yet"))),
-                None => return,
-            },
-            opened = Link::connect_within(&url, Identity::default(), signing.clone(), Duration::from_secs(2)) => match opened {
-                Ok(link) => break link,
-                Err(e) => {
-                    tracing::warn!("{e}; trying again");
-                    status.send_modify(|s| s.error = Some(e.to_string()));
-                    tokio::time::sleep(Duration::from_secs(1)).await;
+    // The session connects until it works; commands meanwhile are refused.
+    let link = {
+        let connecting = session::connect_until_open(&url, signing_key, |e| {
+            tracing::warn!("{e}; trying again");
+            status.send_modify(|s| s.error = Some(e.to_string()));
+        });
+        tokio::pin!(connecting);
+        loop {
+            tokio::select! {
+                _ = stop.changed() => {
+                    if let Some(mock) = mock { mock.shutdown().await; }
+                    return;
                 }
-            },
+                command = commands.recv() => match command {
+                    Some(c) => refuse(c, Refusal::new(503, "connect", &format!("not connected to {url} yet"))),
+                    None => return,
+                },
+                link = &mut connecting => break link,
+            }
         }
     };
     tracing::info!("link open on {url}");
@@ -554,13 +545,7 @@ impl Actor {
     }
 
     fn transfer_config(&self, target: &Autopilot) -> TransferConfig {
-        TransferConfig {
-            target_system: target.system_id,
-            target_component: target.component_id,
-            flavour: target.flavour,
-            timing: Default::default(),
-            budget: self.transfer_budget,
-        }
+        session::transfer_config(target, self.transfer_budget)
     }
 
     /// Follows the heartbeat: the autopilot is found, lost, back.
@@ -692,19 +677,11 @@ impl Actor {
             &self.link,
             &target,
             self.transfer_config(&target),
-            &self.recorder,
+            Some(&self.recorder),
             &load,
             |params| {
-                if let Some(check) = params.filter(|c| !c.differences.is_empty()) {
-                    tracing::warn!(
-                        "PX4 holds other trajectory parameters than the vehicle file ({}): the flight is measured against its legs simulated with them",
-                        check
-                            .differences
-                            .iter()
-                            .map(|d| format!("{} {} for {}", d.name, d.autopilot_value, d.file_value))
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    );
+                if let Some(warning) = params.and_then(ParamCheck::warning) {
+                    tracing::warn!("{warning}");
                 }
             },
             |_, _| {},
@@ -762,29 +739,35 @@ impl Actor {
         serde_json::to_value(answer).map_err(|e| Refusal::new(500, "service", &e.to_string()))
     }
 
-    /// `origin: "vehicle"`: `job`'s mission re-planned from `target`'s home, as `job` was
-    /// planned (its choice, its solver).
+    /// `origin: "vehicle"`: `job`'s mission re-planned from `target`'s home by the session, as
+    /// `job` was planned (its choice, its solver), off the vehicle's thread.
     async fn replan_from_vehicle(
         &self,
         job: &mut UploadJob,
         target: &Autopilot,
     ) -> Result<(), Refusal> {
-        let located = session::vehicle_home(&self.link, target)
-            .await
-            .map_err(|e| Refusal::new(502, e.stage(), &e.to_string()))?;
-        let mission = crate::mission::rehome::rehomed(&job.mission, located.home);
-        tracing::info!(
-            "origin moved to the vehicle's home, {:.0} m from the mission's",
-            HomeOffset::of(&job.mission, located.home).horizontal_m
-        );
         let (model, choice, solver) = (self.model.clone(), job.choice, job.solver);
-        let planning = mission.clone();
-        let plan = tokio::task::spawn_blocking(move || choice.plan(&planning, &model, solver))
+        let replanned =
+            session::replan_from_vehicle(&self.link, target, &job.mission, |mission, moved| {
+                tracing::info!(
+                    "origin moved to the vehicle's home, {:.0} m from the mission's",
+                    moved.offset.horizontal_m
+                );
+                let planning = mission.clone();
+                async move {
+                    tokio::task::spawn_blocking(move || choice.plan(&planning, &model, solver))
+                        .await
+                        .map_err(|e| Refusal::new(500, "plan", &format!("planning stopped: {e}")))?
+                        .map_err(|e| Refusal::new(422, "plan", &e.to_string()))
+                }
+            })
             .await
-            .map_err(|e| Refusal::new(500, "plan", &format!("planning stopped: {e}")))?
-            .map_err(|e| Refusal::new(422, "plan", &e.to_string()))?;
-        job.mission = Arc::new(mission);
-        job.plan = Arc::new(plan);
+            .map_err(|e| match e {
+                session::ReplanError::Home(e) => Refusal::new(502, e.stage(), &e.to_string()),
+                session::ReplanError::Plan(refusal) => refusal,
+            })?;
+        job.mission = Arc::new(replanned.mission);
+        job.plan = Arc::new(replanned.plan);
         Ok(())
     }
 
@@ -874,32 +857,33 @@ impl Actor {
         target: Autopilot,
         span: &tracing::Span,
     ) -> Result<(), Refusal> {
-        // Subscribed before arming: the flight the arming opens is seen.
-        let flights = self.recorder.subscribe();
-        let mut start = Start::new(target, StartConfig::default());
-        let driven = drive(&self.link, &target, &mut start)
-            .instrument(span.clone())
-            .await;
-        match (driven, start.finished()) {
-            (Err(e), _) => Err(Refusal::new(502, "start", &e.to_string())),
-            (Ok(()), Some(Err(e))) => {
+        let started =
+            session::arm_and_start(&self.link, &target, StartConfig::default(), &self.recorder)
+                .instrument(span.clone())
+                .await;
+        match started {
+            Ok(()) => {
+                self.started = Some((Instant::now(), true));
+                Ok(())
+            }
+            // The flight folder a refused start opened is removed on its own task (when it
+            // was): the actor goes on serving.
+            Err(session::StartFailed {
+                error: FlyError::Start(e),
+                ..
+            }) => {
                 // The autopilot did not take it: what it holds is read back next time.
                 self.mission_verified = false;
                 if let Some(disarmed) = e.disarmed() {
                     self.started = Some((Instant::now(), !disarmed));
-                    if disarmed {
-                        tokio::spawn(
-                            discard_unflown(flights, DISCARD_OPENED_WITHIN, DISCARD_ENDED_WITHIN)
-                                .instrument(span.clone()),
-                        );
-                    }
                 }
-                Err(start_refusal(e))
+                Err(start_refusal(&e))
             }
-            (Ok(()), _) => {
-                self.started = Some((Instant::now(), true));
-                Ok(())
-            }
+            Err(session::StartFailed {
+                error: FlyError::Link(e),
+                ..
+            }) => Err(Refusal::new(502, "start", &e.to_string())),
+            Err(other) => Err(Refusal::new(502, "start", &other.error.to_string())),
         }
     }
 
@@ -917,16 +901,16 @@ impl Actor {
         };
         let catalog = self.catalog.borrow().clone();
         let missions: Vec<&Mission> = catalog.missions().collect();
-        match held_flight_plan(
+        match session::held_flight_plan(
             &self.link,
             &target,
             self.transfer_config(&target),
-            &missions,
+            Known::Among(&missions),
             &self.model,
         )
         .await
         {
-            Ok(held) => match current.filter(|c| same_flight(c, &held)) {
+            Ok(held) => match current.filter(|c| session::same_flight(c, &held)) {
                 // Named after the upload: missions sharing a home read back alike.
                 Some(current) => {
                     tracing::info!(
@@ -948,12 +932,6 @@ impl Actor {
     }
 }
 
-/// How long after a start refused once armed the flight its arming opened may take to appear
-/// (the recorder opens it at the first heartbeat showing the vehicle armed: PX4 and ArduPilot
-/// send one a second), and to end once it has (the recorder's tail after the disarm).
-const DISCARD_OPENED_WITHIN: Duration = Duration::from_secs(3);
-const DISCARD_ENDED_WITHIN: Duration = Duration::from_secs(10);
-
 /// The refusal of a start the autopilot did not take: its answer in `result`.
 fn start_refusal(e: &StartError) -> Refusal {
     let mut refusal = Refusal::new(502, "start", &e.to_string());
@@ -969,98 +947,4 @@ fn mission_len(items: &[MISSION_ITEM_INT_DATA], flavour: Flavour) -> usize {
         .iter()
         .filter(|i| !(flavour == Flavour::ArduPilot && i.seq == 0))
         .count()
-}
-
-/// Which of `missions` the flight `items` (taking off at `takeoff`) is: of those whose home is
-/// the take-off point (within 2 m), the one whose waypoints are the most of its points (within
-/// 1 m), then the one with the fewest waypoints besides (several missions of a field share its
-/// home); with the flight read at that mission's home altitude.
-fn mission_of<'m>(
-    items: &[MISSION_ITEM_INT_DATA],
-    flavour: Flavour,
-    takeoff: Geodetic,
-    missions: &[&'m Mission],
-) -> Option<(&'m Mission, FlightItems)> {
-    let near = |a: &crate::mission::Enu, b: &crate::mission::Enu| {
-        (a.x_east_m - b.x_east_m)
-            .hypot(a.y_north_m - b.y_north_m)
-            .hypot(a.z_up_m - b.z_up_m)
-            < 1.0
-    };
-    missions
-        .iter()
-        .filter_map(|&m| {
-            if HomeOffset::of(m, takeoff).horizontal_m >= 2.0 {
-                return None;
-            }
-            // The home altitude is the mission's when the autopilot keeps no home item.
-            let read = read_flight(items, flavour, m.origin.home.alt_m).ok()?;
-            let named = read
-                .points
-                .iter()
-                .filter(|(_, enu, _)| m.waypoints.iter().any(|w| near(&w.position, enu)))
-                .count();
-            let others = m.waypoints.len().saturating_sub(named);
-            Some(((std::cmp::Reverse(named), others), m, read))
-        })
-        // The first of the best.
-        .min_by_key(|(score, _, _)| *score)
-        .map(|(_, m, read)| (m, read))
-}
-
-/// What a vehicle flies when someone else uploaded it (a pilot with QGroundControl): its
-/// mission read back now, as a FlightPlan named after the one of `missions` it is
-/// ([`mission_of`]), whose waypoints name the points ("flight" and "item N" when none is);
-/// legs priced with `model`.
-async fn held_flight_plan(
-    link: &Link,
-    target: &Autopilot,
-    cfg: TransferConfig,
-    missions: &[&Mission],
-    model: &VehicleModel,
-) -> Result<FlightPlan, String> {
-    let items = download(link, target, cfg)
-        .await
-        .map_err(|e| format!("reading the vehicle's mission failed: {e}"))?;
-    let unmeasurable = |e: String| format!("the vehicle's mission cannot be measured: {e}");
-    let read = read_flight(&items, target.flavour, 0.0).map_err(|e| unmeasurable(e.to_string()))?;
-    let (mission, read) = match mission_of(&items, target.flavour, read.home, missions) {
-        Some((m, read)) => (Some(m), read),
-        None => (None, read),
-    };
-    let name = mission.map_or("flight", |m| m.name.as_str());
-    plan_from_items(name, &read, mission, Some(model)).map_err(|e| unmeasurable(e.to_string()))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::link::items::{mission_items, ItemOptions};
-
-    fn sample(file: &str) -> Mission {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("missions")
-            .join(file);
-        crate::mission::load(&path).expect("a shipped mission")
-    }
-
-    fn read_back(mission: &Mission) -> Vec<MISSION_ITEM_INT_DATA> {
-        let order: Vec<usize> = (0..mission.waypoints.len()).collect();
-        mission_items(mission, &order, &ItemOptions::default()).expect("items")
-    }
-
-    #[test]
-    fn a_flight_read_back_is_named_after_the_mission_it_is_among_several_of_the_same_home() {
-        let three = sample("paper-sample-3wp.toml");
-        let eight = sample("paper-sample-8wp.toml");
-        assert!(same_home(three.origin.home, eight.origin.home));
-        let missions = [&three, &eight];
-        for (flown, name) in [(&eight, "paper-sample-8wp"), (&three, "paper-sample-3wp")] {
-            let items = read_back(flown);
-            let read = read_flight(&items, Flavour::Px4, 0.0).expect("reads");
-            let (m, read) = mission_of(&items, Flavour::Px4, read.home, &missions).expect("found");
-            assert_eq!(m.name, name);
-            assert_eq!(read.points.len(), flown.waypoints.len() + 1);
-        }
-    }
 }

@@ -12,6 +12,7 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use tokio::sync::broadcast::{self, error::RecvError};
+use tracing::Instrument;
 
 use super::home::{check_home, IfHomeUnknown, PreflightError};
 use super::params::Px4Parameters;
@@ -19,7 +20,7 @@ use super::params::{check_ardupilot_params, check_px4_params, ParamCheck, ParamS
 use super::predict::{
     flight_plan, flight_plan_predicted, predicted_by_simulation, repriced, with_fast_waypoints,
 };
-use super::recorder::{FlightEvent, RecorderHandle, Repricer};
+use super::recorder::{FlightEvent, RecorderHandle, RepriceError, Repricer};
 use crate::flightlog::flight_plan::{FlightPlan, Repricing};
 use crate::flightlog::report::{FlightReport, ReportJson};
 use crate::flightlog::watch::{NoteKind, Policy};
@@ -102,13 +103,14 @@ pub struct Loaded {
 /// flying the px4 profile, reads its trajectory parameters and prices the legs with them when
 /// they differ from the vehicle file's (`checked` sees the outcome before anything is sent),
 /// builds the items, uploads them and proves they arrived by reading them back, then hands the
-/// recorder the flight plan to measure the next flight against.
+/// recorder (when there is one: `emplan upload` records nothing) the flight plan to measure the
+/// next flight against.
 #[allow(clippy::too_many_arguments)]
 pub async fn load(
     link: &Link,
     target: &Autopilot,
     transfer: TransferConfig,
-    recorder: &RecorderHandle,
+    recorder: Option<&RecorderHandle>,
     load: &Load<'_>,
     checked: impl FnOnce(Option<&ParamCheck>),
     progress: impl FnMut(usize, usize),
@@ -123,17 +125,7 @@ pub async fn load(
     };
     checked(params.as_ref());
     let (mission, plan, flight) = (load.mission, load.plan, load.flight);
-    let items_opts = ItemOptions {
-        flavour: target.flavour,
-        acceptance_radius_m: load.acceptance_radius_m,
-        vehicle_speed_m_s: Some(
-            load.vehicle
-                .cruise_speed_m_s(target.flavour == Flavour::ArduPilot),
-        ),
-        ..ItemOptions::default()
-    };
-    let items =
-        mission_items(mission, &flight.waypoints(), &items_opts).map_err(FlyError::Items)?;
+    let items = items(target.flavour, load)?;
     let priced_with = params
         .as_ref()
         .filter(|c| !c.differences.is_empty())
@@ -201,8 +193,9 @@ pub async fn load(
         measured_against.guard = Some(setup);
     }
     let upload = upload_verified(link, target, &items, transfer, progress).await?;
-    match load.live_wind {
-        Some(model) => {
+    match (recorder, load.live_wind) {
+        (None, _) => {}
+        (Some(recorder), Some(model)) => {
             let model = VehicleModel {
                 vehicle: priced_with.unwrap_or(load.vehicle).clone(),
                 ..model.clone()
@@ -210,7 +203,7 @@ pub async fn load(
             let repricer = repricer(model, target.flavour, return_alt_m);
             recorder.set_plan_repriced(measured_against.clone(), repricer);
         }
-        None => recorder.set_plan(measured_against.clone()),
+        (Some(recorder), None) => recorder.set_plan(measured_against.clone()),
     }
     Ok(Loaded {
         upload,
@@ -221,6 +214,18 @@ pub async fn load(
     })
 }
 
+/// The items `load` sends to an autopilot of `flavour`: its waypoints in the flight's order
+/// with their actions, each accepted within the load's radius, at the vehicle's cruise speed.
+pub fn items(flavour: Flavour, load: &Load<'_>) -> Result<Vec<MISSION_ITEM_INT_DATA>, FlyError> {
+    let options = ItemOptions {
+        flavour,
+        acceptance_radius_m: load.acceptance_radius_m,
+        vehicle_speed_m_s: Some(load.vehicle.cruise_speed_m_s(flavour == Flavour::ArduPilot)),
+        ..ItemOptions::default()
+    };
+    mission_items(load.mission, &load.flight.waypoints(), &options).map_err(FlyError::Items)
+}
+
 /// Prices the rest of a flight again in a wind heard in flight, as `load` priced it before it
 /// flew: every leg after the one before it on its heading (ArduCopter's fast waypoints as its
 /// chain), the settles, the hovers and the landing in that wind, and the guard's return from
@@ -228,7 +233,7 @@ pub async fn load(
 fn repricer(model: VehicleModel, flavour: Flavour, return_alt_m: Option<f64>) -> Repricer {
     Box::new(move |plan: &FlightPlan, wind: Wind, from_point: usize| {
         let model = model.clone().with_wind(wind);
-        let predicted = repriced(plan, &model).map_err(|e| e.to_string())?;
+        let predicted = repriced(plan, &model)?;
         let home_j = match (&plan.guard, return_alt_m) {
             (Some(guard), Some(alt_m)) => {
                 super::guard::setup(
@@ -240,7 +245,7 @@ fn repricer(model: VehicleModel, flavour: Flavour, return_alt_m: Option<f64>) ->
                     alt_m,
                     wind,
                 )
-                .map_err(|e| format!("the guard's return prices: {e}"))?
+                .map_err(RepriceError::Guard)?
                 .home_j
             }
             _ => Vec::new(),
@@ -383,19 +388,24 @@ pub async fn fly(
 ) -> Result<Flown, FlyError> {
     // The rates first: at its defaults PX4 sends BATTERY_STATUS every 2 s.
     request_streams(link, target).await?;
-    let Loaded { upload, params, .. } =
-        load(link, target, transfer, recorder, flight, checked, |_, _| {}).await?;
+    let Loaded { upload, params, .. } = load(
+        link,
+        target,
+        transfer,
+        Some(recorder),
+        flight,
+        checked,
+        |_, _| {},
+    )
+    .await?;
     let mut events = recorder.subscribe();
     let flying = async {
         if opts.arm {
-            let mut start = Start::new(*target, opts.start);
-            let opened = recorder.subscribe();
-            drive(link, target, &mut start).await?;
-            if let Some(Err(e)) = start.finished() {
-                if e.disarmed() == Some(true) {
-                    discard_unflown(opened, DISCARD_OPENED_WITHIN, DISCARD_ENDED_WITHIN).await;
+            if let Err(refused) = arm_and_start(link, target, opts.start, recorder).await {
+                if let Some(discarding) = refused.discarding {
+                    let _ = discarding.await;
                 }
-                return Err(FlyError::Start(e.clone()));
+                return Err(refused.error);
             }
         }
         let mut dir = None;
@@ -533,11 +543,66 @@ impl FlyFailure {
     }
 }
 
-/// How long [`fly`] waits, after a refused start it disarmed, for the flight its arming opened
-/// (the recorder opens it at the first heartbeat showing the vehicle armed, one a second) and
-/// for that flight to end (the recorder's tail after the disarm).
-const DISCARD_OPENED_WITHIN: Duration = Duration::from_secs(2);
-const DISCARD_ENDED_WITHIN: Duration = Duration::from_secs(5);
+/// How long [`arm_and_start`], after a refused start it disarmed, waits for the flight its
+/// arming opened: the recorder opens it at the first heartbeat showing the vehicle armed, and
+/// PX4 and ArduPilot send one a second. 3 s (the service's; `fly` had 2 s): one heartbeat lost
+/// on the radio must not leave the empty folder behind, and the longer wait costs only a
+/// failing `fly` up to a second more, when no flight opened at all.
+pub const DISCARD_OPENED_WITHIN: Duration = Duration::from_secs(3);
+/// How long [`arm_and_start`] then waits for that flight to end: the disarm's heartbeat (one
+/// a second) and the recorder's tail after it (half a second). 10 s (the service's; `fly` had
+/// 5 s): a slow or lossy radio delays the disarmed heartbeat, and the wait ends as soon as the
+/// flight does, so the margin costs nothing when the link is good.
+pub const DISCARD_ENDED_WITHIN: Duration = Duration::from_secs(10);
+
+/// A start that failed: why, and (when the autopilot had been armed and was disarmed again)
+/// the removal of the flight folder its arming opened, under way.
+#[derive(Debug)]
+pub struct StartFailed {
+    /// [`FlyError::Link`] when the exchange failed, [`FlyError::Start`] when the autopilot
+    /// refused.
+    pub error: FlyError,
+    /// [`discard_unflown`] running on its own task: awaited by a caller about to stop (the
+    /// CLI), left to run by one that stays (the service's actor).
+    pub discarding: Option<tokio::task::JoinHandle<Option<PathBuf>>>,
+}
+
+/// Arms the vehicle and starts the mission it holds (`link::flight::Start`: PX4 arm,
+/// MISSION_START; ArduPilot GUIDED, arm, AUTO, MISSION_START), the one way every caller does.
+/// A start refused after arming disarms at once, and the flight folder that arming opened on
+/// `recorder` is removed when nothing was flown in it ([`discard_unflown`], on a task of its
+/// own).
+pub async fn arm_and_start(
+    link: &Link,
+    target: &Autopilot,
+    config: StartConfig,
+    recorder: &RecorderHandle,
+) -> Result<(), StartFailed> {
+    // Subscribed before arming: the flight the arming opens is seen.
+    let opened = recorder.subscribe();
+    let mut start = Start::new(*target, config);
+    if let Err(e) = drive(link, target, &mut start).await {
+        return Err(StartFailed {
+            error: FlyError::Link(e),
+            discarding: None,
+        });
+    }
+    match start.finished() {
+        Some(Err(e)) => {
+            let discarding = (e.disarmed() == Some(true)).then(|| {
+                tokio::spawn(
+                    discard_unflown(opened, DISCARD_OPENED_WITHIN, DISCARD_ENDED_WITHIN)
+                        .in_current_span(),
+                )
+            });
+            Err(StartFailed {
+                error: FlyError::Start(e.clone()),
+                discarding,
+            })
+        }
+        _ => Ok(()),
+    }
+}
 
 /// After a start that failed once it had armed the vehicle, and disarmed it again: removes the
 /// flight folder that arming opened (the first flight `events`, subscribed before the start,

@@ -10,7 +10,8 @@ use crate::link::connection::{Autopilot, Link};
 use crate::link::locate::{HomeSource, LocateConfig, LocateError, Located};
 use crate::link::LinkError;
 use crate::mission::rehome::{HomeOffset, ORIGIN_TOLERANCE_M};
-use crate::mission::Mission;
+use crate::mission::{Geodetic, Mission};
+use crate::planner::Plan;
 
 /// Why a flight did not pass the check: found before anything was uploaded or armed.
 #[derive(Debug, thiserror::Error)]
@@ -118,6 +119,60 @@ pub async fn check_home(
     if_unknown: IfHomeUnknown,
 ) -> Result<Option<HomeOffset>, PreflightError> {
     check(mission, vehicle_home(link, target).await, if_unknown)
+}
+
+/// Where the vehicle's home is, against the mission's origin, when a flight is re-planned from
+/// it.
+#[derive(Debug, Clone, Copy)]
+pub struct Moved {
+    pub home: Geodetic,
+    pub offset: HomeOffset,
+}
+
+/// A mission re-planned from the vehicle's home.
+#[derive(Debug, Clone)]
+pub struct Replanned {
+    /// The mission re-expressed from the vehicle's home (`mission::rehome`).
+    pub mission: Mission,
+    pub plan: Plan,
+    pub moved: Moved,
+}
+
+/// Why a re-planning from the vehicle's home failed: where the vehicle is could not be
+/// learned, or the caller's planning failed (its own error).
+#[derive(Debug)]
+pub enum ReplanError<E> {
+    Home(PreflightError),
+    Plan(E),
+}
+
+/// `--origin vehicle`, the one way every caller does it: `target`'s home learned over `link`,
+/// `mission` re-expressed from it and planned again by `plan` (the caller's planner, as it plans:
+/// the CLI with its spinner, the service off its vehicle thread), which sees the mission moved
+/// and where to.
+pub async fn replan_from_vehicle<E, Fut>(
+    link: &Link,
+    target: &Autopilot,
+    mission: &Mission,
+    plan: impl FnOnce(&Mission, Moved) -> Fut,
+) -> Result<Replanned, ReplanError<E>>
+where
+    Fut: std::future::Future<Output = Result<Plan, E>>,
+{
+    let located = vehicle_home(link, target)
+        .await
+        .map_err(ReplanError::Home)?;
+    let moved = Moved {
+        home: located.home,
+        offset: HomeOffset::of(mission, located.home),
+    };
+    let mission = crate::mission::rehome::rehomed(mission, located.home);
+    let plan = plan(&mission, moved).await.map_err(ReplanError::Plan)?;
+    Ok(Replanned {
+        mission,
+        plan,
+        moved,
+    })
 }
 
 #[cfg(test)]

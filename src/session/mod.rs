@@ -1,11 +1,13 @@
 //! A live session with a vehicle over a link: the telemetry streams emplan asks for (asked again
 //! after every reconnect), the flight recorder that logs every flight from arming to disarming
 //! (one directory per flight: flight.tlog, samples.csv, plan.json, report.json), and the flight
-//! workflow: `open` (the built-in mock or a connection, the autopilot waited for), `fly`'s
-//! `load` (PX4 parameter check and re-pricing, verified upload, the recorder's plan) and `fly`
-//! (start, record, report, which failures count as accepted), used by `emplan upload`, `emplan
-//! fly` and the service's vehicle actor alike; `home`, the check before any upload that the
-//! vehicle stands at the mission's origin.
+//! workflow, the one flight path: `open` (the built-in mock or a connection, the autopilot
+//! waited for; the transfer settings), `fly`'s `load` (the autopilot's parameter check and
+//! re-pricing, verified upload, the recorder's plan), `arm_and_start` and `fly` (start, record,
+//! report, which failures count as accepted), used by `emplan upload`, `emplan fly` and the
+//! service's vehicle actor alike; `home`, the check before any upload that the vehicle stands
+//! at the mission's origin, and the re-planning from the vehicle's home; `held`, the mission a
+//! vehicle holds measured (`emplan record`, the service).
 //!
 //! This is the async glue above `link` (MAVLink, sans-IO machines), `flightlog` (files,
 //! segmentation, energy; no tokio) and `planner`: what is decided lives in those layers, so a
@@ -14,6 +16,7 @@
 
 pub mod fly;
 pub mod guard;
+pub mod held;
 pub mod home;
 pub mod onboard;
 pub mod open;
@@ -25,11 +28,18 @@ pub mod upload;
 
 pub use crate::link::commands::{keep_streams, request_streams};
 pub use fly::{
-    discard_unflown, fly, load, Flown, FlyError, FlyFailure, FlyJson, FlyOptions, Load, Loaded,
+    arm_and_start, discard_unflown, fly, load, Flown, FlyError, FlyFailure, FlyJson, FlyOptions,
+    Load, Loaded, StartFailed, DISCARD_ENDED_WITHIN, DISCARD_OPENED_WITHIN,
 };
-pub use home::{check_home, vehicle_home, IfHomeUnknown, PlanOrigin, PreflightError};
+pub use held::{held_flight_plan, same_flight, HeldError, Known};
+pub use home::{
+    check_home, replan_from_vehicle, vehicle_home, IfHomeUnknown, Moved, PlanOrigin,
+    PreflightError, ReplanError, Replanned,
+};
 pub use onboard::{replay_onboard, OnboardReplayError, PlanFrom};
-pub use open::{open, LinkOptions, MockFlight, OpenError, Session, Target, Uploaded};
+pub use open::{
+    connect_until_open, open, transfer_config, LinkOptions, MockFlight, OpenError, Session, Target,
+};
 pub use params::{
     check_ardupilot_params, check_px4_params, parse_param, ParamCheck, ParamSection, Px4Parameters,
 };
@@ -38,7 +48,7 @@ pub use predict::{
     repriced, with_fast_waypoints, FlightItemsError,
 };
 pub use recorder::{
-    flight_dirs, spawn_recorder, FlightEvent, Live, RecorderConfig, RecorderHandle,
+    flight_dirs, spawn_recorder, FlightEvent, Live, RecorderConfig, RecorderHandle, RepriceError,
 };
 pub use replay::{
     plan_for_tlog, replay, replay_priced, report_unfinished, resume_flight, FlightVisits,

@@ -1,22 +1,20 @@
 //! A session with one vehicle: [`open`] starts the built-in mock autopilot or connects to the
 //! URL given, waits for the autopilot within the discovery time and keeps what every exchange
-//! with it needs (the link, the autopilot found, the transfer settings). [`Session::upload`]
-//! puts a flight on the vehicle and proves it arrived; [`Session::fly`] flies it: the PX4
-//! parameter check and re-pricing, the verified upload, the start, the recorder's report
-//! ([`super::fly`]). `emplan upload` and `emplan fly` are this; the service's vehicle actor,
-//! which keeps its link all day, loads flights with the same [`super::load`].
+//! with it needs (the link, the autopilot found, the transfer settings: [`transfer_config`],
+//! the one place they are built). [`Session::load`] puts a flight on the vehicle (the home
+//! check, the autopilot's parameter check, the verified upload); [`Session::fly`] flies it:
+//! that load, the start, the recorder's report ([`super::fly`]). `emplan upload` and `emplan
+//! fly` are this; the service's vehicle actor, which keeps its link all day, opens it with
+//! [`connect_until_open`] and loads flights with the same [`super::load`].
 
 use std::time::Duration;
 
-use super::fly::{fly, Flown, FlyError, FlyOptions, Load};
+use super::fly::{fly, Flown, FlyError, FlyOptions, Load, Loaded};
 use super::params::ParamCheck;
 use super::recorder::{spawn_recorder, FlightEvent, RecorderConfig, RecorderHandle};
 use crate::link::connection::{Autopilot, Identity, Link};
-use crate::link::driver::{upload_verified, UploadReport};
-use crate::link::items::{mission_items, ItemOptions};
 use crate::link::mav::MISSION_ITEM_INT_DATA;
 use crate::link::transfer::TransferConfig;
-use crate::link::Flavour;
 use crate::link::LinkError;
 use crate::physics::Vehicle;
 use crate::sim::{MockAutopilot, MockConfig, MockHandle, SimError};
@@ -108,13 +106,7 @@ pub async fn open(target: Target, options: &LinkOptions) -> Result<Session, Open
     let signing = signing_key.map(crate::link::signing_config);
     let link = Link::connect_within(&url, Identity::default(), signing, options.discover).await?;
     let target = link.discover(options.discover).await?;
-    let transfer = TransferConfig {
-        target_system: target.system_id,
-        target_component: target.component_id,
-        flavour: target.flavour,
-        timing: Default::default(),
-        budget: options.transfer_budget,
-    };
+    let transfer = transfer_config(&target, options.transfer_budget);
     Ok(Session {
         link,
         target,
@@ -124,12 +116,42 @@ pub async fn open(target: Target, options: &LinkOptions) -> Result<Session, Open
     })
 }
 
-/// A flight uploaded and read back.
-#[derive(Debug, Clone)]
-pub struct Uploaded {
-    pub report: UploadReport,
-    /// The items sent, as the autopilot holds them.
-    pub items: Vec<MISSION_ITEM_INT_DATA>,
+/// The settings of every transfer with `target`: its ids and flavour, the default timing, and
+/// `budget` for the whole transfer (None: the default for its item count).
+pub fn transfer_config(target: &Autopilot, budget: Option<Duration>) -> TransferConfig {
+    TransferConfig {
+        target_system: target.system_id,
+        target_component: target.component_id,
+        flavour: target.flavour,
+        timing: Default::default(),
+        budget,
+    }
+}
+
+/// How long one attempt of [`connect_until_open`] may take, and the pause after a failed one.
+const CONNECT_ATTEMPT: Duration = Duration::from_secs(2);
+const CONNECT_PAUSE: Duration = Duration::from_secs(1);
+
+/// Opens the link to `url` and keeps trying until it opens (a serial device plugged in later,
+/// a TCP port opened later), telling `failed` of every failed attempt: the link of a process
+/// that holds it all day (`emplan serve`), which waits for the autopilot's heartbeat itself.
+/// Never returns an error; a caller that may stop selects on it.
+pub async fn connect_until_open(
+    url: &str,
+    signing_key: Option<[u8; 32]>,
+    mut failed: impl FnMut(&LinkError),
+) -> Link {
+    let signing = signing_key.map(crate::link::signing_config);
+    loop {
+        match Link::connect_within(url, Identity::default(), signing.clone(), CONNECT_ATTEMPT).await
+        {
+            Ok(link) => return link,
+            Err(e) => {
+                failed(&e);
+                tokio::time::sleep(CONNECT_PAUSE).await;
+            }
+        }
+    }
 }
 
 impl Session {
@@ -139,42 +161,32 @@ impl Session {
         self.mock.is_some()
     }
 
-    /// The items `load` sends to this autopilot.
+    /// The items `load` sends to this autopilot (see [`super::fly::items`]).
     pub fn items(&self, load: &Load<'_>) -> Result<Vec<MISSION_ITEM_INT_DATA>, FlyError> {
-        let options = ItemOptions {
-            flavour: self.target.flavour,
-            acceptance_radius_m: load.acceptance_radius_m,
-            vehicle_speed_m_s: Some(
-                load.vehicle
-                    .cruise_speed_m_s(self.target.flavour == Flavour::ArduPilot),
-            ),
-            ..ItemOptions::default()
-        };
-        mission_items(load.mission, &load.flight.waypoints(), &options).map_err(FlyError::Items)
+        super::fly::items(self.target.flavour, load)
     }
 
-    /// Checks that the vehicle stands at `load`'s mission origin (see [`super::home`]), before
-    /// [`Session::upload`].
-    pub async fn check_home(
+    /// Puts `load` onto the vehicle (see [`super::load`]: the home check, the autopilot's
+    /// parameter check, the verified upload), handing `recorder`, when there is one, what the
+    /// next flight is measured against; `checked` sees the parameter check before anything is
+    /// sent, `progress` the items sent (done, total).
+    pub async fn load(
         &self,
+        recorder: Option<&RecorderHandle>,
         load: &Load<'_>,
-    ) -> Result<Option<crate::mission::rehome::HomeOffset>, FlyError> {
-        Ok(
-            super::home::check_home(&self.link, &self.target, load.mission, load.if_home_unknown)
-                .await?,
-        )
-    }
-
-    /// Uploads `items` and proves they arrived by reading them back; `progress` sees the items
-    /// sent (done, total).
-    pub async fn upload(
-        &self,
-        items: Vec<MISSION_ITEM_INT_DATA>,
+        checked: impl FnOnce(Option<&ParamCheck>),
         progress: impl FnMut(usize, usize),
-    ) -> Result<Uploaded, FlyError> {
-        let report =
-            upload_verified(&self.link, &self.target, &items, self.transfer, progress).await?;
-        Ok(Uploaded { report, items })
+    ) -> Result<Loaded, FlyError> {
+        super::fly::load(
+            &self.link,
+            &self.target,
+            self.transfer,
+            recorder,
+            load,
+            checked,
+            progress,
+        )
+        .await
     }
 
     /// The flight recorder on this session's link (one directory per flight under

@@ -58,6 +58,23 @@ impl ParamCheck {
             .map(|(n, _)| n.as_str())
             .collect()
     }
+
+    /// The one-line warning of a log (the service's) when the autopilot holds other values than
+    /// the vehicle file, naming the autopilot and each parameter (None when none differs).
+    pub fn warning(&self) -> Option<String> {
+        if self.differences.is_empty() {
+            return None;
+        }
+        let differing: Vec<String> = (self.differences.iter())
+            .map(|d| format!("{} {} for {}", d.name, d.autopilot_value, d.file_value))
+            .collect();
+        Some(format!(
+            "{} holds other trajectory parameters than the vehicle file ({}): the flight is \
+             measured against its legs simulated with them",
+            self.section.autopilot(),
+            differing.join(", ")
+        ))
+    }
 }
 
 /// A parameter that differs, as `px4_parameters` lists it.
@@ -172,4 +189,60 @@ pub async fn check_ardupilot_params(
         differences,
         vehicle: flown,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn check(
+        section: ParamSection,
+        vehicle: &Vehicle,
+        read: Vec<(String, Option<f64>)>,
+    ) -> ParamCheck {
+        let differences = match section {
+            ParamSection::Px4 => vehicle.px4.differences(&read),
+            ParamSection::Ardupilot => vehicle.ardupilot.differences(&read),
+        };
+        ParamCheck {
+            section,
+            read,
+            differences,
+            vehicle: vehicle.clone(),
+        }
+    }
+
+    #[test]
+    fn the_warning_of_other_parameters_names_the_autopilot_that_holds_them() {
+        let vehicle = crate::physics::builtin::vehicle().expect("the built-in vehicle");
+        for (section, values) in [
+            (ParamSection::Px4, vehicle.px4.autopilot_values()),
+            (
+                ParamSection::Ardupilot,
+                vehicle.ardupilot.autopilot_values(),
+            ),
+        ] {
+            let (name, value) = values[0];
+            let same = vec![(name.to_string(), Some(value))];
+            assert_eq!(check(section, &vehicle, same).warning(), None);
+            let other = vec![(name.to_string(), Some(value + 1.0))];
+            let warning = check(section, &vehicle, other)
+                .warning()
+                .expect("a warning");
+            let autopilot = section.autopilot();
+            assert!(
+                warning.starts_with(&format!("{autopilot} holds other trajectory parameters")),
+                "{warning}"
+            );
+            assert!(
+                warning.contains(&format!("{name} {}", value + 1.0)),
+                "{warning}"
+            );
+            let wrong = match section {
+                ParamSection::Px4 => "ArduPilot",
+                ParamSection::Ardupilot => "PX4",
+            };
+            assert!(!warning.contains(wrong), "{warning}");
+        }
+    }
 }

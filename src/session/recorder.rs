@@ -103,7 +103,18 @@ pub enum FlightEvent {
 /// Prices the rest of a flight again in a wind heard in flight: the plan as priced so far, the
 /// vehicle's wind estimate and the first point whose leg has not begun (`fly --wind live`).
 /// Its `t_s` is the recorder's to set.
-pub type Repricer = Box<dyn Fn(&FlightPlan, Wind, usize) -> Result<Repricing, String> + Send>;
+pub type Repricer = Box<dyn Fn(&FlightPlan, Wind, usize) -> Result<Repricing, RepriceError> + Send>;
+
+/// Why the rest of a flight could not be priced again in the wind heard.
+#[derive(Debug, thiserror::Error)]
+pub enum RepriceError {
+    /// The legs, settles, hovers or landing in that wind.
+    #[error(transparent)]
+    Legs(#[from] super::predict::FlightItemsError),
+    /// The energy guard's way home from every point in that wind.
+    #[error("the guard's return prices: {0}")]
+    Guard(#[from] crate::physics::PhysicsError),
+}
 
 /// The latest battery sample.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]

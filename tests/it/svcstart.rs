@@ -9,6 +9,7 @@ use std::time::Duration;
 
 use emplan::link::transfer::{Command, Rto};
 use emplan::service::client::Answer;
+use emplan::service::wire::{Event, Failure};
 use emplan::service::{Client, Token, VehicleLink};
 use serde_json::json;
 
@@ -59,9 +60,13 @@ async fn a_start_with_no_mission_on_the_vehicle_is_refused_before_arming_and_an_
 
     let refused = start(client).await;
     assert_eq!(refused.status, 409, "{refused:?}");
-    assert_eq!(refused.body["stage"], "vehicle", "{refused:?}");
-    let error = refused.body["error"].as_str().expect("error");
-    assert!(error.contains("no mission on the vehicle"), "{error}");
+    let doc: Failure = serde_json::from_value(refused.body.clone()).expect("a failure document");
+    assert_eq!(doc.stage, "vehicle", "{refused:?}");
+    assert!(
+        doc.error.contains("no mission on the vehicle"),
+        "{}",
+        doc.error
+    );
     let vehicle = mock.vehicle().expect("the mock flies");
     assert_eq!(vehicle.arms, 0, "the mock was armed");
     assert!(!vehicle.armed);
@@ -106,9 +111,14 @@ async fn a_start_the_autopilot_denies_disarms_and_ends_at_once_naming_its_answer
 
     let denied = start(client).await;
     assert_eq!(denied.status, 502, "{denied:?}");
-    assert_eq!(denied.body["stage"], "start");
-    assert_eq!(denied.body["result"], "MAV_RESULT_DENIED", "{denied:?}");
-    let error = denied.body["error"].as_str().expect("error");
+    let doc: Failure = serde_json::from_value(denied.body.clone()).expect("a failure document");
+    assert_eq!(doc.stage, "start");
+    assert_eq!(
+        doc.result.as_deref(),
+        Some("MAV_RESULT_DENIED"),
+        "{denied:?}"
+    );
+    let error = doc.error.as_str();
     assert!(
         error.contains("mission start") && error.contains("No valid mission"),
         "{error}"
@@ -125,8 +135,8 @@ async fn a_start_the_autopilot_denies_disarms_and_ends_at_once_naming_its_answer
         .next_within(window.saturating_duration_since(tokio::time::Instant::now()))
         .await
     {
-        if event["type"] == "flight_started" {
-            dir = event["dir"].as_str().map(std::path::PathBuf::from);
+        if let Ok(Event::FlightStarted { dir: opened, .. }) = serde_json::from_value(event) {
+            dir = Some(opened);
             wait_for(&mut events, 20, is("flight_ended")).await;
             break;
         }

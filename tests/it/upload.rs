@@ -673,3 +673,94 @@ fn a_failed_upload_with_json_prints_one_document_naming_stage_acceptance_and_ite
         (&serde_json::json!("connect"), &serde_json::json!(false))
     );
 }
+
+/// Runs `emplan upload` (text) of the 3-waypoint sample, with `extra` arguments, to a mock of
+/// `flavour` standing at its origin whose autopilot holds `held` (NAME, value) instead of the
+/// built-in vehicle file's trajectory parameters; returns (success, stderr).
+fn upload_to_a_mock_holding(
+    flavour: Flavour,
+    held: &[(&str, f64)],
+    extra: &[&str],
+) -> (bool, String) {
+    let mission = emplan::mission::load(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("missions/paper-sample-3wp.toml"),
+    )
+    .unwrap();
+    let home = mission.origin.home;
+    let held: Vec<(String, f64)> = held.iter().map(|(n, v)| (n.to_string(), *v)).collect();
+    let mut vehicle = emplan::physics::builtin::vehicle().unwrap();
+    vehicle.px4 = vehicle.px4.with_autopilot_values(&held);
+    vehicle.ardupilot = vehicle.ardupilot.with_autopilot_values(&held);
+    let config = MockConfig {
+        flavour,
+        boot: Duration::ZERO,
+        home: emplan::sim::storage::Home {
+            lat_e7: emplan::link::items::deg_e7(home.lat_deg),
+            lon_e7: emplan::link::items::deg_e7(home.lon_deg),
+            alt_m: home.alt_m as f32,
+        },
+        // Standing at its home: its parameter server answers.
+        flight: Some(emplan::sim::FlightConfig {
+            home,
+            ..emplan::sim::FlightConfig::default()
+        }),
+        ..MockConfig::default()
+    };
+    let runtime = tokio::runtime::Runtime::new().unwrap();
+    let mock = runtime
+        .block_on(MockAutopilot::spawn_with_vehicle(
+            "udpin:127.0.0.1:0",
+            config,
+            vehicle,
+        ))
+        .unwrap();
+    let url = format!("udpout:{}", mock.local_addr());
+    let mut args = vec![
+        "upload",
+        "missions/paper-sample-3wp.toml",
+        "--connect",
+        url.as_str(),
+    ];
+    args.extend_from_slice(extra);
+    let (ok, _, stderr) = crate::emplan(&args);
+    runtime.block_on(mock.shutdown()).unwrap();
+    (ok, stderr)
+}
+
+#[test]
+fn upload_warns_of_a_px4_holding_other_trajectory_parameters_by_name_as_fly_does() {
+    let (ok, stderr) = upload_to_a_mock_holding(
+        Flavour::Px4,
+        &[("MPC_XY_CRUISE", 8.0), ("MPC_ACC_HOR", 2.0)],
+        &[],
+    );
+    assert!(ok, "{stderr}");
+    for (name, value) in [("MPC_XY_CRUISE", 8), ("MPC_ACC_HOR", 2)] {
+        assert!(
+            stderr.contains(&format!("warning: PX4 parameter {name} is {value}")),
+            "{stderr}"
+        );
+    }
+    // A PX4 at the vehicle file's values is not warned of.
+    let (ok, stderr) = upload_to_a_mock_holding(Flavour::Px4, &[], &[]);
+    assert!(ok, "{stderr}");
+    assert!(!stderr.contains("parameter"), "{stderr}");
+}
+
+#[test]
+fn upload_warns_of_an_ardupilot_holding_other_navigation_parameters_naming_ardupilot() {
+    let file = emplan::physics::builtin::vehicle().unwrap();
+    let (name, value) = file.ardupilot.autopilot_values()[0];
+    let held = value + 2.0;
+    let (ok, stderr) = upload_to_a_mock_holding(
+        Flavour::ArduPilot,
+        &[(name, held)],
+        &["--profile", "ardupilot"],
+    );
+    assert!(ok, "{stderr}");
+    assert!(
+        stderr.contains(&format!("warning: ArduPilot parameter {name} is {held}")),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("PX4"), "{stderr}");
+}
