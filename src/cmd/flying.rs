@@ -368,7 +368,10 @@ pub fn shell_word(word: &str) -> String {
 
 /// The battery at landing against the reserve: the pack as the energy guard measured it when
 /// the flight was guarded, else the vehicle file's, full at take-off.
-fn battery_line(report: &FlightReport, battery: &emplan::physics::budget::BatteryCheck) -> Option<String> {
+fn battery_line(
+    report: &FlightReport,
+    battery: &emplan::physics::budget::BatteryCheck,
+) -> Option<String> {
     let drawn_j = report.measured_j?;
     let share = battery.reserve_pct / 100.0;
     if share >= 1.0 {
@@ -389,7 +392,11 @@ fn battery_line(report: &FlightReport, battery: &emplan::physics::budget::Batter
     };
     let reserve_j = pack_j * scale * share;
     let left_j = pack_j * scale * soc - drawn_j;
-    let verdict = if left_j >= reserve_j { "kept" } else { "NOT kept" };
+    let verdict = if left_j >= reserve_j {
+        "kept"
+    } else {
+        "NOT kept"
+    };
     Some(format!(
         "battery: {:.1} kJ drawn, {:.1} kJ left at landing against the {:.1} kJ reserve: reserve {verdict} ({whose})",
         drawn_j / 1e3,
@@ -423,7 +430,10 @@ pub fn print(
             let log_dir = if after.log_dir == std::path::Path::new("flights") {
                 String::new()
             } else {
-                format!(" --log-dir {}", shell_word(&after.log_dir.to_string_lossy()))
+                format!(
+                    " --log-dir {}",
+                    shell_word(&after.log_dir.to_string_lossy())
+                )
             };
             println!(
                 "next: after a battery swap, fly the {} waypoint{} left with: emplan fly {} --resume {dir}{log_dir}",

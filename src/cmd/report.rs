@@ -8,9 +8,9 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::Context;
+use emplan::flightlog::energy::Flag;
 use emplan::flightlog::flight_plan::{FlightPlan, ORIGIN_NAME};
 use emplan::flightlog::replay::Analysis;
-use emplan::flightlog::energy::Flag;
 use emplan::flightlog::report::{combine, joined, FlightReport, PartReport};
 use emplan::flightlog::resume::{CombinedMissionsJson, FlownMission};
 use emplan::flightlog::segment::{SegmentConfig, SegmentKind};
@@ -101,7 +101,11 @@ pub fn print(report: &FlightReport) {
     let kj = |j: Option<f64>| j.map_or("-".to_string(), |j| format!("{:.3}", j / 1000.0));
     let line = |cells: [String; 5], f: String| {
         let [name, predicted, measured, error, time_s] = cells;
-        let f = if flagged { format!("  {f}") } else { String::new() };
+        let f = if flagged {
+            format!("  {f}")
+        } else {
+            String::new()
+        };
         println!("{name:<26} {predicted:>12} {measured:>12} {error:>8} {time_s:>8}{f}");
     };
     let header = ["part", "predicted_kj", "measured_kj", "error", "time_s"];
@@ -134,7 +138,13 @@ pub fn print(report: &FlightReport) {
         .total_error_pct()
         .map_or("-".into(), |e| format!("{e:+.1}%"));
     let time_s = format!("{:.1}", report.duration_s);
-    let total = ["total".into(), kj(report.predicted_j), kj(report.measured_j), error, time_s];
+    let total = [
+        "total".into(),
+        kj(report.predicted_j),
+        kj(report.measured_j),
+        error,
+        time_s,
+    ];
     line(total, String::new());
     legend(report, at_points.len(), flagged);
     // The photos the autopilot reported: one line per point with photos, one per photo apart.
@@ -165,7 +175,10 @@ fn legend(report: &FlightReport, points: usize, flagged: bool) {
         );
     }
     if flagged {
-        let mut seen: Vec<Flag> = report.parts().flat_map(|p| p.flags.iter().copied()).collect();
+        let mut seen: Vec<Flag> = report
+            .parts()
+            .flat_map(|p| p.flags.iter().copied())
+            .collect();
         seen.sort();
         seen.dedup();
         let said: Vec<String> = (seen.iter())
@@ -177,7 +190,11 @@ fn legend(report: &FlightReport, points: usize, flagged: bool) {
         println!(
             "mission incomplete: {} waypoint{} left: {}",
             report.waypoints_left.len(),
-            if report.waypoints_left.len() == 1 { "" } else { "s" },
+            if report.waypoints_left.len() == 1 {
+                ""
+            } else {
+                "s"
+            },
             report.waypoints_left.join(", ")
         );
     }

@@ -6,6 +6,10 @@
 //! `{"flight", "legs": [{"from", "to", "predicted_kj", "measured_kj", "error_pct", "duration_s",
 //! "flags"}], "hovers": [..], "total": {"predicted_kj", "measured_kj"}}` plus take-off, landing,
 //! settles, times, coverage and the spans of a replayed .tlog skipped as corrupt (`log_gaps`).
+//! Which waypoints a flight visited ([`visits`]) is decided here, once: a report names the ones
+//! left (`waypoints_left`) and `flightlog::resume` flies them. When the energy guard sent the
+//! vehicle home, the way home and its landing are one part (`return_home`), priced as the guard
+//! priced it when it decided.
 
 use std::collections::BTreeMap;
 

@@ -22,8 +22,8 @@
 use serde::{Deserialize, Serialize};
 
 use super::flight_plan::FlightPlan;
-pub use super::report::{visits, PointVisit, Visit};
 use super::report::{plan_waypoints as waypoints, CombinedJson, FlightReport};
+pub use super::report::{visits, PointVisit, Visit};
 use crate::mission::rehome::{HomeOffset, ORIGIN_TOLERANCE_M};
 use crate::mission::{Enu, Geodetic, Mission};
 
