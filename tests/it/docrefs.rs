@@ -24,9 +24,7 @@ fn quoted_refs(text: &str) -> Vec<(String, String)> {
     // Odd pieces are inside quotes.
     for k in (1..quoted.len()).step_by(2) {
         let (before, name, after) = (quoted[k - 1], quoted[k], quoted.get(k + 1).unwrap_or(&""));
-        let context = if after.starts_with(" below") {
-            Some("below")
-        } else if before.ends_with("below, ") {
+        let context = if after.starts_with(" below") || before.ends_with("below, ") {
             Some("below")
         } else if before.ends_with("README ") {
             Some("README")
