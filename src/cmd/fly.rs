@@ -88,6 +88,11 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
             .planned_at(&session, mission, planned, &model, args.json)
             .await?;
         let flight = args.flight.flight(&plan)?;
+        let order = if args.json {
+            None
+        } else {
+            Some(order_flown(&args.flight, &mission, &model, &plan)?)
+        };
         let load = Load {
             guard: args.guard.unwrap_or_default(),
             resumes: resumed.as_ref().map(|(name, _)| name.as_str()),
@@ -113,8 +118,76 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
         lines.stop(ticker);
         recorder.close().await;
         let (report, doc) = result?.reported()?;
-        flying::print(&report, &doc, args.json)
+        let after = flying::After {
+            order,
+            battery: Some(flight.battery),
+            mission: &args.mission,
+            log_dir: &args.log_dir,
+        };
+        flying::print(&report, &doc, args.json, &after)
     })
+}
+
+/// The order flown in a sentence: which, and (the energy order) what the plan predicts it
+/// saves against the distance order, priced by the same vehicle.
+fn order_flown(
+    flight: &super::FlightArgs,
+    mission: &emplan::mission::Mission,
+    model: &emplan::physics::VehicleModel,
+    plan: &emplan::planner::Plan,
+) -> anyhow::Result<String> {
+    use emplan::planner::{FlightChoice, FlownOrder};
+    use emplan::tour::Objective;
+    let choice = flight.choice();
+    if let Some(k) = choice.sortie {
+        return Ok(format!(
+            "order flown: sortie {k} of the minimum-energy split into sorties"
+        ));
+    }
+    let energy = match choice.order {
+        FlownOrder::Distance => {
+            return Ok("order flown: the distance order (--order distance)".into())
+        }
+        FlownOrder::Listed => {
+            return Ok("order flown: the order the mission file lists (--order listed)".into())
+        }
+        FlownOrder::Energy => plan.cheapest(Objective::Energy),
+    };
+    let Some(energy) = energy else {
+        return Ok("order flown: the energy order".into());
+    };
+    let proven = match &energy.proof {
+        Some(p) if p.optimal => " (proven optimal)",
+        _ => "",
+    };
+    let distance_choice = FlightChoice {
+        order: FlownOrder::Distance,
+        sortie: None,
+        allow_infeasible: true,
+    };
+    let distance_plan = distance_choice.plan(mission, model, flight.solver.options()?)?;
+    let Some(distance) = distance_plan.cheapest(Objective::Distance) else {
+        return Ok(format!("order flown: the energy order{proven}"));
+    };
+    let direction = match distance.direction {
+        emplan::tour::Direction::Forward => "forward",
+        emplan::tour::Direction::Reverse => "reverse",
+    };
+    let saving_j = distance.energy_j - energy.energy_j;
+    let against = if saving_j > 0.005e3 {
+        format!(
+            "predicted to save {:.2} kJ ({:.1}%) against the distance order flown {direction} ({:.2} kJ)",
+            saving_j / 1e3,
+            saving_j / distance.energy_j * 100.0,
+            distance.energy_j / 1e3
+        )
+    } else {
+        format!("the distance order flown {direction} costs the same: nothing to gain")
+    };
+    Ok(format!(
+        "order flown: the energy order{proven}, legs {:.2} kJ, {against}",
+        energy.energy_j / 1e3
+    ))
 }
 
 /// The profile of the autopilot found (PX4: px4, ArduPilot: ardupilot), unless `--profile`
@@ -150,8 +223,8 @@ fn autopilot_profile(
         }
     };
     eprintln!(
-        "pricing with the {wanted} profile: the vehicle is {:?} (--profile chooses another)",
-        session.target.flavour
+        "pricing with the {wanted} profile: the vehicle is {} (--profile chooses another)",
+        flying::autopilot_name(session.target.flavour)
     );
     let planned = match planned {
         Some(_) => {
@@ -210,6 +283,12 @@ fn fly_through(
         };
         let flown = remote::fly(client, asked, uploaded, |e| lines.remote_event(e)).await?;
         let (report, doc) = flown.reported();
-        flying::print(&report, &doc, args.json)
+        let after = flying::After {
+            order: None,
+            battery: None,
+            mission: &args.mission,
+            log_dir: &args.log_dir,
+        };
+        flying::print(&report, &doc, args.json, &after)
     })
 }

@@ -224,8 +224,13 @@ impl Lines {
             .map(|d| format!("; logging to {}", d.display()))
             .unwrap_or_default();
         eprintln!(
-            "flying {} ({} legs, {:.1} kJ predicted) on {:?} autopilot {} {}{logging}",
-            f.mission, f.legs, f.predicted_kj, f.flavour, f.system_id, f.place
+            "flying {} ({} legs, {:.1} kJ predicted) on {} autopilot {} {}{logging}",
+            f.mission,
+            f.legs,
+            f.predicted_kj,
+            autopilot_name(f.flavour),
+            f.system_id,
+            f.place
         );
         if f.pilot {
             eprintln!(
@@ -324,13 +329,124 @@ fn part_line(clear: &str, kind: SegmentKind, part: &PartReport) {
     }
 }
 
-/// What `fly` prints at the end: the JSON document, or the table and the log directory.
-pub fn print(report: &FlightReport, doc: &FlyJson, json: bool) -> anyhow::Result<ExitCode> {
+/// The exit code of a flight that landed with waypoints of its mission left (the energy guard
+/// sent it home, the pilot took over): the report says which, and how to fly them.
+pub const EXIT_INCOMPLETE: u8 = 3;
+
+/// An autopilot's name as its makers write it.
+pub fn autopilot_name(flavour: emplan::link::Flavour) -> &'static str {
+    match flavour {
+        emplan::link::Flavour::Px4 => "PX4",
+        emplan::link::Flavour::ArduPilot => "ArduPilot",
+        emplan::link::Flavour::Generic => "a generic MAVLink",
+    }
+}
+
+/// What `fly` says after the table: the order flown, the battery at landing, the next step.
+pub struct After<'a> {
+    /// The order flown and its saving, in a sentence (None: not known here).
+    pub order: Option<String>,
+    /// The plan's battery check (None: flown through a service).
+    pub battery: Option<&'a emplan::physics::budget::BatteryCheck>,
+    pub mission: &'a std::path::Path,
+    pub log_dir: &'a std::path::Path,
+}
+
+/// A word for a POSIX shell: as it is when it holds nothing the shell reads, else in single
+/// quotes.
+pub fn shell_word(word: &str) -> String {
+    let plain = !word.is_empty()
+        && word
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "_-./:=@%+,".contains(c));
+    if plain {
+        word.to_string()
+    } else {
+        format!("'{}'", word.replace('\'', "'\\''"))
+    }
+}
+
+/// The battery at landing against the reserve: the pack as the energy guard measured it when
+/// the flight was guarded, else the vehicle file's, full at take-off.
+fn battery_line(
+    report: &FlightReport,
+    battery: &emplan::physics::budget::BatteryCheck,
+) -> Option<String> {
+    let drawn_j = report.measured_j?;
+    let share = battery.reserve_pct / 100.0;
+    if share >= 1.0 {
+        return None;
+    }
+    let pack_j = battery.usable_j / (1.0 - share);
+    let (scale, soc, whose) = match &report.guard {
+        Some(g) => (
+            g.capacity_ratio,
+            g.state_of_charge_at_takeoff.unwrap_or(1.0),
+            format!(
+                "the pack as the energy guard measured it: {:.2} of its label, {:.0}% charged at take-off",
+                g.capacity_ratio,
+                g.state_of_charge_at_takeoff.unwrap_or(1.0) * 100.0
+            ),
+        ),
+        None => (1.0, 1.0, "the vehicle file's pack, full at take-off".to_string()),
+    };
+    let reserve_j = pack_j * scale * share;
+    let left_j = pack_j * scale * soc - drawn_j;
+    let verdict = if left_j >= reserve_j {
+        "kept"
+    } else {
+        "NOT kept"
+    };
+    Some(format!(
+        "battery: {:.1} kJ drawn, {:.1} kJ left at landing against the {:.1} kJ reserve: reserve {verdict} ({whose})",
+        drawn_j / 1e3,
+        left_j / 1e3,
+        reserve_j / 1e3
+    ))
+}
+
+/// What `fly` prints at the end: the JSON document, or the table, the log directory, the order
+/// flown, the battery at landing and the next step. Exits [`EXIT_INCOMPLETE`] when waypoints
+/// of the mission were left.
+pub fn print(
+    report: &FlightReport,
+    doc: &FlyJson,
+    json: bool,
+    after: &After<'_>,
+) -> anyhow::Result<ExitCode> {
     if json {
         println!("{}", serde_json::to_string_pretty(&doc.json())?);
     } else {
         super::report::print(report);
         println!("log: {}", doc.log_dir);
+        if let Some(order) = &after.order {
+            println!("{order}");
+        }
+        if let Some(line) = after.battery.and_then(|b| battery_line(report, b)) {
+            println!("{line}");
+        }
+        let dir = shell_word(&doc.log_dir);
+        if report.incomplete() {
+            let log_dir = if after.log_dir == std::path::Path::new("flights") {
+                String::new()
+            } else {
+                format!(
+                    " --log-dir {}",
+                    shell_word(&after.log_dir.to_string_lossy())
+                )
+            };
+            println!(
+                "next: after a battery swap, fly the {} waypoint{} left with: emplan fly {} --resume {dir}{log_dir}",
+                report.waypoints_left.len(),
+                if report.waypoints_left.len() == 1 { "" } else { "s" },
+                shell_word(&after.mission.to_string_lossy()),
+            );
+        } else {
+            println!("next: emplan report {dir} (again, with --plot FILE.svg to draw it)");
+        }
+    }
+    if report.incomplete() {
+        return Ok(ExitCode::from(EXIT_INCOMPLETE));
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -266,8 +266,7 @@ fn explain(plan: &Plan, explanation: &Explanation) {
     let direction = format!("{:?}", explanation.distance_direction).to_lowercase();
     let Some(s) = &explanation.saving else {
         println!(
-            "the minimum-energy order is the minimum-distance order flown {:?}: nothing to gain",
-            explanation.distance_direction
+            "the minimum-energy order is the minimum-distance order flown {direction}: nothing to gain"
         );
         return;
     };

@@ -8,7 +8,8 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::Context;
-use emplan::flightlog::flight_plan::FlightPlan;
+use emplan::flightlog::energy::Flag;
+use emplan::flightlog::flight_plan::{FlightPlan, ORIGIN_NAME};
 use emplan::flightlog::replay::Analysis;
 use emplan::flightlog::report::{combine, joined, FlightReport, PartReport};
 use emplan::flightlog::resume::{CombinedMissionsJson, FlownMission};
@@ -54,6 +55,7 @@ pub fn part_line(kind: SegmentKind, p: &PartReport) -> String {
         SegmentKind::Leg(_) => format!("leg {} -> {}", p.from, p.to),
         SegmentKind::Settle(_) => format!("settle at {}", p.to),
         SegmentKind::Hover(_) => format!("hover at {}", p.to),
+        SegmentKind::Landing if p.from != ORIGIN_NAME => format!("return: {} -> home", p.from),
         SegmentKind::Landing => "landing".to_string(),
     };
     let kj = |j: Option<f64>| j.map_or("-".to_string(), |j| format!("{:.2}", j / 1000.0));
@@ -80,7 +82,8 @@ pub fn part_line(kind: SegmentKind, p: &PartReport) -> String {
     )
 }
 
-/// The report as a table.
+/// The report as a table, with a legend of what needs one and, for a mission left
+/// unfinished, the waypoints left.
 pub fn print(report: &FlightReport) {
     let source = report.source.as_ref().map_or(String::new(), |s| {
         let hz = s.battery_hz.map_or("-".into(), |h| format!("{h:.1}"));
@@ -91,25 +94,27 @@ pub fn print(report: &FlightReport) {
         report.flight,
         if report.complete { "" } else { " (incomplete)" }
     );
-    println!(
-        "{:<26} {:>12} {:>12} {:>8} {:>8}  flags",
-        "part", "predicted_kj", "measured_kj", "error", "time_s"
-    );
+    let flags = |f: &[Flag]| f.iter().map(|f| f.name()).collect::<Vec<_>>().join(",");
+    // The flags column only when a part has flags; the total's own `incomplete` (the flight
+    // cut off) is said in the first line.
+    let flagged = report.parts().any(|p| !p.flags.is_empty());
+    let kj = |j: Option<f64>| j.map_or("-".to_string(), |j| format!("{:.3}", j / 1000.0));
+    let line = |cells: [String; 5], f: String| {
+        let [name, predicted, measured, error, time_s] = cells;
+        let f = if flagged {
+            format!("  {f}")
+        } else {
+            String::new()
+        };
+        println!("{name:<26} {predicted:>12} {measured:>12} {error:>8} {time_s:>8}{f}");
+    };
+    let header = ["part", "predicted_kj", "measured_kj", "error", "time_s"];
+    line(header.map(String::from), "flags".into());
     let row = |name: String, p: &PartReport| {
-        let kj = |j: Option<f64>| j.map_or("-".to_string(), |j| format!("{:.3}", j / 1000.0));
-        println!(
-            "{:<26} {:>12} {:>12} {:>8} {:>8.1}  {}",
-            name,
-            kj(p.predicted_j),
-            kj(p.measured_j),
-            p.error_pct().map_or("-".into(), |e| format!("{e:+.1}%")),
-            p.duration_s,
-            p.flags
-                .iter()
-                .map(|f| f.name())
-                .collect::<Vec<_>>()
-                .join(",")
-        );
+        let error = p.error_pct().map_or("-".into(), |e| format!("{e:+.1}%"));
+        let time_s = format!("{:.1}", p.duration_s);
+        let cells = [name, kj(p.predicted_j), kj(p.measured_j), error, time_s];
+        line(cells, flags(&p.flags));
     };
     if let Some(t) = &report.takeoff {
         row("take-off".into(), t);
@@ -126,27 +131,72 @@ pub fn print(report: &FlightReport) {
     if let Some(l) = &report.landing {
         row("landing".into(), l);
     }
-    let error = match (report.predicted_j, report.measured_j) {
-        (Some(p), Some(m)) if p > 0.0 => format!("{:+.1}%", (m - p) / p * 100.0),
-        _ => "-".into(),
-    };
-    let kj = |j: Option<f64>| j.map_or("-".to_string(), |j| format!("{:.3}", j / 1000.0));
-    println!(
-        "{:<26} {:>12} {:>12} {:>8} {:>8.1}  {}",
-        "total",
+    if let Some(r) = &report.return_home {
+        row(format!("return: {} -> home", r.from), r);
+    }
+    let error = report
+        .total_error_pct()
+        .map_or("-".into(), |e| format!("{e:+.1}%"));
+    let time_s = format!("{:.1}", report.duration_s);
+    let total = [
+        "total".into(),
         kj(report.predicted_j),
         kj(report.measured_j),
         error,
-        report.duration_s,
-        report
-            .flags
-            .iter()
-            .map(|f| f.name())
-            .collect::<Vec<_>>()
-            .join(",")
-    ); // The photos the autopilot reported: one line per point with photos, one per photo apart.
+        time_s,
+    ];
+    line(total, String::new());
+    legend(report, at_points.len(), flagged);
+    // The photos the autopilot reported: one line per point with photos, one per photo apart.
     for line in emplan::flightlog::photos::lines(&report.photos) {
         println!("{line}");
+    }
+}
+
+/// What the table's rows and flags mean, and what a mission cut short left.
+fn legend(report: &FlightReport, points: usize, flagged: bool) {
+    if points > 0 {
+        println!(
+            "settle + hover ({points}): the stops at the {points} points summed, the braking into each point and the hover there (apart they do not compare: the model and the measurement split a point's time at different moments)"
+        );
+    }
+    if let Some(r) = &report.return_home {
+        let price = r.predicted_j.map_or(String::new(), |j| {
+            format!(", priced {:.1} kJ by the guard", j / 1000.0)
+        });
+        println!(
+            "return: the energy guard sent the vehicle home from {}{price}; it flew home and landed in place of the plan",
+            r.from
+        );
+    }
+    if report.incomplete() {
+        println!(
+            "total: what the flight drew against the whole plan's price; no error, as the mission was not finished"
+        );
+    }
+    if flagged {
+        let mut seen: Vec<Flag> = report
+            .parts()
+            .flat_map(|p| p.flags.iter().copied())
+            .collect();
+        seen.sort();
+        seen.dedup();
+        let said: Vec<String> = (seen.iter())
+            .map(|f| format!("{}: {}", f.name(), f.meaning()))
+            .collect();
+        println!("flags: {}", said.join("; "));
+    }
+    if report.incomplete() {
+        println!(
+            "mission incomplete: {} waypoint{} left: {}",
+            report.waypoints_left.len(),
+            if report.waypoints_left.len() == 1 {
+                ""
+            } else {
+                "s"
+            },
+            report.waypoints_left.join(", ")
+        );
     }
 }
 

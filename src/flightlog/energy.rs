@@ -54,6 +54,21 @@ impl Flag {
             Flag::FarStart => "far_start",
         }
     }
+    /// What the flag says of a part, in a few words for a report's legend.
+    pub fn meaning(self) -> &'static str {
+        match self {
+            Flag::TelemetryGap => "battery readings missing for a while",
+            Flag::CurrentUnknown => "no current reported: energy not measured",
+            Flag::FakeCurrent => "the current is the autopilot's estimate, not a sensor's",
+            Flag::VoltageOutlier => "a voltage reading out of line was left out",
+            Flag::Unmeasurable => "too few battery readings to measure",
+            Flag::ConsumedMismatch => "the autopilot's charge counter disagrees with V x I",
+            Flag::Incomplete => "cut short: not compared with its prediction",
+            Flag::LogGap => "overlaps a corrupt span of the log",
+            Flag::MissedRadius => "the autopilot moved on before the arrival radius",
+            Flag::FarStart => "began far from the point it was planned to leave",
+        }
+    }
 }
 
 /// Thresholds of the measurement.

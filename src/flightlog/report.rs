@@ -6,17 +6,21 @@
 //! `{"flight", "legs": [{"from", "to", "predicted_kj", "measured_kj", "error_pct", "duration_s",
 //! "flags"}], "hovers": [..], "total": {"predicted_kj", "measured_kj"}}` plus take-off, landing,
 //! settles, times, coverage and the spans of a replayed .tlog skipped as corrupt (`log_gaps`).
+//! Which waypoints a flight visited ([`visits`]) is decided here, once: a report names the ones
+//! left (`waypoints_left`) and `flightlog::resume` flies them. When the energy guard sent the
+//! vehicle home, the way home and its landing are one part (`return_home`), priced as the guard
+//! priced it when it decided.
 
 use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
 use super::energy::{Flag, Measurement};
-use super::flight_plan::ORIGIN_NAME;
+use super::flight_plan::{FlightPlan, PlannedPoint, ORIGIN_NAME};
 use super::photos::{PhotoReport, PlacedPhoto, PointPhotos};
 use super::segment::{Segment, SegmentKind, Segmenter};
 use super::tlog::TlogGap;
-use super::watch::GuardReport;
+use super::watch::{GuardReport, NoteKind};
 
 /// A leg that begins further than this from the point it was planned to leave is flagged
 /// `far_start` (m): five times the acceptance radius PX4 and ArduPilot default to (2 m). PX4 SITL's
@@ -119,6 +123,12 @@ pub struct FlightReport {
     pub settles: Vec<PartReport>,
     pub hovers: Vec<PartReport>,
     pub landing: Option<PartReport>,
+    /// The way home after the energy guard sent the vehicle there, and its landing, in place of
+    /// the plan's landing: priced as the guard priced it when it decided (its `return` note).
+    pub return_home: Option<PartReport>,
+    /// The waypoints of the plan this flight did not visit (in the plan's order): what `fly
+    /// --resume` flies ([`visits`]). Not empty: the mission is incomplete.
+    pub waypoints_left: Vec<String>,
     /// Sum of the predicted parts, when the plan carries a prediction.
     pub predicted_j: Option<f64>,
     /// Arming to disarming.
@@ -240,6 +250,8 @@ impl FlightReport {
             settles: Vec::new(),
             hovers: Vec::new(),
             landing: None,
+            return_home: None,
+            waypoints_left: Vec::new(),
             predicted_j: None,
             measured_j: None,
             duration_s: 0.0,
@@ -259,6 +271,12 @@ impl FlightReport {
         };
         let segments = segmenter.segments();
         report.photos = super::photos::assign(plan, &segments, segmenter.photos().photos());
+        // The guard's decision to go home and its price of the way home from there.
+        let sent_home_kj = (report.guard.iter())
+            .flat_map(|g| &g.notes)
+            .find(|n| n.kind == NoteKind::Return)
+            .map(|n| n.home_kj);
+        let mut last_point = ORIGIN_NAME.to_string();
         for segment in segments {
             match segment.kind {
                 SegmentKind::Takeoff => {
@@ -297,16 +315,28 @@ impl FlightReport {
                         .hovers
                         .push(part(segmenter, &segment, (name.clone(), name), p));
                 }
-                SegmentKind::Landing => {
-                    let p = plan.predicted_landing_j().map(|j| (j, None));
-                    report.landing = Some(part(
-                        segmenter,
-                        &segment,
-                        (ORIGIN_NAME.into(), "ground".into()),
-                        p,
-                    ));
-                }
+                SegmentKind::Landing => match sent_home_kj {
+                    Some(home_kj) => {
+                        let p = home_kj.map(|kj| (kj * 1e3, None));
+                        let names = (last_point.clone(), "ground".into());
+                        report.return_home = Some(part(segmenter, &segment, names, p));
+                    }
+                    None => {
+                        let p = plan.predicted_landing_j().map(|j| (j, None));
+                        report.landing = Some(part(
+                            segmenter,
+                            &segment,
+                            (ORIGIN_NAME.into(), "ground".into()),
+                            p,
+                        ));
+                    }
+                },
             }
+            last_point = match segment.kind {
+                SegmentKind::Settle(k) | SegmentKind::Hover(k) => point_name(k),
+                SegmentKind::Leg(k) if segment.complete => point_name(k),
+                _ => last_point,
+            };
         }
         report.predicted_j = plan.predicted_total_j();
         if let Some((start, end)) = segmenter.flight_span() {
@@ -315,10 +345,14 @@ impl FlightReport {
             report.duration_s = whole.duration_s;
         }
         report.complete = segmenter.is_finished()
-            && report
-                .landing
-                .as_ref()
+            && (report.landing.as_ref())
+                .or(report.return_home.as_ref())
                 .is_some_and(|l| !l.flags.contains(&Flag::Incomplete));
+        report.waypoints_left = visits(plan, &report)
+            .into_iter()
+            .filter(|v| v.visit != Visit::Visited)
+            .map(|v| v.name)
+            .collect();
         let mut flags: Vec<Flag> = report
             .parts()
             .flat_map(|p| p.flags.iter().copied())
@@ -332,7 +366,8 @@ impl FlightReport {
         report
     }
 
-    /// Every part in flight order by kind: take-off, legs, settles, hovers, landing.
+    /// Every part in flight order by kind: take-off, legs, settles, hovers, landing (or the
+    /// way home the guard sent the vehicle).
     pub fn parts(&self) -> impl Iterator<Item = &PartReport> {
         self.takeoff
             .iter()
@@ -340,6 +375,23 @@ impl FlightReport {
             .chain(&self.settles)
             .chain(&self.hovers)
             .chain(self.landing.iter())
+            .chain(self.return_home.iter())
+    }
+
+    /// Whether the mission was left unfinished: waypoints of the plan not visited.
+    pub fn incomplete(&self) -> bool {
+        !self.waypoints_left.is_empty()
+    }
+
+    /// The total's error against the plan's prediction (%): only for a flight that landed
+    /// having flown the whole plan (a mission cut short flew less than the plan priced).
+    pub fn total_error_pct(&self) -> Option<f64> {
+        match (self.predicted_j, self.measured_j) {
+            (Some(p), Some(m)) if p > 0.0 && self.complete && !self.incomplete() => {
+                Some((m - p) / p * 100.0)
+            }
+            _ => None,
+        }
     }
 
     /// Each point's settle and hover as one part, in flight order. Only their sum compares:
@@ -379,16 +431,16 @@ impl FlightReport {
             at_points: self.at_points().iter().map(PartJson::from).collect(),
             takeoff: self.takeoff.as_ref().map(PartJson::from),
             landing: self.landing.as_ref().map(PartJson::from),
+            return_home: self.return_home.as_ref().map(PartJson::from),
             total: TotalJson {
                 predicted_kj: self.predicted_j.map(kj),
                 measured_kj: self.measured_j.map(kj),
-                error_pct: match (self.predicted_j, self.measured_j) {
-                    (Some(p), Some(m)) if p > 0.0 && self.complete => Some((m - p) / p * 100.0),
-                    _ => None,
-                },
+                error_pct: self.total_error_pct(),
                 duration_s: self.duration_s,
             },
             complete: self.complete,
+            incomplete: self.incomplete(),
+            waypoints_left: self.waypoints_left.clone(),
             flags: self.flags.clone(),
             log_gaps: self.log_gaps.clone(),
             guard: self.guard.clone(),
@@ -409,6 +461,8 @@ impl FlightReport {
             settles: parts(&json.settles),
             hovers: parts(&json.hovers),
             landing: json.landing.as_ref().map(PartJson::to_part),
+            return_home: json.return_home.as_ref().map(PartJson::to_part),
+            waypoints_left: json.waypoints_left.clone(),
             predicted_j: json.total.predicted_kj.map(j),
             measured_j: json.total.measured_kj.map(j),
             duration_s: json.total.duration_s,
@@ -424,6 +478,86 @@ impl FlightReport {
             },
         }
     }
+}
+
+/// What a flight did at one of its waypoints.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Visit {
+    /// Arrived, and hovered its time.
+    Visited,
+    /// Arrived, but the hover was cut short: not counted as visited.
+    CutShort,
+    /// Arrived and hovered, but the autopilot reported fewer photos there than the mission takes:
+    /// not counted as visited.
+    PhotosMissing,
+    NotReached,
+}
+
+/// One waypoint of a flight's plan and what the flight did there.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PointVisit {
+    pub name: String,
+    pub visit: Visit,
+    /// The leg that arrived there.
+    pub leg: Option<PartReport>,
+    /// Its settle and hover as one part (`FlightReport::at_points`).
+    pub at_point: Option<PartReport>,
+}
+
+/// The waypoints of a plan (every point but the return to the origin), with their index.
+pub fn plan_waypoints(plan: &FlightPlan) -> impl Iterator<Item = (usize, &PlannedPoint)> {
+    plan.points.iter().enumerate().filter(|(_, p)| {
+        let at_origin = p.enu.x_east_m.hypot(p.enu.y_north_m).hypot(p.enu.z_up_m) < 1e-6;
+        !(p.name == ORIGIN_NAME && at_origin)
+    })
+}
+
+/// What `report`'s flight did at each waypoint of `plan` (the plan it was measured against), in
+/// the plan's order. The report's legs and at-point parts come in flight order, so each is
+/// matched to the next point of its name. The rule of `flightlog::resume`: a waypoint is
+/// visited when the flight arrived and its hover ran its course with every photo taken.
+pub fn visits(plan: &FlightPlan, report: &FlightReport) -> Vec<PointVisit> {
+    let at_points = report.at_points();
+    let legs = in_plan_order(plan, &report.legs);
+    let arrivals = in_plan_order(plan, &at_points);
+    plan_waypoints(plan)
+        .map(|(k, point)| {
+            let at_point = arrivals[k].cloned();
+            let leg = legs[k].cloned();
+            let photos_taken = (report.photos.points.iter())
+                .find(|p| p.seq == point.seq && p.point == point.name)
+                .map_or(0, |p| p.photos_taken);
+            let visit = match &at_point {
+                None => Visit::NotReached,
+                Some(p) if p.flags.contains(&Flag::Incomplete) && point.hold_s > 0.0 => {
+                    Visit::CutShort
+                }
+                Some(_) if photos_taken < point.photos => Visit::PhotosMissing,
+                Some(_) => Visit::Visited,
+            };
+            PointVisit {
+                name: point.name.clone(),
+                visit,
+                leg,
+                at_point,
+            }
+        })
+        .collect()
+}
+
+/// Parts ending at plan points (`to`), each placed at the next point of its name after the one
+/// before it: one slot per point.
+fn in_plan_order<'a>(plan: &FlightPlan, parts: &'a [PartReport]) -> Vec<Option<&'a PartReport>> {
+    let mut slots = vec![None; plan.points.len()];
+    let mut next = 0;
+    for part in parts {
+        if let Some(k) = (next..plan.points.len()).find(|&k| plan.points[k].name == part.to) {
+            slots[k] = Some(part);
+            next = k + 1;
+        }
+    }
+    slots
 }
 
 /// Two consecutive parts as one: energies and times added (a sum only when both have it),
@@ -551,8 +685,18 @@ pub struct ReportJson {
     pub at_points: Vec<PartJson>,
     pub takeoff: Option<PartJson>,
     pub landing: Option<PartJson>,
+    /// The way home the energy guard sent the vehicle, with its landing, in place of `landing`
+    /// (`predicted_kj`: the guard's price of it, from the point named `from`); absent otherwise.
+    #[serde(rename = "return", default, skip_serializing_if = "Option::is_none")]
+    pub return_home: Option<PartJson>,
     pub total: TotalJson,
     pub complete: bool,
+    /// The mission was left unfinished: `waypoints_left` names the waypoints of the plan the
+    /// flight did not visit (what `fly --resume` flies). Absent from reports written before.
+    #[serde(default)]
+    pub incomplete: bool,
+    #[serde(default)]
+    pub waypoints_left: Vec<String>,
     pub flags: Vec<Flag>,
     /// Spans of the .tlog skipped as not records: `{"offset", "bytes", "from_s", "to_s",
     /// "from_wall_us", "to_wall_us"}` (absent from reports written before they were kept).
@@ -903,6 +1047,8 @@ mod tests {
             settles: vec![],
             hovers: vec![],
             landing: None,
+            return_home: None,
+            waypoints_left: vec![],
             predicted_j: Some(60_000.0),
             measured_j: Some(61_000.0),
             duration_s: 100.0,

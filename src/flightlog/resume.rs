@@ -21,9 +21,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::energy::Flag;
-use super::flight_plan::{FlightPlan, PlannedPoint, ORIGIN_NAME};
-use super::report::{CombinedJson, FlightReport, PartReport};
+use super::flight_plan::FlightPlan;
+use super::report::{plan_waypoints as waypoints, CombinedJson, FlightReport};
+pub use super::report::{visits, PointVisit, Visit};
 use crate::mission::rehome::{HomeOffset, ORIGIN_TOLERANCE_M};
 use crate::mission::{Enu, Geodetic, Mission};
 
@@ -33,85 +33,6 @@ use crate::mission::{Enu, Geodetic, Mission};
 /// default acceptance radius is 2 m, so a waypoint moved by less than half of it is flown to
 /// the same place.
 pub const WAYPOINT_TOLERANCE_M: f64 = 1.0;
-
-/// What a flight did at one of its waypoints.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Visit {
-    /// Arrived, and hovered its time.
-    Visited,
-    /// Arrived, but the hover was cut short: not counted as visited.
-    CutShort,
-    /// Arrived and hovered, but the autopilot reported fewer photos there than the mission takes:
-    /// not counted as visited.
-    PhotosMissing,
-    NotReached,
-}
-
-/// One waypoint of a flight's plan and what the flight did there.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PointVisit {
-    pub name: String,
-    pub visit: Visit,
-    /// The leg that arrived there.
-    pub leg: Option<PartReport>,
-    /// Its settle and hover as one part (`FlightReport::at_points`).
-    pub at_point: Option<PartReport>,
-}
-
-/// The waypoints of a plan (every point but the return to the origin), with their index.
-fn waypoints(plan: &FlightPlan) -> impl Iterator<Item = (usize, &PlannedPoint)> {
-    plan.points
-        .iter()
-        .enumerate()
-        .filter(|(_, p)| !(p.name == ORIGIN_NAME && distance(p.enu, Enu::default()) < 1e-6))
-}
-
-/// What `report`'s flight did at each waypoint of `plan` (the plan it was measured against), in
-/// the plan's order. The report's legs and at-point parts come in flight order, so each is
-/// matched to the next point of its name.
-pub fn visits(plan: &FlightPlan, report: &FlightReport) -> Vec<PointVisit> {
-    let at_points = report.at_points();
-    let legs = in_plan_order(plan, &report.legs);
-    let arrivals = in_plan_order(plan, &at_points);
-    waypoints(plan)
-        .map(|(k, point)| {
-            let at_point = arrivals[k].cloned();
-            let leg = legs[k].cloned();
-            let photos_taken = (report.photos.points.iter())
-                .find(|p| p.seq == point.seq && p.point == point.name)
-                .map_or(0, |p| p.photos_taken);
-            let visit = match &at_point {
-                None => Visit::NotReached,
-                Some(p) if p.flags.contains(&Flag::Incomplete) && point.hold_s > 0.0 => {
-                    Visit::CutShort
-                }
-                Some(_) if photos_taken < point.photos => Visit::PhotosMissing,
-                Some(_) => Visit::Visited,
-            };
-            PointVisit {
-                name: point.name.clone(),
-                visit,
-                leg,
-                at_point,
-            }
-        })
-        .collect()
-}
-
-/// Parts ending at plan points (`to`), each placed at the next point of its name after the one
-/// before it: one slot per point.
-fn in_plan_order<'a>(plan: &FlightPlan, parts: &'a [PartReport]) -> Vec<Option<&'a PartReport>> {
-    let mut slots = vec![None; plan.points.len()];
-    let mut next = 0;
-    for part in parts {
-        if let Some(k) = (next..plan.points.len()).find(|&k| plan.points[k].name == part.to) {
-            slots[k] = Some(part);
-            next = k + 1;
-        }
-    }
-    slots
-}
 
 /// Why a flight cannot be resumed as a flight of a mission.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

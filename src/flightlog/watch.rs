@@ -58,6 +58,10 @@ pub struct GuardNote {
     /// Energy left at landing if the plan is flown to the end (kJ), and the reserve (kJ).
     pub left_at_landing_kj: f64,
     pub reserve_kj: f64,
+    /// A `return` note's price of the way home from where the vehicle was sent (kJ, the model's
+    /// before the correction: what the report measures the return against).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub home_kj: Option<f64>,
 }
 
 /// The guard's view now, for the live displays.
@@ -433,7 +437,9 @@ impl Watch {
             && self.should_return(&projection, &remaining, pack)
         {
             self.returning = true;
-            notes.push(self.note(now_s, NoteKind::Return, name, &projection, None));
+            let mut note = self.note(now_s, NoteKind::Return, name, &projection, None);
+            note.home_kj = Some(remaining.home_now_j / 1e3);
+            notes.push(note);
         }
         self.view = Some(GuardView {
             policy: self.setup.policy,
@@ -566,6 +572,7 @@ impl Watch {
             message,
             left_at_landing_kj: kj(p.left_at_landing_j),
             reserve_kj: kj(p.reserve_j),
+            home_kj: None,
         }
     }
 }

@@ -700,6 +700,8 @@ mod tests {
                 settles: Vec::new(),
                 hovers: Vec::new(),
                 landing: None,
+                return_home: None,
+                waypoints_left: Vec::new(),
                 predicted_j: None,
                 measured_j: None,
                 duration_s: 1.0,

@@ -51,7 +51,8 @@ pub async fn return_altitude_m(link: &Link, target: &Autopilot) -> Result<f64, L
 /// returned.
 pub async fn send_home(link: &Link, target: &Autopilot) -> Result<(), LinkError> {
     match return_home(link, target).await? {
-        Ok(()) => tracing::warn!("sent home by the energy guard"),
+        // Said to the user by the guard's own note and the report; a log line for the service.
+        Ok(()) => tracing::info!("sent home by the energy guard"),
         Err(e) => tracing::error!(
             "the energy guard sent the vehicle home and the autopilot did not go: {e}"
         ),

@@ -431,3 +431,78 @@ fn on_px4_fly_arms_then_starts_follows_repeated_reached_messages_and_ends_landed
     assert_eq!(report["complete"], true);
     assert!(report["landing"]["measured_kj"].is_number());
 }
+
+#[test]
+fn the_first_fly_says_the_order_flown_and_its_saving_the_battery_left_and_the_next_step_and_explains_its_rows(
+) {
+    let work = tempfile::tempdir().expect("temp dir");
+    let log = work.path().to_str().expect("a UTF-8 temp path");
+    // README's first command, at the tests' speed-up.
+    let (ok, out, err) = emplan(&[
+        "fly",
+        "missions/paper-sample-8wp.toml",
+        "--log-dir",
+        log,
+        "--speedup",
+        SPEEDUP,
+    ]);
+    assert!(ok, "{err}");
+    let line = |prefix: &str| -> &str {
+        (out.lines())
+            .find_map(|l| l.strip_prefix(prefix))
+            .unwrap_or_else(|| panic!("no line `{prefix}`: {out}"))
+    };
+    // The order flown and what the plan predicts it saves against the distance order.
+    let plan = json(&["plan", "missions/paper-sample-8wp.toml", "--json"]);
+    let orders = plan["orders"].as_array().expect("orders");
+    let energy_of = |objective: &str| {
+        (orders.iter())
+            .filter(|o| o["objective"] == objective)
+            .map(|o| o["energy_kj"].as_f64().unwrap())
+            .fold(f64::INFINITY, f64::min)
+    };
+    let saving_kj = energy_of("distance") - energy_of("energy");
+    let order = line("order flown: ");
+    assert!(order.starts_with("the energy order"), "{order}");
+    assert!(
+        order.contains(&format!("save {saving_kj:.2} kJ")) && order.contains("distance order"),
+        "{order}"
+    );
+    // The battery left at landing against the reserve.
+    let battery = line("battery: ");
+    assert!(
+        battery.contains("left at landing against the") && battery.contains("reserve"),
+        "{battery}"
+    );
+    // The next step names the flight just flown.
+    let dir = line("log: ");
+    assert_eq!(line("next: ").split_whitespace().nth(2), Some(dir), "{out}");
+    // "settle + hover (N)" is explained, and a flags column only comes with its legend.
+    let points = line("settle + hover (").split(')').next().unwrap();
+    assert!(
+        out.lines()
+            .any(|l| l.starts_with(&format!("settle + hover ({points}): "))),
+        "{out}"
+    );
+    let header = out
+        .lines()
+        .find(|l| l.starts_with("part "))
+        .expect("header");
+    assert!(
+        !header.contains("flags") || out.lines().any(|l| l.starts_with("flags: ")),
+        "{out}"
+    );
+    // No enum's debug name in what the user reads.
+    assert!(err.contains("on PX4 autopilot"), "{err}");
+    for text in [&out, &err] {
+        for debug in ["Px4", "Forward", "Reverse"] {
+            assert!(!text.contains(debug), "{debug}: {text}");
+        }
+    }
+    let (ok, planned, err) = emplan(&["plan", "missions/long-survey.toml"]);
+    assert!(ok, "{err}");
+    assert!(
+        !planned.contains("Forward") && !planned.contains("Reverse"),
+        "{planned}"
+    );
+}
