@@ -284,13 +284,16 @@ impl Watch {
             if s.power_w().is_some() {
                 self.current_known = true;
             }
+            if s.t_s >= flight_start_s
+                && s.battery.voltage_v.is_some()
+                && s.battery.current_a.is_none()
+            {
+                self.current_lost = true;
+            }
             if !series.is_valid(i) || s.t_s < flight_start_s {
                 continue;
             }
             let (Some(v), Some(a)) = (s.battery.voltage_v, s.battery.current_a) else {
-                if s.battery.voltage_v.is_some() {
-                    self.current_lost = true;
-                }
                 continue;
             };
             self.current_lost = false;

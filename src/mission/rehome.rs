@@ -132,9 +132,16 @@ mod tests {
             alt_m: 0.0,
         };
         let off = HomeOffset::of(&m, pole);
-        // 51.45 deg of arc from the sample's field (38.5362 N): about 5 728 km along the
-        // meridians' ellipse; the plane tangent at the origin made it 4 994 km.
-        assert!((off.horizontal_m - 5_728_000.0).abs() < 5_000.0, "{off:?}");
+        // From the sample's field (38.5362 N) to 0.01 deg (1.1 km) short of the pole on another
+        // meridian: at least the meridian arc from 38.5362 deg to the pole, 5 734 949 m (the
+        // quadrant, 10 001 966 m, less the 4 267 017 m from the equator, both integrated from
+        // the meridian radius of curvature), and at most 1.12 km more; the plane tangent at the
+        // origin made it 4 994 km.
+        let arc_m = 5_734_949.0;
+        assert!(
+            off.horizontal_m > arc_m && off.horizontal_m < arc_m + 1_120.0,
+            "{off:?}"
+        );
         // Within the tolerance the plane and the ellipsoid agree.
         let near = Geodetic {
             lat_deg: m.origin.home.lat_deg + 0.0001,
