@@ -39,7 +39,7 @@ fn not_a_header(line: &str) -> String {
         ""
     };
     let looks = if line.starts_with("QGC WPL") {
-        " (another version of the format: only 110 is read)"
+        " (another version of the format, not supported: only 110 is read)"
     } else if line.starts_with('{') {
         " (JSON: a QGroundControl .plan? name it .plan)"
     } else if line.starts_with('[') || line.contains(" = ") {
