@@ -17,7 +17,7 @@ pub struct Args {
     zf: f64,
     /// A steady wind, SPEED@FROM_DEG: m/s and the direction it blows from, degrees clockwise
     /// from north (6@270: 6 m/s from the west); default still air
-    #[arg(long, value_name = "SPEED@FROM_DEG")]
+    #[arg(long, value_name = "SPEED@FROM_DEG", allow_hyphen_values = true)]
     wind: Option<Wind>,
     /// The leg's direction of travel, degrees clockwise from north (with --wind 6@0 a heading
     /// of 0 flies into the wind, 180 with it behind)

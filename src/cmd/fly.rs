@@ -81,7 +81,7 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
         .mock(&mission, model.profile, &model.vehicle, builtin)?;
     let lines = Lines::new(args.json);
     super::runtime()?.block_on(async {
-        let session = args.link.open_with(Some(mock)).await?;
+        let session = (args.link.open_with(Some(mock)).await).map_err(|e| args.mock.explain(e))?;
         let (model, planned) = autopilot_profile(&args.flight, &session, &mission, model, planned)?;
         let model = args.flight.in_live_wind(&session, model).await?;
         let (mission, plan) = (args.flight)

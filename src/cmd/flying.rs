@@ -42,7 +42,7 @@ pub struct MockArgs {
     mock_vehicle: Option<PathBuf>,
     /// Built-in mock only: a steady wind it flies in and reports as PX4 does (WIND_COV),
     /// SPEED@FROM_DEG (6@270: 6 m/s from the west)
-    #[arg(long, value_name = "SPEED@FROM_DEG")]
+    #[arg(long, value_name = "SPEED@FROM_DEG", allow_hyphen_values = true)]
     mock_wind: Option<emplan::physics::Wind>,
     /// Built-in mock only: the wind changes in flight, T_S=SPEED@FROM_DEG: T_S seconds after
     /// arming it becomes SPEED@FROM_DEG (60=8@270), flown in and reported (what `--wind live`
@@ -107,6 +107,19 @@ impl MockArgs {
             loss: self.mock_loss,
             signing_key: None,
         })
+    }
+
+    /// `err` from starting the built-in mock, naming `--mock-vehicle` when the mock could not
+    /// fly that vehicle.
+    pub fn explain(&self, err: anyhow::Error) -> anyhow::Error {
+        let cannot_fly = matches!(
+            err.downcast_ref::<OpenError>(),
+            Some(OpenError::Mock(emplan::sim::SimError::Vehicle(_)))
+        );
+        match &self.mock_vehicle {
+            Some(dir) if cannot_fly => err.context(format!("--mock-vehicle {}", dir.display())),
+            _ => err,
+        }
     }
 }
 

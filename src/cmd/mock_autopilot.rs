@@ -93,7 +93,7 @@ pub struct Args {
     /// A steady wind the vehicle flies in (its physics in moving air) and reports, SPEED@FROM_DEG
     /// (6@270: 6 m/s from the west): the PX4 flavour as WIND_COV, the ArduPilot flavour as WIND.
     /// Default still air and no wind message
-    #[arg(long, value_name = "SPEED@FROM_DEG")]
+    #[arg(long, value_name = "SPEED@FROM_DEG", allow_hyphen_values = true)]
     wind: Option<emplan::physics::Wind>,
     /// The wind changes in flight, T_S=SPEED@FROM_DEG: T_S seconds after the first arming the
     /// vehicle flies in (and reports) SPEED@FROM_DEG

@@ -234,7 +234,7 @@ pub struct FlightArgs {
     /// `fly` only: `live` reads the vehicle's own wind estimate after connecting (PX4's
     /// WIND_COV, ArduPilot's WIND) and plans in it (still air, with a warning, when it sends
     /// none within 10 s)
-    #[arg(long, value_name = "SPEED@FROM_DEG|live")]
+    #[arg(long, value_name = "SPEED@FROM_DEG|live", allow_hyphen_values = true)]
     pub wind: Option<WindArg>,
 }
 

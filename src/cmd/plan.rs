@@ -51,7 +51,7 @@ pub struct Args {
     /// clockwise from north (6@270: 6 m/s from the west). Every leg, hover, take-off and
     /// landing is priced in it, and the still-air energy order is priced beside the wind-aware
     /// one
-    #[arg(long, value_name = "SPEED@FROM_DEG")]
+    #[arg(long, value_name = "SPEED@FROM_DEG", allow_hyphen_values = true)]
     wind: Option<emplan::physics::Wind>,
 }
 

@@ -40,7 +40,7 @@ pub struct Args {
     model: super::VehicleArgs,
     /// Plan and price every mission in a steady wind, SPEED@FROM_DEG (6@270: 6 m/s from the
     /// west); default still air
-    #[arg(long, value_name = "SPEED@FROM_DEG")]
+    #[arg(long, value_name = "SPEED@FROM_DEG", allow_hyphen_values = true)]
     wind: Option<emplan::physics::Wind>,
     #[command(flatten)]
     solver: super::SolverArgs,
@@ -216,8 +216,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             .await
             .with_context(|| format!("--http {}", args.http))?;
         let addr = listener.local_addr()?;
+        // `/api/` itself is no route (404): the API is named by one that answers.
         eprintln!(
-            "emplan serve: API on http://{addr}/api/ ; missions from {} ; flights into {} ; token in {}{}; Ctrl-C stops",
+            "emplan serve: dashboard on http://{addr}/ ; API on http://{addr}/api/vehicle (the rest in docs/service.md) ; missions from {} ; flights into {} ; token in {}{}; Ctrl-C stops",
             args.missions.display(),
             args.log_dir.display(),
             token_file.display(),

@@ -78,7 +78,7 @@ pub struct Args {
     /// --wind 4@270 --wind 8@270): for each wind, how often the minimum-energy order differs
     /// from the still-air one and what planning in the wind saves (every leg simulated on its
     /// heading)
-    #[arg(long, value_name = "SPEED@FROM_DEG")]
+    #[arg(long, value_name = "SPEED@FROM_DEG", allow_hyphen_values = true)]
     wind: Vec<emplan::physics::Wind>,
 }
 
@@ -157,20 +157,22 @@ fn run_in_wind(
         "wind_effect",
         "infeasible"
     );
+    // A column with no number (no mission flown in that wind) is "-", not 0.
+    let or_dash = |value: Option<String>| value.unwrap_or_else(|| "-".into());
     for d in &docs {
         for r in &d.winds {
             println!(
-                "{:>3} {:>5} {:>5} {:>9} {:>9} | {:>13.1}% | {:>5.2} {:>6.2} {:>6.2} | {:>+11.1}% {:>11}",
+                "{:>3} {:>5} {:>5} {:>9} {:>9} | {:>14} | {:>5} {:>6} {:>6} | {:>12} {:>11}",
                 d.waypoints,
                 d.xy_m,
                 d.z_m,
                 r.speed_m_s,
                 r.from_deg,
-                r.order_changed_pct,
-                r.saving.mean_pct,
-                r.saving.p90_pct,
-                r.saving.max_pct,
-                r.wind_effect_mean_pct,
+                or_dash(r.order_changed_pct.map(|p| format!("{p:.1}%"))),
+                or_dash(r.saving.map(|s| format!("{:.2}", s.mean_pct))),
+                or_dash(r.saving.map(|s| format!("{:.2}", s.p90_pct))),
+                or_dash(r.saving.map(|s| format!("{:.2}", s.max_pct))),
+                or_dash(r.wind_effect_mean_pct.map(|p| format!("{p:+.1}%"))),
                 r.infeasible_missions
             );
         }

@@ -28,7 +28,7 @@ use super::energy::PowerSeries;
 use super::flight_plan::FlightPlan;
 use super::guard::{
     judge, project, state_of_charge_from_rest, Correction, Observed, Pack, PointAhead, Projection,
-    Remaining, Verdict, BAND_SD,
+    Remaining, Verdict, BAND_SD, MAX_GAP_S,
 };
 pub use super::guard::{GuardSetup, Policy};
 use super::part::{Segment, SegmentKind};
@@ -131,6 +131,9 @@ pub struct Watch {
     pnr_noted: bool,
     returning: bool,
     current_known: bool,
+    /// Samples since the last valid one have come with a voltage but no current: what the
+    /// guard misses is the current, not the battery.
+    current_lost: bool,
     notes: Vec<GuardNote>,
     view: Option<GuardView>,
 }
@@ -215,6 +218,7 @@ impl Watch {
             pnr_noted: false,
             returning: false,
             current_known: false,
+            current_lost: false,
             notes: Vec::new(),
             view: None,
         })
@@ -284,12 +288,19 @@ impl Watch {
             if s.power_w().is_some() {
                 self.current_known = true;
             }
+            if s.t_s >= flight_start_s
+                && s.battery.voltage_v.is_some()
+                && s.battery.current_a.is_none()
+            {
+                self.current_lost = true;
+            }
             if !series.is_valid(i) || s.t_s < flight_start_s {
                 continue;
             }
             let (Some(v), Some(a)) = (s.battery.voltage_v, s.battery.current_a) else {
                 continue;
             };
+            self.current_lost = false;
             if let Some((t0, p0, a0)) = self.last_valid {
                 let dt = (s.t_s - t0).max(0.0);
                 self.drawn_j += 0.5 * (p0 + v * a) * dt;
@@ -376,7 +387,9 @@ impl Watch {
         let projection = project(self.drawn_j, pack, &remaining, &self.correction);
         // Before the first sample of the flight, the gap runs from its start.
         let gap_s = (now_s - self.last_valid.map_or(flight_start_s, |(t, _, _)| t)).max(0.0);
-        let verdict = judge(&projection, gap_s, self.current_known);
+        // A gap in which the battery still sent its voltage is the current missing.
+        let current_known = self.current_known && !(self.current_lost && gap_s > MAX_GAP_S);
+        let verdict = judge(&projection, gap_s, current_known);
         let mut notes = Vec::new();
         let (name, reason) = match &verdict {
             Verdict::Continue => ("continue", None),
@@ -809,5 +822,32 @@ mod tests {
         let home = notes(&s, NoteKind::Return);
         assert_eq!(home.len(), 1, "{:?}", w.notes());
         assert!(home[0].t_s > unmeasurable[0].t_s + 15.0, "{:?}", w.notes());
+    }
+
+    #[test]
+    fn a_battery_that_keeps_its_voltage_but_loses_its_current_is_said_to_lack_the_current() {
+        let total = nominal_total_j();
+        let plan = plan(total * 1.5, Policy::Rtl);
+        let s = flown(&plan, 1.6, |stamped, flight| {
+            // The current unknown (-1) for 20 s from 6 s before the take-off's end; the
+            // voltage still arrives.
+            let from = flight.parts[0].end_s - 6.0;
+            for s in stamped.iter_mut() {
+                if let Reading::Battery(b) = &mut s.reading {
+                    if (from..from + 20.0).contains(&s.t_s) {
+                        b.current_a = None;
+                    }
+                }
+            }
+        });
+        let w = s.watch().expect("guarded");
+        let unmeasurable: Vec<GuardNote> = notes(&s, NoteKind::Verdict)
+            .into_iter()
+            .filter(|n| n.verdict == "unmeasurable")
+            .collect();
+        assert!(!unmeasurable.is_empty(), "{:?}", w.notes());
+        let message = &unmeasurable[0].message;
+        assert!(message.contains("battery current"), "{message}");
+        assert!(!message.contains("no valid battery sample"), "{message}");
     }
 }

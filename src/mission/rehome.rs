@@ -7,6 +7,7 @@
 //! the same places at the same heights above its own home: re-homing keeps each waypoint's
 //! geographic position and height above home, and re-expresses it in the new origin's frame.
 
+use super::geodesy::geodesic_distance_m;
 use super::{Geodetic, Mission, Origin, Waypoint};
 
 /// How far a vehicle's home may be from the mission's origin before a flight is refused (m,
@@ -31,20 +32,13 @@ pub struct HomeOffset {
 }
 
 impl HomeOffset {
-    /// The offset of `vehicle_home` from `mission`'s home.
+    /// The offset of `vehicle_home` from `mission`'s home: the horizontal distance along the
+    /// ellipsoid (`geodesy::geodesic_distance_m`), true however far apart they are.
     pub fn of(mission: &Mission, vehicle_home: Geodetic) -> HomeOffset {
-        let flat = Origin {
-            home: mission.origin.home,
-            height_above_home_m: 0.0,
-        };
-        let at = flat.to_enu(Geodetic {
-            alt_m: mission.origin.home.alt_m,
-            ..vehicle_home
-        });
         HomeOffset {
             vehicle_home,
             mission_home: mission.origin.home,
-            horizontal_m: at.x_east_m.hypot(at.y_north_m),
+            horizontal_m: geodesic_distance_m(mission.origin.home, vehicle_home),
             vertical_m: vehicle_home.alt_m - mission.origin.home.alt_m,
         }
     }
@@ -127,6 +121,40 @@ mod tests {
         assert_eq!(off.vertical_m, 3.0);
         assert!(!off.within(ORIGIN_TOLERANCE_M));
         assert!(off.describe().contains("2220 m") || off.describe().contains("2221 m"));
+    }
+
+    #[test]
+    fn a_home_near_the_pole_is_its_distance_along_the_earth_from_the_origin() {
+        let m = sample();
+        let pole = Geodetic {
+            lat_deg: 89.99,
+            lon_deg: 10.0,
+            alt_m: 0.0,
+        };
+        let off = HomeOffset::of(&m, pole);
+        // From the sample's field (38.5362 N) to 0.01 deg (1.1 km) short of the pole on another
+        // meridian: at least the meridian arc from 38.5362 deg to the pole, 5 734 949 m (the
+        // quadrant, 10 001 966 m, less the 4 267 017 m from the equator, both integrated from
+        // the meridian radius of curvature), and at most 1.12 km more; the plane tangent at the
+        // origin made it 4 994 km.
+        let arc_m = 5_734_949.0;
+        assert!(
+            off.horizontal_m > arc_m && off.horizontal_m < arc_m + 1_120.0,
+            "{off:?}"
+        );
+        // Within the tolerance the plane and the ellipsoid agree.
+        let near = Geodetic {
+            lat_deg: m.origin.home.lat_deg + 0.0001,
+            lon_deg: m.origin.home.lon_deg + 0.0001,
+            ..m.origin.home
+        };
+        let flat = Origin {
+            home: m.origin.home,
+            height_above_home_m: 0.0,
+        }
+        .to_enu(near);
+        let plane_m = flat.x_east_m.hypot(flat.y_north_m);
+        assert!((HomeOffset::of(&m, near).horizontal_m - plane_m).abs() < 1e-3);
     }
 
     #[test]

@@ -70,16 +70,21 @@ impl Wind {
     pub fn new(speed_m_s: f64, from_deg: f64) -> Result<Wind, String> {
         if !speed_m_s.is_finite() || speed_m_s < 0.0 {
             return Err(format!(
-                "wind speed {speed_m_s} m/s: must be a number of m/s, 0 or more"
+                "wind speed {} m/s: must be a number of m/s, 0 or more",
+                shown(speed_m_s)
             ));
         }
         if speed_m_s > MAX_WIND_M_S {
             return Err(format!(
-                "wind speed {speed_m_s} m/s: more than {MAX_WIND_M_S} m/s is not a flying wind"
+                "wind speed {} m/s: more than {MAX_WIND_M_S} m/s is not a flying wind",
+                shown(speed_m_s)
             ));
         }
         if !from_deg.is_finite() {
-            return Err(format!("wind direction {from_deg}: must be degrees"));
+            return Err(format!(
+                "wind direction {}: must be degrees",
+                shown(from_deg)
+            ));
         }
         Ok(Wind {
             speed_m_s,
@@ -129,18 +134,50 @@ impl std::fmt::Display for Wind {
 impl std::str::FromStr for Wind {
     type Err = String;
 
-    /// `SPEED@FROM_DEG`, e.g. `6@270`: 6 m/s from the west.
+    /// `SPEED@FROM_DEG`, e.g. `6@270`: 6 m/s from the west. The direction is given as it is
+    /// meant, from 0 to under 360: anything else is refused, not wrapped (`8@400` is more
+    /// likely a typo of 8@40 or 8@300 than a wind from 40 deg).
     fn from_str(s: &str) -> Result<Wind, String> {
         let usage = || {
             format!(
-                "wind {s:?}: expected SPEED@FROM_DEG (m/s and the direction it blows from, \
-                 degrees clockwise from north), e.g. 6@270"
+                "wind \"{}\": expected SPEED@FROM_DEG (m/s and the direction it blows from, \
+                 degrees clockwise from north), e.g. 6@270",
+                echoed(s)
             )
         };
         let (speed, from) = s.trim().split_once('@').ok_or_else(usage)?;
         let speed: f64 = speed.trim().parse().map_err(|_| usage())?;
-        let from: f64 = from.trim().parse().map_err(|_| usage())?;
-        Wind::new(speed, from)
+        let from_deg: f64 = from.trim().parse().map_err(|_| usage())?;
+        if from_deg.is_finite() && !(0.0..360.0).contains(&from_deg) {
+            return Err(format!(
+                "wind direction {} deg: must be from 0 to under 360 (degrees clockwise from \
+                 north it blows from)",
+                echoed(from)
+            ));
+        }
+        Wind::new(speed, from_deg)
+    }
+}
+
+/// A number for a message: as Rust writes it when that is short, else in scientific notation
+/// (a speed of 1e308 is not echoed as 309 digits).
+fn shown(value: f64) -> String {
+    let plain = value.to_string();
+    if plain.len() <= 16 {
+        plain
+    } else {
+        format!("{value:.3e}")
+    }
+}
+
+/// Text the user typed, for a message: trimmed, and cut after 32 characters.
+fn echoed(text: &str) -> String {
+    const MAX_CHARS: usize = 32;
+    let text = text.trim();
+    if text.chars().count() <= MAX_CHARS {
+        text.to_string()
+    } else {
+        format!("{}...", text.chars().take(MAX_CHARS).collect::<String>())
     }
 }
 
@@ -152,11 +189,24 @@ mod tests {
     fn a_wind_is_read_as_speed_at_the_direction_it_blows_from() {
         let w: Wind = "6@270".parse().unwrap();
         assert_eq!((w.speed_m_s, w.from_deg), (6.0, 270.0));
-        assert_eq!("5 @ -90".parse::<Wind>().unwrap().from_deg, 270.0);
-        for bad in ["6", "6@", "@270", "x@270", "-1@0", "40@0", "6@nan"] {
+        assert_eq!("5 @ 359.5".parse::<Wind>().unwrap().from_deg, 359.5);
+        for bad in [
+            "6", "6@", "@270", "x@270", "-1@0", "40@0", "6@nan", "5@-90", "8@400", "8@360",
+        ] {
             assert!(bad.parse::<Wind>().is_err(), "{bad}");
         }
         assert!("6@".parse::<Wind>().unwrap_err().contains("SPEED@FROM_DEG"));
+        let wrapped = "8@400".parse::<Wind>().unwrap_err();
+        assert!(
+            wrapped.contains("400") && wrapped.contains("under 360"),
+            "{wrapped}"
+        );
+        let huge = "1e308@0".parse::<Wind>().unwrap_err();
+        assert!(huge.contains("1.000e308") && huge.len() < 100, "{huge}");
+        let long = format!("{}@0", "9".repeat(400));
+        assert!(long.parse::<Wind>().unwrap_err().len() < 100);
+        let typo = format!("{}@0", "x".repeat(400));
+        assert!(typo.parse::<Wind>().unwrap_err().len() < 200);
     }
 
     #[test]

@@ -28,6 +28,32 @@ const COLUMNS: [&str; 12] = [
     "autocontinue",
 ];
 
+/// Why a first line `line` is not the header: what was expected, and what the line looks like
+/// (a `.txt` file may hold another format than Mission Planner's).
+fn not_a_header(line: &str) -> String {
+    const SHOWN_CHARS: usize = 40;
+    let shown: String = line.chars().take(SHOWN_CHARS).collect();
+    let cut = if line.chars().count() > SHOWN_CHARS {
+        "..."
+    } else {
+        ""
+    };
+    let looks = if line.starts_with("QGC WPL") {
+        " (another version of the format, not supported: only 110 is read)"
+    } else if line.starts_with('{') {
+        " (JSON: a QGroundControl .plan? name it .plan)"
+    } else if line.starts_with('[') || line.contains(" = ") {
+        " (TOML: an emplan mission? name it .toml)"
+    } else {
+        ""
+    };
+    let found = format!("{shown}{cut}");
+    format!(
+        "expected the QGroundControl waypoint file header {HEADER:?} (read as a .waypoints \
+         mission, as .txt files are), found {found:?}{looks}"
+    )
+}
+
 pub(super) fn parse(text: &str, file: &str, stem: &str) -> Result<RawMission, MissionError> {
     let bad =
         |line: usize, problem: String| MissionError::invalid(file, Place::Line(line), problem);
@@ -38,12 +64,7 @@ pub(super) fn parse(text: &str, file: &str, stem: &str) -> Result<RawMission, Mi
         .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
     match lines.next() {
         Some((_, l)) if l == HEADER => {}
-        Some((n, l)) => {
-            return Err(bad(
-                n,
-                format!("header {l:?} is not supported (expected {HEADER:?})"),
-            ))
-        }
+        Some((n, l)) => return Err(bad(n, not_a_header(l))),
         None => {
             return Err(MissionError::invalid(
                 file,

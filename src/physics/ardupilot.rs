@@ -441,7 +441,7 @@ pub fn leg(p: &ArdupilotParams, xf_m: f64, zf_m: f64) -> Result<Samples, Physics
     let curve = leg_scurve(p, xf_m, zf_m);
     let duration = curve.duration_s();
     if !duration.is_finite() || duration > MAX_DURATION_S {
-        return Err(no_arrival("leg"));
+        return Err(no_arrival(xf_m, zf_m, "leg"));
     }
     let length = xf_m.hypot(zf_m);
     let (ux, uz) = if length > 0.0 {
@@ -562,7 +562,7 @@ pub fn takeoff(p: &ArdupilotParams, height_m: f64) -> Result<Samples, PhysicsErr
             return Ok(Samples { step_s: dt, points });
         }
     }
-    Err(no_arrival("take-off"))
+    Err(no_arrival(0.0, height_m, "take-off"))
 }
 
 /// How far below the take-off altitude ArduCopter counts the take-off complete (the stopping
@@ -616,13 +616,13 @@ pub fn landing(p: &ArdupilotParams, height_m: f64) -> Result<Samples, PhysicsErr
             return Ok(Samples { step_s: dt, points });
         }
     }
-    Err(no_arrival("landing"))
+    Err(no_arrival(0.0, -height_m, "landing"))
 }
 
-fn no_arrival(what: &str) -> PhysicsError {
+fn no_arrival(xf_m: f64, zf_m: f64, what: &str) -> PhysicsError {
     PhysicsError::NoTrajectory {
-        xf_m: 0.0,
-        zf_m: 0.0,
+        xf_m,
+        zf_m,
         profile: super::Profile::Ardupilot,
         reason: format!("ardupilot {what} does not arrive within {MAX_DURATION_S} s"),
     }

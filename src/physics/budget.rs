@@ -69,7 +69,7 @@ impl Budget {
         let pricing = |what: &'static str| {
             move |e: PhysicsError| PhysicsError::Pricing {
                 what,
-                source: Box::new(e),
+                source: Box::new(e.in_wind(wind)),
             }
         };
         let h = height_above_home_m;

@@ -88,7 +88,8 @@ pub enum PhysicsError {
         v_z_m_s: f64,
     },
     #[error(
-        "no feasible trajectory for Xf {xf_m} m, Zf {zf_m} m with the {profile} profile: {reason}"
+        "no feasible trajectory for Xf {xf_m:.2} m, Zf {zf_m:.2} m with the {profile} profile: \
+         {reason}"
     )]
     NoTrajectory {
         xf_m: f64,
@@ -135,4 +136,29 @@ pub enum PhysicsError {
         line: usize,
         problem: String,
     },
+    /// What a leg, take-off, landing or hover meets in a steady wind (`source` says why it
+    /// cannot be flown): the wind is named, as it is what the vehicle fails against.
+    #[error(
+        "in the wind of {} m/s from {} deg (the vehicle cannot fly it): {source}",
+        wind.speed_m_s,
+        wind.from_deg
+    )]
+    InWind {
+        wind: Wind,
+        source: Box<PhysicsError>,
+    },
+}
+
+impl PhysicsError {
+    /// This error, naming `wind` when there is one (still air: unchanged).
+    pub fn in_wind(self, wind: Wind) -> PhysicsError {
+        if wind.is_calm() {
+            self
+        } else {
+            PhysicsError::InWind {
+                wind,
+                source: Box::new(self),
+            }
+        }
+    }
 }

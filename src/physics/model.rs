@@ -152,7 +152,9 @@ impl VehicleModel {
             None => self.vehicle.clone(),
         };
         let model = Model::new(&vehicle).in_wind(self.wind.on_heading(heading_deg));
-        let op = model.operation_from(self.profile, xf_m, zf_m, start)?;
+        let op = model
+            .operation_from(self.profile, xf_m, zf_m, start)
+            .map_err(|e| e.in_wind(self.wind))?;
         Ok(LegEnergy::from(&op))
     }
 

@@ -403,14 +403,19 @@ impl<'a> Model<'a> {
             Profile::Hvb => Ok(Trajectory::hvb(&v.hvb, xf_m, zf_m)),
             Profile::Px4 => {
                 let x = &v.px4;
-                let samples = px4::leg_from(x, xf_m, zf_m, start)
-                    .map_err(|e| no_trajectory(e.to_string()))?;
+                let samples = px4::leg_from(x, xf_m, zf_m, start).map_err(|e| match e {
+                    // It names the leg already.
+                    PhysicsError::NoTrajectory { .. } => e,
+                    other => no_trajectory(other.to_string()),
+                })?;
                 Ok(px4_trajectory(x, samples, xf_m, zf_m))
             }
             Profile::Ardupilot => {
                 let a = &v.ardupilot;
-                let samples =
-                    ardupilot::leg(a, xf_m, zf_m).map_err(|e| no_trajectory(e.to_string()))?;
+                let samples = ardupilot::leg(a, xf_m, zf_m).map_err(|e| match e {
+                    PhysicsError::NoTrajectory { .. } => e,
+                    other => no_trajectory(other.to_string()),
+                })?;
                 // The vehicle trailing its S-curve makes the leg longer by the tracking lag,
                 // priced as hover before it moves (as the PTF's).
                 Ok(Trajectory {

@@ -404,10 +404,10 @@ enum Kind {
     Landing,
 }
 
-fn no_arrival(what: &str) -> PhysicsError {
+fn no_arrival(xf_m: f64, zf_m: f64, what: &str) -> PhysicsError {
     PhysicsError::NoTrajectory {
-        xf_m: f64::NAN,
-        zf_m: f64::NAN,
+        xf_m,
+        zf_m,
         profile: super::Profile::Px4,
         reason: format!("PX4's trajectory generator does not arrive within an hour ({what})"),
     }
@@ -581,11 +581,15 @@ fn run(p: &Px4Params, xf: f64, zf: f64, kind: Kind) -> Result<Samples, PhysicsEr
             return Ok(Samples { step_s: dt, points });
         }
     }
-    Err(no_arrival(match kind {
-        Kind::Leg(_) => "leg",
-        Kind::Takeoff => "take-off",
-        Kind::Landing => "landing",
-    }))
+    Err(no_arrival(
+        xf,
+        zf,
+        match kind {
+            Kind::Leg(_) => "leg",
+            Kind::Takeoff => "take-off",
+            Kind::Landing => "landing",
+        },
+    ))
 }
 
 /// A mission leg from hover to hover over `xf_m` horizontally and `zf_m` up, the vehicle

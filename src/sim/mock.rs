@@ -200,6 +200,9 @@ impl MockAutopilot {
                 reason: "must be a number above 0 and at most 1000",
             });
         }
+        // The vehicle is built once before the mock answers: one it cannot fly (it cannot
+        // hover) is refused here with its reason, not left to an autopilot that never speaks.
+        sim_vehicle(&config, &vehicle)?;
         let socket = UdpSocket::bind(listen_addr(listen)?).await?;
         let local_addr = socket.local_addr()?;
         let shared = Arc::new(Mutex::new(Shared::default()));
@@ -298,6 +301,25 @@ fn home_answer(config: &MockConfig, from: (u8, u8), message: &MavMessage) -> Vec
     ]
 }
 
+/// The simulated vehicle `config` flies (None when it only serves the mission protocol).
+fn sim_vehicle<'v>(
+    config: &MockConfig,
+    vehicle: &'v Vehicle,
+) -> Result<Option<SimVehicle<'v>>, SimError> {
+    config
+        .flight
+        .map(|flight| {
+            SimVehicle::new(
+                config.flavour,
+                vehicle,
+                flight,
+                (config.system_id, config.component_id),
+            )
+            .map_err(|e| SimError::Vehicle(format!("the mock cannot fly it: {e}")))
+        })
+        .transpose()
+}
+
 async fn run(
     socket: Arc<UdpSocket>,
     config: MockConfig,
@@ -305,18 +327,7 @@ async fn run(
     shared: Arc<Mutex<Shared>>,
     mut shutdown: watch::Receiver<bool>,
 ) -> Result<(), SimError> {
-    let mut flight = match config.flight {
-        Some(flight) => Some(
-            SimVehicle::new(
-                config.flavour,
-                &vehicle,
-                flight,
-                (config.system_id, config.component_id),
-            )
-            .map_err(|e| SimError::Vehicle(e.to_string()))?,
-        ),
-        None => None,
-    };
+    let mut flight = sim_vehicle(&config, &vehicle)?;
     let mut autostarted = 0;
     let f = config.faults;
     let mut server = MissionServer::new(

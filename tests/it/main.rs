@@ -16,6 +16,7 @@ mod fromlogs;
 mod guard;
 mod home;
 mod install;
+mod messages;
 mod mission;
 mod onboard;
 mod onboard_corrupt;

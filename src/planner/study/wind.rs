@@ -23,14 +23,16 @@ pub struct WindRow {
     pub speed_m_s: f64,
     pub from_deg: f64,
     pub missions: usize,
-    /// Share of missions whose wind-aware energy order is not the still-air one (%).
-    pub order_changed_pct: f64,
+    /// Share of missions whose wind-aware energy order is not the still-air one (%); None when
+    /// no mission could be flown in this wind (then there is no share, not a share of 0).
+    pub order_changed_pct: Option<f64>,
     /// The still-air order's price in the wind over the wind-aware order's, % of the former;
-    /// over every mission (0 where the order did not change).
-    pub saving: Stats,
+    /// over every mission (0 where the order did not change). None when no mission was flown.
+    pub saving: Option<Stats>,
     /// The wind-aware order's price in the wind against the still-air order's price in still
-    /// air, mean over the missions (%): what the wind itself does to the mission.
-    pub wind_effect_mean_pct: f64,
+    /// air, mean over the missions (%): what the wind itself does to the mission. None when no
+    /// mission was flown.
+    pub wind_effect_mean_pct: Option<f64>,
     /// Missions with a leg the vehicle cannot fly in this wind (its motors or tilt at their
     /// limit): left out of the shares and statistics above, which count the others.
     pub infeasible_missions: usize,
@@ -118,15 +120,17 @@ pub fn run_wind(
             InWind::Infeasible => None,
         })
         .collect();
-    let n = outcomes.len().max(1) as f64;
+    let flown = !outcomes.is_empty();
+    let n = outcomes.len() as f64;
     let savings: Vec<f64> = outcomes.iter().map(|o| o.1).collect();
     Ok(WindRow {
         speed_m_s: wind.speed_m_s,
         from_deg: wind.from_deg,
         missions: outcomes.len(),
-        order_changed_pct: 100.0 * outcomes.iter().filter(|o| o.0).count() as f64 / n,
-        saving: Stats::of(&savings),
-        wind_effect_mean_pct: outcomes.iter().map(|o| o.2).sum::<f64>() / n,
+        order_changed_pct: flown
+            .then(|| 100.0 * outcomes.iter().filter(|o| o.0).count() as f64 / n),
+        saving: flown.then(|| Stats::of(&savings)),
+        wind_effect_mean_pct: flown.then(|| outcomes.iter().map(|o| o.2).sum::<f64>() / n),
         infeasible_missions: all.len() - outcomes.len(),
     })
 }
@@ -154,18 +158,33 @@ mod tests {
         };
         let m = model();
         let calm = run_wind(&settings, &m, Pricing::Settled, Wind::CALM, &|| {}).unwrap();
-        assert_eq!(calm.order_changed_pct, 0.0);
-        assert_eq!(calm.saving.max_pct, 0.0);
-        assert_eq!(calm.wind_effect_mean_pct, 0.0);
+        assert_eq!(calm.order_changed_pct, Some(0.0));
+        assert_eq!(calm.saving.map(|s| s.max_pct), Some(0.0));
+        assert_eq!(calm.wind_effect_mean_pct, Some(0.0));
         assert_eq!(calm.infeasible_missions, 0);
         let strong = Wind::new(8.0, 270.0).unwrap();
         let row = run_wind(&settings, &m, Pricing::Settled, strong, &|| {}).unwrap();
         assert_eq!(row.missions, 8);
-        assert!(row.order_changed_pct > 0.0, "{row:?}");
+        assert!(row.order_changed_pct.is_some_and(|p| p > 0.0), "{row:?}");
         // The wind-aware order is optimal in the wind: never dearer there than the still-air one.
-        assert!(
-            row.saving.mean_pct >= 0.0 && row.saving.max_pct > 0.0,
-            "{row:?}"
-        );
+        let saving = row.saving.expect("missions flown");
+        assert!(saving.mean_pct >= 0.0 && saving.max_pct > 0.0, "{row:?}");
+    }
+
+    #[test]
+    fn a_wind_no_mission_can_fly_has_no_share_saving_or_effect_rather_than_zeros() {
+        let settings = StudySettings {
+            waypoints: 4,
+            xy_m: 40.0,
+            z_m: 20.0,
+            missions: 2,
+            seed: 1,
+        };
+        let storm = Wind::new(13.0, 270.0).unwrap();
+        let row = run_wind(&settings, &model(), Pricing::Settled, storm, &|| {}).unwrap();
+        assert_eq!((row.missions, row.infeasible_missions), (0, 2), "{row:?}");
+        assert_eq!(row.order_changed_pct, None);
+        assert_eq!(row.saving, None);
+        assert_eq!(row.wind_effect_mean_pct, None);
     }
 }
