@@ -21,7 +21,7 @@ use crate::physics::VehicleModel;
 use crate::planner::FlightChoice;
 use crate::tour::solver;
 
-use super::predict::{flight_plan, plan_from_items, repriced, FlightItemsError};
+use super::predict::{flight_plan, plan_from_items, priced_by, repriced, FlightItemsError};
 use super::replay::{log_name, plan_beside};
 
 /// Why an onboard log could not be measured; each names the file.
@@ -162,6 +162,8 @@ pub fn replay_onboard(
                     cause,
                 })?,
             );
+        plan.priced_by = Some(priced_by(model));
+        plan.wind = Some(model.wind).filter(|w| !w.is_calm());
     }
     let name = log_name(path);
     // A record refused as corrupt is a span of the file skipped, as a .tlog's corrupt spans are:
