@@ -134,6 +134,7 @@ pub fn run(
             legs: c.legs.len(),
             hovers: flights.hovers.len(),
             held_out: c.held_out_errors(),
+            profile,
         };
         // Every table built before anything is written: nothing half-written.
         let calibrated = vehicle_dir::calibrated_vehicle(vehicle_dir, out, &c.values(), &to)?;

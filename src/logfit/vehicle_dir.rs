@@ -133,6 +133,49 @@ pub struct FittedTo {
     pub hovers: usize,
     /// Leave-one-flight-out per-leg errors.
     pub held_out: Option<ErrorStats>,
+    /// The profile the flights were flown with and fitted with: the written vehicle's
+    /// `planning.default_profile`, so it plans and prices with it unless told otherwise.
+    pub profile: Profile,
+}
+
+/// `text` (a vehicle.toml) with `planning.default_profile` set to `profile` (its comment saying
+/// why and what it was) when it names another; unchanged when it names it or has no such line
+/// (the vehicle's own default then stands).
+fn with_default_profile(text: &str, profile: Profile) -> String {
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let Some(start) = lines.iter().position(|l| l.trim() == "[planning]") else {
+        return text.to_string();
+    };
+    let section = lines[start + 1..]
+        .iter()
+        .take_while(|l| !l.trim_start().starts_with('['))
+        .count();
+    let found = (start + 1..start + 1 + section).find(|&k| {
+        (lines[k].trim_start().strip_prefix("default_profile"))
+            .is_some_and(|rest| rest.trim_start().starts_with('='))
+    });
+    let Some(k) = found else {
+        return text.to_string();
+    };
+    let old = (lines[k].split_once('=').map(|(_, v)| v.trim())).and_then(|v| {
+        v.strip_prefix('"')?
+            .split_once('"')
+            .map(|(p, _)| p.to_string())
+    });
+    if old.as_deref() == Some(&profile.to_string()) {
+        return text.to_string();
+    }
+    let column = lines[k].find('#').unwrap_or(NEW_KEY_COLUMN);
+    let assignment = format!("default_profile = \"{profile}\"");
+    let pad = column.saturating_sub(assignment.len()).max(1);
+    lines[k] = format!(
+        "{assignment}{:pad$}# the profile the logged flights were flown with (`emplan calibrate --from-logs`); was {}",
+        "",
+        old.map_or("unset".to_string(), |p| format!("\"{p}\""))
+    );
+    let mut out = lines.join("\n");
+    out.push('\n');
+    out
 }
 
 /// `text` (a vehicle.toml) with its top-level `name` saying it was calibrated from logs, so a
@@ -302,7 +345,7 @@ pub fn calibrated_vehicle(
         })
         .collect();
     let edited = edit_vehicle_toml(&text, &source_file, &values)?;
-    let edited = header(fitted, to) + &renamed(&edited);
+    let edited = header(fitted, to) + &renamed(&with_default_profile(&edited, to.profile));
     let vehicle = Vehicle::from_toml(&edited, &out_file)?;
     for f in fitted {
         let written = value_of(&vehicle, f.key);

@@ -139,7 +139,10 @@ pub fn plan_for_onboard(
     let plan = (choice.plan(mission, model, solver::Options::default()))
         .map_err(|e| planning(e.to_string()))?;
     let flight = choice.flight(&plan).map_err(|e| planning(e.to_string()))?;
-    Ok(flight_plan(mission, &plan, &flight, flavour)?)
+    Ok(FlightPlan {
+        priced_by: Some(priced_by(model)),
+        ..flight_plan(mission, &plan, &flight, flavour)?
+    })
 }
 
 /// Reads the onboard log at `path` and measures it against its plan ([`plan_for_onboard`]).
