@@ -66,6 +66,7 @@ fn plan() -> FlightPlan {
         resumes: None,
         wind: None,
         repricings: Vec::new(),
+        priced_by: None,
         guard: Some(GuardSetup {
             policy: Policy::Rtl,
             usable_j: 720_000.0,

@@ -15,10 +15,11 @@
 # DataFlash .bin files: the held-out flight's report is measured from its .tlog, so the fit and
 # the check measure energy the same way, and samples.csv lets the fit refit the pack too.
 #
-# The profile the legs are priced with: PROFILE if set, else `ardupilot` when this emplan has
-# that profile (ArduCopter's own trajectory), else `px4` (what `fly` priced with before it).
-# Only that profile's table is rebuilt (--tables) to keep the run short; the calibrated
-# directory's vehicle.toml carries the fit for the others (`emplan table build`).
+# The profile the legs are priced with: the one each flight was flown with (its plan.json says;
+# `fly` picks ArduCopter's own, `ardupilot`), which `calibrate --from-logs` and `report` take
+# by themselves, as a field team runs them: no --profile, no --tables (calibrate builds that
+# profile's table only; the calibrated directory's vehicle.toml carries the fit for the others,
+# `emplan table build`). PROFILE=P passes --profile P to both instead.
 # The airframe's mass is given, as a field team weighs theirs (`calibrate --mass-kg`): MASS_KG,
 # default the SITL frame's own (s1000.json "mass", 6.971 kg); MASS_KG= (empty) fits it instead.
 # Usage: sitl/ardupilot-calibrate.sh [EMPLAN_BINARY] [WORK_DIR]; SITL_INSTANCE as ardupilot-fly.sh.
@@ -27,14 +28,13 @@ cd "$(dirname "$0")/.."
 emplan=${1:-target/debug/emplan}
 work=${2:-$(mktemp -d -t emplan-ardupilot-calibrate.XXXXXX)}
 mkdir -p "$work"
-if [ -z "${PROFILE:-}" ]; then
-  if "$emplan" energy --xf 10 --zf 0 --profile ardupilot >/dev/null 2>&1; then
-    PROFILE=ardupilot
-  else
-    PROFILE=px4
-  fi
+profile_args=()
+if [ -n "${PROFILE:-}" ]; then
+  profile_args=(--profile "$PROFILE")
+  echo "== pricing with the $PROFILE profile (PROFILE)"
+else
+  echo "== pricing with the profile the flights were flown with"
 fi
-echo "== pricing with the $PROFILE profile"
 shared=${SHARED_SITL:-../shared/sitl}
 [ -d "$shared" ] || shared=/work/shared/sitl
 mass=${MASS_KG-$(python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["mass"])' \
@@ -60,11 +60,15 @@ for mission in missions/paper-sample-8wp.toml missions/paper-sample-3wp.toml; do
   fitted+=("$(fly "$mission")")
 done
 echo "== emplan calibrate --from-logs ${fitted[*]} ${mass_args[*]}"
-"$emplan" calibrate --from-logs "${fitted[@]}" "${mass_args[@]}" --profile "$PROFILE" --out "$work/calibrated" \
-  --tables "$PROFILE" --force --json >"$work/calibrate.json"
+"$emplan" calibrate --from-logs "${fitted[@]}" "${mass_args[@]}" ${profile_args[@]+"${profile_args[@]}"} \
+  --out "$work/calibrated" --force --json >"$work/calibrate.json"
 python3 - "$work/calibrate.json" <<'PY'
 import json, sys
 doc = json.load(open(sys.argv[1]))
+print(f"fitted with the {doc['profile']} profile; tables written: "
+      + ", ".join(w for w in doc["written"] if w.endswith(".table")))
+for t in doc.get("tables_left_out", []):
+    print(f"  table {t['profile']} left out: {t['reason']}")
 for name in ("before", "after", "held_out"):
     s = doc.get(name)
     if s:
@@ -74,10 +78,10 @@ for f in doc["changed"]:
     print(f"  {f['key']}: {f['before']:.4g} -> {f['value']:.4g} (bounds {f['low']:.4g}-{f['high']:.4g}){bound}")
 PY
 held_out=$(fly "$work/held-out-6wp.toml")
-echo "== emplan report $held_out --vehicle $work/calibrated --profile $PROFILE --json"
-"$emplan" report "$held_out" --vehicle "$work/calibrated" --profile "$PROFILE" --json \
+echo "== emplan report $held_out --vehicle $work/calibrated${profile_args[*]+ ${profile_args[*]}} --json"
+"$emplan" report "$held_out" --vehicle "$work/calibrated" ${profile_args[@]+"${profile_args[@]}"} --json \
   >"$work/held-out-calibrated.json"
-"$emplan" report "$held_out" --vehicle models/s1000 --profile "$PROFILE" --json \
+"$emplan" report "$held_out" --vehicle models/s1000 ${profile_args[@]+"${profile_args[@]}"} --json \
   >"$work/held-out-uncalibrated.json"
 python3 sitl/check_repriced.py "$work/held-out-calibrated.json" \
   --uncalibrated "$work/held-out-uncalibrated.json" --vehicle-dir "$work/calibrated" \

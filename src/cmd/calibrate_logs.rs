@@ -18,16 +18,20 @@ pub struct LogArgs {
     /// (PX4 .ulg beside a plan.json, ArduPilot .bin), or folders of them
     #[arg(long, value_name = "LOG_DIR", num_args = 1.., conflicts_with = "fit")]
     from_logs: Vec<PathBuf>,
-    /// With --from-logs: the profile the flights flew (default: the vehicle's)
+    /// With --from-logs: the profile the flights flew (default: the one their plan.json says
+    /// they were flown with, which must be the same for every flight; else the autopilot's,
+    /// told by the mission's layout; else the vehicle's)
     #[arg(long, requires = "from_logs")]
     profile: Option<Profile>,
     /// With --from-logs: write the calibrated vehicle (vehicle.toml and tables) to this new
     /// directory
     #[arg(long, value_name = "DIR", requires = "from_logs")]
     out: Option<PathBuf>,
-    /// With --out: the tables to rebuild, comma-separated, `all` or `none` (default: all, so
-    /// every profile of the next flight is priced with the fit; the px4 and ptf tables take
-    /// tens of seconds each, hvb a few)
+    /// With --out: the tables to rebuild, comma-separated, `all` or `none` (default: the
+    /// profile the flights were flown with; the px4 and ptf tables take tens of seconds each,
+    /// hvb a few). A table named here that cannot be built refuses the whole output; with the
+    /// default or `all`, one that cannot be built is left out with a warning
+    /// (vehicle.toml carries the fit; `emplan table build` builds the others)
     #[arg(long, value_name = "PROFILES", requires = "out")]
     tables: Option<String>,
     /// With --from-logs: the airframe's weighed take-off mass in kg (battery and payload on):
@@ -55,15 +59,17 @@ pub fn run(
     let name = vehicle_dir.map_or(emplan::physics::builtin::NAME.to_string(), |d| {
         d.display().to_string()
     });
-    let profile = args.profile.unwrap_or(vehicle.default_profile());
-    let tables: Vec<Profile> = match args.tables.as_deref() {
-        None | Some("all") => Profile::ALL.to_vec(),
-        Some("none") => Vec::new(),
-        Some(list) => list
-            .split(',')
-            .map(|p| p.trim().parse::<Profile>().map_err(anyhow::Error::msg))
-            .collect::<anyhow::Result<_>>()
-            .with_context(|| format!("--tables {list}"))?,
+    // The tables named (a failure to build one refuses the output) or implied (the default:
+    // the flights' profile, known once they are read; `all`).
+    let named: Option<Vec<Profile>> = match args.tables.as_deref() {
+        None | Some("all") => None,
+        Some("none") => Some(Vec::new()),
+        Some(list) => Some(
+            list.split(',')
+                .map(|p| p.trim().parse::<Profile>().map_err(anyhow::Error::msg))
+                .collect::<anyhow::Result<_>>()
+                .with_context(|| format!("--tables {list}"))?,
+        ),
     };
     // The output directory checked before the fit: never the source vehicle's, a flight's or
     // (unforced) one holding anything.
@@ -99,28 +105,62 @@ pub fn run(
             skipped.reason
         );
     }
+    let profile = match args.profile {
+        Some(profile) => profile,
+        None => match logfit::flights_profile(&flights.flights)? {
+            Some(profile) => profile,
+            None => {
+                let profile = vehicle.default_profile();
+                eprintln!(
+                    "warning: no flight says which profile it was flown with: fitting with the vehicle's, {profile} (--profile chooses)"
+                );
+                profile
+            }
+        },
+    };
+    let (tables, required) = match named {
+        Some(list) => (list, true),
+        None if args.tables.is_some() => (Profile::ALL.to_vec(), false),
+        None => (vec![profile], false),
+    };
     let c = super::progress::solving("fitting to the logged legs", || {
         logfit::calibrate_weighed(vehicle, profile, &flights, args.mass_kg)
     })?;
     let mut written = Vec::new();
+    let mut left_out = Vec::new();
     if let Some(out) = &out {
         let to = vehicle_dir::FittedTo {
             flights: c.flights.iter().map(|f| f.name.clone()).collect(),
             legs: c.legs.len(),
             hovers: flights.hovers.len(),
             held_out: c.held_out_errors(),
+            profile,
         };
-        let v = vehicle_dir::write_vehicle(vehicle_dir, out, &c.values(), &to)?;
-        written.push(out.path.join("vehicle.toml"));
-        for p in tables {
+        // Every table built before anything is written: nothing half-written.
+        let calibrated = vehicle_dir::calibrated_vehicle(vehicle_dir, out, &c.values(), &to)?;
+        let (built, tables_left_out) = vehicle_dir::build_tables(&tables, required, |p| {
             let bar = super::progress::bar(0, "{prefix} [{bar:40}] {pos}/{len} cells, {eta} left");
             bar.set_prefix(format!("{p} table"));
-            let path = vehicle_dir::write_table(out, &v, p, |done, total| {
+            let table = vehicle_dir::build_table(&calibrated.vehicle, p, |done, total| {
                 bar.set_length(total as u64);
                 bar.set_position(done as u64);
-            })?;
+            });
             bar.finish_and_clear();
-            written.push(path);
+            table
+        })
+        .with_context(|| format!("nothing written to {}", out.path.display()))?;
+        for t in &tables_left_out {
+            eprintln!(
+                "warning: the {} table left out of {}: {} (vehicle.toml carries the fit)",
+                t.profile,
+                out.path.display(),
+                t.reason
+            );
+        }
+        left_out = tables_left_out;
+        written.push(calibrated.write()?);
+        for table in &built {
+            written.push(vehicle_dir::write_built_table(out, table)?);
         }
     }
     if json {
@@ -131,6 +171,7 @@ pub fn run(
                 "out".into(),
                 args.out.as_ref().map(|o| o.display().to_string()).into(),
             );
+            map.insert("tables_left_out".into(), serde_json::to_value(&left_out)?);
             map.insert(
                 "written".into(),
                 written

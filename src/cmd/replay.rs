@@ -30,7 +30,16 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         .as_deref()
         .map(emplan::mission::load)
         .transpose()?;
-    let model = args.model.model()?;
+    // --profile, else the profile the flight was flown with (its plan's, else its autopilot's).
+    let profile = match args.model.profile {
+        Some(profile) => Some(profile),
+        None => emplan::session::flown_profile(&args.tlog, args.plan.as_deref())?,
+    };
+    let model = super::VehicleArgs {
+        vehicle: args.model.vehicle.clone(),
+        profile,
+    }
+    .model()?;
     let from = emplan::session::PlanFrom {
         plan: args.plan.as_deref(),
         mission: mission.as_ref(),
@@ -38,9 +47,11 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         price_with: None,
     };
     let analysis = super::report::measure(&args.tlog, from)?;
+    let priced_by = super::report::PricedBy::of(&analysis, None);
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&analysis.report.json())?);
+        super::report::print_json(&analysis.report.json(), None, &priced_by)?;
     } else {
+        println!("{}", priced_by.line());
         super::report::print(&analysis.report);
     }
     Ok(ExitCode::SUCCESS)

@@ -333,20 +333,88 @@ impl PricedWith {
     }
 }
 
-/// A report document with the vehicle that re-priced it beside its own fields.
+/// What priced a flight's predictions, in the JSON (`"priced_by"`, docs/json.md): the vehicle
+/// and profile (the flight plan's record of them, or the vehicle that priced it now), the
+/// vehicle directory when one given priced it now, and the wind (None: still air).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct PricedBy {
+    pub flight: String,
+    /// The vehicle file's `name` (None: the flight plan does not say).
+    pub vehicle: Option<String>,
+    /// The vehicle directory `--vehicle` named, when it re-priced the flight.
+    pub dir: Option<String>,
+    /// None: the flight plan does not say.
+    pub profile: Option<String>,
+    pub wind: Option<emplan::physics::Wind>,
+}
+
+impl PricedBy {
+    pub fn of(analysis: &Analysis, dir: Option<&Path>) -> PricedBy {
+        let plan = analysis.segmenter.plan();
+        let priced = plan.priced_by.as_ref();
+        PricedBy {
+            flight: analysis.report.flight.clone(),
+            vehicle: priced.map(|p| p.vehicle.clone()),
+            dir: dir.map(|d| d.display().to_string()),
+            profile: priced.map(|p| p.profile.clone()),
+            wind: plan.wind.filter(|w| !w.is_calm()),
+        }
+    }
+
+    /// `priced by the vehicle V (DIR), the P profile, in still air`.
+    pub fn line(&self) -> String {
+        if self.vehicle.is_none() && self.profile.is_none() {
+            return format!(
+                "flight {}: its plan does not say which vehicle and profile priced it{}",
+                self.flight,
+                self.wind_words()
+                    .map_or(String::new(), |w| format!(" (priced {w})"))
+            );
+        }
+        let unknown = || "not recorded".to_string();
+        format!(
+            "flight {} priced by the vehicle {}{}, the {} profile, {}",
+            self.flight,
+            self.vehicle.clone().unwrap_or_else(unknown),
+            self.dir
+                .as_ref()
+                .map_or(String::new(), |d| format!(" ({d})")),
+            self.profile.clone().unwrap_or_else(unknown),
+            self.wind_words().unwrap_or_else(|| "in still air".into())
+        )
+    }
+
+    fn wind_words(&self) -> Option<String> {
+        self.wind.map(|w| {
+            format!(
+                "in a wind of {:.1} m/s from {:.0} deg",
+                w.speed_m_s, w.from_deg
+            )
+        })
+    }
+}
+
+/// A report document with the vehicle that re-priced it and what priced each flight beside
+/// its own fields.
 #[derive(serde::Serialize)]
-struct Priced<'a, T: serde::Serialize> {
+struct Priced<'a, T: serde::Serialize, B: serde::Serialize> {
     #[serde(flatten)]
     doc: &'a T,
     #[serde(skip_serializing_if = "Option::is_none")]
     priced_with: Option<&'a PricedWith>,
+    priced_by: B,
 }
 
-/// Prints `doc` as JSON with `"priced_with"` when re-priced.
-fn print_json<T: serde::Serialize>(doc: &T, priced: Option<&PricedWith>) -> anyhow::Result<()> {
+/// Prints `doc` as JSON with `"priced_with"` when re-priced and `"priced_by"`.
+pub fn print_json<T: serde::Serialize, B: serde::Serialize>(
+    doc: &T,
+    priced: Option<&PricedWith>,
+    priced_by: B,
+) -> anyhow::Result<()> {
     let doc = Priced {
         doc,
         priced_with: priced,
+        priced_by,
     };
     println!("{}", serde_json::to_string_pretty(&doc)?);
     Ok(())
@@ -376,26 +444,49 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
         None => None,
     };
+    // Each flight priced with --profile, else the profile it was flown with (its plan's, else
+    // its autopilot's: an onboard log's, a .tlog's), else the vehicle's.
+    let profiles = match args.model.profile {
+        Some(profile) => vec![Some(profile); logs.len()],
+        None => (logs.iter())
+            .map(|log| emplan::session::flown_profile(log, args.plan.as_deref()))
+            .collect::<Result<Vec<_>, _>>()?,
+    };
     // With --vehicle every flight is priced anew with it (plan.json keeps the prices of the
     // vehicle it was flown with); without, a plan found carries its own prices.
-    let (model, priced) = match &args.model.vehicle {
-        Some(dir) => {
-            let model = args.model.model()?;
-            let priced = PricedWith::of(&model, dir);
-            (Some(model), Some(priced))
+    let mut models = std::collections::HashMap::new();
+    for &profile in &profiles {
+        if models.contains_key(&profile) {
+            continue;
         }
-        None => (args.model.model().ok(), None),
-    };
-    let from = emplan::session::PlanFrom {
+        let chosen = super::VehicleArgs {
+            vehicle: args.model.vehicle.clone(),
+            profile,
+        };
+        let model = match &args.model.vehicle {
+            Some(_) => Some(chosen.model()?),
+            None => chosen.model().ok(),
+        };
+        models.insert(profile, model);
+    }
+    let model_of = |k: usize| models.get(&profiles[k]).and_then(Option::as_ref);
+    let priced = (args.model.vehicle.as_deref())
+        .zip(model_of(0))
+        .map(|(dir, model)| PricedWith::of(model, dir));
+    let from_of = |k: usize| emplan::session::PlanFrom {
         plan: args.plan.as_deref(),
         mission: mission.as_ref(),
-        model: model.as_ref(),
-        price_with: priced.is_some().then_some(model.as_ref()).flatten(),
+        model: model_of(k),
+        price_with: priced.is_some().then_some(model_of(k)).flatten(),
     };
+    let from = from_of(0);
     let mut analyses = Vec::new();
-    for log in &logs {
-        analyses.push(measure(log, from)?);
+    for (k, log) in logs.iter().enumerate() {
+        analyses.push(measure(log, from_of(k))?);
     }
+    let priced_by: Vec<PricedBy> = (analyses.iter())
+        .map(|a| PricedBy::of(a, args.model.vehicle.as_deref()))
+        .collect();
     if let (Some(onboard), [tlog]) = (&args.onboard, analyses.as_slice()) {
         // Measured against the plan the .tlog was: one flight, two logs.
         let plan_json = logs[0].with_file_name(emplan::flightlog::recorder::PLAN_FILE);
@@ -409,11 +500,12 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         let other = measure(onboard, from)?;
         let sources = emplan::flightlog::report::compare_sources(&tlog.report, &other.report);
         if args.json {
-            print_json(&sources, priced.as_ref())?;
+            print_json(&sources, priced.as_ref(), &priced_by[0])?;
         } else {
             if let Some(p) = &priced {
                 println!("{}", p.line());
             }
+            println!("{}", priced_by[0].line());
             print_sources(&sources);
         }
         return Ok(ExitCode::SUCCESS);
@@ -428,11 +520,12 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let reports: Vec<FlightReport> = analyses.into_iter().map(|a| a.report).collect();
     if let [report] = reports.as_slice() {
         if args.json {
-            print_json(&report.json(), priced.as_ref())?;
+            print_json(&report.json(), priced.as_ref(), &priced_by[0])?;
         } else {
             if let Some(p) = &priced {
                 println!("{}", p.line());
             }
+            println!("{}", priced_by[0].line());
             print(report);
         }
         return Ok(ExitCode::SUCCESS);
@@ -445,12 +538,13 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             combined: combined.json(),
             missions: missions.iter().map(FlownMission::json).collect(),
         };
-        print_json(&doc, priced.as_ref())?;
+        print_json(&doc, priced.as_ref(), &priced_by)?;
     } else {
         if let Some(p) = &priced {
             println!("{}", p.line());
         }
-        for report in &reports {
+        for (report, by) in reports.iter().zip(&priced_by) {
+            println!("{}", by.line());
             print(report);
             println!();
         }

@@ -97,6 +97,20 @@ pub struct FlightPlan {
     /// flight): the flight directory's repriced.jsonl, one line each as they were made.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub repricings: Vec<Repricing>,
+    /// What priced the predictions: the vehicle and the profile the flight was planned with
+    /// (and so flown with). Absent from plan.json files written before it was kept, and from a
+    /// plan without predictions.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub priced_by: Option<PricedBy>,
+}
+
+/// The vehicle and the profile a flight's predictions were priced with. The profile is its
+/// name (`ptf`, `hvb`, `px4`, `ardupilot`): this module knows no physics.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct PricedBy {
+    /// The vehicle file's `name`.
+    pub vehicle: String,
+    pub profile: String,
 }
 
 /// The rest of a flight priced again, from `from_point` on, in a wind heard in flight.
@@ -220,6 +234,7 @@ impl FlightPlan {
             guard: None,
             wind: None,
             repricings: Vec::new(),
+            priced_by: None,
         };
         plan.validate()?;
         Ok(plan)

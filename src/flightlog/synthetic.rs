@@ -67,6 +67,7 @@ pub fn square_plan() -> FlightPlan {
         guard: None,
         wind: None,
         repricings: Vec::new(),
+        priced_by: None,
     }
 }
 

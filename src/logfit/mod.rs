@@ -128,11 +128,24 @@ pub enum LogFitError {
     },
     #[error("no flight logs given")]
     NoFlights,
+    #[error("flight {first} was flown with the {first_profile} profile and {other} with the {other_profile} profile: give --profile to fit them with one")]
+    Profiles {
+        first: String,
+        first_profile: Profile,
+        other: String,
+        other_profile: Profile,
+    },
     /// Every flight directory found was left out ([`Flights::skipped`] says why).
     #[error("no usable flight: every flight directory was left out ({})", .dirs.join(", "))]
     NoUsableFlight { dirs: Vec<String> },
     #[error("{file}: {reason}")]
     VehicleFile { file: String, reason: String },
+    #[error("the {profile} table of the calibrated vehicle: {source}")]
+    Table {
+        profile: Profile,
+        #[source]
+        source: Box<LogFitError>,
+    },
     #[error(transparent)]
     Output(#[from] crate::output::OutputError),
     #[error(transparent)]
@@ -181,6 +194,8 @@ pub struct LoggedFlight {
     pub legs: usize,
     /// Legs left out: flagged, unmeasured or incomplete.
     pub skipped: usize,
+    /// The profile it was flown with ([`flown_profile`]; None when its plan does not say).
+    pub profile: Option<Profile>,
 }
 
 /// A flight directory left out of the fit, and why.
@@ -362,6 +377,42 @@ pub fn read_flight(
     legs_of((dir, &dir.join(REPORT_FILE)), &plan, &report, index)
 }
 
+/// The profile a flight was flown with: the one its plan was priced with (plan.json's
+/// `priced_by`, which `fly` writes), else, for a plan written before it was kept, its
+/// autopilot's own (what `fly` flies with unless told otherwise), told by the mission's layout:
+/// ArduPilot's take-off is item 1 (its home is item 0), PX4's item 0. None when neither says.
+/// A profile plan.json names and emplan does not know is refused, naming it.
+pub fn flown_profile(plan: &FlightPlan) -> Result<Option<Profile>, String> {
+    if let Some(priced) = &plan.priced_by {
+        return (priced.profile.parse::<Profile>())
+            .map(Some)
+            .map_err(|e| format!("priced_by.profile: {e}"));
+    }
+    Ok(match plan.takeoff_seq {
+        Some(0) => Some(Profile::Px4),
+        Some(1) => Some(Profile::Ardupilot),
+        _ => None,
+    })
+}
+
+/// The one profile `flights` were flown with ([`LoggedFlight::profile`]; None when none
+/// says); two flights flown with different profiles are refused, naming both.
+pub fn flights_profile(flights: &[LoggedFlight]) -> Result<Option<Profile>, LogFitError> {
+    let mut said = flights.iter().filter_map(|f| Some((f, f.profile?)));
+    let Some((first, profile)) = said.next() else {
+        return Ok(None);
+    };
+    match said.find(|(_, p)| *p != profile) {
+        None => Ok(Some(profile)),
+        Some((other, other_profile)) => Err(LogFitError::Profiles {
+            first: first.dir.display().to_string(),
+            first_profile: profile,
+            other: other.dir.display().to_string(),
+            other_profile,
+        }),
+    }
+}
+
 /// The clean legs of flight `at.0` measured in `report` (`at.1` names it in errors) against
 /// `plan`; `index` numbers them.
 pub fn legs_of(
@@ -408,11 +459,16 @@ pub fn legs_of(
             duration_s: part.duration_s,
         });
     }
+    let profile = flown_profile(plan).map_err(|reason| LogFitError::Flight {
+        dir: dir.display().to_string(),
+        reason: format!("{PLAN_FILE}: {reason}"),
+    })?;
     let flight = LoggedFlight {
         dir: dir.to_path_buf(),
         name: report.flight.clone(),
         legs: legs.len(),
         skipped,
+        profile,
     };
     Ok((flight, legs))
 }
@@ -1297,6 +1353,7 @@ impl LogCalibration {
                 "flight": f.name,
                 "legs": f.legs,
                 "skipped": f.skipped,
+                "profile": f.profile,
             })).collect::<Vec<_>>(),
             "legs": legs,
             "before": self.before(),
@@ -1372,6 +1429,7 @@ mod tests {
                     name: format!("flight{f}"),
                     legs: 2,
                     skipped: 0,
+                    profile: None,
                 })
                 .collect(),
             legs,
@@ -1587,6 +1645,7 @@ mod tests {
                     name: format!("flight{f}"),
                     legs: if f == 0 { 9 } else { 4 },
                     skipped: 0,
+                    profile: None,
                 })
                 .collect(),
             legs: (legs.iter().enumerate())

@@ -2,8 +2,10 @@
 //! the fitted values put in place (every other line and comment kept; each fitted line's comment
 //! says it was calibrated, against which logged flights, and what it was; the old comment's
 //! continuation lines dropped), read back and checked, and the energy tables rebuilt for it with
-//! `physics::table`'s build (every profile by default, so whatever the next flight flies is
-//! priced with the fit); every file written through `crate::output`.
+//! `physics::table`'s build (the caller chooses which: `calibrate --from-logs` builds the
+//! profile the flights were flown with); the tables are built before anything is written, so a
+//! fit that cannot be written leaves nothing half-written; every file written through
+//! `crate::output`.
 
 use std::path::Path;
 
@@ -131,6 +133,49 @@ pub struct FittedTo {
     pub hovers: usize,
     /// Leave-one-flight-out per-leg errors.
     pub held_out: Option<ErrorStats>,
+    /// The profile the flights were flown with and fitted with: the written vehicle's
+    /// `planning.default_profile`, so it plans and prices with it unless told otherwise.
+    pub profile: Profile,
+}
+
+/// `text` (a vehicle.toml) with `planning.default_profile` set to `profile` (its comment saying
+/// why and what it was) when it names another; unchanged when it names it or has no such line
+/// (the vehicle's own default then stands).
+fn with_default_profile(text: &str, profile: Profile) -> String {
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let Some(start) = lines.iter().position(|l| l.trim() == "[planning]") else {
+        return text.to_string();
+    };
+    let section = lines[start + 1..]
+        .iter()
+        .take_while(|l| !l.trim_start().starts_with('['))
+        .count();
+    let found = (start + 1..start + 1 + section).find(|&k| {
+        (lines[k].trim_start().strip_prefix("default_profile"))
+            .is_some_and(|rest| rest.trim_start().starts_with('='))
+    });
+    let Some(k) = found else {
+        return text.to_string();
+    };
+    let old = (lines[k].split_once('=').map(|(_, v)| v.trim())).and_then(|v| {
+        v.strip_prefix('"')?
+            .split_once('"')
+            .map(|(p, _)| p.to_string())
+    });
+    if old.as_deref() == Some(&profile.to_string()) {
+        return text.to_string();
+    }
+    let column = lines[k].find('#').unwrap_or(NEW_KEY_COLUMN);
+    let assignment = format!("default_profile = \"{profile}\"");
+    let pad = column.saturating_sub(assignment.len()).max(1);
+    lines[k] = format!(
+        "{assignment}{:pad$}# the profile the logged flights were flown with (`emplan calibrate --from-logs`); was {}",
+        "",
+        old.map_or("unset".to_string(), |p| format!("\"{p}\""))
+    );
+    let mut out = lines.join("\n");
+    out.push('\n');
+    out
 }
 
 /// `text` (a vehicle.toml) with its top-level `name` saying it was calibrated from logs, so a
@@ -193,16 +238,49 @@ fn header(fitted: &[Fitted], to: &FittedTo) -> String {
     )
 }
 
-/// Writes the calibrated vehicle.toml into the directory `out` (new or empty unless forced,
-/// never an input such as the source `source_dir`, through `crate::output`; `source_dir` None:
-/// the built-in vehicle, whose source directories are never written either), reads it back
-/// and checks the fitted values; returns the vehicle as read.
+/// A calibrated vehicle file made and checked, not written yet ([`Calibrated::write`]), so
+/// its tables can be built first and nothing is half-written.
+#[derive(Debug, Clone)]
+pub struct Calibrated {
+    /// The vehicle as its file reads back.
+    pub vehicle: Vehicle,
+    text: String,
+    out: Output,
+}
+
+impl Calibrated {
+    /// Writes vehicle.toml into the output directory (made when new); returns its path.
+    pub fn write(&self) -> Result<std::path::PathBuf, LogFitError> {
+        self.out.create_dir()?;
+        let file = self.out.file("vehicle.toml");
+        file.write(self.text.as_bytes())?;
+        Ok(file.path)
+    }
+}
+
+/// Writes the calibrated vehicle.toml into the directory `out` ([`calibrated_vehicle`] then
+/// [`Calibrated::write`]); returns the vehicle as read.
 pub fn write_vehicle(
     source_dir: Option<&Path>,
     out: &Output,
     fitted: &[Fitted],
     to: &FittedTo,
 ) -> Result<Vehicle, LogFitError> {
+    let calibrated = calibrated_vehicle(source_dir, out, fitted, to)?;
+    calibrated.write()?;
+    Ok(calibrated.vehicle)
+}
+
+/// The calibrated vehicle.toml for the directory `out` (new or empty unless forced, never an
+/// input such as the source `source_dir`, through `crate::output`; `source_dir` None: the
+/// built-in vehicle, whose source directories are never written either), read back and its
+/// fitted values checked; nothing written.
+pub fn calibrated_vehicle(
+    source_dir: Option<&Path>,
+    out: &Output,
+    fitted: &[Fitted],
+    to: &FittedTo,
+) -> Result<Calibrated, LogFitError> {
     // The vehicle file edited: the directory's, or the built-in S1000's own text.
     let (text, source_file) = match source_dir {
         Some(dir) => {
@@ -267,7 +345,7 @@ pub fn write_vehicle(
         })
         .collect();
     let edited = edit_vehicle_toml(&text, &source_file, &values)?;
-    let edited = header(fitted, to) + &renamed(&edited);
+    let edited = header(fitted, to) + &renamed(&with_default_profile(&edited, to.profile));
     let vehicle = Vehicle::from_toml(&edited, &out_file)?;
     for f in fitted {
         let written = value_of(&vehicle, f.key);
@@ -280,9 +358,11 @@ pub fn write_vehicle(
             });
         }
     }
-    out.create_dir()?;
-    out.file("vehicle.toml").write(edited.as_bytes())?;
-    Ok(vehicle)
+    Ok(Calibrated {
+        vehicle,
+        text: edited,
+        out,
+    })
 }
 
 /// Builds `profile`'s table of `vehicle` on the default grid (in parallel; `progress(done,
@@ -293,8 +373,63 @@ pub fn write_table(
     profile: Profile,
     progress: impl Fn(usize, usize) + Sync,
 ) -> Result<std::path::PathBuf, LogFitError> {
-    let table = EnergyTable::build(vehicle, profile, DEFAULT_XF, DEFAULT_ZF, progress)?;
-    let path = EnergyTable::path(&dir.path, profile);
+    write_built_table(dir, &build_table(vehicle, profile, progress)?)
+}
+
+/// `profile`'s table of `vehicle` on the default grid (in parallel; `progress(done, total)`).
+pub fn build_table(
+    vehicle: &Vehicle,
+    profile: Profile,
+    progress: impl Fn(usize, usize) + Sync,
+) -> Result<EnergyTable, LogFitError> {
+    Ok(EnergyTable::build(
+        vehicle, profile, DEFAULT_XF, DEFAULT_ZF, progress,
+    )?)
+}
+
+/// A table a calibrated vehicle directory was written without, and why.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct LeftOut {
+    pub profile: Profile,
+    /// The error that building it gave.
+    pub reason: String,
+}
+
+/// The tables of `profiles`, each built by `build` (the calibrated vehicle's table of that
+/// profile), before anything is written. A table that cannot be built refuses them all when
+/// `required` (the user named it), naming its profile; otherwise it is left out with its
+/// reason, never failing the fit over a table nobody asked for.
+pub fn build_tables(
+    profiles: &[Profile],
+    required: bool,
+    mut build: impl FnMut(Profile) -> Result<EnergyTable, LogFitError>,
+) -> Result<(Vec<EnergyTable>, Vec<LeftOut>), LogFitError> {
+    let mut built = Vec::new();
+    let mut left_out = Vec::new();
+    for &profile in profiles {
+        match build(profile) {
+            Ok(table) => built.push(table),
+            Err(e) if required => {
+                return Err(LogFitError::Table {
+                    profile,
+                    source: Box::new(e),
+                })
+            }
+            Err(e) => left_out.push(LeftOut {
+                profile,
+                reason: e.to_string(),
+            }),
+        }
+    }
+    Ok((built, left_out))
+}
+
+/// Writes a built `table` into the directory `dir` (through `crate::output`); returns its path.
+pub fn write_built_table(
+    dir: &Output,
+    table: &EnergyTable,
+) -> Result<std::path::PathBuf, LogFitError> {
+    let path = EnergyTable::path(&dir.path, table.profile);
     Output::new(&path, dir.inputs.clone(), dir.force).write(table.to_text().as_bytes())?;
     Ok(path)
 }
@@ -344,6 +479,54 @@ mod tests {
         assert_eq!(edited.lines().count(), text.lines().count() - 2);
         assert!(edited.contains("mass_kg = 7.6543"), "{edited}");
         assert!(!edited.contains("window 6-11 kg"), "{edited}");
+    }
+
+    #[test]
+    fn a_table_that_cannot_be_built_is_left_out_unless_it_was_asked_for() {
+        let vehicle = crate::physics::builtin::vehicle().unwrap();
+        let small = |profile| {
+            EnergyTable::build(
+                &vehicle,
+                profile,
+                crate::physics::table::Axis::new(0.0, 10.0, 2),
+                crate::physics::table::Axis::new(-5.0, 5.0, 2),
+                |_, _| {},
+            )
+            .map_err(LogFitError::from)
+        };
+        // The ptf table fails to build (as a fit the ptf profile cannot fly would).
+        let build = |profile| match profile {
+            Profile::Ptf => Err(LogFitError::from(
+                crate::physics::PhysicsError::NoTrajectory {
+                    xf_m: 75.0,
+                    zf_m: 19.0,
+                    profile,
+                    reason: "every duration breaks the tilt, motor or battery limits".into(),
+                },
+            )),
+            other => small(other),
+        };
+        let asked = [Profile::Ptf, Profile::Hvb];
+        let (built, left_out) = build_tables(&asked, false, build).unwrap();
+        assert_eq!(
+            built.iter().map(|t| t.profile).collect::<Vec<_>>(),
+            [Profile::Hvb]
+        );
+        assert_eq!(left_out.len(), 1);
+        assert_eq!(left_out[0].profile, Profile::Ptf);
+        assert!(
+            left_out[0]
+                .reason
+                .contains("Xf 75 m, Zf 19 m with the ptf profile"),
+            "{}",
+            left_out[0].reason
+        );
+        // Named: refused, naming the table.
+        let err = build_tables(&asked, true, build).unwrap_err().to_string();
+        assert!(
+            err.starts_with("the ptf table of the calibrated vehicle: no feasible trajectory"),
+            "{err}"
+        );
     }
 
     #[test]

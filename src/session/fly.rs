@@ -21,7 +21,7 @@ use super::predict::{
     flight_plan, flight_plan_predicted, predicted_by_simulation, repriced, with_fast_waypoints,
 };
 use super::recorder::{FlightEvent, RecorderHandle, RepriceError, Repricer};
-use crate::flightlog::flight_plan::{FlightPlan, Repricing};
+use crate::flightlog::flight_plan::{FlightPlan, PricedBy, Repricing};
 use crate::flightlog::report::{FlightReport, ReportJson};
 use crate::flightlog::watch::{NoteKind, Policy};
 use crate::link::commands::{drive, keep_streams, request_streams};
@@ -172,6 +172,10 @@ pub async fn load(
     let mut measured_against = FlightPlan {
         resumes: load.resumes.map(str::to_string),
         wind: (!plan.wind.is_calm()).then_some(plan.wind),
+        priced_by: predicted.as_ref().map(|_| PricedBy {
+            vehicle: priced_with.unwrap_or(load.vehicle).name.clone(),
+            profile: plan.profile.to_string(),
+        }),
         predicted,
         ..measured_against
     };

@@ -51,6 +51,6 @@ pub use recorder::{
     flight_dirs, spawn_recorder, FlightEvent, Live, RecorderConfig, RecorderHandle, RepriceError,
 };
 pub use replay::{
-    plan_for_tlog, replay, replay_priced, report_unfinished, resume_flight, FlightVisits,
-    ReplayError, ResumeFlightError,
+    autopilot_profile, flown_profile, plan_for_tlog, replay, replay_priced, report_unfinished,
+    resume_flight, FlightVisits, ReplayError, ResumeFlightError,
 };

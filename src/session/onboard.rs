@@ -21,7 +21,7 @@ use crate::physics::VehicleModel;
 use crate::planner::FlightChoice;
 use crate::tour::solver;
 
-use super::predict::{flight_plan, plan_from_items, repriced, FlightItemsError};
+use super::predict::{flight_plan, plan_from_items, priced_by, repriced, FlightItemsError};
 use super::replay::{log_name, plan_beside};
 
 /// Why an onboard log could not be measured; each names the file.
@@ -139,7 +139,10 @@ pub fn plan_for_onboard(
     let plan = (choice.plan(mission, model, solver::Options::default()))
         .map_err(|e| planning(e.to_string()))?;
     let flight = choice.flight(&plan).map_err(|e| planning(e.to_string()))?;
-    Ok(flight_plan(mission, &plan, &flight, flavour)?)
+    Ok(FlightPlan {
+        priced_by: Some(priced_by(model)),
+        ..flight_plan(mission, &plan, &flight, flavour)?
+    })
 }
 
 /// Reads the onboard log at `path` and measures it against its plan ([`plan_for_onboard`]).
@@ -162,6 +165,8 @@ pub fn replay_onboard(
                     cause,
                 })?,
             );
+        plan.priced_by = Some(priced_by(model));
+        plan.wind = Some(model.wind).filter(|w| !w.is_calm());
     }
     let name = log_name(path);
     // A record refused as corrupt is a span of the file skipped, as a .tlog's corrupt spans are:

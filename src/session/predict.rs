@@ -6,7 +6,7 @@
 //! The items are read as a flight by `link::items::read_flight` (the MAVLink side).
 
 use crate::flightlog::flight_plan::{
-    FlightPlan, PlannedPoint, Predicted, PredictedLeg, ORIGIN_NAME,
+    FlightPlan, PlannedPoint, Predicted, PredictedLeg, PricedBy, ORIGIN_NAME,
 };
 use crate::flightlog::FlightLogError;
 use crate::link::items::{mission_items_noted, FlightItems, ItemOptions, ReadItemsError};
@@ -193,11 +193,20 @@ pub fn plan_from_items(
         predicted,
         resumes: None,
         guard: None,
-        wind: None,
+        wind: model.map(|m| m.wind).filter(|w| !w.is_calm()),
         repricings: Vec::new(),
+        priced_by: model.map(priced_by),
     };
     plan.validate()?;
     Ok(plan)
+}
+
+/// What `model` prices with, as plan.json keeps it.
+pub fn priced_by(model: &VehicleModel) -> PricedBy {
+    PricedBy {
+        vehicle: model.vehicle.name.clone(),
+        profile: model.profile.to_string(),
+    }
 }
 
 /// `plan` priced anew with `model` (its vehicle, profile and table): every leg after the leg

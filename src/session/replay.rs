@@ -21,10 +21,11 @@ use crate::flightlog::segment::SegmentConfig;
 use crate::flightlog::FlightLogError;
 use crate::link::items::read_flight;
 use crate::link::telemetry::{analyse_tlog, mission_in_tlog, Analysis, TelemetryError};
+use crate::link::Flavour;
 use crate::mission::Mission;
-use crate::physics::VehicleModel;
+use crate::physics::{Profile, VehicleModel};
 
-use super::predict::{plan_from_items, repriced, FlightItemsError};
+use super::predict::{plan_from_items, priced_by, repriced, FlightItemsError};
 use super::recorder::flight_dirs;
 
 /// Why a log could not be replayed.
@@ -47,6 +48,48 @@ pub enum ReplayError {
         vehicle: String,
         cause: FlightItemsError,
     },
+    #[error("{file}: {reason}")]
+    Profile { file: String, reason: String },
+}
+
+/// The profile an autopilot flies its missions with (`fly`'s choice unless told otherwise);
+/// None for an autopilot emplan does not know.
+pub fn autopilot_profile(flavour: Flavour) -> Option<Profile> {
+    match flavour {
+        Flavour::Px4 => Some(Profile::Px4),
+        Flavour::ArduPilot => Some(Profile::Ardupilot),
+        Flavour::Generic => None,
+    }
+}
+
+/// The profile the flight logged at `log` was flown with: its plan's (`plan` when given, else
+/// plan.json beside the log; `logfit::flown_profile`), else its autopilot's own: an onboard
+/// log's (ULog: PX4, DataFlash: ArduPilot), a .tlog's by its heartbeat. None when nothing
+/// says (a plan that cannot be read is left to the replay to refuse). A plan naming a profile
+/// emplan does not know is refused, naming the file.
+pub fn flown_profile(log: &Path, plan: Option<&Path>) -> Result<Option<Profile>, ReplayError> {
+    let plan_file = match plan {
+        Some(plan) => Some(plan.to_path_buf()),
+        None => (log.parent().map(|d| d.join(PLAN_FILE))).filter(|p| p.is_file()),
+    };
+    if let Some(file) = plan_file {
+        if let Ok(plan) = FlightPlan::read_json(&file) {
+            let profile =
+                crate::logfit::flown_profile(&plan).map_err(|reason| ReplayError::Profile {
+                    file: file.display().to_string(),
+                    reason,
+                })?;
+            if profile.is_some() {
+                return Ok(profile);
+            }
+        }
+    }
+    if let Some(format) = crate::flightlog::onboard::format_of(log) {
+        return Ok(autopilot_profile(super::onboard::flavour_of(format)));
+    }
+    Ok(mission_in_tlog(log)
+        .ok()
+        .and_then(|(_, flavour)| autopilot_profile(flavour)))
 }
 
 /// The plan a log is measured against: plan.json beside it, or the mission in the log.
@@ -100,6 +143,8 @@ pub fn replay_priced(
                 cause,
             })?,
         );
+        plan.priced_by = Some(priced_by(model));
+        plan.wind = Some(model.wind).filter(|w| !w.is_calm());
     }
     Ok(analyse_tlog(tlog, plan, &log_name(tlog), cfg)?)
 }

@@ -10,6 +10,7 @@ mod failfast;
 mod fastwp;
 mod flight;
 mod flightlog;
+mod flownprofile;
 mod flowservice;
 mod fly;
 mod fromlogs;

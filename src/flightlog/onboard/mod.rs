@@ -173,11 +173,17 @@ pub enum OnboardError {
 
 /// Whether `path` starts like an onboard log (for commands that take flight directories too).
 pub fn is_onboard_log(path: &Path) -> bool {
+    format_of(path).is_some()
+}
+
+/// The onboard format `path` starts like (None: not an onboard log, or unreadable).
+pub fn format_of(path: &Path) -> Option<Format> {
     use std::io::Read;
     let mut head = [0u8; 16];
-    std::fs::File::open(path)
+    let n = std::fs::File::open(path)
         .and_then(|mut f| f.read(&mut head))
-        .is_ok_and(|n| Format::sniff(&head[..n]).is_some())
+        .ok()?;
+    Format::sniff(&head[..n])
 }
 
 /// Reads the onboard log at `path`, of either format, told by its first bytes.
