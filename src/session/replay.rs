@@ -84,8 +84,11 @@ pub fn flown_profile(log: &Path, plan: Option<&Path>) -> Result<Option<Profile>,
             }
         }
     }
-    if let Some(format) = crate::flightlog::onboard::format_of(log) {
-        return Ok(autopilot_profile(super::onboard::flavour_of(format)));
+    use crate::flightlog::onboard::{format_of, Format};
+    match format_of(log) {
+        Some(Format::Ulog) => return Ok(Some(Profile::Px4)),
+        Some(Format::Dataflash) => return Ok(Some(Profile::Ardupilot)),
+        None => {}
     }
     Ok(mission_in_tlog(log)
         .ok()
