@@ -10,6 +10,7 @@ pub mod flightlog;
 pub mod link;
 pub mod logfit;
 pub mod mission;
+pub mod names;
 pub mod output;
 pub mod physics;
 pub mod planner;

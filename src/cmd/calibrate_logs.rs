@@ -95,7 +95,7 @@ pub fn run(
     let onboard = |path: &Path| {
         emplan::session::replay_onboard(path, Default::default(), Default::default())
             .map(|a| (a.segmenter.plan().clone(), a.report))
-            .map_err(|e| format!("{e:#}"))
+            .map_err(|e| format!("{e:#}").into())
     };
     let flights = logfit::read_flights_with(&args.from_logs, &onboard)?;
     for skipped in &flights.skipped {

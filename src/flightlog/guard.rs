@@ -39,16 +39,17 @@ impl std::fmt::Display for Policy {
 }
 
 impl std::str::FromStr for Policy {
-    type Err = String;
+    type Err = crate::names::UnknownName;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s.to_ascii_lowercase().as_str() {
-            "off" => Ok(Policy::Off),
-            "warn" => Ok(Policy::Warn),
-            "rtl" => Ok(Policy::Rtl),
-            _ => Err(format!(
-                "unknown guard policy {s:?} (allowed: warn, rtl, off)"
-            )),
-        }
+        crate::names::choose(
+            "guard policy",
+            s,
+            &[
+                ("warn", Policy::Warn),
+                ("rtl", Policy::Rtl),
+                ("off", Policy::Off),
+            ],
+        )
     }
 }
 

@@ -275,13 +275,23 @@ pub fn read_flights(paths: &[PathBuf]) -> Result<Flights, LogFitError> {
         Err(format!(
             "{}: an onboard log, and this reader measures only flight directories",
             path.display()
-        ))
+        )
+        .into())
     })
 }
 
 /// A flight controller's own log measured against its plan: the plan and the report, or why
 /// not (naming the file).
-pub type MeasureOnboard<'a> = dyn Fn(&Path) -> Result<(FlightPlan, FlightReport), String> + 'a;
+pub type MeasureOnboard<'a> =
+    dyn Fn(&Path) -> Result<(FlightPlan, FlightReport), OnboardError> + 'a;
+
+/// Why the caller could not measure an onboard log (its own error, whole).
+pub type OnboardError = Box<dyn std::error::Error + Send + Sync>;
+
+/// A profile plan.json names that emplan does not know.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("priced_by.profile: {0}")]
+pub struct UnknownProfile(pub crate::names::UnknownName);
 
 /// As [`read_flights`], with the flight controllers' own logs among `paths` (PX4 .ulg,
 /// ArduPilot .bin, told by their first bytes) measured by `onboard` (the session's replay: it
@@ -300,11 +310,13 @@ pub fn read_flights_with(
     for dir in flight_dirs(paths)? {
         let index = flights.flights.len();
         if is_onboard(&dir) {
-            let read = onboard(&dir).and_then(|(plan, report)| {
-                let (flight, legs) =
-                    legs_of((&dir, &dir), &plan, &report, index).map_err(|e| e.to_string())?;
-                Ok((flight, legs, hovers_of(&report, index)))
-            });
+            let read = onboard(&dir)
+                .map_err(|e| e.to_string())
+                .and_then(|(plan, report)| {
+                    let (flight, legs) =
+                        legs_of((&dir, &dir), &plan, &report, index).map_err(|e| e.to_string())?;
+                    Ok((flight, legs, hovers_of(&report, index)))
+                });
             match read {
                 Ok((flight, legs, hovers)) => {
                     flights.flights.push(flight);
@@ -382,11 +394,11 @@ pub fn read_flight(
 /// autopilot's own (what `fly` flies with unless told otherwise), told by the mission's layout:
 /// ArduPilot's take-off is item 1 (its home is item 0), PX4's item 0. None when neither says.
 /// A profile plan.json names and emplan does not know is refused, naming it.
-pub fn flown_profile(plan: &FlightPlan) -> Result<Option<Profile>, String> {
+pub fn flown_profile(plan: &FlightPlan) -> Result<Option<Profile>, UnknownProfile> {
     if let Some(priced) = &plan.priced_by {
         return (priced.profile.parse::<Profile>())
             .map(Some)
-            .map_err(|e| format!("priced_by.profile: {e}"));
+            .map_err(UnknownProfile);
     }
     Ok(match plan.takeoff_seq {
         Some(0) => Some(Profile::Px4),

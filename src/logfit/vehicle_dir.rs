@@ -517,7 +517,7 @@ mod tests {
         assert!(
             left_out[0]
                 .reason
-                .contains("Xf 75 m, Zf 19 m with the ptf profile"),
+                .contains("Xf 75.00 m, Zf 19.00 m with the ptf profile"),
             "{}",
             left_out[0].reason
         );

@@ -58,6 +58,27 @@ impl LegWind {
 /// a storm; a typo (`60@270`) is refused rather than priced.
 pub const MAX_WIND_M_S: f64 = 30.0;
 
+/// Why a wind was refused; every value is echoed short (`shown`, `echoed`).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum WindError {
+    #[error("wind speed {0} m/s: must be a number of m/s, 0 or more")]
+    Speed(String),
+    #[error("wind speed {0} m/s: more than {MAX_WIND_M_S} m/s is not a flying wind")]
+    Storm(String),
+    #[error("wind direction {0}: must be degrees")]
+    Direction(String),
+    #[error(
+        "wind \"{0}\": expected SPEED@FROM_DEG (m/s and the direction it blows from, degrees \
+         clockwise from north), e.g. 6@270"
+    )]
+    Usage(String),
+    #[error(
+        "wind direction {0} deg: must be from 0 to under 360 (degrees clockwise from north it \
+         blows from)"
+    )]
+    OutOfCircle(String),
+}
+
 impl Wind {
     /// Still air.
     pub const CALM: Wind = Wind {
@@ -67,24 +88,15 @@ impl Wind {
 
     /// A wind of `speed_m_s` from `from_deg`; refuses a negative, non-finite or storm speed and
     /// a non-finite direction. The direction is taken modulo 360.
-    pub fn new(speed_m_s: f64, from_deg: f64) -> Result<Wind, String> {
+    pub fn new(speed_m_s: f64, from_deg: f64) -> Result<Wind, WindError> {
         if !speed_m_s.is_finite() || speed_m_s < 0.0 {
-            return Err(format!(
-                "wind speed {} m/s: must be a number of m/s, 0 or more",
-                shown(speed_m_s)
-            ));
+            return Err(WindError::Speed(shown(speed_m_s)));
         }
         if speed_m_s > MAX_WIND_M_S {
-            return Err(format!(
-                "wind speed {} m/s: more than {MAX_WIND_M_S} m/s is not a flying wind",
-                shown(speed_m_s)
-            ));
+            return Err(WindError::Storm(shown(speed_m_s)));
         }
         if !from_deg.is_finite() {
-            return Err(format!(
-                "wind direction {}: must be degrees",
-                shown(from_deg)
-            ));
+            return Err(WindError::Direction(shown(from_deg)));
         }
         Ok(Wind {
             speed_m_s,
@@ -93,7 +105,7 @@ impl Wind {
     }
 
     /// The wind whose air moves at `north_m_s`, `east_m_s` (PX4's WIND_COV `wind_x`, `wind_y`).
-    pub fn from_velocity(north_m_s: f64, east_m_s: f64) -> Result<Wind, String> {
+    pub fn from_velocity(north_m_s: f64, east_m_s: f64) -> Result<Wind, WindError> {
         let speed = north_m_s.hypot(east_m_s);
         // It blows from the opposite of where the air goes.
         let from = heading_deg(-east_m_s, -north_m_s);
@@ -132,28 +144,18 @@ impl std::fmt::Display for Wind {
 }
 
 impl std::str::FromStr for Wind {
-    type Err = String;
+    type Err = WindError;
 
     /// `SPEED@FROM_DEG`, e.g. `6@270`: 6 m/s from the west. The direction is given as it is
     /// meant, from 0 to under 360: anything else is refused, not wrapped (`8@400` is more
     /// likely a typo of 8@40 or 8@300 than a wind from 40 deg).
-    fn from_str(s: &str) -> Result<Wind, String> {
-        let usage = || {
-            format!(
-                "wind \"{}\": expected SPEED@FROM_DEG (m/s and the direction it blows from, \
-                 degrees clockwise from north), e.g. 6@270",
-                echoed(s)
-            )
-        };
+    fn from_str(s: &str) -> Result<Wind, WindError> {
+        let usage = || WindError::Usage(echoed(s));
         let (speed, from) = s.trim().split_once('@').ok_or_else(usage)?;
         let speed: f64 = speed.trim().parse().map_err(|_| usage())?;
         let from_deg: f64 = from.trim().parse().map_err(|_| usage())?;
         if from_deg.is_finite() && !(0.0..360.0).contains(&from_deg) {
-            return Err(format!(
-                "wind direction {} deg: must be from 0 to under 360 (degrees clockwise from \
-                 north it blows from)",
-                echoed(from)
-            ));
+            return Err(WindError::OutOfCircle(echoed(from)));
         }
         Wind::new(speed, from_deg)
     }
@@ -195,18 +197,19 @@ mod tests {
         ] {
             assert!(bad.parse::<Wind>().is_err(), "{bad}");
         }
-        assert!("6@".parse::<Wind>().unwrap_err().contains("SPEED@FROM_DEG"));
-        let wrapped = "8@400".parse::<Wind>().unwrap_err();
+        let refusal = |text: &str| text.parse::<Wind>().unwrap_err().to_string();
+        assert!(refusal("6@").contains("SPEED@FROM_DEG"));
+        let wrapped = refusal("8@400");
         assert!(
             wrapped.contains("400") && wrapped.contains("under 360"),
             "{wrapped}"
         );
-        let huge = "1e308@0".parse::<Wind>().unwrap_err();
+        let huge = refusal("1e308@0");
         assert!(huge.contains("1.000e308") && huge.len() < 100, "{huge}");
         let long = format!("{}@0", "9".repeat(400));
-        assert!(long.parse::<Wind>().unwrap_err().len() < 100);
+        assert!(refusal(&long).len() < 100);
         let typo = format!("{}@0", "x".repeat(400));
-        assert!(typo.parse::<Wind>().unwrap_err().len() < 200);
+        assert!(refusal(&typo).len() < 200);
     }
 
     #[test]

@@ -51,17 +51,18 @@ impl fmt::Display for Profile {
 }
 
 impl FromStr for Profile {
-    type Err = String;
+    type Err = crate::names::UnknownName;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s.to_ascii_lowercase().as_str() {
-            "ptf" => Ok(Profile::Ptf),
-            "hvb" => Ok(Profile::Hvb),
-            "px4" => Ok(Profile::Px4),
-            "ardupilot" => Ok(Profile::Ardupilot),
-            _ => Err(format!(
-                "unknown profile {s:?} (allowed: ptf, hvb, px4, ardupilot)"
-            )),
-        }
+        crate::names::choose(
+            "profile",
+            s,
+            &[
+                ("ptf", Profile::Ptf),
+                ("hvb", Profile::Hvb),
+                ("px4", Profile::Px4),
+                ("ardupilot", Profile::Ardupilot),
+            ],
+        )
     }
 }
 

@@ -158,13 +158,13 @@ impl std::fmt::Display for Pricing {
 }
 
 impl std::str::FromStr for Pricing {
-    type Err = String;
+    type Err = crate::names::UnknownName;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s.to_ascii_lowercase().as_str() {
-            "settled" => Ok(Pricing::Settled),
-            "paper" => Ok(Pricing::Paper),
-            _ => Err(format!("unknown pricing {s:?} (allowed: settled, paper)")),
-        }
+        crate::names::choose(
+            "pricing",
+            s,
+            &[("settled", Pricing::Settled), ("paper", Pricing::Paper)],
+        )
     }
 }
 
@@ -379,7 +379,7 @@ impl EnergyTable {
             .first()
             .ok_or_else(|| bad(n, "no profile".into()))?
             .parse()
-            .map_err(|e: String| bad(n, e))?;
+            .map_err(|e: crate::names::UnknownName| bad(n, e.to_string()))?;
         let (_, hash) = header("vehicle_hash")?;
         let vehicle_hash = hash.first().cloned().unwrap_or_default();
         let mut axis = |key: &str| -> Result<Axis, PhysicsError> {

@@ -77,7 +77,7 @@ pub fn flown_profile(log: &Path, plan: Option<&Path>) -> Result<Option<Profile>,
             let profile =
                 crate::logfit::flown_profile(&plan).map_err(|reason| ReplayError::Profile {
                     file: file.display().to_string(),
-                    reason,
+                    reason: reason.to_string(),
                 })?;
             if profile.is_some() {
                 return Ok(profile);

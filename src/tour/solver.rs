@@ -36,17 +36,18 @@ impl std::fmt::Display for Solver {
 }
 
 impl std::str::FromStr for Solver {
-    type Err = String;
+    type Err = crate::names::UnknownName;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s {
-            "auto" => Ok(Solver::Auto),
-            "held-karp" => Ok(Solver::HeldKarp),
-            "branch-cut" => Ok(Solver::BranchCut),
-            "heuristic" => Ok(Solver::Heuristic),
-            _ => Err(format!(
-                "unknown solver {s:?} (allowed: auto, held-karp, branch-cut, heuristic)"
-            )),
-        }
+        crate::names::choose(
+            "solver",
+            s,
+            &[
+                ("auto", Solver::Auto),
+                ("held-karp", Solver::HeldKarp),
+                ("branch-cut", Solver::BranchCut),
+                ("heuristic", Solver::Heuristic),
+            ],
+        )
     }
 }
 

@@ -17,6 +17,7 @@ use std::path::{Component, Path, PathBuf};
 /// never imports `physics`. A new module gets its layer here.
 const LAYERS: &[(&str, u32)] = &[
     ("rng", 0),
+    ("names", 0),
     ("mission", 0),
     ("physics", 1),
     ("tour", 1),

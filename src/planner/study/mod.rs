@@ -320,7 +320,7 @@ mod tests {
     }
 
     /// Horizontal metres plus 8 J per metre climbed and 0.5 J per metre descended (x 100).
-    fn climb_averse(xf_m: f64, zf_m: f64) -> Result<f64, String> {
+    fn climb_averse(xf_m: f64, zf_m: f64) -> Result<f64, std::convert::Infallible> {
         Ok(100.0 * (xf_m + 8.0 * zf_m.max(0.0) + 0.5 * (-zf_m).max(0.0)))
     }
 
@@ -328,7 +328,7 @@ mod tests {
 
     /// Climbs priced by the square of their height: a closed tour climbs as much as it descends,
     /// so a cost linear in the climb would price a tour and its reverse alike.
-    fn steep_climbs_dear(xf_m: f64, zf_m: f64) -> Result<f64, String> {
+    fn steep_climbs_dear(xf_m: f64, zf_m: f64) -> Result<f64, std::convert::Infallible> {
         Ok(100.0 * (xf_m + 0.5 * zf_m.max(0.0).powi(2) + 0.5 * (-zf_m).max(0.0)))
     }
 

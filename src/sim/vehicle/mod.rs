@@ -136,19 +136,32 @@ pub struct WindChange {
     pub wind: crate::physics::Wind,
 }
 
-impl std::str::FromStr for WindChange {
-    type Err = String;
+/// Why a change of wind was refused.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum WindChangeError {
+    #[error("{0:?}: expected T_S=SPEED@FROM_DEG, e.g. 60=8@270")]
+    Usage(String),
+    #[error("{0:?}: not a number of seconds")]
+    Seconds(String),
+    #[error("{0:?}: seconds after arming must be 0 or more")]
+    Before(String),
+    #[error(transparent)]
+    Wind(#[from] crate::mission::wind::WindError),
+}
 
-    fn from_str(s: &str) -> Result<WindChange, String> {
+impl std::str::FromStr for WindChange {
+    type Err = WindChangeError;
+
+    fn from_str(s: &str) -> Result<WindChange, WindChangeError> {
         let (t, wind) = s
             .split_once('=')
-            .ok_or_else(|| format!("{s:?}: expected T_S=SPEED@FROM_DEG, e.g. 60=8@270"))?;
+            .ok_or_else(|| WindChangeError::Usage(s.to_string()))?;
         let after_armed_s: f64 = t
             .trim()
             .parse()
-            .map_err(|_| format!("{t:?}: not a number of seconds"))?;
+            .map_err(|_| WindChangeError::Seconds(t.to_string()))?;
         if !(after_armed_s.is_finite() && after_armed_s >= 0.0) {
-            return Err(format!("{t:?}: seconds after arming must be 0 or more"));
+            return Err(WindChangeError::Before(t.to_string()));
         }
         Ok(WindChange {
             after_armed_s,
