@@ -40,7 +40,6 @@ use crate::link::driver::download;
 use crate::link::flight::{StartConfig, StartError};
 use crate::link::items::item_json;
 use crate::link::mav::MISSION_ITEM_INT_DATA;
-use crate::link::transfer::TransferConfig;
 use crate::link::Flavour;
 use crate::mission::{Geodetic, Mission, Origin};
 use crate::physics::{Vehicle, VehicleModel};
@@ -544,10 +543,6 @@ impl Actor {
         }
     }
 
-    fn transfer_config(&self, target: &Autopilot) -> TransferConfig {
-        session::transfer_config(target, self.transfer_budget)
-    }
-
     /// Follows the heartbeat: the autopilot is found, lost, back.
     async fn check_link(&mut self) {
         let heard = *self.heard.borrow_and_update();
@@ -632,7 +627,7 @@ impl Actor {
         // The built-in mock is moved to each mission's origin below: only a real vehicle is
         // somewhere else.
         if job.origin == Some(PlanOrigin::Vehicle) && self.mock.is_none() {
-            self.replan_from_vehicle(&mut job, &target).await?;
+            self.rehome_job(&mut job, &target).await?;
         }
         let flight = job
             .choice
@@ -676,7 +671,7 @@ impl Actor {
         let loaded = session::load(
             &self.link,
             &target,
-            self.transfer_config(&target),
+            session::transfer_config(&target, self.transfer_budget),
             Some(&self.recorder),
             &load,
             |params| {
@@ -741,11 +736,7 @@ impl Actor {
 
     /// `origin: "vehicle"`: `job`'s mission re-planned from `target`'s home by the session, as
     /// `job` was planned (its choice, its solver), off the vehicle's thread.
-    async fn replan_from_vehicle(
-        &self,
-        job: &mut UploadJob,
-        target: &Autopilot,
-    ) -> Result<(), Refusal> {
+    async fn rehome_job(&self, job: &mut UploadJob, target: &Autopilot) -> Result<(), Refusal> {
         let (model, choice, solver) = (self.model.clone(), job.choice, job.solver);
         let replanned =
             session::replan_from_vehicle(&self.link, target, &job.mission, |mission, moved| {
@@ -807,7 +798,7 @@ impl Actor {
         }
         let span = tracing::info_span!("start");
         let outcome = match self.mission_held(&target).instrument(span.clone()).await {
-            Ok(()) => self.arm_and_start(target, &span).await,
+            Ok(()) => self.start_tracked(target, &span).await,
             Err(refusal) => Err(refusal),
         };
         span.in_scope(|| match &outcome {
@@ -827,15 +818,19 @@ impl Actor {
         if self.mission_verified {
             return Ok(());
         }
-        let items = download(&self.link, target, self.transfer_config(target))
-            .await
-            .map_err(|e| {
-                Refusal::new(
-                    502,
-                    "start",
-                    &format!("reading the vehicle's mission before arming failed: {e}"),
-                )
-            })?;
+        let items = download(
+            &self.link,
+            target,
+            session::transfer_config(target, self.transfer_budget),
+        )
+        .await
+        .map_err(|e| {
+            Refusal::new(
+                502,
+                "start",
+                &format!("reading the vehicle's mission before arming failed: {e}"),
+            )
+        })?;
         let held = mission_len(&items, target.flavour);
         if held == 0 {
             return Err(Refusal::new(
@@ -852,7 +847,8 @@ impl Actor {
         Ok(())
     }
 
-    async fn arm_and_start(
+    /// The session's arm and start, and what the actor keeps of its outcome.
+    async fn start_tracked(
         &mut self,
         target: Autopilot,
         span: &tracing::Span,
@@ -904,7 +900,7 @@ impl Actor {
         match session::held_flight_plan(
             &self.link,
             &target,
-            self.transfer_config(&target),
+            session::transfer_config(&target, self.transfer_budget),
             Known::Among(&missions),
             &self.model,
         )
