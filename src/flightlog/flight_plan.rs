@@ -479,6 +479,8 @@ mod tests {
             source: None,
             start_actions: Vec::new(),
             pois: Vec::new(),
+            fence: Default::default(),
+            rally: Vec::new(),
         }
     }
 

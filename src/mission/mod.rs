@@ -8,6 +8,7 @@
 
 pub mod actions;
 pub mod convert;
+pub mod fence;
 pub mod geodesy;
 mod qgc_plan;
 pub mod rehome;
@@ -132,6 +133,10 @@ pub struct Mission {
     pub start_actions: Vec<actions::Command>,
     /// Named points of interest (the names of the regions of interest the actions look at).
     pub pois: Vec<Poi>,
+    /// The geofence the vehicle must respect (empty: none).
+    pub fence: fence::Fence,
+    /// Where the autopilot may return to instead of home.
+    pub rally: Vec<fence::RallyPoint>,
     /// The file this mission was read from, if any (for error messages and reports).
     pub source: Option<PathBuf>,
 }
@@ -325,6 +330,8 @@ struct RawMission {
     waypoints: Vec<RawWaypoint>,
     start_actions: Vec<(actions::Command, Place)>,
     pois: Vec<Poi>,
+    fence: fence::Fence,
+    rally: Vec<fence::RallyPoint>,
     /// Where the origin and the mission-level fields are defined.
     place: Place,
 }
@@ -539,6 +546,8 @@ impl RawMission {
             min_height_above_home_m: self.min_height_above_home_m,
             start_actions,
             pois: self.pois,
+            fence: self.fence,
+            rally: self.rally,
             source: None,
         })
     }

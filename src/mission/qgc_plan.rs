@@ -177,6 +177,8 @@ pub(super) fn parse(text: &str, file: &str, stem: &str) -> Result<RawMission, Mi
         waypoints: seq.waypoints,
         start_actions: seq.start_actions,
         pois,
+        fence: Default::default(),
+        rally: Vec::new(),
         place: Place::File,
     })
 }

@@ -291,6 +291,8 @@ pub(super) fn parse(text: &str, file: &str) -> Result<RawMission, MissionError> 
         waypoints,
         start_actions,
         pois,
+        fence: Default::default(),
+        rally: Vec::new(),
         place: origin_place,
     })
 }

@@ -127,6 +127,8 @@ pub fn random_mission(
         source: None,
         start_actions: Vec::new(),
         pois: Vec::new(),
+        fence: Default::default(),
+        rally: Vec::new(),
     })
 }
 

@@ -1,0 +1,248 @@
+//! The geofence and the rally points a mission carries: inclusion zones the vehicle must stay
+//! inside (a field's boundary), exclusion zones it must stay out of (a house, a road), each a
+//! polygon or a circle, and the rally points an autopilot may return to instead of home.
+//!
+//! They are kept as the file gives them, geodetic (a fence does not move when a mission is
+//! re-homed), and seen by the planner in the mission's local frame ([`Zone::local`]), where
+//! the plane geometry below answers "is this point inside?" and "does this straight line cross
+//! the zone's boundary?". The model is QGroundControl's (`geoFence` with `polygons` and
+//! `circles`, each with `inclusion`; `rallyPoints`), which is also what PX4 and ArduPilot hold
+//! through the MAVLink mission protocol (`MAV_CMD_NAV_FENCE_*`, `MAV_CMD_NAV_RALLY_POINT`).
+
+use super::{Enu, Geodetic, Origin};
+
+/// A latitude and longitude (degrees, WGS84): a fence's vertices and centres have no height.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LatLon {
+    pub lat_deg: f64,
+    pub lon_deg: f64,
+}
+
+/// The shape of one fence zone.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Shape {
+    /// A simple polygon, its vertices in order (either winding; not closed: the last vertex
+    /// joins the first). At least 3 vertices.
+    Polygon(Vec<LatLon>),
+    /// A circle of `radius_m` metres around `center`.
+    Circle { center: LatLon, radius_m: f64 },
+}
+
+/// One zone of a geofence.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Zone {
+    /// True: the vehicle must stay inside it. False: the vehicle must stay out of it.
+    pub inclusion: bool,
+    pub shape: Shape,
+}
+
+/// A mission's geofence: its zones, and where ArduPilot goes on a breach (QGroundControl's
+/// `breachReturn`, ArduPilot's fence return point), if the file gives one.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Fence {
+    pub zones: Vec<Zone>,
+    pub breach_return: Option<Geodetic>,
+}
+
+impl Fence {
+    /// True when the fence has no zone.
+    pub fn is_empty(&self) -> bool {
+        self.zones.is_empty()
+    }
+}
+
+/// A rally point: where an autopilot may return to instead of home (altitude above home).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RallyPoint {
+    pub lat_deg: f64,
+    pub lon_deg: f64,
+    pub alt_above_home_m: f64,
+}
+
+impl RallyPoint {
+    /// The rally point in the mission's local frame.
+    pub fn local(&self, origin: &Origin) -> Enu {
+        origin.to_enu(Geodetic {
+            lat_deg: self.lat_deg,
+            lon_deg: self.lon_deg,
+            alt_m: origin.home.alt_m + self.alt_above_home_m,
+        })
+    }
+}
+
+/// A zone's shape in the mission's local frame (east, north; metres).
+#[derive(Debug, Clone, PartialEq)]
+pub enum LocalShape {
+    Polygon(Vec<[f64; 2]>),
+    Circle { center: [f64; 2], radius_m: f64 },
+}
+
+/// A zone in the mission's local frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LocalZone {
+    pub inclusion: bool,
+    pub shape: LocalShape,
+}
+
+impl Zone {
+    /// The zone in `origin`'s local frame, its vertices at the height of home (a fence is
+    /// vertical: only east and north matter).
+    pub fn local(&self, origin: &Origin) -> LocalZone {
+        let xy = |p: &LatLon| {
+            let e = origin.to_enu(Geodetic {
+                lat_deg: p.lat_deg,
+                lon_deg: p.lon_deg,
+                alt_m: origin.home.alt_m,
+            });
+            [e.x_east_m, e.y_north_m]
+        };
+        let shape = match &self.shape {
+            Shape::Polygon(vertices) => LocalShape::Polygon(vertices.iter().map(xy).collect()),
+            Shape::Circle { center, radius_m } => LocalShape::Circle {
+                center: xy(center),
+                radius_m: *radius_m,
+            },
+        };
+        LocalZone {
+            inclusion: self.inclusion,
+            shape,
+        }
+    }
+
+    /// "inclusion polygon 2" or "exclusion circle 1": how errors and reports name a zone
+    /// (`index` is its 1-based place among the fence's zones).
+    pub fn describe(&self, index: usize) -> String {
+        let kind = if self.inclusion {
+            "inclusion"
+        } else {
+            "exclusion"
+        };
+        let shape = match self.shape {
+            Shape::Polygon(_) => "polygon",
+            Shape::Circle { .. } => "circle",
+        };
+        format!("{kind} {shape} {index}")
+    }
+}
+
+impl LocalZone {
+    /// True when the point (east, north) lies inside the zone's shape (its boundary counts as
+    /// inside). Polygons by the even-odd rule.
+    pub fn contains(&self, p: [f64; 2]) -> bool {
+        match &self.shape {
+            LocalShape::Circle { center, radius_m } => {
+                (p[0] - center[0]).hypot(p[1] - center[1]) <= *radius_m
+            }
+            LocalShape::Polygon(v) => {
+                if v.len() < 3 {
+                    return false;
+                }
+                let mut inside = false;
+                let mut j = v.len() - 1;
+                for i in 0..v.len() {
+                    let (a, b) = (v[i], v[j]);
+                    if on_segment(p, a, b) {
+                        return true;
+                    }
+                    if (a[1] > p[1]) != (b[1] > p[1]) {
+                        let x = a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
+                        if p[0] < x {
+                            inside = !inside;
+                        }
+                    }
+                    j = i;
+                }
+                inside
+            }
+        }
+    }
+
+    /// The least distance (m) from the point to the zone's boundary.
+    pub fn distance_to_boundary_m(&self, p: [f64; 2]) -> f64 {
+        match &self.shape {
+            LocalShape::Circle { center, radius_m } => {
+                ((p[0] - center[0]).hypot(p[1] - center[1]) - radius_m).abs()
+            }
+            LocalShape::Polygon(v) => (0..v.len())
+                .map(|i| point_segment_distance_m(p, v[i], v[(i + 1) % v.len()]))
+                .fold(f64::INFINITY, f64::min),
+        }
+    }
+
+    /// True when the point breaks this zone's rule: outside an inclusion zone, or inside an
+    /// exclusion zone.
+    pub fn violated_by(&self, p: [f64; 2]) -> bool {
+        self.contains(p) != self.inclusion
+    }
+}
+
+/// The least distance from `p` to the segment `a`-`b` (m).
+pub fn point_segment_distance_m(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+    let len2 = dx * dx + dy * dy;
+    let t = if len2 > 0.0 {
+        (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (p[0] - (a[0] + t * dx)).hypot(p[1] - (a[1] + t * dy))
+}
+
+fn on_segment(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> bool {
+    point_segment_distance_m(p, a, b) <= 1e-9
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn square(inclusion: bool) -> LocalZone {
+        LocalZone {
+            inclusion,
+            shape: LocalShape::Polygon(vec![[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]]),
+        }
+    }
+
+    #[test]
+    fn a_point_is_inside_a_polygon_by_the_even_odd_rule_and_on_its_boundary() {
+        let z = square(true);
+        assert!(z.contains([5.0, 5.0]));
+        assert!(z.contains([0.0, 5.0]));
+        assert!(!z.contains([10.5, 5.0]));
+        assert!(!z.contains([-1.0, -1.0]));
+        assert!(!square(false).violated_by([11.0, 5.0]));
+        assert!(square(false).violated_by([1.0, 5.0]));
+        assert!((z.distance_to_boundary_m([5.0, 2.0]) - 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_circle_zone_holds_its_radius_and_a_local_zone_keeps_its_size() {
+        let origin = Origin {
+            home: Geodetic {
+                lat_deg: 47.397742,
+                lon_deg: 8.545594,
+                alt_m: 488.0,
+            },
+            height_above_home_m: 10.0,
+        };
+        let east = origin.to_geodetic(Enu {
+            x_east_m: 30.0,
+            y_north_m: 0.0,
+            z_up_m: -10.0,
+        });
+        let zone = Zone {
+            inclusion: false,
+            shape: Shape::Circle {
+                center: LatLon {
+                    lat_deg: east.lat_deg,
+                    lon_deg: east.lon_deg,
+                },
+                radius_m: 5.0,
+            },
+        };
+        let local = zone.local(&origin);
+        assert!(local.contains([33.0, 0.0]));
+        assert!(!local.contains([24.0, 0.0]));
+        assert_eq!(zone.describe(2), "exclusion circle 2");
+    }
+}
