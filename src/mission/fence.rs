@@ -174,6 +174,60 @@ impl LocalZone {
     pub fn violated_by(&self, p: [f64; 2]) -> bool {
         self.contains(p) != self.inclusion
     }
+
+    /// The least distance (m) from the straight segment `a`-`b` to the zone's boundary (0 when
+    /// it crosses it).
+    pub fn segment_distance_to_boundary_m(&self, a: [f64; 2], b: [f64; 2]) -> f64 {
+        match &self.shape {
+            LocalShape::Circle { center, radius_m } => {
+                let near = point_segment_distance_m(*center, a, b);
+                let far = (a[0] - center[0])
+                    .hypot(a[1] - center[1])
+                    .max((b[0] - center[0]).hypot(b[1] - center[1]));
+                if near <= *radius_m && far >= *radius_m {
+                    0.0
+                } else if far < *radius_m {
+                    radius_m - far
+                } else {
+                    near - radius_m
+                }
+            }
+            LocalShape::Polygon(v) => (0..v.len())
+                .map(|i| segment_segment_distance_m(a, b, v[i], v[(i + 1) % v.len()]))
+                .fold(f64::INFINITY, f64::min),
+        }
+    }
+
+    /// True when flying the straight segment `a`-`b` breaks this zone's rule or comes within
+    /// `margin_m` of its boundary (touching it counts): for an exclusion zone, the segment enters it or passes
+    /// nearer than the margin; for an inclusion zone, it leaves it or passes nearer than the
+    /// margin to its edge.
+    pub fn segment_violates(&self, a: [f64; 2], b: [f64; 2], margin_m: f64) -> bool {
+        let clearance_m = self.segment_distance_to_boundary_m(a, b);
+        self.violated_by(a) || self.violated_by(b) || clearance_m <= 0.0 || clearance_m < margin_m
+    }
+}
+
+/// The least distance between the segments `a`-`b` and `c`-`d` (0 when they cross).
+pub fn segment_segment_distance_m(a: [f64; 2], b: [f64; 2], c: [f64; 2], d: [f64; 2]) -> f64 {
+    let cross = |o: [f64; 2], p: [f64; 2], q: [f64; 2]| {
+        (p[0] - o[0]) * (q[1] - o[1]) - (p[1] - o[1]) * (q[0] - o[0])
+    };
+    let (d1, d2, d3, d4) = (
+        cross(c, d, a),
+        cross(c, d, b),
+        cross(a, b, c),
+        cross(a, b, d),
+    );
+    if ((d1 > 0.0 && d2 < 0.0) || (d1 < 0.0 && d2 > 0.0))
+        && ((d3 > 0.0 && d4 < 0.0) || (d3 < 0.0 && d4 > 0.0))
+    {
+        return 0.0;
+    }
+    point_segment_distance_m(a, c, d)
+        .min(point_segment_distance_m(b, c, d))
+        .min(point_segment_distance_m(c, a, b))
+        .min(point_segment_distance_m(d, a, b))
 }
 
 /// The least distance from `p` to the segment `a`-`b` (m).
@@ -213,6 +267,29 @@ mod tests {
         assert!(!square(false).violated_by([11.0, 5.0]));
         assert!(square(false).violated_by([1.0, 5.0]));
         assert!((z.distance_to_boundary_m([5.0, 2.0]) - 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_segment_through_or_near_a_zone_violates_it_and_one_clear_of_it_does_not() {
+        let house = square(false);
+        assert!(house.segment_violates([-5.0, 5.0], [15.0, 5.0], 0.0));
+        assert!(!house.segment_violates([-5.0, 12.0], [15.0, 12.0], 1.0));
+        assert!(house.segment_violates([-5.0, 12.0], [15.0, 12.0], 3.0));
+        let field = square(true);
+        assert!(!field.segment_violates([2.0, 2.0], [8.0, 8.0], 1.0));
+        assert!(field.segment_violates([2.0, 2.0], [8.0, 8.0], 3.0));
+        assert!(field.segment_violates([2.0, 2.0], [12.0, 8.0], 0.0));
+        let pond = LocalZone {
+            inclusion: false,
+            shape: LocalShape::Circle {
+                center: [0.0, 0.0],
+                radius_m: 5.0,
+            },
+        };
+        assert!(pond.segment_violates([-10.0, 1.0], [10.0, 1.0], 0.0));
+        assert!(!pond.segment_violates([-10.0, 7.0], [10.0, 7.0], 1.0));
+        assert!(pond.segment_violates([-10.0, 7.0], [10.0, 7.0], 2.5));
+        assert!(pond.segment_violates([-1.0, 0.0], [1.0, 0.0], 0.0));
     }
 
     #[test]

@@ -161,6 +161,7 @@ mod tests {
                     },
                     pricing: crate::physics::Pricing::Settled,
                     start: crate::physics::Start::Behind,
+                    via: Vec::new(),
                 }
             })
             .collect();

@@ -100,6 +100,10 @@ pub struct Leg {
     /// Where the leg starts relative to PX4's trajectory, from the turn out of the leg before
     /// (`physics::start_case`; only the `px4` profile's price depends on it).
     pub start: Start,
+    /// The points the leg passes through, without a hold, on its way round a fence zone, in
+    /// the mission's local frame (empty: the leg flies straight). Its distances and its
+    /// predicted energy are the whole chain's.
+    pub via: Vec<crate::mission::Enu>,
 }
 
 impl Leg {
@@ -824,6 +828,7 @@ fn plan_core<'scope>(
             predicted,
             pricing: options.pricing,
             start,
+            via: Vec::new(),
         })
     };
     let legs = |nodes: &[usize]| -> Result<Vec<Leg>, PlannerError> {
