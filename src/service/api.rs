@@ -43,7 +43,9 @@ use super::events::Hub;
 use super::http::{Gate, HostCheck};
 use super::missions::CatalogRx;
 use super::vehicle::{UploadJob, VehicleHandle};
-use super::wire::{Event, UploadRequest};
+use super::wire::{
+    Event, MissionDetail, MissionsFolder, UploadAnswer, UploadRequest, UploadResult,
+};
 use super::{escape_controls, Refusal, Token};
 use crate::flightlog::recorder::{
     is_flight_dir, read_report, PLAN_FILE, REPORT_FILE, SAMPLES_FILE, TLOG_FILE,
@@ -182,10 +184,12 @@ fn authorize(headers: &HeaderMap, token: &Token) -> Result<(), Refusal> {
     }
 }
 
-async fn missions(State(s): State<AppState>) -> Json<serde_json::Value> {
+async fn missions(State(s): State<AppState>) -> Json<MissionsFolder> {
     let catalog = s.catalog.borrow().clone();
-    let list: Vec<serde_json::Value> = catalog.entries.values().map(|e| e.summary()).collect();
-    Json(serde_json::json!({"dir": catalog.dir, "missions": list}))
+    Json(MissionsFolder {
+        dir: catalog.dir.clone(),
+        missions: catalog.entries.values().map(|e| e.summary()).collect(),
+    })
 }
 
 fn unknown_mission(dir: &FsPath, name: &str) -> Refusal {
@@ -202,7 +206,7 @@ fn unknown_mission(dir: &FsPath, name: &str) -> Refusal {
 async fn mission(
     State(s): State<AppState>,
     Path(name): Path<String>,
-) -> Result<Json<serde_json::Value>, Refusal> {
+) -> Result<Json<MissionDetail>, Refusal> {
     let catalog = s.catalog.borrow().clone();
     let entry = catalog
         .get(&name)
@@ -327,7 +331,7 @@ async fn upload(
     Path(name): Path<String>,
     headers: HeaderMap,
     body: Bytes,
-) -> Result<Json<serde_json::Value>, Refusal> {
+) -> Result<Json<UploadAnswer>, Refusal> {
     authorize(&headers, &s.token)?;
     let request = parse_upload(&body)?;
     let span = tracing::info_span!(
@@ -346,8 +350,8 @@ async fn upload(
         ),
     });
     let (ok, result) = match &outcome {
-        Ok(doc) => (true, doc.clone()),
-        Err(r) => (false, r.doc.json()),
+        Ok(answer) => (true, UploadResult::Uploaded(answer.clone())),
+        Err(r) => (false, UploadResult::Failed(r.doc.clone())),
     };
     s.hub.publish(&Event::Upload { name, ok, result });
     outcome.map(Json)
@@ -358,7 +362,7 @@ async fn upload_mission(
     name: &str,
     request: UploadRequest,
     span: tracing::Span,
-) -> Result<serde_json::Value, Refusal> {
+) -> Result<UploadAnswer, Refusal> {
     let catalog = s.catalog.borrow().clone();
     let entry = catalog
         .get(name)

@@ -26,7 +26,10 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use tokio::sync::{mpsc, watch, Semaphore};
 
 use super::events::Hub;
-use super::wire::{Event, MissionProblem};
+use super::wire::{
+    Event, MissionDetail, MissionProblem, MissionState, MissionStatus, OriginJson, PlannedNumbers,
+    PointJson,
+};
 use super::Refusal;
 use crate::mission::{Format, Mission, MissionError, Place};
 use crate::physics::VehicleModel;
@@ -106,34 +109,20 @@ pub struct MissionEntry {
 }
 
 impl MissionEntry {
-    fn status(&self) -> &'static str {
+    fn status(&self) -> MissionState {
         match self.outcome {
-            Outcome::Changing => "changing",
-            Outcome::Planning => "planning",
-            Outcome::Planned { .. } => "planned",
-            Outcome::Failed(_) => "error",
+            Outcome::Changing => MissionState::Changing,
+            Outcome::Planning => MissionState::Planning,
+            Outcome::Planned { .. } => MissionState::Planned,
+            Outcome::Failed(_) => MissionState::Error,
         }
     }
 
     /// The list view: status, the error, or the headline numbers of the plan.
-    pub fn summary(&self) -> serde_json::Value {
-        let mut doc = serde_json::json!({
-            "name": self.name,
-            "file": self.path,
-            "digest": self.digest,
-            "modified_ms": self.modified_ms,
-            "status": self.status(),
-            "mission": self.mission.as_ref().map(|m| m.name.clone()),
-            "waypoints": self.mission.as_ref().map(|m| m.waypoints.len()),
-        });
-        let Some(map) = doc.as_object_mut() else {
-            return doc;
-        };
-        match &self.outcome {
-            Outcome::Changing | Outcome::Planning => {}
-            Outcome::Failed(problem) => {
-                map.insert("error".into(), serde_json::json!(problem));
-            }
+    pub fn summary(&self) -> MissionStatus {
+        let (error, planned) = match &self.outcome {
+            Outcome::Changing | Outcome::Planning => (None, None),
+            Outcome::Failed(problem) => (Some(problem.clone()), None),
             Outcome::Planned {
                 plan,
                 sorties_error,
@@ -148,59 +137,63 @@ impl MissionEntry {
                     .filter(|(_, d)| *d > 0.0)
                     .map(|(e, d)| crate::planner::explain::saving_pct(e, d));
                 let battery = crate::planner::json::battery_json(plan);
-                map.insert("profile".into(), serde_json::json!(plan.profile));
-                map.insert("energy_kj".into(), serde_json::json!(energy));
-                map.insert("distance_kj".into(), serde_json::json!(distance));
-                map.insert("saving_pct".into(), serde_json::json!(saving_pct));
-                map.insert("total_kj".into(), serde_json::json!(battery.total_kj));
-                map.insert("budget_kj".into(), serde_json::json!(battery.budget_kj));
-                map.insert("feasible".into(), serde_json::json!(battery.feasible));
-                map.insert(
-                    "sorties".into(),
-                    serde_json::json!(plan.sorties.as_ref().map(|s| s.sorties.len())),
-                );
-                if let Some(e) = sorties_error {
-                    map.insert("sorties_error".into(), serde_json::json!(e));
-                }
+                let numbers = PlannedNumbers {
+                    profile: plan.profile,
+                    energy_kj: energy,
+                    distance_kj: distance,
+                    saving_pct,
+                    total_kj: battery.total_kj,
+                    budget_kj: battery.budget_kj,
+                    feasible: battery.feasible,
+                    sorties: plan.sorties.as_ref().map(|s| s.sorties.len()),
+                    sorties_error: sorties_error.clone(),
+                };
+                (None, Some(numbers))
             }
+        };
+        MissionStatus {
+            name: self.name.clone(),
+            file: self.path.clone(),
+            digest: self.digest.clone(),
+            modified_ms: self.modified_ms,
+            status: self.status(),
+            mission: self.mission.as_ref().map(|m| m.name.clone()),
+            waypoints: self.mission.as_ref().map(|m| m.waypoints.len()),
+            error,
+            planned,
         }
-        doc
     }
 
     /// The full view: the summary, the mission's points and the plan document.
-    pub fn detail(&self) -> serde_json::Value {
-        let mut doc = self.summary();
-        if let Some(map) = doc.as_object_mut() {
-            if let Some(m) = &self.mission {
-                map.insert(
-                    "origin".into(),
-                    serde_json::json!({
-                        "lat_deg": m.origin.home.lat_deg,
-                        "lon_deg": m.origin.home.lon_deg,
-                        "home_alt_amsl_m": m.origin.home.alt_m,
-                        "height_above_home_m": m.origin.height_above_home_m,
-                    }),
-                );
-                let points: Vec<serde_json::Value> = m
-                    .waypoints
-                    .iter()
-                    .map(|w| {
-                        serde_json::json!({
-                            "name": w.name,
-                            "x_m": w.position.x_east_m,
-                            "y_m": w.position.y_north_m,
-                            "z_m": w.position.z_up_m,
-                            "hover_s": w.hover_s,
-                        })
-                    })
-                    .collect();
-                map.insert("points".into(), serde_json::Value::Array(points));
-            }
-            if let Outcome::Planned { document, .. } = &self.outcome {
-                map.insert("plan".into(), (**document).clone());
-            }
+    pub fn detail(&self) -> MissionDetail {
+        let origin = self.mission.as_ref().map(|m| OriginJson {
+            lat_deg: m.origin.home.lat_deg,
+            lon_deg: m.origin.home.lon_deg,
+            home_alt_amsl_m: m.origin.home.alt_m,
+            height_above_home_m: m.origin.height_above_home_m,
+        });
+        let points = self.mission.as_ref().map(|m| {
+            m.waypoints
+                .iter()
+                .map(|w| PointJson {
+                    name: w.name.clone(),
+                    x_m: w.position.x_east_m,
+                    y_m: w.position.y_north_m,
+                    z_m: w.position.z_up_m,
+                    hover_s: w.hover_s,
+                })
+                .collect()
+        });
+        let plan = match &self.outcome {
+            Outcome::Planned { document, .. } => Some((**document).clone()),
+            _ => None,
+        };
+        MissionDetail {
+            status: self.summary(),
+            origin,
+            points,
+            plan,
         }
-        doc
     }
 }
 

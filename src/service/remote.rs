@@ -12,8 +12,8 @@ use serde::de::DeserializeOwned;
 use super::client::{Answer, Client, ClientError, EventStream};
 use super::missions::digest;
 use super::wire::{
-    Event, Failure, LinkState, LinkStatus, MissionStatus, MissionsFolder, UploadAnswer,
-    UploadRequest,
+    Event, Failure, LinkState, LinkStatus, MissionState, MissionStatus, MissionsFolder,
+    UploadAnswer, UploadRequest,
 };
 use crate::flightlog::report::{FlightReport, ReportJson};
 use crate::session::FlyJson;
@@ -195,11 +195,13 @@ pub async fn find_mission(
                 path.display()
             )));
         }
-        match entry.status.as_str() {
-            "planning" | "changing" if tokio::time::Instant::now() < deadline => {
+        match entry.status {
+            MissionState::Planning | MissionState::Changing
+                if tokio::time::Instant::now() < deadline =>
+            {
                 tokio::time::sleep(Duration::from_millis(200)).await;
             }
-            "error" if entry.mission.is_none() => {
+            MissionState::Error if entry.mission.is_none() => {
                 let message = entry
                     .error
                     .map_or_else(|| "cannot be read".to_string(), |e| e.message);

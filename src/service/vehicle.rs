@@ -91,7 +91,7 @@ enum Command {
     Upload(
         Box<UploadJob>,
         UploadSlot,
-        oneshot::Sender<Result<serde_json::Value, Refusal>>,
+        oneshot::Sender<Result<UploadAnswer, Refusal>>,
     ),
     Start(oneshot::Sender<Result<(), Refusal>>),
 }
@@ -174,11 +174,7 @@ impl VehicleHandle {
 
     /// Uploads (verified) and answers the upload document, or refuses; `slot` is held until
     /// the vehicle actor is done with it.
-    pub async fn upload(
-        &self,
-        job: UploadJob,
-        slot: UploadSlot,
-    ) -> Result<serde_json::Value, Refusal> {
+    pub async fn upload(&self, job: UploadJob, slot: UploadSlot) -> Result<UploadAnswer, Refusal> {
         let (tx, rx) = oneshot::channel();
         self.commands
             .send(Command::Upload(Box::new(job), slot, tx))
@@ -614,7 +610,7 @@ impl Actor {
         }
     }
 
-    async fn upload(&mut self, mut job: UploadJob) -> Result<serde_json::Value, Refusal> {
+    async fn upload(&mut self, mut job: UploadJob) -> Result<UploadAnswer, Refusal> {
         let mut target = self.connected()?;
         if self.armed() {
             tracing::warn!("upload refused: the vehicle is armed");
@@ -731,7 +727,7 @@ impl Actor {
                 .filter(|c| c.section == crate::session::ParamSection::Px4)
                 .map(Px4Parameters::from),
         };
-        serde_json::to_value(answer).map_err(|e| Refusal::new(500, "service", &e.to_string()))
+        Ok(answer)
     }
 
     /// `origin: "vehicle"`: `job`'s mission re-planned from `target`'s home by the session, as

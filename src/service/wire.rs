@@ -87,8 +87,8 @@ pub enum Event {
         flight: String,
         repriced: crate::flightlog::report::RepricedNote,
     },
-    MissionPlanned(serde_json::Value),
-    MissionError(serde_json::Value),
+    MissionPlanned(MissionStatus),
+    MissionError(MissionStatus),
     MissionRemoved {
         name: String,
     },
@@ -98,7 +98,7 @@ pub enum Event {
     Upload {
         name: String,
         ok: bool,
-        result: serde_json::Value,
+        result: UploadResult,
     },
     /// A start through the service ended.
     Start {
@@ -344,32 +344,111 @@ pub struct UploadAnswer {
     pub px4_parameters: Option<Px4Parameters>,
 }
 
+/// How an upload through the service ended: its answer, or why it failed.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum UploadResult {
+    Failed(Failure),
+    Uploaded(UploadAnswer),
+}
+
 /// The answer to `POST /api/vehicle/start`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Started {
     pub ok: bool,
 }
 
-/// The mission folder as `GET /api/missions` names it.
+/// The mission folder as `GET /api/missions` lists it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MissionsFolder {
     pub dir: PathBuf,
+    #[serde(default)]
+    pub missions: Vec<MissionStatus>,
 }
 
-/// A mission file as `GET /api/missions/{name}` describes it (the fields a client checks
-/// before an upload; the answer carries more).
+/// Where a mission file is in its life: being written, being planned, planned, or failed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MissionState {
+    /// Its size or modification time changed less than the settle time ago: not read yet.
+    Changing,
+    /// Being planned (or waiting for a free planning thread).
+    Planning,
+    Planned,
+    Error,
+}
+
+/// A mission file as `GET /api/missions` lists it and the `mission_planned` and
+/// `mission_error` events carry it: its state, the error, or the headline numbers of its plan.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MissionStatus {
     pub name: String,
     pub file: PathBuf,
-    /// The digest of the bytes planned (`missions::digest`).
+    /// The digest of the bytes planned (`missions::digest`; empty while the file changes).
     pub digest: String,
-    /// `changing`, `planning`, `planned` or `error`.
-    pub status: String,
+    /// The file's modification time (unix ms).
+    pub modified_ms: u64,
+    pub status: MissionState,
     /// The mission's name, when the file reads as one.
     pub mission: Option<String>,
-    #[serde(default)]
+    pub waypoints: Option<usize>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub error: Option<MissionProblem>,
+    /// The plan's headline numbers, once planned.
+    #[serde(flatten, default, skip_serializing_if = "Option::is_none")]
+    pub planned: Option<PlannedNumbers>,
+}
+
+/// A planned mission's headline numbers (kJ).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlannedNumbers {
+    pub profile: crate::physics::Profile,
+    pub energy_kj: Option<f64>,
+    pub distance_kj: Option<f64>,
+    /// What the energy order saves over the cheaper distance order (%).
+    pub saving_pct: Option<f64>,
+    pub total_kj: f64,
+    pub budget_kj: f64,
+    pub feasible: bool,
+    /// Sorties of the split, when one battery cannot fly it.
+    pub sorties: Option<usize>,
+    /// Why the sorties are missing, when no split was found.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sorties_error: Option<String>,
+}
+
+/// The mission's origin as `GET /api/missions/{name}` gives it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct OriginJson {
+    pub lat_deg: f64,
+    pub lon_deg: f64,
+    pub home_alt_amsl_m: f64,
+    pub height_above_home_m: f64,
+}
+
+/// A waypoint as `GET /api/missions/{name}` gives it (local frame, m).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PointJson {
+    pub name: String,
+    pub x_m: f64,
+    pub y_m: f64,
+    pub z_m: f64,
+    pub hover_s: f64,
+}
+
+/// `GET /api/missions/{name}`: the status, the mission's origin and points, and the plan
+/// document (`emplan plan --json` of it, docs/json.md).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MissionDetail {
+    #[serde(flatten)]
+    pub status: MissionStatus,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub origin: Option<OriginJson>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub points: Option<Vec<PointJson>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plan: Option<serde_json::Value>,
 }
 
 /// Why a mission has no plan, located.
