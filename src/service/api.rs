@@ -44,12 +44,14 @@ use super::http::{Gate, HostCheck};
 use super::missions::CatalogRx;
 use super::vehicle::{UploadJob, VehicleHandle};
 use super::wire::{
-    Event, MissionDetail, MissionsFolder, UploadAnswer, UploadRequest, UploadResult,
+    BatteryView, Event, FlightDetail, FlightFiles, FlightSummary, FlightsList, LinkStatus,
+    MissionDetail, MissionsFolder, UploadAnswer, UploadRequest, UploadResult, VehicleView,
 };
 use super::{escape_controls, Refusal, Token};
 use crate::flightlog::recorder::{
     is_flight_dir, read_report, PLAN_FILE, REPORT_FILE, SAMPLES_FILE, TLOG_FILE,
 };
+use crate::flightlog::report::ReportJson;
 use crate::physics::{Profile, VehicleModel};
 use crate::planner::FlightChoice;
 use crate::session::flight_dirs;
@@ -448,16 +450,16 @@ async fn start(
     Ok(Json(super::wire::Started { ok: true }))
 }
 
-async fn vehicle(State(s): State<AppState>) -> Json<serde_json::Value> {
-    Json(serde_json::json!({
-        "link": s.vehicle.status(),
-        "telemetry": s.hub.telemetry(),
-        "flight": s.hub.flight(),
-    }))
+async fn vehicle(State(s): State<AppState>) -> Json<VehicleView> {
+    Json(VehicleView {
+        link: s.vehicle.status(),
+        telemetry: s.hub.telemetry(),
+        flight: s.hub.flight(),
+    })
 }
 
-async fn link(State(s): State<AppState>) -> Json<serde_json::Value> {
-    Json(serde_json::json!(s.vehicle.status()))
+async fn link(State(s): State<AppState>) -> Json<LinkStatus> {
+    Json(s.vehicle.status())
 }
 
 #[derive(Debug, Deserialize)]
@@ -465,11 +467,11 @@ struct Since {
     since_ms: Option<u64>,
 }
 
-async fn battery(State(s): State<AppState>, Query(q): Query<Since>) -> Json<serde_json::Value> {
-    Json(serde_json::json!({
-        "now": s.hub.telemetry().and_then(|t| t.battery),
-        "history": s.hub.battery_history(q.since_ms),
-    }))
+async fn battery(State(s): State<AppState>, Query(q): Query<Since>) -> Json<BatteryView> {
+    Json(BatteryView {
+        now: s.hub.telemetry().and_then(|t| t.battery),
+        history: s.hub.battery_history(q.since_ms),
+    })
 }
 
 /// The flight directory `name` under `log_dir`, if it is one (a plain name holding a .tlog).
@@ -481,45 +483,41 @@ pub fn flight_dir(log_dir: &FsPath, name: &str) -> Option<PathBuf> {
 }
 
 /// The files of a flight directory that exist, as API paths.
-fn files(dir: &FsPath, name: &str) -> serde_json::Value {
-    let mut out = serde_json::Map::new();
-    for (key, file) in [
-        ("tlog", TLOG_FILE),
-        ("samples", SAMPLES_FILE),
-        ("plan", PLAN_FILE),
-        ("report", REPORT_FILE),
-    ] {
-        if dir.join(file).is_file() {
-            out.insert(
-                key.into(),
-                format!("/api/flights/{name}/files/{file}").into(),
-            );
-        }
+fn files(dir: &FsPath, name: &str) -> FlightFiles {
+    let path = |file: &str| {
+        dir.join(file)
+            .is_file()
+            .then(|| format!("/api/flights/{name}/files/{file}"))
+    };
+    FlightFiles {
+        tlog: path(TLOG_FILE),
+        samples: path(SAMPLES_FILE),
+        plan: path(PLAN_FILE),
+        report: path(REPORT_FILE),
     }
-    serde_json::Value::Object(out)
 }
 
-fn flight_summary(dir: &FsPath, recording: Option<&str>) -> serde_json::Value {
+fn flight_summary(dir: &FsPath, recording: Option<&str>) -> FlightSummary {
     let name = crate::flightlog::recorder::flight_name(dir);
     let report = read_report(dir).ok().map(|r| r.json());
-    serde_json::json!({
-        "name": name,
-        "recording": recording == Some(name.as_str()),
-        "complete": report.as_ref().map(|r| r.complete),
-        "total": report.as_ref().map(|r| &r.total),
-        "legs": report.as_ref().map(|r| r.legs.len()),
-        "files": files(dir, &name),
-    })
+    FlightSummary {
+        recording: recording == Some(name.as_str()),
+        complete: report.as_ref().map(|r| r.complete),
+        total: report.as_ref().map(|r| r.total.clone()),
+        legs: report.as_ref().map(|r| r.legs.len()),
+        files: files(dir, &name),
+        name,
+    }
 }
 
 fn recording(hub: &Hub) -> Option<String> {
     hub.flight().filter(|f| f.recording).map(|f| f.flight)
 }
 
-async fn flights(State(s): State<AppState>) -> Result<Json<serde_json::Value>, Refusal> {
+async fn flights(State(s): State<AppState>) -> Result<Json<FlightsList>, Refusal> {
     let log_dir = s.log_dir.clone();
     let now = recording(&s.hub);
-    let list = tokio::task::spawn_blocking(move || -> std::io::Result<Vec<serde_json::Value>> {
+    let list = tokio::task::spawn_blocking(move || -> std::io::Result<Vec<FlightSummary>> {
         let dirs = match flight_dirs(&log_dir) {
             Ok(d) => d,
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => Vec::new(),
@@ -541,7 +539,10 @@ async fn flights(State(s): State<AppState>) -> Result<Json<serde_json::Value>, R
             &format!("log directory {}: {e}", s.log_dir.display()),
         )
     })?;
-    Ok(Json(serde_json::json!({"dir": s.log_dir, "flights": list})))
+    Ok(Json(FlightsList {
+        dir: s.log_dir.clone(),
+        flights: list,
+    }))
 }
 
 fn unknown_flight(log_dir: &FsPath, name: &str) -> Refusal {
@@ -555,29 +556,29 @@ fn unknown_flight(log_dir: &FsPath, name: &str) -> Refusal {
 async fn flight(
     State(s): State<AppState>,
     Path(name): Path<String>,
-) -> Result<Json<serde_json::Value>, Refusal> {
+) -> Result<Json<FlightDetail>, Refusal> {
     let dir = flight_dir(&s.log_dir, &name).ok_or_else(|| unknown_flight(&s.log_dir, &name))?;
     let now = recording(&s.hub);
-    let mut doc = flight_summary(&dir, now.as_deref());
-    if let Some(map) = doc.as_object_mut() {
-        let plan = crate::flightlog::recorder::read_flight_plan(&dir).ok();
-        map.insert("mission".into(), serde_json::json!(plan.map(|p| p.mission)));
-        map.insert("dir".into(), serde_json::json!(dir));
-        map.insert(
-            "report".into(),
-            serde_json::json!(read_report(&dir).ok().map(|r| r.json())),
-        );
-        if now.as_deref() == Some(name.as_str()) {
-            map.insert("live".into(), serde_json::json!(s.hub.flight()));
-        }
-    }
-    Ok(Json(doc))
+    let live = if now.as_deref() == Some(name.as_str()) {
+        s.hub.flight()
+    } else {
+        None
+    };
+    Ok(Json(FlightDetail {
+        summary: flight_summary(&dir, now.as_deref()),
+        mission: crate::flightlog::recorder::read_flight_plan(&dir)
+            .ok()
+            .map(|p| p.mission),
+        report: read_report(&dir).ok().map(|r| r.json()),
+        dir,
+        live,
+    }))
 }
 
 async fn report(
     State(s): State<AppState>,
     Path(name): Path<String>,
-) -> Result<Json<serde_json::Value>, Refusal> {
+) -> Result<Json<ReportJson>, Refusal> {
     let dir = flight_dir(&s.log_dir, &name).ok_or_else(|| unknown_flight(&s.log_dir, &name))?;
     let report = read_report(&dir).map_err(|e| {
         Refusal::new(
@@ -586,7 +587,7 @@ async fn report(
             &format!("flight {name} has no report yet ({e})"),
         )
     })?;
-    Ok(Json(serde_json::json!(report.json())))
+    Ok(Json(report.json()))
 }
 
 async fn file(

@@ -82,6 +82,11 @@ impl Answer {
     pub fn ok(&self) -> bool {
         (200..300).contains(&self.status)
     }
+
+    /// The body read as the wire type `T` (`service::wire`): how clients read an answer.
+    pub fn parse<T: serde::de::DeserializeOwned>(&self) -> Result<T, serde_json::Error> {
+        T::deserialize(&self.body)
+    }
 }
 
 impl Client {

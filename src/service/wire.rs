@@ -353,6 +353,67 @@ pub enum UploadResult {
     Uploaded(UploadAnswer),
 }
 
+/// `GET /api/vehicle`: the link, the latest telemetry and the flight in progress (or the last).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct VehicleView {
+    pub link: LinkStatus,
+    pub telemetry: Option<TelemetryJson>,
+    pub flight: Option<FlightView>,
+}
+
+/// `GET /api/battery`: the battery now and its history since the time asked.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BatteryView {
+    pub now: Option<BatteryNow>,
+    pub history: Vec<BatteryPoint>,
+}
+
+/// The files of a flight directory that exist, as API paths.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct FlightFiles {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tlog: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub samples: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plan: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub report: Option<String>,
+}
+
+/// A recorded flight as `GET /api/flights` lists it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FlightSummary {
+    pub name: String,
+    /// Being recorded now.
+    pub recording: bool,
+    /// From its report, once it has one.
+    pub complete: Option<bool>,
+    pub total: Option<crate::flightlog::report::TotalJson>,
+    pub legs: Option<usize>,
+    pub files: FlightFiles,
+}
+
+/// `GET /api/flights`: the log directory and its flights, newest first.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FlightsList {
+    pub dir: PathBuf,
+    pub flights: Vec<FlightSummary>,
+}
+
+/// `GET /api/flights/{name}`: the summary, the mission it flew, its report and, while it is
+/// recorded, the live view.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FlightDetail {
+    #[serde(flatten)]
+    pub summary: FlightSummary,
+    pub mission: Option<String>,
+    pub dir: PathBuf,
+    pub report: Option<ReportJson>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub live: Option<FlightView>,
+}
+
 /// The answer to `POST /api/vehicle/start`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Started {

@@ -8,7 +8,7 @@
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use emplan::service::wire::Event;
+use emplan::service::wire::{Event, LinkState, LinkStatus, MissionState};
 use emplan::service::{Client, Token};
 use serde_json::Value;
 
@@ -230,6 +230,19 @@ async fn every_event_of_a_flight_reads_as_a_wire_event_and_writes_back_as_the_sa
         let token = token_file.to_str().unwrap().to_string();
         fly(&mission, &["--service", &url, "--token-file", &token])
     });
+    // The kinds of event the stream carried, by the wire's names.
+    let kind = |e: &Event| {
+        match e {
+            Event::Telemetry(_) => "telemetry",
+            Event::Part(_) => "part",
+            Event::FlightStarted { .. } => "flight_started",
+            Event::Link(_) => "link",
+            Event::Upload { .. } => "upload",
+            Event::Start { .. } => "start",
+            _ => "other",
+        }
+        .to_string()
+    };
     let mut kinds = std::collections::BTreeSet::new();
     loop {
         let event = match events.next_within(Duration::from_secs(60)).await {
@@ -239,7 +252,7 @@ async fn every_event_of_a_flight_reads_as_a_wire_event_and_writes_back_as_the_sa
         let read: Event =
             serde_json::from_value(event.clone()).unwrap_or_else(|e| panic!("{e}: {event}"));
         assert_eq!(serde_json::to_value(&read).expect("written"), event);
-        kinds.insert(event["type"].as_str().unwrap_or("").to_string());
+        kinds.insert(kind(&read));
         if matches!(read, Event::FlightEnded { .. }) {
             break;
         }
@@ -290,14 +303,15 @@ async fn an_upload_through_a_service_whose_vehicle_is_not_heard_yet_waits_for_it
     let began = Instant::now();
     loop {
         let entry = client.get("/api/missions/paper-sample-3wp.toml").await;
-        if entry.is_ok_and(|a| a.body["status"] == "planned") {
+        if entry.is_ok_and(|a| crate::service::status_of(&a) == Some(MissionState::Planned)) {
             break;
         }
         assert!(began.elapsed() < Duration::from_secs(30), "never planned");
         tokio::time::sleep(Duration::from_millis(50)).await;
     }
     let link = client.get("/api/link").await.expect("link");
-    assert_eq!(link.body["state"], "waiting_for_heartbeat", "{}", link.body);
+    let link: LinkStatus = crate::service::read(&link);
+    assert_eq!(link.state, LinkState::WaitingForHeartbeat, "{link:?}");
     let uploading = tokio::task::spawn_blocking(move || {
         crate::emplan(&[
             "upload",

@@ -10,12 +10,18 @@ use std::sync::{Arc, OnceLock};
 use std::time::Duration;
 
 use emplan::flightlog::csv::read_samples;
+use emplan::flightlog::energy::Flag;
 use emplan::flightlog::recorder::{SAMPLES_FILE, TLOG_FILE};
+use emplan::flightlog::report::ReportJson;
 use emplan::flightlog::tlog::read_tlog;
 use emplan::link::mav::MavMessage;
 use emplan::link::telemetry::parse_frame;
 use emplan::physics::VehicleModel;
 use emplan::service::client::{Answer, EventStream};
+use emplan::service::wire::{
+    Event, Failure, FlightDetail, FlightsList, LinkState, LinkStatus, MissionDetail, MissionState,
+    MissionsFolder, PartKind, UploadAnswer, VehicleView,
+};
 use emplan::service::{Client, ServiceConfig, ServiceError, Token, VehicleLink};
 use emplan::sim::{FlightConfig, MockConfig};
 use serde_json::{json, Value};
@@ -141,18 +147,27 @@ pub(crate) async fn serve_after(
     }
 }
 
+/// An event of the stream read as the wire's [`Event`].
+pub(crate) fn event(value: Value) -> Event {
+    serde_json::from_value(value.clone()).unwrap_or_else(|e| panic!("event {value}: {e}"))
+}
+
 /// Waits (up to `seconds`) for an event `accept` takes; fails the test otherwise.
 pub(crate) async fn wait_for(
     events: &mut EventStream,
     seconds: u64,
-    accept: impl Fn(&Value) -> bool,
-) -> Value {
+    accept: impl Fn(&Event) -> bool,
+) -> Event {
     let deadline = tokio::time::Instant::now() + Duration::from_secs(seconds);
     loop {
         let left = deadline.saturating_duration_since(tokio::time::Instant::now());
         match events.next_within(left).await {
-            Ok(Some(Ok(event))) if accept(&event) => return event,
-            Ok(Some(Ok(_))) => {}
+            Ok(Some(Ok(value))) => {
+                let event = event(value);
+                if accept(&event) {
+                    return event;
+                }
+            }
             Ok(Some(Err(e))) => panic!("event stream: {e}"),
             Ok(None) => panic!("the event stream ended"),
             Err(_) => panic!("no such event within {seconds} s"),
@@ -160,8 +175,51 @@ pub(crate) async fn wait_for(
     }
 }
 
-pub(crate) fn is(kind: &str) -> impl Fn(&Value) -> bool + '_ {
-    move |e| e["type"] == kind
+/// A flight's start: its name and directory.
+pub(crate) fn flight_started(e: &Event) -> Option<(String, PathBuf)> {
+    match e {
+        Event::FlightStarted { flight, dir, .. } => Some((flight.clone(), dir.clone())),
+        _ => None,
+    }
+}
+
+/// A flight's end: its name, directory and report.
+pub(crate) fn flight_ended(e: &Event) -> Option<(String, PathBuf, Option<ReportJson>)> {
+    match e {
+        Event::FlightEnded {
+            flight,
+            dir,
+            report,
+        } => Some((flight.clone(), dir.clone(), report.clone())),
+        _ => None,
+    }
+}
+
+/// Waits for a flight to start: its name and directory.
+pub(crate) async fn wait_start(events: &mut EventStream, seconds: u64) -> (String, PathBuf) {
+    let e = wait_for(events, seconds, |e| flight_started(e).is_some()).await;
+    flight_started(&e).expect("a start")
+}
+
+/// Waits for a flight to end: its name, directory and report.
+pub(crate) async fn wait_end(
+    events: &mut EventStream,
+    seconds: u64,
+) -> (String, PathBuf, Option<ReportJson>) {
+    let e = wait_for(events, seconds, |e| flight_ended(e).is_some()).await;
+    flight_ended(&e).expect("an end")
+}
+
+/// True for a completed part of `kind` (and of point `index`, when given).
+pub(crate) fn part(kind: PartKind, index: Option<usize>) -> impl Fn(&Event) -> bool {
+    move |e| matches!(e, Event::Part(p) if p.kind == kind && index.is_none_or(|i| p.index == Some(i)))
+}
+
+/// The answer read as the wire type `T`; fails the test naming the answer otherwise.
+pub(crate) fn read<T: serde::de::DeserializeOwned>(answer: &Answer) -> T {
+    answer
+        .parse()
+        .unwrap_or_else(|e| panic!("{answer:?} is not the wire type: {e}"))
 }
 
 /// Polls `GET path` until `accept` takes the answer (up to `seconds`).
@@ -188,14 +246,26 @@ async fn poll(
 /// Waits until the service has planned mission file `name`.
 pub(crate) async fn planned(client: &Client, name: &str) {
     poll(client, &format!("/api/missions/{name}"), 60, |a| {
-        a.body["status"] == "planned"
+        status_of(a) == Some(MissionState::Planned)
     })
     .await;
 }
 
+/// The state of the mission an answer of `GET /api/missions/NAME` describes.
+pub(crate) fn status_of(answer: &Answer) -> Option<MissionState> {
+    answer
+        .parse::<MissionDetail>()
+        .ok()
+        .map(|m| m.status.status)
+}
+
 /// Waits until the service's link is connected to the autopilot.
 pub(crate) async fn connected(client: &Client) {
-    poll(client, "/api/link", 20, |a| a.body["state"] == "connected").await;
+    poll(client, "/api/link", 20, |a| {
+        a.parse::<LinkStatus>()
+            .is_ok_and(|l| l.state == LinkState::Connected)
+    })
+    .await;
 }
 
 pub(crate) async fn upload(client: &Client, name: &str, body: Value) -> Answer {
@@ -239,7 +309,25 @@ fn assert_same_json(a: &Value, b: &Value) {
     assert!(same(a, b), "{a}\n  differs from\n{b}");
 }
 
-/// The (from, to) of the `legs` of a report or an order.
+/// The (from, to) of a report's legs.
+fn legs_of(report: &ReportJson) -> Vec<(String, String)> {
+    report
+        .legs
+        .iter()
+        .map(|l| (l.from.clone(), l.to.clone()))
+        .collect()
+}
+
+/// Each leg of a report measured within `share` of its prediction.
+fn measured_within(report: &ReportJson, share: f64) {
+    for leg in &report.legs {
+        let m = leg.measured_kj.expect("measured");
+        let p = leg.predicted_kj.expect("predicted");
+        assert!((m - p).abs() < share * p, "{leg:?}");
+    }
+}
+
+/// The (from, to) of the `legs` of a `--json` document (a plan's order, `fly`'s report).
 fn report_legs(report: &Value) -> Vec<(String, String)> {
     report["legs"]
         .as_array()
@@ -266,14 +354,17 @@ async fn a_dropped_mission_is_planned_uploaded_with_the_token_flown_and_reported
         service.missions.join("paper-sample-3wp.toml"),
     )
     .expect("dropped");
-    let planned = wait_for(&mut events, 60, is("mission_planned")).await;
-    assert_eq!(planned["name"], "paper-sample-3wp.toml");
+    let planned = wait_for(&mut events, 60, |e| matches!(e, Event::MissionPlanned(_))).await;
+    assert!(
+        matches!(&planned, Event::MissionPlanned(m) if m.name == "paper-sample-3wp.toml"),
+        "{planned:?}"
+    );
     let mission = client
         .get("/api/missions/paper-sample-3wp.toml")
         .await
         .expect("GET mission");
     assert!(mission.ok(), "{mission:?}");
-    let plan_legs = energy_legs(&mission.body["plan"]);
+    let plan_legs = energy_legs(&read::<MissionDetail>(&mission).plan.expect("a plan"));
     assert_eq!(plan_legs.len(), 4, "{plan_legs:?}");
     // The same document `emplan plan --json` prints.
     let cli = super::json(&["plan", "missions/paper-sample-3wp.toml", "--json"]);
@@ -281,51 +372,42 @@ async fn a_dropped_mission_is_planned_uploaded_with_the_token_flown_and_reported
 
     let uploaded = upload(client, "paper-sample-3wp.toml", json!({})).await;
     assert!(uploaded.ok(), "{uploaded:?}");
-    assert_eq!(uploaded.body["report"]["verified"], true);
-    let sequence: Vec<&str> = uploaded.body["sequence"]
-        .as_array()
-        .expect("sequence")
-        .iter()
-        .map(|s| s.as_str().unwrap())
-        .collect();
-    let expected: Vec<&str> = plan_legs[..3].iter().map(|(_, to)| to.as_str()).collect();
-    assert_eq!(sequence, expected);
+    let answer: UploadAnswer = read(&uploaded);
+    assert!(answer.upload.report.verified);
+    let expected: Vec<String> = plan_legs[..3].iter().map(|(_, to)| to.clone()).collect();
+    assert_eq!(answer.upload.plan.sequence, expected);
 
-    let started = client
+    let start = client
         .post("/api/vehicle/start", &json!({}))
         .await
         .expect("POST start");
-    assert!(started.ok(), "{started:?}");
-    let flight = wait_for(&mut events, 30, is("flight_started")).await;
-    let name = flight["flight"].as_str().expect("flight name").to_string();
-    let ended = wait_for(&mut events, 60, is("flight_ended")).await;
-    assert_eq!(ended["flight"], name);
+    assert!(start.ok(), "{start:?}");
+    let (name, _) = wait_start(&mut events, 30).await;
+    let (ended_name, _, ended_report) = wait_end(&mut events, 60).await;
+    assert_eq!(ended_name, name);
 
     let report = client
         .get(&format!("/api/flights/{name}/report"))
         .await
         .expect("GET report");
     assert!(report.ok(), "{report:?}");
-    assert_same_json(&report.body, &ended["report"]);
-    assert_eq!(report.body["complete"], true);
-    assert_eq!(report_legs(&report.body), plan_legs);
-    for leg in report.body["legs"].as_array().expect("legs") {
-        let (p, m) = (
-            leg["predicted_kj"].as_f64().expect("predicted"),
-            leg["measured_kj"].as_f64().expect("measured"),
-        );
-        // The mock flies the model's own trajectories: the measurement must find them.
-        assert!((m - p).abs() < 0.1 * p, "{leg}");
-    }
+    assert_same_json(
+        &report.body,
+        &serde_json::to_value(ended_report.expect("a report")).expect("JSON"),
+    );
+    let report: ReportJson = read(&report);
+    assert!(report.complete);
+    assert_eq!(legs_of(&report), plan_legs);
+    // The mock flies the model's own trajectories: the measurement must find them.
+    measured_within(&report, 0.1);
     // The flight's directory and files, listed and served.
     assert!(service.log_dir.join(&name).join(TLOG_FILE).is_file());
-    let flights = client.get("/api/flights").await.expect("GET flights");
-    assert_eq!(flights.body["flights"][0]["name"], name.as_str());
-    let tlog = flights.body["flights"][0]["files"]["tlog"]
-        .as_str()
-        .expect("tlog link")
-        .to_string();
-    assert_eq!(tlog, format!("/api/flights/{name}/files/flight.tlog"));
+    let flights: FlightsList = read(&client.get("/api/flights").await.expect("GET flights"));
+    assert_eq!(flights.flights[0].name, name);
+    assert_eq!(
+        flights.flights[0].files.tlog.as_deref(),
+        Some(format!("/api/flights/{name}/files/flight.tlog").as_str())
+    );
     let not_a_file = client
         .get(&format!("/api/flights/{name}/files/..%2Ftoken"))
         .await
@@ -342,16 +424,16 @@ async fn uploads_and_starts_are_refused_without_the_token_or_with_a_wrong_one() 
         &service.client,
         "/api/missions/paper-sample-3wp.toml",
         60,
-        |a| a.body["status"] == "planned",
+        |a| status_of(a) == Some(MissionState::Planned),
     )
     .await;
     let wrong = "0".repeat(service.token.as_str().len());
     for client in [service.client_with(None), service.client_with(Some(&wrong))] {
         let refused = upload(&client, "paper-sample-3wp.toml", json!({})).await;
         assert_eq!(refused.status, 401, "{refused:?}");
-        assert_eq!(refused.body["ok"], false);
-        assert_eq!(refused.body["stage"], "auth");
-        assert_eq!(refused.body["accepted"], false);
+        let failure: Failure = read(&refused);
+        assert!(!failure.ok && !failure.accepted, "{failure:?}");
+        assert_eq!(failure.stage, "auth");
         let start = client
             .post("/api/vehicle/start", &json!({}))
             .await
@@ -359,11 +441,17 @@ async fn uploads_and_starts_are_refused_without_the_token_or_with_a_wrong_one() 
         assert_eq!(start.status, 401);
     }
     // Reads need no token; nothing was armed or uploaded.
+    let armed = |a: &Answer| {
+        a.parse::<VehicleView>()
+            .ok()
+            .and_then(|v| v.telemetry)
+            .and_then(|t| t.armed)
+    };
     let vehicle = poll(&service.client_with(None), "/api/vehicle", 20, |a| {
-        a.ok() && !a.body["telemetry"]["armed"].is_null()
+        a.ok() && armed(a).is_some()
     })
     .await;
-    assert_eq!(vehicle.body["telemetry"]["armed"], false);
+    assert_eq!(armed(&vehicle), Some(false));
     let ok = upload(&service.client, "paper-sample-3wp.toml", json!({})).await;
     assert!(ok.ok(), "{ok:?}");
     service.shutdown().await.expect("clean stop");
@@ -385,18 +473,21 @@ async fn requests_the_api_cannot_take_are_answered_with_a_json_error_naming_the_
     for (path, status, says) in cases {
         let answer = client.get(path).await.expect("a JSON answer");
         assert_eq!(answer.status, status, "{path}: {answer:?}");
-        assert_eq!(answer.body["ok"], false, "{path}: {answer:?}");
-        let error = answer.body["error"].as_str().expect("an error message");
-        assert!(error.to_lowercase().contains(says), "{path}: {error}");
+        let failure: Failure = read(&answer);
+        assert!(!failure.ok, "{path}: {answer:?}");
+        assert!(
+            failure.error.to_lowercase().contains(says),
+            "{path}: {}",
+            failure.error
+        );
     }
     let bad_json = client
         .post("/api/missions/x.toml/upload", &json!([1, 2]))
         .await
         .expect("answer");
     assert_eq!(bad_json.status, 400, "{bad_json:?}");
-    assert!(bad_json.body["error"]
-        .as_str()
-        .unwrap()
+    assert!(read::<Failure>(&bad_json)
+        .error
         .contains("upload request body"));
     service.shutdown().await.expect("clean stop");
 }
@@ -420,12 +511,10 @@ async fn an_upload_is_refused_while_the_vehicle_is_armed() {
     for _ in 0..2 {
         let refused = upload(client, "paper-sample-3wp.toml", json!({"order": "listed"})).await;
         assert_eq!(refused.status, 409, "{refused:?}");
-        assert_eq!(refused.body["stage"], "vehicle");
-        assert!(
-            refused.body["error"].as_str().unwrap().contains("armed"),
-            "{refused:?}"
-        );
-        wait_for(&mut events, 30, is("part")).await;
+        let failure: Failure = read(&refused);
+        assert_eq!(failure.stage, "vehicle");
+        assert!(failure.error.contains("armed"), "{refused:?}");
+        wait_for(&mut events, 30, |e| matches!(e, Event::Part(_))).await;
     }
     let again = client
         .post("/api/vehicle/start", &json!({}))
@@ -433,14 +522,16 @@ async fn an_upload_is_refused_while_the_vehicle_is_armed() {
         .expect("POST");
     assert_eq!(again.status, 409);
     // The refused upload changed nothing: the flight measured is the energy order.
-    let ended = wait_for(&mut events, 120, is("flight_ended")).await;
-    let mission = client
-        .get("/api/missions/paper-sample-3wp.toml")
-        .await
-        .expect("GET");
+    let (_, _, report) = wait_end(&mut events, 120).await;
+    let mission: MissionDetail = read(
+        &client
+            .get("/api/missions/paper-sample-3wp.toml")
+            .await
+            .expect("GET"),
+    );
     assert_eq!(
-        report_legs(&ended["report"]),
-        energy_legs(&mission.body["plan"])
+        legs_of(&report.expect("a report")),
+        energy_legs(&mission.plan.expect("a plan"))
     );
     service.shutdown().await.expect("clean stop");
 }
@@ -460,46 +551,43 @@ async fn an_invalid_mission_file_is_listed_with_its_located_error_while_the_othe
     )
     .expect("written");
     let listed = poll(client, "/api/missions", 60, |a| {
-        let m = a.body["missions"].as_array().map_or(0, |m| m.len());
-        m == 3
-            && a.body["missions"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .all(|m| m["status"] == "planned" || m["status"] == "error")
+        a.parse::<MissionsFolder>().is_ok_and(|f| {
+            f.missions.len() == 3
+                && f.missions
+                    .iter()
+                    .all(|m| matches!(m.status, MissionState::Planned | MissionState::Error))
+        })
     })
     .await;
+    let listed: MissionsFolder = read(&listed);
     let by_name = |name: &str| {
-        listed.body["missions"]
-            .as_array()
-            .unwrap()
+        listed
+            .missions
             .iter()
-            .find(|m| m["name"] == name)
+            .find(|m| m.name == name)
             .cloned()
             .unwrap_or_else(|| panic!("{name} listed"))
     };
     let broken = by_name("broken.toml");
-    assert_eq!(broken["status"], "error");
-    assert_eq!(broken["error"]["stage"], "mission");
+    assert_eq!(broken.status, MissionState::Error);
+    let problem = broken.error.clone().expect("an error");
+    assert_eq!(problem.stage, "mission");
     // The line of the waypoint's table.
-    assert_eq!(broken["error"]["line"], 8, "{broken}");
-    assert!(
-        broken["error"]["message"]
-            .as_str()
-            .unwrap()
-            .contains("broken.toml"),
-        "{broken}"
-    );
+    assert_eq!(problem.line, Some(8), "{broken:?}");
+    assert!(problem.message.contains("broken.toml"), "{broken:?}");
     for good in ["paper-sample-3wp.toml", "davis-orchard-survey.plan"] {
         let m = by_name(good);
-        assert_eq!(m["status"], "planned", "{m}");
-        assert!(m["saving_pct"].as_f64().is_some(), "{m}");
+        assert_eq!(m.status, MissionState::Planned, "{m:?}");
+        assert!(
+            m.planned.as_ref().and_then(|p| p.saving_pct).is_some(),
+            "{m:?}"
+        );
     }
     // Uploading it is refused naming the error.
     let refused = upload(client, "broken.toml", json!({})).await;
     assert_eq!(
-        (refused.status, &refused.body["stage"]),
-        (422, &json!("mission"))
+        (refused.status, read::<Failure>(&refused).stage.as_str()),
+        (422, "mission")
     );
     // Fixed, it is planned; removed, it is gone.
     let mut events = client.events().await.expect("events");
@@ -510,15 +598,22 @@ async fn an_invalid_mission_file_is_listed_with_its_located_error_while_the_othe
             .replace("nan", "20.0"),
     )
     .expect("fixed");
-    let planned = wait_for(&mut events, 60, |e| {
-        e["type"] == "mission_planned" && e["name"] == "broken.toml"
-    })
+    let planned = wait_for(
+        &mut events,
+        60,
+        |e| matches!(e, Event::MissionPlanned(m) if m.name == "broken.toml"),
+    )
     .await;
-    assert_eq!(planned["status"], "planned");
+    assert!(
+        matches!(&planned, Event::MissionPlanned(m) if m.status == MissionState::Planned),
+        "{planned:?}"
+    );
     std::fs::remove_file(&bad).expect("removed");
-    wait_for(&mut events, 30, |e| {
-        e["type"] == "mission_removed" && e["name"] == "broken.toml"
-    })
+    wait_for(
+        &mut events,
+        30,
+        |e| matches!(e, Event::MissionRemoved { name } if name == "broken.toml"),
+    )
     .await;
     let gone = client.get("/api/missions/broken.toml").await.expect("GET");
     assert_eq!(gone.status, 404);
@@ -531,28 +626,23 @@ async fn a_mission_one_battery_cannot_fly_is_refused_unless_overridden_or_split(
     let client = &service.client;
     connected(client).await;
     let listed = poll(client, "/api/missions/long-inspection.toml", 120, |a| {
-        a.body["status"] == "planned"
+        status_of(a) == Some(MissionState::Planned)
     })
     .await;
-    assert_eq!(listed.body["feasible"], false);
-    assert!(
-        listed.body["sorties"].as_u64().unwrap() >= 2,
-        "{:?}",
-        listed.body
-    );
+    let numbers = read::<MissionDetail>(&listed)
+        .status
+        .planned
+        .expect("planned");
+    assert!(!numbers.feasible, "{numbers:?}");
+    assert!(numbers.sorties.expect("sorties") >= 2, "{numbers:?}");
     let refused = upload(client, "long-inspection.toml", json!({})).await;
     assert_eq!(refused.status, 422, "{refused:?}");
-    assert_eq!(refused.body["stage"], "plan");
-    assert!(
-        refused.body["error"]
-            .as_str()
-            .unwrap()
-            .contains("allow_infeasible"),
-        "{refused:?}"
-    );
+    let failure: Failure = read(&refused);
+    assert_eq!(failure.stage, "plan");
+    assert!(failure.error.contains("allow_infeasible"), "{refused:?}");
     let sortie = upload(client, "long-inspection.toml", json!({"sortie": 1})).await;
     assert!(sortie.ok(), "{sortie:?}");
-    assert_eq!(sortie.body["sortie"], 1);
+    assert_eq!(read::<UploadAnswer>(&sortie).upload.plan.sortie, Some(1));
     let forced = upload(
         client,
         "long-inspection.toml",
@@ -570,8 +660,8 @@ async fn a_mission_one_battery_cannot_fly_is_refused_unless_overridden_or_split(
         .await
         .expect("POST");
     assert_eq!(
-        (bad_body.status, &bad_body.body["stage"]),
-        (400, &json!("request"))
+        (bad_body.status, read::<Failure>(&bad_body).stage.as_str()),
+        (400, "request")
     );
     let bad_radius = upload(
         client,
@@ -663,25 +753,22 @@ async fn a_flight_uploaded_by_another_ground_station_is_measured_against_what_th
         .await
         .expect("POST");
     assert!(started.ok(), "{started:?}");
-    let ended = wait_for(&mut events, 60, is("flight_ended")).await;
-    let report = &ended["report"];
+    let (name, _, report) = wait_end(&mut events, 60).await;
+    let report = report.expect("a report");
     // Named after the folder's mission (its home is the take-off point), priced by the model.
     assert_eq!(
-        report_legs(report),
+        legs_of(&report),
         [("origin", "B"), ("B", "C"), ("C", "A"), ("A", "origin")]
             .map(|(a, b)| (a.to_string(), b.to_string()))
     );
-    for leg in report["legs"].as_array().expect("legs") {
-        let (p, m) = (leg["predicted_kj"].as_f64(), leg["measured_kj"].as_f64());
-        let (p, m) = (p.expect("predicted"), m.expect("measured"));
-        assert!((m - p).abs() < 0.1 * p, "{leg}");
-    }
-    let name = ended["flight"].as_str().expect("name");
-    let flight = client
-        .get(&format!("/api/flights/{name}"))
-        .await
-        .expect("GET");
-    assert_eq!(flight.body["mission"], "paper-sample-3wp");
+    measured_within(&report, 0.1);
+    let flight: FlightDetail = read(
+        &client
+            .get(&format!("/api/flights/{name}"))
+            .await
+            .expect("GET"),
+    );
+    assert_eq!(flight.mission.as_deref(), Some("paper-sample-3wp"));
     service.shutdown().await.expect("clean stop");
     mock.shutdown().await.expect("mock stops");
 }
@@ -701,12 +788,8 @@ async fn a_shutdown_mid_flight_finishes_the_flight_log_and_stops_serving() {
         .await
         .expect("POST")
         .ok());
-    let started = wait_for(&mut events, 30, is("flight_started")).await;
-    wait_for(&mut events, 30, |e| {
-        e["type"] == "part" && e["kind"] == "leg"
-    })
-    .await;
-    let dir = PathBuf::from(started["dir"].as_str().expect("dir"));
+    let (_, dir) = wait_start(&mut events, 30).await;
+    wait_for(&mut events, 30, part(PartKind::Leg, None)).await;
     let (stopped, _files) = service.shutdown_keeping_files().await;
     stopped.expect("a clean stop returns Ok");
     // The event stream ended with the service (after what it had sent already); nothing
@@ -855,13 +938,9 @@ async fn a_service_killed_mid_flight_leaves_a_readable_log_and_its_restart_resum
     let mut events = client.events().await.expect("events");
     let uploaded = upload(&client, "paper-sample-8wp.toml", json!({})).await;
     assert!(uploaded.ok(), "{uploaded:?}");
-    let started = wait_for(&mut events, 30, is("flight_started")).await;
-    let dir = PathBuf::from(started["dir"].as_str().expect("dir"));
+    let (_, dir) = wait_start(&mut events, 30).await;
     // Killed during the third leg.
-    wait_for(&mut events, 60, |e| {
-        e["type"] == "part" && e["kind"] == "leg" && e["index"] == 1
-    })
-    .await;
+    wait_for(&mut events, 60, part(PartKind::Leg, Some(1))).await;
     serve.0.kill().expect("SIGKILL");
     serve.0.wait().expect("reaped");
     let killed_at = std::time::Instant::now();
@@ -883,42 +962,37 @@ async fn a_service_killed_mid_flight_leaves_a_readable_log_and_its_restart_resum
     let mut serve = Reaped(serve);
     let client = Client::new(&url, Some(token)).expect("client");
     let mut events = client.events().await.expect("events");
-    let ended = wait_for(&mut events, 90, is("flight_ended")).await;
-    assert_eq!(ended["dir"], started["dir"], "{ended}");
+    let (_, ended_dir, report) = wait_end(&mut events, 90).await;
+    assert_eq!(ended_dir, dir);
     let flights = std::fs::read_dir(&log_dir)
         .expect("log dir")
         .filter(|e| e.as_ref().is_ok_and(|e| e.path().is_dir()))
         .count();
     assert_eq!(flights, 1, "one flight directory");
-    let report = &ended["report"];
-    assert_eq!(report["complete"], true, "{report}");
-    let plan = client
-        .get("/api/missions/paper-sample-8wp.toml")
-        .await
-        .expect("GET");
-    assert_eq!(report_legs(report), energy_legs(&plan.body["plan"]));
+    let report = report.expect("a report");
+    assert!(report.complete, "{report:?}");
+    let plan: MissionDetail = read(
+        &client
+            .get("/api/missions/paper-sample-8wp.toml")
+            .await
+            .expect("GET"),
+    );
+    assert_eq!(legs_of(&report), energy_legs(&plan.plan.expect("a plan")));
     // The legs flown while the service was down are flagged, the others measured as usual.
     // The 15 s gap spans at least one leg, all of them one after another, and not the first leg,
     // measured and flushed well before the kill.
-    let gapped: Vec<usize> = report["legs"]
-        .as_array()
-        .unwrap()
+    let gapped: Vec<usize> = report
+        .legs
         .iter()
         .enumerate()
-        .filter(|(_, l)| {
-            l["flags"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .any(|f| f == "telemetry_gap")
-        })
+        .filter(|(_, l)| l.flags.contains(&Flag::TelemetryGap))
         .map(|(i, _)| i)
         .collect();
-    assert!(!gapped.is_empty(), "{report}");
-    assert!(gapped[0] >= 1, "{gapped:?} {report}");
+    assert!(!gapped.is_empty(), "{report:?}");
+    assert!(gapped[0] >= 1, "{gapped:?} {report:?}");
     assert!(
         gapped.windows(2).all(|w| w[1] == w[0] + 1),
-        "one run of legs: {gapped:?} {report}"
+        "one run of legs: {gapped:?} {report:?}"
     );
     let (frames, rows) = battery_counts(&dir);
     assert!(rows.abs_diff(frames) <= 10, "{frames} {rows}");
@@ -927,7 +1001,7 @@ async fn a_service_killed_mid_flight_leaves_a_readable_log_and_its_restart_resum
         emplan::link::telemetry::analyse_flight_dir(&dir, Default::default()).expect("replays");
     assert_same_json(
         &serde_json::to_value(replayed.report.json()).unwrap(),
-        report,
+        &serde_json::to_value(&report).unwrap(),
     );
     // SIGTERM: a clean exit.
     // SAFETY: sending a signal to our own child process.
@@ -1055,12 +1129,12 @@ async fn at_50x_real_time_under_50_polling_clients_and_5_event_followers_no_tele
             let (mut received, mut missed, mut parts) = (0u64, 0u64, 0u64);
             loop {
                 match events.next_within(Duration::from_secs(120)).await {
-                    Ok(Some(Ok(event))) => {
+                    Ok(Some(Ok(value))) => {
                         received += 1;
-                        match event["type"].as_str() {
-                            Some("lagged") => missed += event["missed"].as_u64().unwrap_or(0),
-                            Some("part") => parts += 1,
-                            Some("flight_ended") => return (received, missed, parts, event),
+                        match event(value) {
+                            Event::Lagged { missed: m } => missed += m,
+                            Event::Part(_) => parts += 1,
+                            e @ Event::FlightEnded { .. } => return (received, missed, parts, e),
                             _ => {}
                         }
                     }
@@ -1122,8 +1196,8 @@ async fn at_50x_real_time_under_50_polling_clients_and_5_event_followers_no_tele
     }
     latencies_ms.sort_by(f64::total_cmp);
     let at = |q: f64| latencies_ms[((latencies_ms.len() - 1) as f64 * q) as usize];
-    let ended = ended.expect("an end");
-    let dir = PathBuf::from(ended["dir"].as_str().expect("dir"));
+    let (_, dir, report) = ended.as_ref().and_then(flight_ended).expect("an end");
+    let report = report.expect("a report");
     let (frames, missing) = vehicle_frames_missing(&dir);
     let (battery_frames, rows) = battery_counts(&dir);
     eprintln!(
@@ -1137,13 +1211,13 @@ async fn at_50x_real_time_under_50_polling_clients_and_5_event_followers_no_tele
         at(0.99),
         at(1.0),
     );
-    assert_eq!(ended["report"]["complete"], true, "{ended}");
+    assert!(report.complete, "{report:?}");
     assert!(latencies_ms.len() >= 500, "{} requests", latencies_ms.len());
     assert_eq!(missing, 0, "vehicle frames lost from the log");
     assert_eq!(rows, battery_frames, "every battery frame has its CSV row");
     assert_eq!(missed, 0, "a follower fell behind");
     // Every follower saw every part of the flight.
-    let expected_parts = ended["report"]["legs"].as_array().map_or(0, |l| l.len());
+    let expected_parts = report.legs.len();
     assert!(
         parts
             .iter()
@@ -1324,8 +1398,7 @@ async fn the_plot_endpoints_answer_the_svg_plan_plot_and_report_plot_write() {
         .await
         .expect("POST start");
     assert!(started.ok(), "{started:?}");
-    let ended = wait_for(&mut events, 90, is("flight_ended")).await;
-    let name = ended["flight"].as_str().expect("flight name").to_string();
+    let (name, _, _) = wait_end(&mut events, 90).await;
     let (status, headers, body) = raw_get(&url, &format!("/api/flights/{name}/plot.svg")).await;
     assert_eq!(status, 200, "{}", String::from_utf8_lossy(&body));
     assert_eq!(
@@ -1356,7 +1429,7 @@ async fn the_plot_endpoints_answer_the_svg_plan_plot_and_report_plot_write() {
     )
     .expect("written");
     poll(client, "/api/missions/broken.toml", 30, |a| {
-        a.body["status"] == "error"
+        status_of(a) == Some(MissionState::Error)
     })
     .await;
     for (path, status) in [
@@ -1367,7 +1440,7 @@ async fn the_plot_endpoints_answer_the_svg_plan_plot_and_report_plot_write() {
     ] {
         let answer = client.get(path).await.expect("GET");
         assert_eq!(answer.status, status, "GET {path}: {answer:?}");
-        assert_eq!(answer.body["ok"], false, "GET {path}: {answer:?}");
+        assert!(!read::<Failure>(&answer).ok, "GET {path}: {answer:?}");
     }
     service.shutdown().await.expect("clean stop");
 }

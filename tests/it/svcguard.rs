@@ -4,11 +4,15 @@
 //! vehicle was sent home. `--mock-vehicle` with `--connect` is refused.
 
 use emplan::service::{Client, Token};
-use serde_json::{json, Value};
+use serde_json::json;
 
 use super::emplan;
 use super::guard::{heavier_vehicle, mission};
-use super::service::{connected, is, planned, spawn_serve, upload, wait_for, Reaped};
+use super::service::{
+    connected, flight_ended, planned, spawn_serve, upload, wait_for, wait_start, Reaped,
+};
+use emplan::flightlog::watch::{GuardNote, NoteKind};
+use emplan::service::wire::Event;
 
 #[test]
 fn serve_refuses_a_mock_vehicle_with_connect() {
@@ -72,42 +76,36 @@ async fn serve_flies_the_mock_vehicle_and_its_guard_sends_it_home() {
         .await
         .expect("POST start");
     assert!(started.ok(), "{started:?}");
-    let flight = wait_for(&mut events, 30, is("flight_started")).await;
+    let (flown, _) = wait_start(&mut events, 30).await;
     // The guard's notes as events, up to the flight's end.
-    let notes = std::cell::RefCell::new(Vec::<Value>::new());
+    let notes = std::cell::RefCell::new(Vec::<GuardNote>::new());
     let ended = wait_for(&mut events, 120, |e| {
-        if e["type"] == "guard" {
-            assert_eq!(e["flight"], flight["flight"], "{e}");
-            notes.borrow_mut().push(e["note"].clone());
+        if let Event::Guard { flight, note } = e {
+            assert_eq!(flight, &flown, "{e:?}");
+            notes.borrow_mut().push(note.clone());
         }
-        e["type"] == "flight_ended"
+        flight_ended(e).is_some()
     })
     .await;
     let notes = notes.into_inner();
     assert!(
-        notes.iter().any(|n| n["verdict"] == "below_reserve"),
+        notes.iter().any(|n| n.verdict == "below_reserve"),
         "{notes:?}"
     );
     assert_eq!(
-        notes.iter().filter(|n| n["kind"] == "return").count(),
+        notes.iter().filter(|n| n.kind == NoteKind::Return).count(),
         1,
         "{notes:?}"
     );
-    let guard = &ended["report"]["guard"];
-    assert_eq!(guard["returned"], true, "{guard}");
-    let kinds: Vec<&str> = guard["notes"]
-        .as_array()
-        .expect("notes")
-        .iter()
-        .filter_map(|n| n["kind"].as_str())
-        .collect();
-    assert!(kinds.contains(&"return"), "{kinds:?}");
+    let (_, _, report) = flight_ended(&ended).expect("an end");
+    let guard = report.and_then(|r| r.guard).expect("the guard's report");
+    assert!(guard.returned, "{guard:?}");
     assert!(
-        guard["notes"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .any(|n| n["verdict"] == "below_reserve"),
-        "{guard}"
+        guard.notes.iter().any(|n| n.kind == NoteKind::Return),
+        "{guard:?}"
+    );
+    assert!(
+        guard.notes.iter().any(|n| n.verdict == "below_reserve"),
+        "{guard:?}"
     );
 }

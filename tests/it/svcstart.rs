@@ -14,8 +14,8 @@ use emplan::service::{Client, Token, VehicleLink};
 use serde_json::json;
 
 use super::service::{
-    connected, ground_station, is, own_mock, planned, root, serve, spawn_serve, upload, wait_for,
-    Reaped,
+    connected, ground_station, own_mock, planned, root, serve, spawn_serve, upload, wait_end,
+    wait_start, Reaped,
 };
 
 /// Hang guard for a request that must not wait on the vehicle (the defect made them wait
@@ -137,7 +137,7 @@ async fn a_start_the_autopilot_denies_disarms_and_ends_at_once_naming_its_answer
     {
         if let Ok(Event::FlightStarted { dir: opened, .. }) = serde_json::from_value(event) {
             dir = Some(opened);
-            wait_for(&mut events, 20, is("flight_ended")).await;
+            wait_end(&mut events, 20).await;
             break;
         }
     }
@@ -197,7 +197,7 @@ async fn the_serve_log_names_the_mission_uploaded_not_another_at_the_same_home()
     assert!(uploaded.ok(), "{uploaded:?}");
     let started = start(&client).await;
     assert!(started.ok(), "{started:?}");
-    wait_for(&mut events, 30, is("flight_started")).await;
+    wait_start(&mut events, 30).await;
     // The flight's mission as the service logs it, once it has read the vehicle's back.
     let deadline = tokio::time::Instant::now() + Duration::from_secs(30);
     let line = loop {

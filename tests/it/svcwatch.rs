@@ -10,11 +10,14 @@ use std::time::Duration;
 
 use emplan::service::client::Answer;
 use emplan::service::missions::{digest, WatchSettings};
+use emplan::service::wire::{
+    Failure, LinkState, LinkStatus, MissionState, MissionStatus, MissionsFolder,
+};
 use emplan::service::{Client, ServiceConfig, ServiceError, Token, VehicleLink};
 use emplan::sim::{FlightConfig, MockConfig};
-use serde_json::{json, Value};
+use serde_json::json;
 
-use super::service::{model, root};
+use super::service::{model, read, root};
 
 /// A service running in this process, its missions folder empty at the start.
 struct Running {
@@ -94,18 +97,16 @@ async fn serve(settings: Settings) -> Running {
 }
 
 /// The list entry of `name`, if listed.
-async fn listed(client: &Client, name: &str) -> Option<Value> {
+async fn listed(client: &Client, name: &str) -> Option<MissionStatus> {
     let answer = client
         .get("/api/missions")
         .await
         .expect("GET /api/missions");
     assert_eq!(answer.status, 200, "{answer:?}");
-    answer.body["missions"]
-        .as_array()
-        .expect("missions")
-        .iter()
-        .find(|m| m["name"] == name)
-        .cloned()
+    read::<MissionsFolder>(&answer)
+        .missions
+        .into_iter()
+        .find(|m| m.name == name)
 }
 
 /// Polls the list until `accept` takes the entry of `name` (absent: `None`); a hang guard of
@@ -114,8 +115,8 @@ async fn until(
     client: &Client,
     name: &str,
     seconds: u64,
-    accept: impl Fn(Option<&Value>) -> bool,
-) -> Option<Value> {
+    accept: impl Fn(Option<&MissionStatus>) -> bool,
+) -> Option<MissionStatus> {
     let deadline = tokio::time::Instant::now() + Duration::from_secs(seconds);
     loop {
         let entry = listed(client, name).await;
@@ -130,8 +131,13 @@ async fn until(
     }
 }
 
-fn status_is(status: &'static str) -> impl Fn(Option<&Value>) -> bool {
-    move |e| e.is_some_and(|e| e["status"] == status)
+fn status_is(status: MissionState) -> impl Fn(Option<&MissionStatus>) -> bool {
+    move |e| e.is_some_and(|e| e.status == status)
+}
+
+/// Listed planned from the bytes of digest `digest`.
+fn planned_from(digest: &str) -> impl Fn(Option<&MissionStatus>) -> bool + '_ {
+    move |e| e.is_some_and(|e| e.status == MissionState::Planned && e.digest == digest)
 }
 
 /// Writes `bytes` to `dir/name` whole: written beside, then renamed.
@@ -181,11 +187,7 @@ async fn a_mission_written_in_pieces_is_never_listed_planned_with_part_of_its_wa
     let looking = tokio::spawn(async move {
         loop {
             if let Some(e) = listed(&client, "growing.toml").await {
-                let _ = seen_tx.send((
-                    e["status"].as_str().unwrap_or("").to_string(),
-                    e["waypoints"].as_u64(),
-                    e["digest"].as_str().unwrap_or("").to_string(),
-                ));
+                let _ = seen_tx.send((e.status, e.waypoints, e.digest));
             }
             tokio::time::sleep(Duration::from_millis(30)).await;
         }
@@ -199,15 +201,12 @@ async fn a_mission_written_in_pieces_is_never_listed_planned_with_part_of_its_wa
     }
     drop(file);
     let whole = digest(text.as_bytes());
-    until(&service.client, "growing.toml", 30, |e| {
-        e.is_some_and(|e| e["status"] == "planned" && e["digest"] == whole.as_str())
-    })
-    .await;
+    until(&service.client, "growing.toml", 30, planned_from(&whole)).await;
     // The poller may not have looked since the plan was listed: wait until it has seen it too.
     let mut seen = Vec::new();
     let _ = tokio::time::timeout(Duration::from_secs(10), async {
         while let Some(s) = seen_rx.recv().await {
-            let planned = s.0 == "planned";
+            let planned = s.0 == MissionState::Planned;
             seen.push(s);
             if planned {
                 break;
@@ -219,8 +218,10 @@ async fn a_mission_written_in_pieces_is_never_listed_planned_with_part_of_its_wa
     while let Ok(s) = seen_rx.try_recv() {
         seen.push(s);
     }
-    let planned: Vec<&(String, Option<u64>, String)> =
-        seen.iter().filter(|(s, _, _)| s == "planned").collect();
+    let planned: Vec<&(MissionState, Option<usize>, String)> = seen
+        .iter()
+        .filter(|(s, _, _)| *s == MissionState::Planned)
+        .collect();
     assert!(!planned.is_empty(), "{seen:?}");
     for (_, waypoints, d) in &planned {
         assert_eq!(
@@ -230,7 +231,7 @@ async fn a_mission_written_in_pieces_is_never_listed_planned_with_part_of_its_wa
         );
     }
     assert!(
-        seen.iter().any(|(s, _, _)| s == "changing"),
+        seen.iter().any(|(s, _, _)| *s == MissionState::Changing),
         "never listed as changing while written: {seen:?}"
     );
     service.shutdown().await;
@@ -246,7 +247,13 @@ async fn an_upload_of_a_mission_changed_since_it_was_planned_is_refused_and_it_i
     .await;
     let before = sample_8wp();
     let path = drop_in(&service.missions, "sample.toml", &before);
-    until(&service.client, "sample.toml", 30, status_is("planned")).await;
+    until(
+        &service.client,
+        "sample.toml",
+        30,
+        status_is(MissionState::Planned),
+    )
+    .await;
     // Same length, same modification time: only the bytes tell (a rewrite within one
     // timestamp tick, or a tool that keeps the time).
     let stamp = std::fs::metadata(&path)
@@ -274,7 +281,10 @@ async fn an_upload_of_a_mission_changed_since_it_was_planned_is_refused_and_it_i
             .get("/api/link")
             .await
             .expect("GET /api/link");
-        if link.body["state"] == "connected" {
+        if link
+            .parse::<LinkStatus>()
+            .is_ok_and(|l| l.state == LinkState::Connected)
+        {
             break;
         }
         assert!(
@@ -289,18 +299,17 @@ async fn an_upload_of_a_mission_changed_since_it_was_planned_is_refused_and_it_i
         .await
         .expect("POST upload");
     assert_eq!(answer.status, 409, "{answer:?}");
-    let error = answer.body["error"].as_str().expect("error");
+    let failure: Failure = read(&answer);
     assert!(
-        error.contains("sample.toml changed since it was planned"),
-        "{error}"
+        failure
+            .error
+            .contains("sample.toml changed since it was planned"),
+        "{failure:?}"
     );
-    assert_eq!(answer.body["stage"], "mission");
+    assert_eq!(failure.stage, "mission");
     // Planned again, from the bytes now in the file.
     let now = digest(after.as_bytes());
-    until(&service.client, "sample.toml", 30, |e| {
-        e.is_some_and(|e| e["status"] == "planned" && e["digest"] == now.as_str())
-    })
-    .await;
+    until(&service.client, "sample.toml", 30, planned_from(&now)).await;
     service.shutdown().await;
 }
 
@@ -316,19 +325,38 @@ async fn a_large_mission_past_its_time_limit_ends_as_an_error_while_a_small_one_
     // 1000 waypoints: its assignment bound alone is 10^9 steps; pricing, solving and the
     // sorties' split take far longer than 3 s.
     drop_in(&service.missions, "large.toml", &large_mission(1000));
-    until(&service.client, "large.toml", 30, status_is("planning")).await;
+    until(
+        &service.client,
+        "large.toml",
+        30,
+        status_is(MissionState::Planning),
+    )
+    .await;
     drop_in(&service.missions, "small.toml", &sample_8wp());
-    until(&service.client, "small.toml", 30, status_is("planned")).await;
+    until(
+        &service.client,
+        "small.toml",
+        30,
+        status_is(MissionState::Planned),
+    )
+    .await;
     let large = listed(&service.client, "large.toml").await.expect("listed");
     assert_eq!(
-        large["status"], "planning",
-        "the small mission was planned only after the large one: {large}"
+        large.status,
+        MissionState::Planning,
+        "the small mission was planned only after the large one: {large:?}"
     );
-    let large = until(&service.client, "large.toml", 30, status_is("error"))
-        .await
-        .expect("listed");
-    let message = large["error"]["message"].as_str().expect("message");
-    assert_eq!(large["error"]["stage"], "plan");
+    let large = until(
+        &service.client,
+        "large.toml",
+        30,
+        status_is(MissionState::Error),
+    )
+    .await
+    .expect("listed");
+    let problem = large.error.expect("an error");
+    let message = problem.message;
+    assert_eq!(problem.stage, "plan");
     assert!(
         message.contains("planning exceeded the 3 s limit"),
         "{message}"
@@ -347,11 +375,23 @@ async fn a_large_mission_deleted_while_planned_leaves_the_list_and_its_plan_stop
     })
     .await;
     let large = drop_in(&service.missions, "large.toml", &large_mission(1000));
-    until(&service.client, "large.toml", 30, status_is("planning")).await;
+    until(
+        &service.client,
+        "large.toml",
+        30,
+        status_is(MissionState::Planning),
+    )
+    .await;
     std::fs::remove_file(&large).expect("deleted");
     until(&service.client, "large.toml", 20, |e| e.is_none()).await;
     drop_in(&service.missions, "small.toml", &sample_8wp());
-    until(&service.client, "small.toml", 20, status_is("planned")).await;
+    until(
+        &service.client,
+        "small.toml",
+        20,
+        status_is(MissionState::Planned),
+    )
+    .await;
     service.shutdown().await;
 }
 
@@ -376,10 +416,15 @@ async fn a_mission_larger_than_the_planner_holds_is_listed_as_an_error_naming_th
         ));
     }
     drop_in(&service.missions, "huge.waypoints", text.as_bytes());
-    let huge = until(&service.client, "huge.waypoints", 30, status_is("error"))
-        .await
-        .expect("listed");
-    let message = huge["error"]["message"].as_str().expect("message");
+    let huge = until(
+        &service.client,
+        "huge.waypoints",
+        30,
+        status_is(MissionState::Error),
+    )
+    .await
+    .expect("listed");
+    let message = huge.error.expect("an error").message;
     assert!(
         message.contains(&format!(
             "line {}: waypoint {} of {}: a mission may have at most {limit} waypoints",
@@ -391,6 +436,12 @@ async fn a_mission_larger_than_the_planner_holds_is_listed_as_an_error_naming_th
     );
     // The folder goes on: a mission added after it is planned.
     drop_in(&service.missions, "small.toml", &sample_8wp());
-    until(&service.client, "small.toml", 30, status_is("planned")).await;
+    until(
+        &service.client,
+        "small.toml",
+        30,
+        status_is(MissionState::Planned),
+    )
+    .await;
     service.shutdown().await;
 }
