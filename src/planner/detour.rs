@@ -376,6 +376,9 @@ pub fn joined(parts: &[LegEnergy]) -> LegEnergy {
     }
 }
 
+/// A leg and its detour.
+type RoutedLeg = ((usize, usize), Detour);
+
 /// Why routing stopped.
 #[derive(Debug)]
 pub enum RouteError<E> {
@@ -435,7 +438,7 @@ pub fn route_with<E: Send>(
         .par_iter()
         .map(|&p| (p, router.visible(xy(points[p]))))
         .collect();
-    let routed: Vec<Result<Vec<((usize, usize), Detour)>, RouteError<E>>> = blocked
+    let routed: Vec<Result<Vec<RoutedLeg>, RouteError<E>>> = blocked
         .into_par_iter()
         .map(|(i, j, zones)| {
             let (a, b) = (xy(points[i]), xy(points[j]));
@@ -459,7 +462,7 @@ pub fn route_with<E: Send>(
                     let via = with_heights(points[from], &inner, points[to]);
                     let priced = price(from, to, &via).map_err(RouteError::Price)?;
                     let s = score(&priced);
-                    if best.as_ref().map_or(true, |(b, _, _)| s < *b) {
+                    if best.as_ref().is_none_or(|(b, _, _)| s < *b) {
                         best = Some((s, via, priced));
                     }
                 }
@@ -723,6 +726,7 @@ mod tests {
             .min_by(|x, y| x.1.total_cmp(&y.1))
             .copied()
             .unwrap();
+        eprintln!("candidates (m, J, via points): {priced:?}");
         assert_eq!(
             (shortest.2, cheapest.2),
             (2, 1),
