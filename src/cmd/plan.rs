@@ -188,6 +188,7 @@ fn print_table(plan: &Plan, doc: &PlanJson, waypoints: usize) {
         print_wind(w);
     }
     print_actions(&doc.actions);
+    print_detours(plan, doc);
     let battery = &doc.battery;
     println!(
         "battery: take-off {:.1} + legs {:.1} + hovering {:.1} + landing {:.1} = {:.1} kJ of {:.1} kJ usable after the {}% reserve: {}",
@@ -200,6 +201,47 @@ fn print_table(plan: &Plan, doc: &PlanJson, waypoints: usize) {
         battery.reserve_pct,
         if battery.feasible { "feasible" } else { "NOT FEASIBLE on one battery" }
     );
+}
+
+/// The flown order's legs routed round the fence, and how many the other orders have.
+fn print_detours(plan: &Plan, doc: &PlanJson) {
+    let round =
+        |o: &emplan::planner::json::OrderJson| o.legs.iter().filter(|l| !l.via.is_empty()).count();
+    let Some(flown) = doc.orders.get(plan.flown) else {
+        return;
+    };
+    let others: usize = doc
+        .orders
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| *k != plan.flown)
+        .map(|(_, o)| round(o))
+        .sum();
+    if round(flown) == 0 && others == 0 {
+        return;
+    }
+    println!(
+        "detours round the fence (every leg keeps {} m from its zones):",
+        plan.fence_margin_m
+    );
+    for leg in flown.legs.iter().filter(|l| !l.via.is_empty()) {
+        let points = leg.via.len();
+        println!(
+            "  {} -> {} round {} via {points} point{}, {:+.0} m, {}",
+            leg.from,
+            leg.to,
+            leg.round.join(" and "),
+            if points == 1 { "" } else { "s" },
+            leg.detour_m.unwrap_or(0.0),
+            leg.detour_kj.map_or(
+                "its straight line beyond the model".to_string(),
+                |kj| format!("{kj:+.1} kJ")
+            ),
+        );
+    }
+    if others > 0 {
+        println!("  the other orders fly {others} legs round the fence");
+    }
 }
 
 /// The flown order's actions, place by place, and what emplan inserts to keep the file's

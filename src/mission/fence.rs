@@ -208,6 +208,119 @@ impl LocalZone {
     }
 }
 
+impl LocalZone {
+    /// The points a path round this zone may turn at, the zone pushed out by `distance_m`
+    /// (an exclusion zone grown, an inclusion zone shrunk), in the mission's local frame: the
+    /// vertices of the offset polygon, each corner the offset turns round replaced by the
+    /// circumscribed polyline of its arc (one point for a turn of up to 120 degrees, at most
+    /// twice `distance_m` from the corner, two beyond), so that every straight line between
+    /// two consecutive points stays at least `distance_m` from the zone. A circle exclusion
+    /// zone is its circumscribed 16-gon of radius `radius_m + distance_m`; an inclusion
+    /// circle gives none (a disc is convex: a straight line between two points inside it far
+    /// enough from its edge stays as far from it, so a path inside it never needs to turn).
+    pub fn offset_vertices(&self, distance_m: f64) -> Vec<[f64; 2]> {
+        match &self.shape {
+            LocalShape::Circle { center, radius_m } => {
+                if self.inclusion {
+                    return Vec::new();
+                }
+                let sides = CIRCLE_SIDES as f64;
+                let r = (radius_m + distance_m) / (std::f64::consts::PI / sides).cos();
+                (0..CIRCLE_SIDES)
+                    .map(|k| {
+                        let a = 2.0 * std::f64::consts::PI * k as f64 / sides;
+                        [center[0] + r * a.cos(), center[1] + r * a.sin()]
+                    })
+                    .collect()
+            }
+            LocalShape::Polygon(v) => offset_polygon(v, distance_m, !self.inclusion),
+        }
+    }
+}
+
+/// The sides of the polygon a circle zone is routed round as ([`LocalZone::offset_vertices`]):
+/// 16 keeps the polygon within 2% of the circle's radius (1 / cos(pi / 16) = 1.0196).
+const CIRCLE_SIDES: usize = 16;
+
+/// The vertices of polygon `v` offset by `distance_m` outwards (`outward`) or inwards, each
+/// corner the offset turns round (a convex corner outwards, a reflex one inwards) rounded by
+/// the circumscribed polyline of its arc; the other corners at their miter point.
+fn offset_polygon(v: &[[f64; 2]], distance_m: f64, outward: bool) -> Vec<[f64; 2]> {
+    let n = v.len();
+    if n < 3 {
+        return Vec::new();
+    }
+    // Signed area: positive for a counter-clockwise polygon, whose outward normal of an edge
+    // a -> b is (dy, -dx) / |ab|.
+    let area2: f64 = (0..n)
+        .map(|i| {
+            let (a, b) = (v[i], v[(i + 1) % n]);
+            a[0] * b[1] - b[0] * a[1]
+        })
+        .sum();
+    let side = if (area2 > 0.0) == outward { 1.0 } else { -1.0 };
+    // The unit normal of edge i (v[i] -> v[i + 1]) on the side the offset goes.
+    let normal = |i: usize| -> Option<[f64; 2]> {
+        let (a, b) = (v[i], v[(i + 1) % n]);
+        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+        let len = dx.hypot(dy);
+        (len > 1e-9).then(|| [side * dy / len, -side * dx / len])
+    };
+    let mut out = Vec::new();
+    for i in 0..n {
+        let (Some(m1), Some(m2)) = (normal((i + n - 1) % n), normal(i)) else {
+            continue;
+        };
+        let p = v[i];
+        // The turn from one offset side to the next, and whether the offset opens a gap
+        // there (the corner is round the outside of the offset) or overlaps (miter inside).
+        let a1 = m1[1].atan2(m1[0]);
+        let mut turn = m2[1].atan2(m2[0]) - a1;
+        while turn > std::f64::consts::PI {
+            turn -= 2.0 * std::f64::consts::PI;
+        }
+        while turn < -std::f64::consts::PI {
+            turn += 2.0 * std::f64::consts::PI;
+        }
+        let (e1, e2) = (
+            [p[0] - v[(i + n - 1) % n][0], p[1] - v[(i + n - 1) % n][1]],
+            [v[(i + 1) % n][0] - p[0], v[(i + 1) % n][1] - p[1]],
+        );
+        let cross = e1[0] * e2[1] - e1[1] * e2[0];
+        // An offset to the left of the edges opens a gap at a corner turning right, and the
+        // other way round.
+        let left_normal = m1[0] * -e1[1] + m1[1] * e1[0] > 0.0;
+        let opens = if left_normal {
+            cross < 0.0
+        } else {
+            cross > 0.0
+        };
+        if opens && turn.abs() > 1e-9 {
+            let pieces = if turn.abs() <= 2.0 * std::f64::consts::PI / 3.0 + 1e-9 {
+                1
+            } else {
+                2
+            };
+            let step = turn / pieces as f64;
+            let r = distance_m / (step / 2.0).cos();
+            for k in 0..pieces {
+                let a = a1 + step * (k as f64 + 0.5);
+                out.push([p[0] + r * a.cos(), p[1] + r * a.sin()]);
+            }
+        } else {
+            // The miter point: where the two offset edges' lines meet.
+            let bisector = [m1[0] + m2[0], m1[1] + m2[1]];
+            let len = bisector[0].hypot(bisector[1]);
+            if len < 1e-9 {
+                continue;
+            }
+            let r = distance_m / (turn / 2.0).cos().max(1e-3);
+            out.push([p[0] + r * bisector[0] / len, p[1] + r * bisector[1] / len]);
+        }
+    }
+    out
+}
+
 /// The least distance between the segments `a`-`b` and `c`-`d` (0 when they cross).
 pub fn segment_segment_distance_m(a: [f64; 2], b: [f64; 2], c: [f64; 2], d: [f64; 2]) -> f64 {
     let cross = |o: [f64; 2], p: [f64; 2], q: [f64; 2]| {
@@ -321,5 +434,70 @@ mod tests {
         assert!(local.contains([33.0, 0.0]));
         assert!(!local.contains([24.0, 0.0]));
         assert_eq!(zone.describe(2), "exclusion circle 2");
+    }
+
+    #[test]
+    fn a_zone_pushed_out_keeps_every_line_between_its_points_clear_of_it_by_the_distance() {
+        let round = |p: &[[f64; 2]]| -> Vec<[i64; 2]> {
+            p.iter()
+                .map(|q| [(q[0] * 1e6).round() as i64, (q[1] * 1e6).round() as i64])
+                .collect()
+        };
+        // A square's right-angle corners: one point each, on the diagonal, d * sqrt(2) out.
+        assert_eq!(
+            round(&square(false).offset_vertices(2.0)),
+            round(&[[-2.0, -2.0], [12.0, -2.0], [12.0, 12.0], [-2.0, 12.0]])
+        );
+        // Shrunk: the miter points, d in from both sides; either winding.
+        let mut cw = square(true);
+        if let LocalShape::Polygon(v) = &mut cw.shape {
+            v.reverse();
+        }
+        assert_eq!(
+            round(&cw.offset_vertices(2.0)),
+            round(&[[2.0, 8.0], [8.0, 8.0], [8.0, 2.0], [2.0, 2.0]])
+        );
+        // A sharp triangle and an L-shaped field: every line between consecutive points of
+        // the offset is at least d from the zone.
+        let zones = [
+            LocalZone {
+                inclusion: false,
+                shape: LocalShape::Polygon(vec![[0.0, 0.0], [40.0, 0.0], [20.0, 3.0]]),
+            },
+            LocalZone {
+                inclusion: true,
+                shape: LocalShape::Polygon(vec![
+                    [0.0, 0.0],
+                    [60.0, 0.0],
+                    [60.0, 20.0],
+                    [20.0, 20.0],
+                    [20.0, 60.0],
+                    [0.0, 60.0],
+                ]),
+            },
+            LocalZone {
+                inclusion: false,
+                shape: LocalShape::Circle {
+                    center: [5.0, 5.0],
+                    radius_m: 10.0,
+                },
+            },
+        ];
+        for zone in &zones {
+            let p = zone.offset_vertices(3.0);
+            assert!(p.len() >= 3);
+            for i in 0..p.len() {
+                let (a, b) = (p[i], p[(i + 1) % p.len()]);
+                assert!(!zone.segment_violates(a, b, 3.0 - 1e-9), "{a:?} {b:?}");
+            }
+        }
+        let field = LocalZone {
+            inclusion: true,
+            shape: LocalShape::Circle {
+                center: [0.0, 0.0],
+                radius_m: 10.0,
+            },
+        };
+        assert!(field.offset_vertices(3.0).is_empty());
     }
 }

@@ -162,6 +162,7 @@ mod tests {
                     pricing: crate::physics::Pricing::Settled,
                     start: crate::physics::Start::Behind,
                     via: Vec::new(),
+                    detour: None,
                 }
             })
             .collect();

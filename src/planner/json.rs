@@ -134,6 +134,31 @@ pub struct LegJson {
     /// vehicle's own).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub speed_m_s: Option<f64>,
+    /// A leg routed round the fence: the points it passes through without a hold (absent on a
+    /// straight leg).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub via: Vec<ViaJson>,
+    /// The fence zones it goes round ("exclusion polygon 1"; absent on a straight leg).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub round: Vec<String>,
+    /// What the detour adds to the straight line it replaces: metres (3D) and kJ (absent on a
+    /// straight leg; the kJ also when the straight line cannot be priced).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub detour_m: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub detour_kj: Option<f64>,
+}
+
+/// One point a leg passes through round a fence zone: geodetic (altitude above mean sea
+/// level) and in the mission's local frame (east, north, up from the origin).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ViaJson {
+    pub lat_deg: f64,
+    pub lon_deg: f64,
+    pub alt_amsl_m: f64,
+    pub e_m: f64,
+    pub n_m: f64,
+    pub u_m: f64,
 }
 
 /// What the solver proved, in the objective's printed units (kJ for energy, metres for the
@@ -232,6 +257,36 @@ fn legs(plan: &Plan, legs: &[Leg]) -> Vec<LegJson> {
             vertical_m: l.vertical_m,
             energy_kj: kj(l.energy_j()),
             speed_m_s: plan.speeds_m_s.get(l.to).copied().flatten(),
+            via: l
+                .via
+                .iter()
+                .map(|&p| {
+                    let g = plan.origin.to_geodetic(p);
+                    ViaJson {
+                        lat_deg: g.lat_deg,
+                        lon_deg: g.lon_deg,
+                        alt_amsl_m: g.alt_m,
+                        e_m: p.x_east_m,
+                        n_m: p.y_north_m,
+                        u_m: p.z_up_m,
+                    }
+                })
+                .collect(),
+            round: l.detour.as_ref().map_or(Vec::new(), |d| {
+                d.zones
+                    .iter()
+                    .map(|&z| plan.zones.get(z).cloned().unwrap_or_default())
+                    .collect()
+            }),
+            detour_m: l
+                .detour
+                .as_ref()
+                .map(|d| l.distance_m - d.straight_distance_m),
+            detour_kj: l
+                .detour
+                .as_ref()
+                .and_then(|d| d.straight_energy_j)
+                .map(|straight_j| kj(l.energy_j() - straight_j)),
         })
         .collect()
 }

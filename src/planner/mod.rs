@@ -20,6 +20,7 @@
 //!
 //! Invariant: pure; no IO, no tokio, no MAVLink.
 
+pub mod detour;
 pub mod explain;
 pub mod json;
 pub mod study;
@@ -104,6 +105,18 @@ pub struct Leg {
     /// the mission's local frame (empty: the leg flies straight). Its distances and its
     /// predicted energy are the whole chain's.
     pub via: Vec<crate::mission::Enu>,
+    /// The fence zones a leg with `via` points goes round (0-based indices into the mission's
+    /// fence), and what its straight line would have measured and cost (the cost None when
+    /// the model cannot price it); None for a straight leg.
+    pub detour: Option<DetourOf>,
+}
+
+/// What a leg routed round the fence goes round, and its straight line for comparison.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DetourOf {
+    pub zones: Vec<usize>,
+    pub straight_distance_m: f64,
+    pub straight_energy_j: Option<f64>,
 }
 
 impl Leg {
@@ -225,6 +238,12 @@ pub struct Plan {
     /// In wind, with the energy order asked for: the order still air would choose, priced in
     /// the wind, to set beside the wind-aware energy order.
     pub still_air: Option<StillAir>,
+    /// The mission's origin (where the legs' via points are, geodetically).
+    pub origin: crate::mission::Origin,
+    /// How each fence zone is named ("exclusion polygon 1"), in the fence's order.
+    pub zones: Vec<String>,
+    /// How far every leg keeps from the fence's zones (m).
+    pub fence_margin_m: f64,
 }
 
 /// One command at a place of the flown order, priced.
@@ -491,6 +510,16 @@ pub enum PlannerError {
         usable_j: f64,
         reserve_pct: f64,
     },
+    #[error(
+        "leg {from} -> {to}: no way round {zone} keeping {margin_m} m from every fence zone \
+         (is {from} or {to} boxed in?)"
+    )]
+    NoDetour {
+        from: String,
+        to: String,
+        zone: String,
+        margin_m: f64,
+    },
     /// The thread's cancel token asked the plan to stop (`tour::cancel`).
     #[error("planning mission {mission} was stopped before it finished")]
     Cancelled { mission: String },
@@ -635,7 +664,7 @@ fn plan_core<'scope>(
             mission: mission.name.clone(),
         });
     }
-    let geometry = Geometry::from_mission(mission);
+    let straight = Geometry::from_mission(mission);
     let names: Vec<String> = std::iter::once("origin".to_string())
         .chain(mission.waypoints.iter().map(|w| w.name.clone()))
         .collect();
@@ -674,6 +703,46 @@ fn plan_core<'scope>(
             .find(|(v, _)| *v == speeds[to])
             .map_or(model, |(_, m)| m)
     };
+    let zone_names: Vec<String> = mission
+        .fence
+        .zones
+        .iter()
+        .enumerate()
+        .map(|(k, z)| z.describe(k + 1))
+        .collect();
+    // Every pair whose straight line breaks the fence, routed round it the cheapest way in
+    // energy, each path priced as the chain of legs it is.
+    let margin_m = detour::FENCE_MARGIN_M;
+    let detours = detour::route(
+        mission,
+        straight.points(),
+        margin_m,
+        |from, to, via| {
+            let points = straight.points();
+            detour::price_chain(model_to(to), points[from], via, points[to], Start::Behind)
+                .map_err(|e| (from, to, e))
+        },
+        |leg| leg.priced_energy_j(options.pricing),
+    )
+    .map_err(|e| match e {
+        detour::RouteError::NoRoute(r) => PlannerError::NoDetour {
+            from: names[r.from].clone(),
+            to: names[r.to].clone(),
+            zone: zone_names.get(r.zone).cloned().unwrap_or_default(),
+            margin_m,
+        },
+        detour::RouteError::Price((from, to, e)) => PlannerError::Pricing {
+            mission: mission.name.clone(),
+            cause: PlanError::LegEnergy {
+                from: names[from].clone(),
+                to: names[to].clone(),
+                xf_m: straight.horizontal_m(from, to),
+                zf_m: straight.vertical_m(from, to),
+                reason: format!("round the fence: {e}"),
+            },
+        },
+    })?;
+    let geometry = straight.clone().with_via(detours.via());
     let yaw_rate_deg_s = yaw_rate_deg_s(model.profile);
     let turns = mission.waypoints.iter().any(|w| {
         w.actions
@@ -685,9 +754,11 @@ fn plan_core<'scope>(
         if !turns || to == 0 {
             return 0.0;
         }
+        // The heading it arrives on: from its last via point round a zone, if any.
+        let (_, (dx, dy)) = geometry.departure_and_arrival(from, to);
         yaw_s(
             &mission.waypoints[to - 1].actions,
-            geometry.heading_deg(from, to),
+            crate::mission::wind::heading_deg(dx, dy),
             yaw_rate_deg_s,
         )
     };
@@ -700,15 +771,13 @@ fn plan_core<'scope>(
         mission: mission.name.clone(),
         cause,
     };
+    // The turn into the leg: from the way the leg before arrives (from its last via point)
+    // to the way this one leaves (towards its first).
     let start_of = |previous: Option<usize>, from: usize, to: usize| -> Start {
-        let points = geometry.points();
-        let across = |a: usize, b: usize| {
-            (
-                points[b].x_east_m - points[a].x_east_m,
-                points[b].y_north_m - points[a].y_north_m,
-            )
-        };
-        start_case(previous.map(|p| across(p, from)), across(from, to))
+        start_case(
+            previous.map(|p| geometry.departure_and_arrival(p, from).1),
+            geometry.departure_and_arrival(from, to).0,
+        )
     };
     let solver = &options.solver;
     // The distance baselines need only the geometry. Of a mission Held-Karp solves exactly
@@ -732,6 +801,9 @@ fn plan_core<'scope>(
         // In still air a leg is the table's; in wind, or at a speed a DO_CHANGE_SPEED set, it
         // is simulated on its heading; a turn at its end is priced with it.
         let energy = energy_matrix_of_legs(&geometry, &names, |from, to, x, z, heading| {
+            if let Some(d) = detours.get(from, to) {
+                return Ok(d.predicted.priced_energy_j(options.pricing) + turn_j(from, to));
+            }
             model_to(to)
                 .leg_on_heading(x, z, Start::Behind, heading)
                 .map(|leg| leg.priced_energy_j(options.pricing) + turn_j(from, to))
@@ -743,6 +815,17 @@ fn plan_core<'scope>(
         let ahead = if model.table.starts.contains(&Start::Ahead) {
             Some(
                 energy_matrix_of_legs(&geometry, &names, |from, to, x, z, heading| {
+                    if let Some(d) = detours.get(from, to) {
+                        let points = geometry.points();
+                        return detour::price_chain(
+                            model_to(to),
+                            points[from],
+                            &d.via,
+                            points[to],
+                            Start::Ahead,
+                        )
+                        .map(|leg| leg.priced_energy_j(options.pricing) + turn_j(from, to));
+                    }
                     model_to(to)
                         .leg_on_heading(x, z, Start::Ahead, heading)
                         .map(|leg| leg.priced_energy_j(options.pricing) + turn_j(from, to))
@@ -803,22 +886,29 @@ fn plan_core<'scope>(
             geometry.vertical_m(from, to),
         );
         let start = start_of(previous, from, to);
-        let predicted = model_to(to)
-            .leg_on_heading(
+        let detoured = detours.get(from, to);
+        let priced = match detoured {
+            Some(d) if start == Start::Behind => Ok(d.predicted),
+            Some(d) => {
+                let points = geometry.points();
+                detour::price_chain(model_to(to), points[from], &d.via, points[to], start)
+            }
+            None => model_to(to).leg_on_heading(
                 horizontal_m,
                 vertical_m,
                 start,
                 geometry.heading_deg(from, to),
-            )
-            .map_err(|e| {
-                pricing(PlanError::LegEnergy {
-                    from: names[from].clone(),
-                    to: names[to].clone(),
-                    xf_m: horizontal_m,
-                    zf_m: vertical_m,
-                    reason: e.to_string(),
-                })
-            })?;
+            ),
+        };
+        let predicted = priced.map_err(|e| {
+            pricing(PlanError::LegEnergy {
+                from: names[from].clone(),
+                to: names[to].clone(),
+                xf_m: horizontal_m,
+                zf_m: vertical_m,
+                reason: e.to_string(),
+            })
+        })?;
         Ok(Leg {
             from,
             to,
@@ -828,7 +918,20 @@ fn plan_core<'scope>(
             predicted,
             pricing: options.pricing,
             start,
-            via: Vec::new(),
+            via: detoured.map(|d| d.via.clone()).unwrap_or_default(),
+            detour: detoured.map(|d| DetourOf {
+                zones: d.zones.clone(),
+                straight_distance_m: straight.distance_m(from, to),
+                straight_energy_j: model_to(to)
+                    .leg_on_heading(
+                        straight.horizontal_m(from, to),
+                        vertical_m,
+                        start,
+                        straight.heading_deg(from, to),
+                    )
+                    .ok()
+                    .map(|l| l.priced_energy_j(options.pricing)),
+            }),
         })
     };
     let legs = |nodes: &[usize]| -> Result<Vec<Leg>, PlannerError> {
@@ -1068,6 +1171,9 @@ fn plan_core<'scope>(
         energy,
         wind: model.wind,
         still_air,
+        origin: mission.origin,
+        zones: zone_names,
+        fence_margin_m: margin_m,
     })
 }
 

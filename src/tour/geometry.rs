@@ -1,5 +1,7 @@
 //! Leg geometry between every ordered pair of mission points: horizontal distance Xf, signed
 //! vertical displacement Zf and 3D distance (paper notes section 4). Point 0 is the origin.
+//! A pair routed round a fence zone (the planner's detours) flies through its `via` points:
+//! its lengths are the whole path's, so every solver and baseline sees the path it flies.
 
 use crate::mission::{Enu, Mission};
 
@@ -20,6 +22,8 @@ pub struct TourLength {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Geometry {
     points: Vec<Enu>,
+    /// The points the leg `(i, j)` passes through on its way round a zone (absent: straight).
+    via: std::collections::HashMap<(usize, usize), Vec<Enu>>,
 }
 
 impl Geometry {
@@ -34,7 +38,45 @@ impl Geometry {
 
     /// Geometry of explicit points; `points[0]` must be the origin.
     pub fn from_points(points: Vec<Enu>) -> Self {
-        Geometry { points }
+        Geometry {
+            points,
+            via: std::collections::HashMap::new(),
+        }
+    }
+
+    /// The same points with the legs `(i, j)` of `via` flown through its points (in order,
+    /// from `i` to `j`): their lengths become the path's.
+    pub fn with_via(self, via: std::collections::HashMap<(usize, usize), Vec<Enu>>) -> Self {
+        Geometry { via, ..self }
+    }
+
+    /// The points leg `i` -> `j` passes through (empty: it flies straight).
+    pub fn via(&self, i: usize, j: usize) -> &[Enu] {
+        if self.via.is_empty() {
+            return &[];
+        }
+        self.via.get(&(i, j)).map_or(&[], Vec::as_slice)
+    }
+
+    /// The points leg `i` -> `j` flies through, its ends included.
+    pub fn path(&self, i: usize, j: usize) -> Vec<Enu> {
+        std::iter::once(self.points[i])
+            .chain(self.via(i, j).iter().copied())
+            .chain(std::iter::once(self.points[j]))
+            .collect()
+    }
+
+    /// The horizontal direction (east, north; m) leg `i` -> `j` leaves `i` in (towards its
+    /// first via point) and arrives at `j` in (from its last one).
+    pub fn departure_and_arrival(&self, i: usize, j: usize) -> ((f64, f64), (f64, f64)) {
+        let (a, b) = (self.points[i], self.points[j]);
+        let via = self.via(i, j);
+        let first = via.first().copied().unwrap_or(b);
+        let last = via.last().copied().unwrap_or(a);
+        (
+            (first.x_east_m - a.x_east_m, first.y_north_m - a.y_north_m),
+            (b.x_east_m - last.x_east_m, b.y_north_m - last.y_north_m),
+        )
     }
 
     /// Number of points, the origin included.
@@ -52,8 +94,15 @@ impl Geometry {
         &self.points
     }
 
-    /// Horizontal distance Xf from point `i` to point `j`.
+    /// Horizontal distance Xf from point `i` to point `j` (along its via points, if any).
     pub fn horizontal_m(&self, i: usize, j: usize) -> f64 {
+        if !self.via(i, j).is_empty() {
+            return self
+                .path(i, j)
+                .windows(2)
+                .map(|w| (w[1].x_east_m - w[0].x_east_m).hypot(w[1].y_north_m - w[0].y_north_m))
+                .sum();
+        }
         let (a, b) = (self.points[i], self.points[j]);
         (b.x_east_m - a.x_east_m).hypot(b.y_north_m - a.y_north_m)
     }
@@ -70,8 +119,19 @@ impl Geometry {
         crate::mission::wind::heading_deg(b.x_east_m - a.x_east_m, b.y_north_m - a.y_north_m)
     }
 
-    /// Straight-line 3D distance from point `i` to point `j`.
+    /// 3D distance from point `i` to point `j`: straight, or along its via points.
     pub fn distance_m(&self, i: usize, j: usize) -> f64 {
+        if !self.via(i, j).is_empty() {
+            return self
+                .path(i, j)
+                .windows(2)
+                .map(|w| {
+                    (w[1].x_east_m - w[0].x_east_m)
+                        .hypot(w[1].y_north_m - w[0].y_north_m)
+                        .hypot(w[1].z_up_m - w[0].z_up_m)
+                })
+                .sum();
+        }
         self.horizontal_m(i, j).hypot(self.vertical_m(i, j))
     }
 
