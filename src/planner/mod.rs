@@ -22,6 +22,7 @@
 
 pub mod explain;
 pub mod json;
+pub mod returns;
 pub mod study;
 
 use serde::Serialize;
@@ -225,6 +226,9 @@ pub struct Plan {
     /// In wind, with the energy order asked for: the order still air would choose, priced in
     /// the wind, to set beside the wind-aware energy order.
     pub still_air: Option<StillAir>,
+    /// The autopilot's return from every waypoint of the flown order (a mission with a fence
+    /// or rally points): where it goes, its price against the battery, the zones it crosses.
+    pub returns: Option<returns::Returns>,
 }
 
 /// One command at a place of the flown order, priced.
@@ -431,6 +435,12 @@ pub enum PlannerError {
     Pricing { mission: String, cause: PlanError },
     #[error("planning mission {mission}: {cause}")]
     Planning { mission: String, cause: PlanError },
+    #[error("pricing the autopilot's return from {waypoint} to {to}: {message}")]
+    Return {
+        waypoint: String,
+        to: String,
+        message: String,
+    },
     /// Take-off, landing or hover the model cannot price.
     #[error(transparent)]
     Budget(PhysicsError),
@@ -576,7 +586,9 @@ pub fn plan_mission(
             mission: mission.name.clone(),
         });
     }
-    planned
+    let mut plan = planned?;
+    plan.returns = returns::of(&plan, mission, model)?;
+    Ok(plan)
 }
 
 /// [`plan_mission`], skipping what is left once the cancel token asks. In wind, with the energy
@@ -1068,6 +1080,7 @@ fn plan_core<'scope>(
         energy,
         wind: model.wind,
         still_air,
+        returns: None,
     })
 }
 
