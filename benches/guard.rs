@@ -79,6 +79,8 @@ fn plan() -> FlightPlan {
                 3.50, 3.69, 3.73, 3.77, 3.80, 3.84, 3.87, 3.95, 4.02, 4.11, 4.20,
             ],
             home_j: (0..n).map(|k| 15_000.0 + 100.0 * k as f64).collect(),
+            return_to: Vec::new(),
+            return_rule: None,
         }),
     }
 }

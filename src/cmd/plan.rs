@@ -111,6 +111,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     if !args.sorties {
         warn_if_over_budget(&args.mission, &doc.battery);
     }
+    for warning in plan.returns.iter().flat_map(|r| &r.warnings) {
+        eprintln!("warning: {warning}");
+    }
     if let Some(out) = &plot {
         super::plot::plan_svg(out, &mission, &plan)?;
         eprintln!("wrote {}", out.path.display());
@@ -119,6 +122,14 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         println!("{}", serde_json::to_string_pretty(&doc)?);
     } else {
         print_table(&plan, &doc, mission.waypoints.len());
+        if let Some(r) = &plan.returns {
+            let to: Vec<String> = r
+                .from
+                .iter()
+                .map(|f| format!("{} -> {}", f.from, f.to))
+                .collect();
+            println!("return (RTL, {}): {}", r.rule, to.join(", "));
+        }
         if let Some(sorties) = &doc.sorties {
             super::sorties::print(sorties);
         }

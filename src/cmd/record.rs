@@ -58,9 +58,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         // ArduCopter SITL, and a vehicle armed meanwhile must not be missed.
         let mut events = recorder.subscribe();
         request_streams(link, &target).await?;
-        let return_alt_m = match args.guard {
-            Policy::Off => 0.0,
-            _ => emplan::session::guard::return_altitude_m(link, &target).await?,
+        let rally = mission.as_ref().map_or(&[][..], |m| &m.rally[..]);
+        let autopilot_return = match args.guard {
+            Policy::Off => emplan::session::guard::AutopilotReturn::defaults(target.flavour, 0.0, rally),
+            _ => emplan::session::guard::autopilot_return(link, &target, rally).await?,
         };
         eprintln!(
             "recording flights of {:?} autopilot {} on {} into {}; Ctrl-C stops",
@@ -79,7 +80,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                         match held_flight_plan(link, &target, opened.transfer, known, &model).await {
                             Ok(mut plan) => {
                                 if args.guard != Policy::Off {
-                                    match emplan::session::guard::setup(&model.vehicle, model.profile, target.flavour, &plan, args.guard, return_alt_m, model.wind) {
+                                    match emplan::session::guard::setup(&model.vehicle, model.profile, target.flavour, &plan, args.guard, &autopilot_return, model.wind) {
                                         Ok(setup) => plan.guard = Some(setup),
                                         Err(e) => eprintln!("the energy guard cannot price the way home: {e}; not guarding this flight"),
                                     }

@@ -132,7 +132,8 @@ pub fn print(report: &FlightReport) {
         row("landing".into(), l);
     }
     if let Some(r) = &report.return_home {
-        row(format!("return: {} -> home", r.from), r);
+        let to = report.return_to.as_deref().unwrap_or("home");
+        row(format!("return: {} -> {to}", r.from), r);
     }
     let error = report
         .total_error_pct()
@@ -147,6 +148,9 @@ pub fn print(report: &FlightReport) {
     ];
     line(total, String::new());
     legend(report, at_points.len(), flagged);
+    for breach in &report.breaches {
+        println!("FLAG {}", breach.line());
+    }
     // The photos the autopilot reported: one line per point with photos, one per photo apart.
     for line in emplan::flightlog::photos::lines(&report.photos) {
         println!("{line}");
@@ -164,8 +168,9 @@ fn legend(report: &FlightReport, points: usize, flagged: bool) {
         let price = r.predicted_j.map_or(String::new(), |j| {
             format!(", priced {:.1} kJ by the guard", j / 1000.0)
         });
+        let to = report.return_to.as_deref().unwrap_or("home");
         println!(
-            "return: the energy guard sent the vehicle home from {}{price}; it flew home and landed in place of the plan",
+            "return: the energy guard sent the vehicle home from {}{price}; it flew to {to} and landed in place of the plan",
             r.from
         );
     }

@@ -71,6 +71,15 @@ pub struct GuardSetup {
     /// Per point of the plan (its `points`, in order): the autopilot's return from it, home and
     /// landed (J).
     pub home_j: Vec<f64>,
+    /// Per point of the plan: where the autopilot's return from it goes and lands ("home",
+    /// "rally point 1": `mission::fence::ReturnRule`), when the setup was priced with it (absent
+    /// from plans written before: home).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub return_to: Vec<String>,
+    /// The rule that chose them, with its parameters and whether they were read from the
+    /// autopilot or are its defaults.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub return_rule: Option<String>,
 }
 
 /// The prior's standard deviation of `ln(measured / predicted)`: wide enough that an airframe
@@ -195,6 +204,8 @@ pub struct Remaining {
     pub ahead: Vec<PointAhead>,
     /// Going home from here, now, and landing (J).
     pub home_now_j: f64,
+    /// Where the autopilot's return from here goes ("home", "rally point 1").
+    pub return_to: String,
 }
 
 /// A point of the plan still ahead.
@@ -461,6 +472,7 @@ mod tests {
                 })
                 .collect(),
             home_now_j: 8_000.0,
+            return_to: "home".to_string(),
         }
     }
 

@@ -7,6 +7,7 @@
 //! once. Everything after the receive task is a pure function of (wall time, frame bytes), so a
 //! replay of the `.tlog` gives the live run's report.
 
+pub mod breach;
 pub mod clock;
 pub mod csv;
 pub mod energy;

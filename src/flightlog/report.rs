@@ -126,6 +126,11 @@ pub struct FlightReport {
     /// The way home after the energy guard sent the vehicle there, and its landing, in place of
     /// the plan's landing: priced as the guard priced it when it decided (its `return` note).
     pub return_home: Option<PartReport>,
+    /// Where that way home went ("home", "rally point 1": the guard's `return` note's
+    /// destination, as the autopilot's rule chose it when the guard priced it).
+    pub return_to: Option<String>,
+    /// The fence breaches the autopilot told (FENCE_STATUS), with where and when.
+    pub breaches: Vec<super::breach::Breach>,
     /// The waypoints of the plan this flight did not visit (in the plan's order): what `fly
     /// --resume` flies ([`visits`]). Not empty: the mission is incomplete.
     pub waypoints_left: Vec<String>,
@@ -251,6 +256,8 @@ impl FlightReport {
             hovers: Vec::new(),
             landing: None,
             return_home: None,
+            return_to: None,
+            breaches: Vec::new(),
             waypoints_left: Vec::new(),
             predicted_j: None,
             measured_j: None,
@@ -271,11 +278,13 @@ impl FlightReport {
         };
         let segments = segmenter.segments();
         report.photos = super::photos::assign(plan, &segments, segmenter.photos().photos());
+        report.breaches = segmenter.breaches().to_vec();
         // The guard's decision to go home and its price of the way home from there.
-        let sent_home_kj = (report.guard.iter())
+        let sent_home = (report.guard.iter())
             .flat_map(|g| &g.notes)
-            .find(|n| n.kind == NoteKind::Return)
-            .map(|n| n.home_kj);
+            .find(|n| n.kind == NoteKind::Return);
+        let sent_home_kj = sent_home.map(|n| n.home_kj);
+        report.return_to = sent_home.map(|n| n.return_to.clone().unwrap_or_else(|| "home".into()));
         let mut last_point = ORIGIN_NAME.to_string();
         for segment in segments {
             match segment.kind {
@@ -432,6 +441,8 @@ impl FlightReport {
             takeoff: self.takeoff.as_ref().map(PartJson::from),
             landing: self.landing.as_ref().map(PartJson::from),
             return_home: self.return_home.as_ref().map(PartJson::from),
+            return_to: self.return_home.as_ref().and(self.return_to.clone()),
+            breaches: self.breaches.clone(),
             total: TotalJson {
                 predicted_kj: self.predicted_j.map(kj),
                 measured_kj: self.measured_j.map(kj),
@@ -462,6 +473,8 @@ impl FlightReport {
             hovers: parts(&json.hovers),
             landing: json.landing.as_ref().map(PartJson::to_part),
             return_home: json.return_home.as_ref().map(PartJson::to_part),
+            return_to: json.return_to.clone(),
+            breaches: json.breaches.clone(),
             waypoints_left: json.waypoints_left.clone(),
             predicted_j: json.total.predicted_kj.map(j),
             measured_j: json.total.measured_kj.map(j),
@@ -689,6 +702,12 @@ pub struct ReportJson {
     /// (`predicted_kj`: the guard's price of it, from the point named `from`); absent otherwise.
     #[serde(rename = "return", default, skip_serializing_if = "Option::is_none")]
     pub return_home: Option<PartJson>,
+    /// Where `return` went ("home", "rally point 1"); only with `return`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub return_to: Option<String>,
+    /// The fence breaches the autopilot told, with where and when; absent when none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub breaches: Vec<super::breach::Breach>,
     pub total: TotalJson,
     pub complete: bool,
     /// The mission was left unfinished: `waypoints_left` names the waypoints of the plan the
@@ -1048,6 +1067,8 @@ mod tests {
             hovers: vec![],
             landing: None,
             return_home: None,
+            return_to: None,
+            breaches: Vec::new(),
             waypoints_left: vec![],
             predicted_j: Some(60_000.0),
             measured_j: Some(61_000.0),

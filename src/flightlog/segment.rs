@@ -129,6 +129,8 @@ pub struct Segmenter {
     repricings_applied: usize,
     /// The photos the autopilot reported, where they were taken.
     photos: PhotoLog,
+    /// The fence breaches the autopilot's FENCE_STATUS told.
+    breaches: super::breach::Breaches,
 }
 
 /// One position of the vehicle in the mission frame.
@@ -220,6 +222,7 @@ impl Segmenter {
             wind: WindTrack::new(),
             repricings_applied: 0,
             photos: PhotoLog::new(),
+            breaches: super::breach::Breaches::default(),
             plan,
             feed: BatteryFeed::new(cfg.feed),
             series: PowerSeries::new(cfg.energy),
@@ -337,6 +340,11 @@ impl Segmenter {
     /// The photos the autopilot reported so far.
     pub fn photos(&self) -> &PhotoLog {
         &self.photos
+    }
+
+    /// The fence breaches so far.
+    pub fn breaches(&self) -> &[super::breach::Breach] {
+        self.breaches.list()
     }
 
     /// The vehicle's latest state.
@@ -970,6 +978,11 @@ impl Segmenter {
                 let vehicle = (self.state.position).zip(self.recent.back().map(|s| s.at));
                 self.photos
                     .push(t_s, photo, &self.plan, self.frame_home_m, vehicle);
+            }
+            Reading::Fence(status) => {
+                let at = (self.recent.back()).map(|s| [s.at.x_east_m, s.at.y_north_m, s.at.z_up_m]);
+                let position = self.state.position.as_ref();
+                (self.breaches).push(t_s, status, self.flight_start_s, position, at);
             }
         }
     }

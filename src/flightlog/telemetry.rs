@@ -48,6 +48,44 @@ pub enum Reading {
     /// A photo the autopilot reports taking (ArduPilot's CAMERA_FEEDBACK, PX4's CAMERA_TRIGGER
     /// and CAMERA_IMAGE_CAPTURED).
     Photo(Photo),
+    /// FENCE_STATUS: the autopilot's geofence, breached or not.
+    Fence(FenceStatus),
+}
+
+/// What FENCE_STATUS says of the autopilot's geofence.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct FenceStatus {
+    /// Outside the fence now (`breach_status` 1).
+    pub breached: bool,
+    /// Breaches since the autopilot booted.
+    pub breach_count: u16,
+    /// What the last breach broke.
+    pub breach_type: BreachType,
+    /// When the last breach began, in the autopilot's time since boot (s); None before any.
+    pub last_breach_boot_s: Option<f64>,
+}
+
+/// What a fence breach broke (MAVLink FENCE_BREACH).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BreachType {
+    None,
+    MinAltitude,
+    MaxAltitude,
+    /// The fence's boundary: an inclusion zone left or an exclusion zone entered.
+    Boundary,
+}
+
+impl BreachType {
+    /// "boundary", "max_altitude": as the report writes it.
+    pub fn name(self) -> &'static str {
+        match self {
+            BreachType::None => "none",
+            BreachType::MinAltitude => "min_altitude",
+            BreachType::MaxAltitude => "max_altitude",
+            BreachType::Boundary => "boundary",
+        }
+    }
 }
 
 /// Which message reported a photo.
@@ -285,7 +323,8 @@ impl VehicleState {
             | Reading::StatusText { .. }
             | Reading::Home { .. }
             | Reading::Wind(_)
-            | Reading::Photo(_) => {}
+            | Reading::Photo(_)
+            | Reading::Fence(_) => {}
         }
     }
 }

@@ -62,6 +62,10 @@ pub struct GuardNote {
     /// before the correction: what the report measures the return against).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub home_kj: Option<f64>,
+    /// A `return` note's destination: where the autopilot's return from there goes ("home",
+    /// "rally point 1").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub return_to: Option<String>,
 }
 
 /// The guard's view now, for the live displays.
@@ -452,6 +456,8 @@ impl Watch {
             self.returning = true;
             let mut note = self.note(now_s, NoteKind::Return, name, &projection, None);
             note.home_kj = Some(remaining.home_now_j / 1e3);
+            note.return_to = Some(remaining.return_to.clone());
+            note.message = format!("{} (to {})", note.message, remaining.return_to);
             notes.push(note);
         }
         self.view = Some(GuardView {
@@ -525,6 +531,14 @@ impl Watch {
             }
             _ => home_of(from),
         };
+        // Where the return goes from here: the destination of the point the vehicle is nearer.
+        let nearer = match kind {
+            SegmentKind::Leg(k) if share_left < 0.5 => Some(k),
+            _ => from,
+        };
+        let return_to = nearer
+            .and_then(|k| self.setup.return_to.get(k).cloned())
+            .unwrap_or_else(|| "home".to_string());
         // The waypoints still ahead (the origin, last, is home itself): reaching each and
         // stopping there (the end of its hover), then home.
         let ahead = (0..points.saturating_sub(1))
@@ -539,6 +553,7 @@ impl Watch {
             rest_j,
             ahead,
             home_now_j,
+            return_to,
         }
     }
 
@@ -586,6 +601,7 @@ impl Watch {
             left_at_landing_kj: kj(p.left_at_landing_j),
             reserve_kj: kj(p.reserve_j),
             home_kj: None,
+            return_to: None,
         }
     }
 }
@@ -636,6 +652,8 @@ mod tests {
             ocv_cell_v: vec![3.5, 4.2],
             // Home from each point: a 60 m leg and the landing.
             home_j: vec![60_000.0; n],
+            return_to: Vec::new(),
+            return_rule: None,
         });
         plan
     }
@@ -772,6 +790,34 @@ mod tests {
         assert!(notes(&warned, NoteKind::Verdict)
             .iter()
             .any(|n| n.verdict == "below_reserve"));
+    }
+
+    #[test]
+    fn the_guard_says_where_its_return_goes_as_priced_for_the_point_it_left() {
+        let total = nominal_total_j();
+        let mut tight = plan(total * 1.5, Policy::Rtl);
+        let n = tight.points.len();
+        if let Some(g) = tight.guard.as_mut() {
+            g.return_to = (0..n)
+                .map(|k| format!("rally point {}", k % 2 + 1))
+                .collect();
+        }
+        let s = flown(&tight, 1.6, |_, _| {});
+        let home = notes(&s, NoteKind::Return);
+        assert_eq!(home.len(), 1, "{:?}", s.watch().unwrap().notes());
+        let to = home[0].return_to.as_deref().expect("a destination");
+        assert!(to.starts_with("rally point "), "{to}");
+        assert!(
+            home[0].message.ends_with(&format!("(to {to})")),
+            "{}",
+            home[0].message
+        );
+        // A setup priced before destinations were kept returns home.
+        let old = flown(&plan(total * 1.5, Policy::Rtl), 1.6, |_, _| {});
+        assert_eq!(
+            notes(&old, NoteKind::Return)[0].return_to.as_deref(),
+            Some("home")
+        );
     }
 
     #[test]

@@ -9,6 +9,8 @@
 //! `circles`, each with `inclusion`; `rallyPoints`), which is also what PX4 and ArduPilot hold
 //! through the MAVLink mission protocol (`MAV_CMD_NAV_FENCE_*`, `MAV_CMD_NAV_RALLY_POINT`).
 
+use serde::{Deserialize, Serialize};
+
 use super::{Enu, Geodetic, Origin};
 
 /// A latitude and longitude (degrees, WGS84): a fence's vertices and centres have no height.
@@ -321,6 +323,216 @@ fn offset_polygon(v: &[[f64; 2]], distance_m: f64, outward: bool) -> Vec<[f64; 2
     out
 }
 
+/// How an autopilot chooses where its return (RTL) goes, with the parameters that decide it.
+///
+/// ArduCopter (`AP_Rally::calc_best_rally_or_home_location`, libraries/AP_Rally/AP_Rally.cpp):
+/// the nearest rally point from where the vehicle is; home instead when there is none, when
+/// `RALLY_LIMIT_KM` is above 0 and the nearest is further than it, or when `RALLY_INCL_HOME` is
+/// set and the rally point is not strictly nearer than home (Copter defaults: 0.3 km and 1).
+/// ArduCopter's RTL (ArduCopter/mode_rtl.cpp) then climbs to RTL_ALT (or the rally point's
+/// altitude, if higher), flies straight to it, descends and lands there.
+///
+/// PX4 (`RTL::findRtlDestinationForType`, src/modules/navigator/rtl.cpp), for a multicopter and
+/// a mission without a landing (emplan's missions have none): `RTL_TYPE` 0 (its default) and 3
+/// take the nearest of home and the safe (rally) points, a safe point only when it is more than
+/// 2 m (`MIN_DIST_THRESHOLD`) nearer than home and more than 10 m from home
+/// (`MAX_DIST_FROM_HOME_FOR_LAND_APPROACHES`); 1 prefers the nearest safe point more than 10 m
+/// from home, home only when there is none; 5 takes the nearest safe point, else lands where it
+/// is; 2 (and the route types 4 and 6) fly the mission's path back, which is not priced here:
+/// the straight return home stands for it ([`ReturnRule::approximate`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "autopilot", rename_all = "lowercase")]
+pub enum ReturnRule {
+    /// ArduPilot's rally rule: `RALLY_LIMIT_KM` (km; 0: no limit) and `RALLY_INCL_HOME`.
+    Ardupilot { limit_km: f64, include_home: bool },
+    /// PX4's RTL_TYPE.
+    Px4 { rtl_type: i32 },
+    /// An autopilot without rally points: always home.
+    Home,
+}
+
+/// ArduCopter's defaults (AP_Rally.cpp, `APM_BUILD_ArduCopter`): RALLY_LIMIT_KM 0.3 km,
+/// RALLY_INCL_HOME 1.
+pub const ARDUCOPTER_RALLY_LIMIT_KM: f64 = 0.3;
+pub const ARDUCOPTER_RALLY_INCL_HOME: bool = true;
+/// PX4's default RTL_TYPE (rtl_params.yaml): 0, the nearest of home and the safe points.
+pub const PX4_RTL_TYPE: i32 = 0;
+/// PX4 takes a safe point only when it is this much nearer than home (rtl.cpp
+/// `MIN_DIST_THRESHOLD`, m).
+const PX4_MIN_DIST_THRESHOLD_M: f64 = 2.0;
+/// PX4 ignores a safe point this near home when home is a choice (rtl.cpp
+/// `MAX_DIST_FROM_HOME_FOR_LAND_APPROACHES`, m).
+const PX4_SAFE_POINT_MIN_FROM_HOME_M: f64 = 10.0;
+
+/// Where a return goes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Destination {
+    Home,
+    /// The rally point of this index (0-based) among the mission's.
+    Rally(usize),
+    /// Where the vehicle is (PX4 RTL_TYPE 5 without a safe point: it lands there).
+    Here,
+}
+
+impl Destination {
+    /// "home", "rally point 2" (1-based) or "where it was": how texts and reports name it.
+    pub fn describe(self) -> String {
+        match self {
+            Destination::Home => "home".to_string(),
+            Destination::Rally(k) => format!("rally point {}", k + 1),
+            Destination::Here => "where it was".to_string(),
+        }
+    }
+
+    /// The destination's east and north (m) given home's, the rally points' and the vehicle's.
+    pub fn at(self, home: [f64; 2], rally: &[[f64; 2]], from: [f64; 2]) -> [f64; 2] {
+        match self {
+            Destination::Home => home,
+            Destination::Rally(k) => rally.get(k).copied().unwrap_or(home),
+            Destination::Here => from,
+        }
+    }
+}
+
+impl ReturnRule {
+    /// The autopilot's defaults: ArduCopter's rally rule, PX4's RTL_TYPE 0, or home.
+    pub fn default_for(autopilot: &str) -> ReturnRule {
+        match autopilot {
+            "ardupilot" => ReturnRule::Ardupilot {
+                limit_km: ARDUCOPTER_RALLY_LIMIT_KM,
+                include_home: ARDUCOPTER_RALLY_INCL_HOME,
+            },
+            "px4" => ReturnRule::Px4 {
+                rtl_type: PX4_RTL_TYPE,
+            },
+            _ => ReturnRule::Home,
+        }
+    }
+
+    /// The rule with each parameter `value` answers (by the autopilot's name: RALLY_LIMIT_KM,
+    /// RALLY_INCL_HOME, RTL_TYPE) in place of its own.
+    pub fn with_params(self, value: &dyn Fn(&str) -> Option<f64>) -> ReturnRule {
+        match self {
+            ReturnRule::Ardupilot {
+                limit_km,
+                include_home,
+            } => ReturnRule::Ardupilot {
+                limit_km: value("RALLY_LIMIT_KM")
+                    .filter(|v| v.is_finite() && *v >= 0.0)
+                    .unwrap_or(limit_km),
+                include_home: value("RALLY_INCL_HOME").map_or(include_home, |v| v != 0.0),
+            },
+            ReturnRule::Px4 { rtl_type } => ReturnRule::Px4 {
+                rtl_type: value("RTL_TYPE")
+                    .filter(|v| v.is_finite() && v.abs() < 1e6)
+                    .map_or(rtl_type, |v| v.round() as i32),
+            },
+            ReturnRule::Home => ReturnRule::Home,
+        }
+    }
+
+    /// The parameters that decide it on an autopilot of this rule.
+    pub fn param_names(&self) -> &'static [&'static str] {
+        match self {
+            ReturnRule::Ardupilot { .. } => &["RALLY_LIMIT_KM", "RALLY_INCL_HOME"],
+            ReturnRule::Px4 { .. } => &["RTL_TYPE"],
+            ReturnRule::Home => &[],
+        }
+    }
+
+    /// Whether [`ReturnRule::destination`] only stands in for the way the autopilot returns
+    /// (PX4's RTL_TYPE 2, 4 and 6 fly the mission's path back, not priced here).
+    pub fn approximate(&self) -> bool {
+        matches!(self, ReturnRule::Px4 { rtl_type } if !matches!(rtl_type, 0 | 1 | 3 | 5))
+    }
+
+    /// "RALLY_LIMIT_KM 0.3, RALLY_INCL_HOME 1" or "RTL_TYPE 0": the parameters, for texts.
+    pub fn describe(&self) -> String {
+        match self {
+            ReturnRule::Ardupilot {
+                limit_km,
+                include_home,
+            } => format!(
+                "RALLY_LIMIT_KM {limit_km}, RALLY_INCL_HOME {}",
+                u8::from(*include_home)
+            ),
+            ReturnRule::Px4 { rtl_type } => format!("RTL_TYPE {rtl_type}"),
+            ReturnRule::Home => "home only".to_string(),
+        }
+    }
+
+    /// Where the autopilot's return goes from `from`, given `home` and the mission's `rally`
+    /// points (east, north; m: the autopilots measure the horizontal distance).
+    pub fn destination(&self, home: [f64; 2], rally: &[[f64; 2]], from: [f64; 2]) -> Destination {
+        let dist = |p: [f64; 2]| (p[0] - from[0]).hypot(p[1] - from[1]);
+        let home_m = dist(home);
+        match *self {
+            ReturnRule::Home => Destination::Home,
+            ReturnRule::Ardupilot {
+                limit_km,
+                include_home,
+            } => {
+                // The nearest rally point, the first of equals (a strict `<`).
+                let mut nearest: Option<(usize, f64)> = None;
+                for (k, p) in rally.iter().enumerate() {
+                    let d = dist(*p);
+                    if d.is_finite() && nearest.is_none_or(|(_, m)| d < m) {
+                        nearest = Some((k, d));
+                    }
+                }
+                match nearest {
+                    None => Destination::Home,
+                    Some((_, m)) if limit_km > 0.0 && m > limit_km * 1000.0 => Destination::Home,
+                    Some((_, m)) if include_home && m >= home_m => Destination::Home,
+                    Some((k, _)) => Destination::Rally(k),
+                }
+            }
+            ReturnRule::Px4 { rtl_type } => {
+                let safe_only = rtl_type == 5;
+                let home_first = matches!(rtl_type, 0 | 3);
+                if !(safe_only || home_first || rtl_type == 1) {
+                    return Destination::Home;
+                }
+                let mut min_m = if home_first { home_m } else { f64::INFINITY };
+                let mut chosen = None;
+                for (k, p) in rally.iter().enumerate() {
+                    let from_home_m = (p[0] - home[0]).hypot(p[1] - home[1]);
+                    if !(safe_only || from_home_m > PX4_SAFE_POINT_MIN_FROM_HOME_M) {
+                        continue;
+                    }
+                    let d = dist(*p);
+                    if d + PX4_MIN_DIST_THRESHOLD_M < min_m {
+                        min_m = d;
+                        chosen = Some(k);
+                    }
+                }
+                match (chosen, safe_only) {
+                    (Some(k), _) => Destination::Rally(k),
+                    (None, true) => Destination::Here,
+                    (None, false) => Destination::Home,
+                }
+            }
+        }
+    }
+}
+
+/// The exclusion zones (1-based indices among `zones`, as [`Zone::describe`] counts them) that
+/// the straight line `a`-`b` enters or passes within `margin_m` of.
+pub fn exclusions_crossed(
+    zones: &[LocalZone],
+    a: [f64; 2],
+    b: [f64; 2],
+    margin_m: f64,
+) -> Vec<usize> {
+    zones
+        .iter()
+        .enumerate()
+        .filter(|(_, z)| !z.inclusion && z.segment_violates(a, b, margin_m))
+        .map(|(k, _)| k + 1)
+        .collect()
+}
+
 /// The least distance between the segments `a`-`b` and `c`-`d` (0 when they cross).
 pub fn segment_segment_distance_m(a: [f64; 2], b: [f64; 2], c: [f64; 2], d: [f64; 2]) -> f64 {
     let cross = |o: [f64; 2], p: [f64; 2], q: [f64; 2]| {
@@ -499,5 +711,114 @@ mod tests {
             },
         };
         assert!(field.offset_vertices(3.0).is_empty());
+    }
+
+    fn rally_rule_cases() -> (ReturnRule, ReturnRule) {
+        (
+            ReturnRule::default_for("ardupilot"),
+            ReturnRule::default_for("px4"),
+        )
+    }
+
+    #[test]
+    fn arducopter_returns_to_the_nearest_rally_point_only_when_it_is_nearer_than_home() {
+        let (ap, _) = rally_rule_cases();
+        let home = [0.0, 0.0];
+        let rally = [[100.0, 0.0], [0.0, 60.0]];
+        // Near the second rally point: it, not the first, nor home.
+        assert_eq!(
+            ap.destination(home, &rally, [10.0, 70.0]),
+            Destination::Rally(1)
+        );
+        assert_eq!(
+            ap.destination(home, &rally, [90.0, 0.0]),
+            Destination::Rally(0)
+        );
+        // Home nearer than every rally point: home (RALLY_INCL_HOME 1).
+        assert_eq!(ap.destination(home, &rally, [5.0, 5.0]), Destination::Home);
+        // Without home included, the nearest rally point even when home is nearer.
+        let no_home = ReturnRule::Ardupilot {
+            limit_km: 0.3,
+            include_home: false,
+        };
+        assert_eq!(
+            no_home.destination(home, &rally, [5.0, 5.0]),
+            Destination::Rally(1)
+        );
+        // Beyond RALLY_LIMIT_KM: home, even when the rally point is nearer.
+        let far = [[1000.0, 0.0]];
+        assert_eq!(ap.destination(home, &far, [690.0, 0.0]), Destination::Home);
+        let unlimited = ReturnRule::Ardupilot {
+            limit_km: 0.0,
+            include_home: true,
+        };
+        assert_eq!(
+            unlimited.destination(home, &far, [690.0, 0.0]),
+            Destination::Rally(0)
+        );
+        assert_eq!(ap.destination(home, &[], [690.0, 0.0]), Destination::Home);
+    }
+
+    #[test]
+    fn px4_returns_to_a_safe_point_by_its_rtl_type() {
+        let (_, px4) = rally_rule_cases();
+        let home = [0.0, 0.0];
+        let rally = [[100.0, 0.0], [5.0, 0.0]];
+        assert_eq!(
+            px4.destination(home, &rally, [80.0, 0.0]),
+            Destination::Rally(0)
+        );
+        assert_eq!(
+            px4.destination(home, &rally, [20.0, 0.0]),
+            Destination::Home
+        );
+        // Within 2 m of home's distance: home.
+        assert_eq!(
+            px4.destination(home, &rally, [51.0, 0.0]),
+            Destination::Home
+        );
+        // A safe point within 10 m of home is never taken while home is a choice.
+        assert_eq!(
+            px4.destination(home, &[[5.0, 0.0]], [5.0, 1.0]),
+            Destination::Home
+        );
+        let prefer_safe = ReturnRule::Px4 { rtl_type: 1 };
+        assert_eq!(
+            prefer_safe.destination(home, &rally, [20.0, 0.0]),
+            Destination::Rally(0)
+        );
+        assert_eq!(
+            prefer_safe.destination(home, &[], [20.0, 0.0]),
+            Destination::Home
+        );
+        let safe_only = ReturnRule::Px4 { rtl_type: 5 };
+        assert_eq!(
+            safe_only.destination(home, &rally, [2.0, 0.0]),
+            Destination::Rally(1)
+        );
+        assert_eq!(
+            safe_only.destination(home, &[], [2.0, 0.0]),
+            Destination::Here
+        );
+        let mission_path = ReturnRule::Px4 { rtl_type: 2 };
+        assert!(mission_path.approximate() && !px4.approximate());
+        assert_eq!(
+            mission_path.destination(home, &rally, [99.0, 0.0]),
+            Destination::Home
+        );
+        assert_eq!(
+            ReturnRule::Home.destination(home, &rally, [99.0, 0.0]),
+            Destination::Home
+        );
+    }
+
+    #[test]
+    fn a_straight_return_through_an_exclusion_zone_names_it() {
+        let zones = [square(true), square(false)];
+        assert_eq!(
+            exclusions_crossed(&zones, [-5.0, 5.0], [15.0, 5.0], 0.0),
+            vec![2]
+        );
+        assert!(exclusions_crossed(&zones, [-5.0, 15.0], [15.0, 15.0], 1.0).is_empty());
     }
 }

@@ -126,6 +126,67 @@ impl Budget {
     }
 }
 
+/// How an autopilot comes down at the end of its return.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ReturnDescent {
+    /// ArduCopter: a loiter over the destination (RTL_LOITER_TIME, default 5 s), the descent at
+    /// WPNAV_SPEED_DN (default 1.5 m/s) down to LAND_ALT_LOW (default 10 m), then LAND_SPEED
+    /// (default 0.5 m/s), all priced as hovering: ArduCopter SITL's return from 41 m cost about
+    /// three times the profile's landing (docs/ardupilot-sitl.md).
+    Ardupilot,
+    /// The profile's landing (PX4's NAV_LAND as the `px4` profile flies it).
+    Landing,
+}
+
+/// ArduCopter's return: loiter over the destination, then descend (its defaults: RTL_LOITER_TIME
+/// 5000 ms, WPNAV_SPEED_DN 150 cm/s, LAND_ALT_LOW 1000 cm, LAND_SPEED 50 cm/s).
+const ARDUCOPTER_LOITER_S: f64 = 5.0;
+const ARDUCOPTER_DESCENT_M_S: f64 = 1.5;
+const ARDUCOPTER_LAND_ALT_LOW_M: f64 = 10.0;
+const ARDUCOPTER_LAND_M_S: f64 = 0.5;
+
+/// One return flown as the autopilot flies it, in a steady `wind`: from `from` (east, north,
+/// height above home; m) the climb to `at_m` above home when it is higher, the straight
+/// flight at that height to `to` (east, north), then the descent there and the landing (J).
+pub fn return_j(
+    vehicle: &Vehicle,
+    profile: Profile,
+    descent: ReturnDescent,
+    from: [f64; 3],
+    to: [f64; 2],
+    at_m: f64,
+    wind: Wind,
+) -> Result<f64, PhysicsError> {
+    let still = Model::new(vehicle);
+    let model = still.clone().in_wind(wind.on_heading(0.0));
+    let height = from[2];
+    let at = at_m.max(height).max(0.0);
+    let mut energy = 0.0;
+    if at > height + 0.5 {
+        energy += model.operation(profile, 0.0, at - height)?.total_energy_j();
+    }
+    let (dx, dy) = (to[0] - from[0], to[1] - from[1]);
+    let across = dx.hypot(dy);
+    if across > 0.5 {
+        let on = wind.on_heading(crate::mission::wind::heading_deg(dx, dy));
+        energy += still
+            .in_wind(on)
+            .operation(profile, across, 0.0)?
+            .total_energy_j();
+    }
+    energy += match descent {
+        ReturnDescent::Ardupilot => {
+            let fast = (at - ARDUCOPTER_LAND_ALT_LOW_M).max(0.0);
+            let slow = at.min(ARDUCOPTER_LAND_ALT_LOW_M);
+            let seconds =
+                ARDUCOPTER_LOITER_S + fast / ARDUCOPTER_DESCENT_M_S + slow / ARDUCOPTER_LAND_M_S;
+            seconds * model.hover_power_w()?
+        }
+        ReturnDescent::Landing => model.landing(profile, at)?.total_energy_j(),
+    };
+    Ok(energy)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -174,6 +235,33 @@ mod tests {
         let over = b.check(500_000.0, 100_000.0);
         assert!(!over.feasible);
         assert!((over.excess_j - (over.total_j - 576_000.0)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_return_costs_more_the_farther_its_destination_and_its_climb() {
+        let v = shipped();
+        let price = |to: [f64; 2], at_m: f64| {
+            return_j(
+                &v,
+                Profile::Px4,
+                ReturnDescent::Landing,
+                [60.0, 0.0, 20.0],
+                to,
+                at_m,
+                Wind::CALM,
+            )
+            .unwrap()
+        };
+        let home = price([0.0, 0.0], 20.0);
+        let near = price([50.0, 0.0], 20.0);
+        let here = price([60.0, 0.0], 20.0);
+        assert!(here < near && near < home, "{here} {near} {home}");
+        let landing = Model::new(&v).landing(Profile::Px4, 20.0).unwrap();
+        assert!(
+            (here / landing.total_energy_j() - 1.0).abs() < 1e-9,
+            "{here}"
+        );
+        assert!(price([0.0, 0.0], 40.0) > home);
     }
 
     #[test]

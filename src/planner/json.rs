@@ -44,6 +44,9 @@ pub struct PlanJson {
     /// commands inserted to keep the file's settings.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub actions: Vec<ActionsAtJson>,
+    /// A mission with a fence or rally points: the autopilot's return from each waypoint.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub returns: Option<super::returns::ReturnsJson>,
 }
 
 /// The actions at one place of the flown order.
@@ -386,6 +389,7 @@ pub fn plan_document(plan: &Plan) -> PlanJson {
         sorties: plan.sorties.as_ref().map(|s| sorties_json(plan, s)),
         wind: wind_json(plan),
         actions: actions_json(plan),
+        returns: plan.returns.as_ref().map(super::returns::Returns::json),
     }
 }
 

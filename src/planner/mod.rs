@@ -23,6 +23,7 @@
 pub mod detour;
 pub mod explain;
 pub mod json;
+pub mod returns;
 pub mod study;
 
 use serde::Serialize;
@@ -244,6 +245,9 @@ pub struct Plan {
     pub zones: Vec<String>,
     /// How far every leg keeps from the fence's zones (m).
     pub fence_margin_m: f64,
+    /// The autopilot's return from every waypoint of the flown order (a mission with a fence
+    /// or rally points): where it goes, its price against the battery, the zones it crosses.
+    pub returns: Option<returns::Returns>,
 }
 
 /// One command at a place of the flown order, priced.
@@ -450,6 +454,12 @@ pub enum PlannerError {
     Pricing { mission: String, cause: PlanError },
     #[error("planning mission {mission}: {cause}")]
     Planning { mission: String, cause: PlanError },
+    #[error("pricing the autopilot's return from {waypoint} to {to}: {message}")]
+    Return {
+        waypoint: String,
+        to: String,
+        message: String,
+    },
     /// Take-off, landing or hover the model cannot price.
     #[error(transparent)]
     Budget(PhysicsError),
@@ -605,7 +615,9 @@ pub fn plan_mission(
             mission: mission.name.clone(),
         });
     }
-    planned
+    let mut plan = planned?;
+    plan.returns = returns::of(&plan, mission, model)?;
+    Ok(plan)
 }
 
 /// [`plan_mission`], skipping what is left once the cancel token asks. In wind, with the energy
@@ -1174,6 +1186,7 @@ fn plan_core<'scope>(
         origin: mission.origin,
         zones: zone_names,
         fence_margin_m: margin_m,
+        returns: None,
     })
 }
 

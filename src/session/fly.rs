@@ -179,22 +179,21 @@ pub async fn load(
         predicted,
         ..measured_against
     };
-    let mut return_alt_m = None;
+    let mut autopilot_return = None;
     if load.guard != Policy::Off {
-        let alt_m = super::guard::return_altitude_m(link, target).await?;
-        return_alt_m = Some(alt_m);
-        let return_alt_m = alt_m;
+        let ret = super::guard::autopilot_return(link, target, &load.mission.rally).await?;
         let setup = super::guard::setup(
             priced_with.unwrap_or(load.vehicle),
             plan.profile,
             target.flavour,
             &measured_against,
             load.guard,
-            return_alt_m,
+            &ret,
             plan.wind,
         )
         .map_err(|e| FlyError::Plan(format!("the energy guard's return prices: {e}")))?;
         measured_against.guard = Some(setup);
+        autopilot_return = Some(ret);
     }
     let upload = upload_verified(link, target, &items, transfer, progress).await?;
     match (recorder, load.live_wind) {
@@ -204,7 +203,7 @@ pub async fn load(
                 vehicle: priced_with.unwrap_or(load.vehicle).clone(),
                 ..model.clone()
             };
-            let repricer = repricer(model, target.flavour, return_alt_m);
+            let repricer = repricer(model, target.flavour, autopilot_return);
             recorder.set_plan_repriced(measured_against.clone(), repricer);
         }
         (Some(recorder), None) => recorder.set_plan(measured_against.clone()),
@@ -233,20 +232,24 @@ pub fn items(flavour: Flavour, load: &Load<'_>) -> Result<Vec<MISSION_ITEM_INT_D
 /// Prices the rest of a flight again in a wind heard in flight, as `load` priced it before it
 /// flew: every leg after the one before it on its heading (ArduCopter's fast waypoints as its
 /// chain), the settles, the hovers and the landing in that wind, and the guard's return from
-/// every point (when the flight is guarded: `return_alt_m` is then the autopilot's).
-fn repricer(model: VehicleModel, flavour: Flavour, return_alt_m: Option<f64>) -> Repricer {
+/// every point (when the flight is guarded: `ret` is then the autopilot's return).
+fn repricer(
+    model: VehicleModel,
+    flavour: Flavour,
+    ret: Option<super::guard::AutopilotReturn>,
+) -> Repricer {
     Box::new(move |plan: &FlightPlan, wind: Wind, from_point: usize| {
         let model = model.clone().with_wind(wind);
         let predicted = repriced(plan, &model)?;
-        let home_j = match (&plan.guard, return_alt_m) {
-            (Some(guard), Some(alt_m)) => {
+        let home_j = match (&plan.guard, &ret) {
+            (Some(guard), Some(ret)) => {
                 super::guard::setup(
                     &model.vehicle,
                     model.profile,
                     flavour,
                     plan,
                     guard.policy,
-                    alt_m,
+                    ret,
                     wind,
                 )
                 .map_err(RepriceError::Guard)?
@@ -705,6 +708,8 @@ mod tests {
                 hovers: Vec::new(),
                 landing: None,
                 return_home: None,
+                return_to: None,
+                breaches: Vec::new(),
                 waypoints_left: Vec::new(),
                 predicted_j: None,
                 measured_j: None,

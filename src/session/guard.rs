@@ -12,6 +12,12 @@
 //! descent at WPNAV_SPEED_DN (default 1.5 m/s) down to LAND_ALT_LOW (default 10 m), then
 //! LAND_SPEED (default 0.5 m/s), hovering: ArduCopter SITL's return from 41 m cost about three
 //! times the profile's landing (docs/ardupilot-sitl.md).
+//!
+//! "Home" is where the autopilot's return goes from that point: `mission::fence::ReturnRule`
+//! (ArduPilot's nearest rally point within RALLY_LIMIT_KM, home when nearer and RALLY_INCL_HOME;
+//! PX4's safe points by RTL_TYPE), its parameters read from the autopilot, else its defaults;
+//! the vehicle lands there. The setup names each point's destination, so the guard's notes and
+//! the report say where the return went.
 
 use crate::flightlog::flight_plan::FlightPlan;
 use crate::flightlog::watch::{GuardSetup, Policy};
@@ -19,15 +25,10 @@ use crate::link::commands::{read_params, return_home};
 use crate::link::connection::{Autopilot, Link};
 use crate::link::params::ReturnAltitude;
 use crate::link::{Flavour, LinkError};
-use crate::physics::power::Model;
-use crate::physics::{heading_deg, PhysicsError, Profile, Vehicle, Wind};
-
-/// ArduCopter's return: loiter over home, then descend (its defaults: RTL_LOITER_TIME 5000 ms,
-/// WPNAV_SPEED_DN 150 cm/s, LAND_ALT_LOW 1000 cm, LAND_SPEED 50 cm/s).
-const ARDUCOPTER_LOITER_S: f64 = 5.0;
-const ARDUCOPTER_DESCENT_M_S: f64 = 1.5;
-const ARDUCOPTER_LAND_ALT_LOW_M: f64 = 10.0;
-const ARDUCOPTER_LAND_M_S: f64 = 0.5;
+use crate::mission::fence::{Destination, RallyPoint, ReturnRule};
+use crate::mission::Origin;
+use crate::physics::budget::{return_j, ReturnDescent};
+use crate::physics::{PhysicsError, Profile, Vehicle, Wind};
 
 /// The return altitude `target` holds (m above home), or its default when it does not answer.
 pub async fn return_altitude_m(link: &Link, target: &Autopilot) -> Result<f64, LinkError> {
@@ -46,6 +47,86 @@ pub async fn return_altitude_m(link: &Link, target: &Autopilot) -> Result<f64, L
     })
 }
 
+/// How an autopilot returns: the height it flies back at, where it goes and the mission's rally
+/// points it may go to.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AutopilotReturn {
+    /// The return altitude (m above home).
+    pub alt_m: f64,
+    pub rule: ReturnRule,
+    /// Whether the rule's parameters were read from the autopilot (else they are its defaults).
+    pub rule_read: bool,
+    pub rally: Vec<RallyPoint>,
+}
+
+impl AutopilotReturn {
+    /// The defaults of an autopilot of `flavour` returning at `alt_m`, with `rally`.
+    pub fn defaults(flavour: Flavour, alt_m: f64, rally: &[RallyPoint]) -> AutopilotReturn {
+        AutopilotReturn {
+            alt_m,
+            rule: ReturnRule::default_for(flavour_name(flavour)),
+            rule_read: false,
+            rally: rally.to_vec(),
+        }
+    }
+
+    /// "ardupilot RALLY_LIMIT_KM 0.3, RALLY_INCL_HOME 1 (read from the autopilot)": the rule
+    /// and where its parameters came from.
+    pub fn describe(&self) -> String {
+        let source = if self.rule_read {
+            "read from the autopilot"
+        } else {
+            "the autopilot's defaults"
+        };
+        let approximate = if self.rule.approximate() {
+            "; it flies the mission back, priced as the straight return home"
+        } else {
+            ""
+        };
+        format!("{} ({source}{approximate})", self.rule.describe())
+    }
+}
+
+fn flavour_name(flavour: Flavour) -> &'static str {
+    match flavour {
+        Flavour::ArduPilot => "ardupilot",
+        Flavour::Px4 => "px4",
+        Flavour::Generic => "generic",
+    }
+}
+
+/// How `target` returns with the mission's `rally` points: its return altitude and its rule's
+/// parameters (ArduPilot RALLY_LIMIT_KM and RALLY_INCL_HOME, PX4 RTL_TYPE) as it reports them,
+/// each it does not answer at its default.
+pub async fn autopilot_return(
+    link: &Link,
+    target: &Autopilot,
+    rally: &[RallyPoint],
+) -> Result<AutopilotReturn, LinkError> {
+    let alt_m = return_altitude_m(link, target).await?;
+    let mut ret = AutopilotReturn::defaults(target.flavour, alt_m, rally);
+    let names = ret.rule.param_names();
+    if names.is_empty() {
+        return Ok(ret);
+    }
+    let read = read_params(link, target, names).await?;
+    let value = |name: &str| {
+        read.iter()
+            .find(|(n, _)| n == name)
+            .and_then(|(_, v)| *v)
+            .filter(|v| v.is_finite())
+    };
+    ret.rule = ret.rule.with_params(&value);
+    ret.rule_read = names.iter().all(|n| value(n).is_some());
+    if !ret.rule_read {
+        tracing::warn!(
+            "the autopilot did not answer {}: its return is chosen by its defaults",
+            names.join(", ")
+        );
+    }
+    Ok(ret)
+}
+
 /// Sends the vehicle home because the guard decided so, and says how it went: the autopilot's
 /// refusal is logged (the guard keeps watching; the pilot can still act), a link failure
 /// returned.
@@ -60,49 +141,82 @@ pub async fn send_home(link: &Link, target: &Autopilot) -> Result<(), LinkError>
     Ok(())
 }
 
+/// Where the return from each of `plan`'s points goes by `ret`'s rule: the destination, its
+/// east and north (m, the mission's frame) and the height it is flown to at least (m above
+/// home: a rally point's own altitude; home's is 0).
+pub fn destinations(plan: &FlightPlan, ret: &AutopilotReturn) -> Vec<(Destination, [f64; 2], f64)> {
+    let origin = Origin {
+        home: plan.home,
+        height_above_home_m: plan.origin_height_m,
+    };
+    let rally: Vec<[f64; 2]> = (ret.rally.iter())
+        .map(|r| {
+            let e = r.local(&origin);
+            [e.x_east_m, e.y_north_m]
+        })
+        .collect();
+    plan.points
+        .iter()
+        .map(|p| {
+            let from = [p.enu.x_east_m, p.enu.y_north_m];
+            let to = ret.rule.destination([0.0, 0.0], &rally, from);
+            let alt_m = match to {
+                Destination::Rally(k) => ret.rally.get(k).map_or(0.0, |r| r.alt_above_home_m),
+                Destination::Home | Destination::Here => 0.0,
+            };
+            (to, to.at([0.0, 0.0], &rally, from), alt_m)
+        })
+        .collect()
+}
+
+/// The height (m above home) an autopilot of `flavour` flies its return to `to` at, from
+/// `height`, with its return altitude `return_alt_m` and the destination's own altitude
+/// `dest_alt_m`: ArduCopter climbs to the higher of RTL_ALT and the rally point's altitude
+/// (mode_rtl.cpp), PX4 to RTL_RETURN_ALT above the destination (rtl.cpp
+/// `computeReturnAltitude`); neither climbs to land where it is, nor descends first.
+pub fn return_height_m(
+    flavour: Flavour,
+    to: Destination,
+    height: f64,
+    return_alt_m: f64,
+    dest_alt_m: f64,
+) -> f64 {
+    let at = match (to, flavour) {
+        (Destination::Here, _) => height,
+        (_, Flavour::Px4) => height.max(return_alt_m + dest_alt_m),
+        _ => height.max(return_alt_m).max(dest_alt_m),
+    };
+    at.max(0.0)
+}
+
 /// The guard's setup for `plan` flown by `vehicle` with `profile` on an autopilot of `flavour`
-/// whose return flies home at `return_alt_m` above home, in a steady `wind` (the climb, the
-/// descent and the hovers in its speed, the flight home on its heading).
+/// returning as `ret` says (its altitude, and where: home or a rally point, by its rule), in a
+/// steady `wind` (the climb, the descent and the hovers in its speed, the flight back on its
+/// heading).
 pub fn setup(
     vehicle: &Vehicle,
     profile: Profile,
     flavour: Flavour,
     plan: &FlightPlan,
     policy: Policy,
-    return_alt_m: f64,
+    ret: &AutopilotReturn,
     wind: Wind,
 ) -> Result<GuardSetup, PhysicsError> {
-    let still = Model::new(vehicle);
-    let model = still.clone().in_wind(wind.on_heading(0.0));
-    let hover_w = model.hover_power_w()?;
+    let return_alt_m = ret.alt_m;
+    let destinations = destinations(plan, ret);
+    let descent = match flavour {
+        Flavour::ArduPilot => ReturnDescent::Ardupilot,
+        Flavour::Px4 | Flavour::Generic => ReturnDescent::Landing,
+    };
     let home_j = plan
         .points
         .iter()
-        .map(|p| {
+        .zip(&destinations)
+        .map(|(p, (to, at_xy, dest_alt_m))| {
             let height = plan.origin_height_m + p.enu.z_up_m;
-            let at = height.max(return_alt_m).max(0.0);
-            let mut energy = 0.0;
-            if at > height + 0.5 {
-                energy += model.operation(profile, 0.0, at - height)?.total_energy_j();
-            }
-            let across = p.enu.x_east_m.hypot(p.enu.y_north_m);
-            if across > 0.5 {
-                let home = wind.on_heading(heading_deg(-p.enu.x_east_m, -p.enu.y_north_m));
-                let homeward = still.clone().in_wind(home);
-                energy += homeward.operation(profile, across, 0.0)?.total_energy_j();
-            }
-            energy += match flavour {
-                Flavour::ArduPilot => {
-                    let fast = (at - ARDUCOPTER_LAND_ALT_LOW_M).max(0.0);
-                    let slow = at.min(ARDUCOPTER_LAND_ALT_LOW_M);
-                    let seconds = ARDUCOPTER_LOITER_S
-                        + fast / ARDUCOPTER_DESCENT_M_S
-                        + slow / ARDUCOPTER_LAND_M_S;
-                    seconds * hover_w
-                }
-                Flavour::Px4 | Flavour::Generic => model.landing(profile, at)?.total_energy_j(),
-            };
-            Ok(energy)
+            let at_m = return_height_m(flavour, *to, height, return_alt_m, *dest_alt_m);
+            let from = [p.enu.x_east_m, p.enu.y_north_m, height];
+            return_j(vehicle, profile, descent, from, *at_xy, at_m, wind)
         })
         .collect::<Result<Vec<f64>, PhysicsError>>()?;
     let b = &vehicle.battery;
@@ -116,5 +230,97 @@ pub fn setup(
         ocv_soc: b.ocv_soc.clone(),
         ocv_cell_v: b.ocv_cell_v.clone(),
         home_j,
+        return_to: destinations
+            .iter()
+            .map(|(to, _, _)| to.describe())
+            .collect(),
+        return_rule: Some(ret.describe()),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::flightlog::synthetic::square_plan;
+    use crate::mission::Enu;
+
+    fn rally_at(plan: &FlightPlan, x_east_m: f64, y_north_m: f64) -> RallyPoint {
+        let origin = Origin {
+            home: plan.home,
+            height_above_home_m: plan.origin_height_m,
+        };
+        let g = origin.to_geodetic(Enu {
+            x_east_m,
+            y_north_m,
+            z_up_m: 0.0,
+        });
+        RallyPoint {
+            lat_deg: g.lat_deg,
+            lon_deg: g.lon_deg,
+            alt_above_home_m: 15.0,
+        }
+    }
+
+    #[test]
+    fn the_guard_prices_the_return_to_the_rally_point_arducopter_would_land_at() {
+        let vehicle = crate::physics::builtin::vehicle().expect("the built-in vehicle");
+        let plan = square_plan();
+        let price = |ret: &AutopilotReturn| {
+            setup(
+                &vehicle,
+                Profile::Ardupilot,
+                Flavour::ArduPilot,
+                &plan,
+                Policy::Rtl,
+                ret,
+                Wind::CALM,
+            )
+            .expect("priced")
+        };
+        let home = price(&AutopilotReturn::defaults(Flavour::ArduPilot, 15.0, &[]));
+        // A rally point beside B (60, 60): from A (60, 0) it is 55 m away against home's 60 m,
+        // from B 5 m; from C (0, 60) 60.2 m against 60 m, so C (RALLY_INCL_HOME 1) and the
+        // origin return home.
+        let rally = [rally_at(&plan, 60.0, 55.0)];
+        let ret = AutopilotReturn::defaults(Flavour::ArduPilot, 15.0, &rally);
+        let to_rally = price(&ret);
+        assert_eq!(
+            to_rally.return_to,
+            ["rally point 1", "rally point 1", "home", "home"]
+        );
+        assert_eq!(home.return_to, ["home"; 4]);
+        assert!(to_rally.home_j[1] < home.home_j[1], "{to_rally:?} {home:?}");
+        assert!(to_rally.home_j[0] < home.home_j[0]);
+        assert_eq!(to_rally.home_j[2], home.home_j[2]);
+        assert_eq!(to_rally.home_j[3], home.home_j[3]);
+        let d = destinations(&plan, &ret)[1].1;
+        assert!(
+            (d[0] - 60.0).abs() < 1e-3 && (d[1] - 55.0).abs() < 1e-3,
+            "{d:?}"
+        );
+        assert!(to_rally
+            .return_rule
+            .as_deref()
+            .is_some_and(|r| r.contains("RALLY_LIMIT_KM 0.3") && r.contains("defaults")));
+    }
+
+    #[test]
+    fn the_return_rule_takes_the_parameters_the_autopilot_answered() {
+        let answered = |name: &str| match name {
+            "RALLY_LIMIT_KM" => Some(0.0),
+            _ => None,
+        };
+        assert_eq!(
+            ReturnRule::default_for("ardupilot").with_params(&answered),
+            ReturnRule::Ardupilot {
+                limit_km: 0.0,
+                include_home: true
+            }
+        );
+        let px4 = |name: &str| (name == "RTL_TYPE").then_some(1.0);
+        assert_eq!(
+            ReturnRule::default_for("px4").with_params(&px4),
+            ReturnRule::Px4 { rtl_type: 1 }
+        );
+    }
 }

@@ -669,16 +669,26 @@ impl<'v> Flight<'v> {
     /// Lands where it is (or flies home first for a return), outside any mission (no
     /// Current, Reached or Complete events).
     pub fn land(&mut self, home_first: bool) -> Vec<Event> {
+        self.land_with(if home_first {
+            Command::ReturnToLaunch
+        } else {
+            Command::Land { at: None }
+        })
+    }
+
+    /// Flies to `at` (east, north of home) at its height and lands there, outside any mission:
+    /// a return to a rally point.
+    pub fn land_at(&mut self, at: [f64; 2]) -> Vec<Event> {
+        self.land_with(Command::Land { at: Some(at) })
+    }
+
+    fn land_with(&mut self, command: Command) -> Vec<Event> {
         let mut events = Vec::new();
         if self.on_ground() {
             return events;
         }
         self.in_mission = false;
-        self.commands = vec![if home_first {
-            Command::ReturnToLaunch
-        } else {
-            Command::Land { at: None }
-        }];
+        self.commands = vec![command];
         self.jumps_left = vec![None];
         self.motion = Motion::Hover;
         self.velocity = [0.0; 3];

@@ -28,6 +28,7 @@ mod physics;
 mod preflight;
 mod races;
 mod radio;
+mod rally;
 mod reprice;
 mod resume;
 mod service;

@@ -18,6 +18,9 @@
 //!   CAMERA_IMAGE_CAPTURED `lat`/`lon` degE7, `alt`/`relative_alt` mm, `time_boot_ms`,
 //!   `image_index`, `capture_result` 1 captured (common.xml). A MAVLink camera is a component of
 //!   its own, so photos are heard from every component of the autopilot's system.
+//! - FENCE_STATUS `breach_status` 1 outside the fence, `breach_count` since boot, `breach_type`
+//!   (FENCE_BREACH), `breach_time` ms since boot of the last breach (0: none). ArduPilot sends it
+//!   while a fence is enabled; PX4 was not found to send it (its breaches come as STATUSTEXT).
 //! - HEARTBEAT of the autopilot only (not a GCS, camera or companion: `autopilot` INVALID or a
 //!   ground-station type); armed = `MAV_MODE_FLAG_SAFETY_ARMED`; the mode from `custom_mode`: PX4
 //!   main mode in byte 2, sub mode in byte 3; ArduCopter's mode numbers.
@@ -25,8 +28,8 @@
 use mavlink::MavHeader;
 
 use crate::flightlog::telemetry::{
-    Battery, BatterySource, FlightMode, LandedState, MissionState, Photo, PhotoMessage,
-    PhotoPosition, Position, Reading,
+    Battery, BatterySource, BreachType, FenceStatus, FlightMode, LandedState, MissionState, Photo,
+    PhotoMessage, PhotoPosition, Position, Reading,
 };
 use crate::link::mav::{
     self, CameraFeedbackFlags, MavAutopilot, MavLandedState, MavMessage, MavModeFlag, MavType,
@@ -226,6 +229,21 @@ fn image_captured(c: &mav::CAMERA_IMAGE_CAPTURED_DATA) -> Photo {
     }
 }
 
+fn fence_status(f: &mav::FENCE_STATUS_DATA) -> FenceStatus {
+    FenceStatus {
+        breached: f.breach_status != 0,
+        breach_count: f.breach_count,
+        breach_type: match f.breach_type {
+            mav::FenceBreach::FENCE_BREACH_NONE => BreachType::None,
+            mav::FenceBreach::FENCE_BREACH_MINALT => BreachType::MinAltitude,
+            mav::FenceBreach::FENCE_BREACH_MAXALT => BreachType::MaxAltitude,
+            mav::FenceBreach::FENCE_BREACH_BOUNDARY => BreachType::Boundary,
+        },
+        last_breach_boot_s: (f.breach_count > 0 && f.breach_time > 0)
+            .then_some(f64::from(f.breach_time) * 1e-3),
+    }
+}
+
 /// Decodes one message from the vehicle into SI units (see the module doc for every rule).
 pub fn decode(header: &MavHeader, message: &MavMessage) -> Decoded {
     match message {
@@ -297,6 +315,9 @@ pub fn decode(header: &MavHeader, message: &MavMessage) -> Decoded {
             captured: true,
         })),
         MavMessage::CAMERA_IMAGE_CAPTURED(c) => Decoded::reading(Reading::Photo(image_captured(c))),
+        // ArduPilot streams it (EXTENDED_STATUS, GCS_Common.cpp `send_fence_status`) while a
+        // fence is enabled; untimed: its breach_time is the breach's, not the message's.
+        MavMessage::FENCE_STATUS(f) => Decoded::reading(Reading::Fence(fence_status(f))),
         MavMessage::WIND_COV(_) | MavMessage::WIND(_) => {
             match crate::link::wind::wind_of(message) {
                 Some(wind) => Decoded::reading(Reading::Wind(wind)),

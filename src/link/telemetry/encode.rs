@@ -2,7 +2,7 @@
 //! message an autopilot of a flavour would send.
 
 use crate::flightlog::telemetry::{
-    BatterySource, FlightMode, LandedState, MissionState, Photo, PhotoMessage, Reading,
+    BatterySource, BreachType, FlightMode, LandedState, MissionState, Photo, PhotoMessage, Reading,
 };
 use crate::link::mav::{
     self, MavAutopilot, MavLandedState, MavMessage, MavModeFlag, MavSeverity, MavType,
@@ -176,6 +176,20 @@ pub fn encode(reading: &Reading, flavour: Flavour) -> MavMessage {
             }
         },
         Reading::Photo(photo) => photo_message(photo),
+        Reading::Fence(f) => MavMessage::FENCE_STATUS(mav::FENCE_STATUS_DATA {
+            breach_status: u8::from(f.breached),
+            breach_count: f.breach_count,
+            breach_type: match f.breach_type {
+                BreachType::None => mav::FenceBreach::FENCE_BREACH_NONE,
+                BreachType::MinAltitude => mav::FenceBreach::FENCE_BREACH_MINALT,
+                BreachType::MaxAltitude => mav::FenceBreach::FENCE_BREACH_MAXALT,
+                BreachType::Boundary => mav::FenceBreach::FENCE_BREACH_BOUNDARY,
+            },
+            breach_time: f.last_breach_boot_s.map_or(0, |s| {
+                (s * 1e3).round().clamp(0.0, f64::from(u32::MAX)) as u32
+            }),
+            ..Default::default()
+        }),
         Reading::StatusText { severity, text } => {
             let mut bytes = [0u8; 50];
             for (slot, b) in bytes.iter_mut().zip(text.bytes()) {
@@ -305,6 +319,18 @@ mod tests {
                 severity: 6,
                 text: "Reached command #3".into(),
             },
+            Reading::Fence(crate::flightlog::telemetry::FenceStatus {
+                breached: true,
+                breach_count: 2,
+                breach_type: BreachType::Boundary,
+                last_breach_boot_s: Some(81.25),
+            }),
+            Reading::Fence(crate::flightlog::telemetry::FenceStatus {
+                breached: false,
+                breach_count: 0,
+                breach_type: BreachType::None,
+                last_breach_boot_s: None,
+            }),
         ];
         for flavour in [Flavour::Px4, Flavour::ArduPilot] {
             for r in &readings {

@@ -207,7 +207,12 @@ impl<'v> SimVehicle<'v> {
                 self.events(&events);
             }
             Mode::Rtl if flying => {
-                let events = self.flight.land(true);
+                // Home or a rally point, as its autopilot chooses (AP_Rally, PX4 rtl.cpp).
+                let events = match self.return_destination() {
+                    (crate::mission::fence::Destination::Home, _) => self.flight.land(true),
+                    (crate::mission::fence::Destination::Here, _) => self.flight.land(false),
+                    (_, at) => self.flight.land_at(at),
+                };
                 self.events(&events);
             }
             _ if flying && previous != mode => self.flight.hold(),

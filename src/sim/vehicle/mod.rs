@@ -253,6 +253,8 @@ pub struct SimVehicle<'v> {
     /// by PX4 name) or an ArduPilot's navigation parameters ([ardupilot], by ArduCopter name),
     /// and either flavour's return altitude (`link::params::ReturnAltitude`).
     params: Vec<(&'static str, f64)>,
+    /// The rally points it holds (east, north of home; m): where its return may go.
+    rally: Vec<[f64; 2]>,
     out: Vec<MavMessage>,
 }
 
@@ -314,8 +316,41 @@ impl<'v> SimVehicle<'v> {
             photos_asked: 0,
             photos_taken: 0,
             params: params::held(flavour, vehicle),
+            rally: Vec::new(),
             out: Vec::new(),
         })
+    }
+
+    /// Holds `rally` as its rally points (the uploaded MISSION_TYPE_RALLY items): its return
+    /// goes to one of them when its autopilot's rule says so (`mission::fence::ReturnRule`).
+    pub fn set_rally_points(&mut self, rally: &[crate::mission::fence::RallyPoint]) {
+        let home = crate::mission::Origin {
+            home: self.config.home,
+            height_above_home_m: 0.0,
+        };
+        self.rally = rally
+            .iter()
+            .map(|r| {
+                let e = r.local(&home);
+                [e.x_east_m, e.y_north_m]
+            })
+            .collect();
+    }
+
+    /// Where its return goes from where it is now, by its flavour's rule and the parameters it
+    /// holds, and that place (east, north of home).
+    pub fn return_destination(&self) -> (crate::mission::fence::Destination, [f64; 2]) {
+        let name = match self.flavour {
+            Flavour::ArduPilot => "ardupilot",
+            Flavour::Px4 => "px4",
+            Flavour::Generic => "generic",
+        };
+        let rule = crate::mission::fence::ReturnRule::default_for(name)
+            .with_params(&|n: &str| self.param(n));
+        let p = self.flight.position();
+        let here = [p[0], p[1]];
+        let to = rule.destination([0.0, 0.0], &self.rally, here);
+        (to, to.at([0.0, 0.0], &self.rally, here))
     }
 
     /// Simulated time (s since boot).

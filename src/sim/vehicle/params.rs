@@ -2,7 +2,9 @@
 //! (the vehicle's [px4] section, by PX4 name), the ArduPilot flavour with its navigation
 //! parameters (the vehicle's [ardupilot] section, by ArduCopter name). Both
 //! hold their return altitude, 0: the mock's return flies home at the height it is at (PX4
-//! RTL_RETURN_ALT and ArduCopter RTL_ALT at 0 do the same above a point higher than them).
+//! RTL_RETURN_ALT and ArduCopter RTL_ALT at 0 do the same above a point higher than them),
+//! and the parameters of where it returns to (ArduPilot RALLY_LIMIT_KM and RALLY_INCL_HOME, PX4
+//! RTL_TYPE) at their defaults.
 
 use super::SimVehicle;
 
@@ -17,10 +19,31 @@ pub(super) fn held(flavour: Flavour, vehicle: &Vehicle) -> Vec<(&'static str, f6
         Flavour::Px4 | Flavour::Generic => vehicle.px4.autopilot_values(),
     };
     params.push((crate::link::params::ReturnAltitude::of(flavour).name, 0.0));
+    // Where the return goes (mission::fence::ReturnRule), at the autopilot's defaults.
+    match flavour {
+        Flavour::ArduPilot => {
+            use crate::mission::fence::{ARDUCOPTER_RALLY_INCL_HOME, ARDUCOPTER_RALLY_LIMIT_KM};
+            params.push(("RALLY_LIMIT_KM", ARDUCOPTER_RALLY_LIMIT_KM));
+            params.push((
+                "RALLY_INCL_HOME",
+                f64::from(u8::from(ARDUCOPTER_RALLY_INCL_HOME)),
+            ));
+        }
+        Flavour::Px4 => params.push(("RTL_TYPE", f64::from(crate::mission::fence::PX4_RTL_TYPE))),
+        Flavour::Generic => {}
+    }
     params
 }
 
 impl<'v> SimVehicle<'v> {
+    /// The parameter `name` as it holds it.
+    pub(super) fn param(&self, name: &str) -> Option<f64> {
+        self.params
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|(_, v)| *v)
+    }
+
     /// PX4 answers PARAM_REQUEST_READ by name (index -1) or by index with PARAM_VALUE, and an
     /// unknown name with nothing (mavlink_parameters.cpp); the ArduPilot flavour the same with
     /// its own names.

@@ -1055,3 +1055,72 @@ fn a_camera_that_misses_a_photo_reports_the_others_numbered_on() {
     );
     assert_eq!(photos[2].1, 2, "the camera numbers the photos it takes");
 }
+
+/// A rally point at `at` (east, north of `home`; m), 15 m above home.
+fn rally_at(home: Geodetic, at: [f64; 2]) -> crate::mission::fence::RallyPoint {
+    let g = Origin {
+        home,
+        height_above_home_m: 0.0,
+    }
+    .to_geodetic(Enu {
+        x_east_m: at[0],
+        y_north_m: at[1],
+        z_up_m: 0.0,
+    });
+    crate::mission::fence::RallyPoint {
+        lat_deg: g.lat_deg,
+        lon_deg: g.lon_deg,
+        alt_above_home_m: 15.0,
+    }
+}
+
+/// Flies the sample mission on `flavour` to its third item, then returns with `rally` held.
+fn returned_with_rally(
+    flavour: Flavour,
+    rally_from_here: impl Fn([f64; 2]) -> [f64; 2],
+) -> ([f64; 2], [f64; 3]) {
+    let (mission, mut v) = with_sample(flavour, FlightConfig::default());
+    let mut log = Log::new();
+    if flavour == Flavour::ArduPilot {
+        assert_eq!(set_mode(&mut v, Mode::Guided), OK);
+        assert_eq!(
+            command(&mut v, MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, p1(1.0)),
+            OK
+        );
+        assert_eq!(set_mode(&mut v, Mode::Mission), OK);
+    }
+    assert_eq!(command(&mut v, MavCmd::MAV_CMD_MISSION_START, p1(0.0)), OK);
+    run_until(&mut v, &mut log, 120.0, |v| v.flight().current() == Some(4));
+    let p = v.flight().position();
+    let at = rally_from_here([p[0], p[1]]);
+    v.set_rally_points(&[rally_at(mission.origin.home, at)]);
+    assert_eq!(set_mode(&mut v, Mode::Rtl), OK);
+    run_until(&mut v, &mut log, 300.0, |v| !v.armed());
+    assert!(!v.armed() && v.flight().on_ground(), "still flying");
+    (at, v.flight().position())
+}
+
+#[test]
+fn the_mock_returns_to_a_rally_point_nearer_than_home_and_lands_there_by_its_flavours_rule() {
+    for flavour in [Flavour::ArduPilot, Flavour::Px4] {
+        // 6 m on from where the vehicle is (more than 12 m from home), away from home: nearer
+        // than home.
+        let (at, landed) = returned_with_rally(flavour, |p| {
+            let d = p[0].hypot(p[1]);
+            assert!(d > 12.0, "{p:?}");
+            [p[0] * (1.0 + 6.0 / d), p[1] * (1.0 + 6.0 / d)]
+        });
+        let off_m = (landed[0] - at[0]).hypot(landed[1] - at[1]);
+        assert!(
+            off_m < 2.0,
+            "{flavour:?} landed {off_m:.1} m from the rally point at {at:?}: {landed:?}"
+        );
+        // A rally point farther than home: home.
+        let (at, landed) = returned_with_rally(flavour, |p| [p[0] * 3.0, p[1] * 3.0]);
+        let home_m = landed[0].hypot(landed[1]);
+        assert!(
+            home_m < 2.0,
+            "{flavour:?} landed {home_m:.1} m from home (rally at {at:?})"
+        );
+    }
+}
