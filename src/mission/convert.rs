@@ -214,7 +214,9 @@ fn fence_losses(out: &mut Vec<Loss>, original: &Mission, converted: &Mission) {
     };
     for (k, (z, y)) in a.iter().zip(&b).enumerate() {
         let what = z.describe(k + 1);
-        if z.inclusion != y.inclusion || std::mem::discriminant(&z.shape) != std::mem::discriminant(&y.shape) {
+        if z.inclusion != y.inclusion
+            || std::mem::discriminant(&z.shape) != std::mem::discriminant(&y.shape)
+        {
             out.push(Loss {
                 setting: format!("fence zone {}", k + 1),
                 from: what.clone(),
@@ -259,7 +261,13 @@ fn fence_losses(out: &mut Vec<Loss>, original: &Mission, converted: &Mission) {
                     moved(c, d),
                     POSITION_TOLERANCE_M,
                 );
-                number(out, format!("{what} radius_m"), *r, *s, POSITION_TOLERANCE_M);
+                number(
+                    out,
+                    format!("{what} radius_m"),
+                    *r,
+                    *s,
+                    POSITION_TOLERANCE_M,
+                );
             }
             _ => {}
         }

@@ -95,7 +95,10 @@ impl Fence {
                 let plural = if n == 1 { "" } else { "s" };
                 if *polygon {
                     let listed: Vec<String> = counts.iter().map(usize::to_string).collect();
-                    format!("{n} {kind} polygon{plural} ({} vertices)", listed.join(", "))
+                    format!(
+                        "{n} {kind} polygon{plural} ({} vertices)",
+                        listed.join(", ")
+                    )
                 } else {
                     format!("{n} {kind} circle{plural}")
                 }

@@ -9,6 +9,8 @@
 pub mod actions;
 pub mod convert;
 pub mod fence;
+#[cfg(test)]
+mod fence_tests;
 pub mod geodesy;
 mod qgc_plan;
 pub mod rehome;
@@ -658,7 +660,13 @@ fn check_fence(
                 }
                 for (i, v) in vertices.iter().enumerate() {
                     let (place, named) = raw.vertex(i);
-                    check_lat_lon(file, &place, &format!("{what}{named}"), v.lat_deg, v.lon_deg)?;
+                    check_lat_lon(
+                        file,
+                        &place,
+                        &format!("{what}{named}"),
+                        v.lat_deg,
+                        v.lon_deg,
+                    )?;
                 }
                 if let Some((i, j)) = raw.zone.local(origin).crossing_edges() {
                     let n = vertices.len();

@@ -8,7 +8,7 @@
 //!
 //! The geofence and the rally points are QGroundControl's (`GeoFenceController`,
 //! `QGCFencePolygon`, `QGCFenceCircle`, `QGCMapCircle`, `RallyPointController` and
-//! `RallyPointManager` in its src/MissionManager): `geoFence` is `{"version": 2, "polygons":
+//! `RallyPointManager` of its MissionManager): `geoFence` is `{"version": 2, "polygons":
 //! [{"version": 1, "inclusion": bool, "polygon": [[lat, lon], ...]}], "circles": [{"version":
 //! 1, "inclusion": bool, "circle": {"center": [lat, lon], "radius": m}}], "breachReturn":
 //! [lat, lon, alt]}` (`breachReturn` optional), `rallyPoints` is `{"version": 2, "points":
@@ -21,8 +21,8 @@
 use serde_json::{json, Value};
 
 use super::actions::{Command, FRAME_GLOBAL_RELATIVE_ALT, FRAME_MISSION};
-use super::sequence::{self, Item};
 use super::fence::{LatLon, RallyPoint, Shape, Zone};
+use super::sequence::{self, Item};
 use super::{
     Geodetic, Mission, MissionError, Place, Poi, RawMission, RawZone,
     DEFAULT_MIN_HEIGHT_ABOVE_HOME_M, DEFAULT_TAKEOFF_HEIGHT_M,
@@ -260,7 +260,12 @@ fn coordinate(value: Option<&Value>, with_alt: bool) -> Option<[f64; 3]> {
 }
 
 /// The array at `object[key]` (required).
-fn array<'a>(object: &'a Value, key: &str, path: &str, file: &str) -> Result<&'a [Value], MissionError> {
+fn array<'a>(
+    object: &'a Value,
+    key: &str,
+    path: &str,
+    file: &str,
+) -> Result<&'a [Value], MissionError> {
     object
         .get(key)
         .and_then(Value::as_array)
@@ -285,7 +290,13 @@ fn zone_header(zone: &Value, path: &str, file: &str) -> Result<bool, MissionErro
     }
     zone.get("inclusion")
         .and_then(Value::as_bool)
-        .ok_or_else(|| at(file, &format!("{path}.inclusion"), "missing or not true or false"))
+        .ok_or_else(|| {
+            at(
+                file,
+                &format!("{path}.inclusion"),
+                "missing or not true or false",
+            )
+        })
 }
 
 /// The zones (polygons, then circles) and the breach return point of a `geoFence` object.
@@ -304,13 +315,20 @@ fn geofence(
         return Ok((Vec::new(), None));
     }
     let mut zones = Vec::new();
-    for (k, polygon) in array(fence, "polygons", "geoFence", file)?.iter().enumerate() {
+    for (k, polygon) in array(fence, "polygons", "geoFence", file)?
+        .iter()
+        .enumerate()
+    {
         let path = format!("geoFence.polygons[{k}]");
         let inclusion = zone_header(polygon, &path, file)?;
         let mut vertices = Vec::new();
         for (i, v) in array(polygon, "polygon", &path, file)?.iter().enumerate() {
             let [lat_deg, lon_deg, _] = coordinate(Some(v), false).ok_or_else(|| {
-                at(file, &format!("{path}.polygon[{i}]"), "must be [lat_deg, lon_deg]")
+                at(
+                    file,
+                    &format!("{path}.polygon[{i}]"),
+                    "must be [lat_deg, lon_deg]",
+                )
             })?;
             vertices.push(LatLon { lat_deg, lon_deg });
         }
@@ -323,17 +341,29 @@ fn geofence(
             vertices_key: "polygon",
         });
     }
-    for (k, circle) in array(fence, "circles", "geoFence", file)?.iter().enumerate() {
+    for (k, circle) in array(fence, "circles", "geoFence", file)?
+        .iter()
+        .enumerate()
+    {
         let path = format!("geoFence.circles[{k}]");
         let inclusion = zone_header(circle, &path, file)?;
-        let shape = circle.get("circle").filter(|c| c.is_object()).ok_or_else(|| {
-            at(file, &format!("{path}.circle"), "missing or not an object")
-        })?;
+        let shape = circle
+            .get("circle")
+            .filter(|c| c.is_object())
+            .ok_or_else(|| at(file, &format!("{path}.circle"), "missing or not an object"))?;
         let [lat_deg, lon_deg, _] = coordinate(shape.get("center"), false).ok_or_else(|| {
-            at(file, &format!("{path}.circle.center"), "missing or not [lat_deg, lon_deg]")
+            at(
+                file,
+                &format!("{path}.circle.center"),
+                "missing or not [lat_deg, lon_deg]",
+            )
         })?;
         let radius_m = shape.get("radius").and_then(number).ok_or_else(|| {
-            at(file, &format!("{path}.circle.radius"), "missing or not a number (metres)")
+            at(
+                file,
+                &format!("{path}.circle.radius"),
+                "missing or not a number (metres)",
+            )
         })?;
         zones.push(RawZone {
             zone: Zone {
@@ -385,7 +415,10 @@ fn rally_points(
         return Ok(Vec::new());
     }
     let mut out = Vec::new();
-    for (k, p) in array(rally, "points", "rallyPoints", file)?.iter().enumerate() {
+    for (k, p) in array(rally, "points", "rallyPoints", file)?
+        .iter()
+        .enumerate()
+    {
         let path = format!("rallyPoints.points[{k}]");
         let [lat_deg, lon_deg, alt_above_home_m] = coordinate(Some(p), true)
             .ok_or_else(|| at(file, &path, "must be [lat_deg, lon_deg, alt_above_home_m]"))?;

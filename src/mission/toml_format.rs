@@ -400,7 +400,9 @@ pub(super) fn parse(text: &str, file: &str) -> Result<RawMission, MissionError> 
                 return Err(MissionError::invalid(
                     file,
                     place,
-                    format!("{what}: its centre needs exactly one of (lat_deg, lon_deg) or (x_m, y_m)"),
+                    format!(
+                        "{what}: its centre needs exactly one of (lat_deg, lon_deg) or (x_m, y_m)"
+                    ),
                 ))
             }
         };
@@ -419,8 +421,13 @@ pub(super) fn parse(text: &str, file: &str) -> Result<RawMission, MissionError> 
     let breach_return = match fence.breach_return {
         Some(spanned) => {
             let place = Place::Line(line_of(text, spanned.span().start));
-            let (lat_deg, lon_deg, alt_m) =
-                point(file, &place, "fence breach_return", &frame, spanned.into_inner())?;
+            let (lat_deg, lon_deg, alt_m) = point(
+                file,
+                &place,
+                "fence breach_return",
+                &frame,
+                spanned.into_inner(),
+            )?;
             Some((
                 Geodetic {
                     lat_deg,
