@@ -1,13 +1,16 @@
 //! SVG figures drawn with plotters: the orders of a planned mission as the paper draws them (a
 //! top view and two side views, the energy order solid and the min-distance order dashed, with
 //! arrows giving the direction of flight) and histograms of the random-mission study's
-//! baseline/minimum-energy energy ratios.
+//! baseline/minimum-energy energy ratios. A mission's geofence is drawn in the top view (an
+//! inclusion zone outlined in green, an exclusion zone filled in red) and its rally points in
+//! every view (a purple cross, `R1`, `R2`, ...).
 //!
 //! Figures are rendered into a string: the command line writes it to a file once (so a write
 //! error is reported with the file name and never lost in a drop), the service answers it as
 //! `image/svg+xml` (`/api/missions/{name}/plot.svg`, `/api/flights/{name}/plot.svg`) for the
 //! dashboard.
 
+use crate::mission::fence::LocalShape;
 use crate::mission::{Enu, Mission};
 use crate::physics::Profile;
 use crate::planner::explain::saving_words;
@@ -22,6 +25,11 @@ use plotters::prelude::*;
 const FONT: &str = "sans-serif";
 const ENERGY_COLOUR: RGBColor = RGBColor(0x1f, 0x5f, 0xbf);
 const DISTANCE_COLOUR: RGBColor = RGBColor(0xd6, 0x4b, 0x1c);
+const INCLUSION_COLOUR: RGBColor = RGBColor(0x2e, 0x8b, 0x57);
+const EXCLUSION_COLOUR: RGBColor = RGBColor(0xc0, 0x1c, 0x28);
+const RALLY_COLOUR: RGBColor = RGBColor(0x81, 0x3d, 0x9c);
+/// Straight sides a fence circle is drawn with.
+const CIRCLE_SIDES: usize = 72;
 const WIDTH_PX: u32 = 1800;
 const HEIGHT_PX: u32 = 720;
 
@@ -121,8 +129,47 @@ pub fn plan_svg(mission: &Mission, plan: &Plan) -> Result<String, PlotError> {
     let energy_path = closed(&energy.nodes);
     let distance_path = closed(&distance.nodes);
 
-    let horizontal = span(points.iter().flat_map(|p| [p.x_east_m, p.y_north_m]), true);
-    let vertical = span(points.iter().map(|p| p.z_up_m), false);
+    // The fence's zones as closed outlines (east, north) and the rally points, in the local frame.
+    let zones: Vec<(bool, Vec<(f64, f64)>)> = mission
+        .fence
+        .zones
+        .iter()
+        .map(|z| {
+            let local = z.local(&mission.origin);
+            let outline = match &local.shape {
+                LocalShape::Polygon(v) => v.iter().map(|p| (p[0], p[1])).collect(),
+                LocalShape::Circle { center, radius_m } => (0..CIRCLE_SIDES)
+                    .map(|k| {
+                        let a = std::f64::consts::TAU * k as f64 / CIRCLE_SIDES as f64;
+                        (
+                            center[0] + radius_m * a.cos(),
+                            center[1] + radius_m * a.sin(),
+                        )
+                    })
+                    .collect(),
+            };
+            (z.inclusion, outline)
+        })
+        .collect();
+    let rally: Vec<Enu> = mission
+        .rally
+        .iter()
+        .map(|r| r.local(&mission.origin))
+        .collect();
+
+    let horizontal = span(
+        points
+            .iter()
+            .chain(&rally)
+            .flat_map(|p| [p.x_east_m, p.y_north_m])
+            .chain(
+                zones
+                    .iter()
+                    .flat_map(|(_, o)| o.iter().flat_map(|p| [p.0, p.1])),
+            ),
+        true,
+    );
+    let vertical = span(points.iter().chain(&rally).map(|p| p.z_up_m), false);
 
     let mut svg = String::new();
     {
@@ -199,6 +246,31 @@ pub fn plan_svg(mission: &Mission, plan: &Plan) -> Result<String, PlotError> {
                 .draw()
                 .map_err(&err)?;
             let at = |node: usize| (view.project)(&points[node]);
+            if k == 0 {
+                for (inclusion, outline) in &zones {
+                    let colour = if *inclusion {
+                        INCLUSION_COLOUR
+                    } else {
+                        EXCLUSION_COLOUR
+                    };
+                    if !*inclusion {
+                        chart
+                            .draw_series(std::iter::once(Polygon::new(
+                                outline.clone(),
+                                colour.mix(0.25).filled(),
+                            )))
+                            .map_err(&err)?;
+                    }
+                    let closed: Vec<(f64, f64)> =
+                        outline.iter().chain(outline.first()).copied().collect();
+                    chart
+                        .draw_series(std::iter::once(PathElement::new(
+                            closed,
+                            colour.stroke_width(2),
+                        )))
+                        .map_err(&err)?;
+                }
+            }
 
             chart
                 .draw_series(LineSeries::new(
@@ -238,6 +310,20 @@ pub fn plan_svg(mission: &Mission, plan: &Plan) -> Result<String, PlotError> {
                     EmptyElement::at((view.project)(p))
                         + marker
                         + Text::new(names[node].to_string(), (7, -18), (FONT, 15))
+                }))
+                .map_err(&err)?;
+            if rally.is_empty() {
+                continue;
+            }
+            chart
+                .draw_series(rally.iter().enumerate().map(|(k, p)| {
+                    EmptyElement::at((view.project)(p))
+                        + Cross::new((0, 0), 6, RALLY_COLOUR.stroke_width(2))
+                        + Text::new(
+                            format!("R{}", k + 1),
+                            (7, -18),
+                            (FONT, 15).into_font().color(&RALLY_COLOUR),
+                        )
                 }))
                 .map_err(&err)?;
         }

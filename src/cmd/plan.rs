@@ -8,7 +8,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 use emplan::output::Output;
 use emplan::planner::explain::saving_words;
-use emplan::planner::json::{plan_document, BatteryJson, PlanJson};
+use emplan::planner::json::{mission_document, BatteryJson, PlanJson};
 use emplan::planner::{plan_mission, Explanation, Orders, Plan, PlanOptions};
 use emplan::tour::Objective;
 
@@ -107,7 +107,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         out.write(text.as_bytes())?;
         eprintln!("wrote {}", out.path.display());
     }
-    let doc = plan_document(&plan);
+    let doc = mission_document(&plan, &mission);
     if !args.sorties {
         warn_if_over_budget(&args.mission, &doc.battery);
     }
@@ -121,7 +121,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     if args.json {
         println!("{}", serde_json::to_string_pretty(&doc)?);
     } else {
-        print_table(&plan, &doc, mission.waypoints.len());
+        print_table(&plan, &doc, &mission);
         if let Some(r) = &plan.returns {
             let to: Vec<String> = r
                 .from
@@ -154,7 +154,8 @@ fn warn_if_over_budget(mission_path: &std::path::Path, battery: &BatteryJson) {
     );
 }
 
-fn print_table(plan: &Plan, doc: &PlanJson, waypoints: usize) {
+fn print_table(plan: &Plan, doc: &PlanJson, mission: &emplan::mission::Mission) {
+    let waypoints = mission.waypoints.len();
     let convention = match doc.pricing {
         emplan::physics::Pricing::Settled => "start to settled hover",
         emplan::physics::Pricing::Paper => "paper pricing: start to the 4 m rule",
@@ -163,6 +164,9 @@ fn print_table(plan: &Plan, doc: &PlanJson, waypoints: usize) {
         "mission {}: {waypoints} waypoints, legs priced with the {} profile ({convention})",
         doc.mission, doc.profile
     );
+    if let Some(line) = mission.fence_line() {
+        println!("{line}");
+    }
     println!(
         "{:<10} {:<9} {:>10} {:>12} {:>10} {:>9}  sequence",
         "objective", "direction", "distance_m", "horizontal_m", "vertical_m", "energy_kj"

@@ -6,7 +6,8 @@
 
 use std::path::Path;
 
-use super::{load_str, to_string, Format, Mission, MissionError};
+use super::fence::{LatLon, RallyPoint, Shape};
+use super::{load_str, to_string, Format, Geodetic, Mission, MissionError};
 
 /// One setting the conversion would not carry over as it is.
 #[derive(Debug, Clone, PartialEq)]
@@ -44,6 +45,11 @@ const TIME_TOLERANCE_S: f64 = 1e-3;
 /// setting that file would not give back.
 pub fn convert(mission: &Mission, output: &Path) -> Result<(String, Vec<Loss>), MissionError> {
     let format = Format::from_path(output)?;
+    if format == Format::Wpl {
+        if let Some(e) = mission.cannot_be_wpl(&output.display().to_string()) {
+            return Err(e);
+        }
+    }
     let text = to_string(mission, format)?;
     let back = load_str(&text, format, Some(output))?;
     Ok((text, losses(mission, &back)))
@@ -163,6 +169,7 @@ pub fn losses(original: &Mission, converted: &Mission) -> Vec<Loss> {
             });
         }
     }
+    fence_losses(&mut out, original, converted);
     if original.name != converted.name {
         out.push(Loss {
             setting: "name".into(),
@@ -178,6 +185,153 @@ pub fn losses(original: &Mission, converted: &Mission) -> Vec<Loss> {
         });
     }
     out
+}
+
+/// The fence's zones (in the order the formats write them: polygons, then circles), its
+/// breach return point and the rally points, compared in the original's local frame.
+fn fence_losses(out: &mut Vec<Loss>, original: &Mission, converted: &Mission) {
+    let origin = &original.origin;
+    let ordered = |m: &Mission| {
+        let (polygons, circles): (Vec<_>, Vec<_>) = m
+            .fence
+            .zones
+            .iter()
+            .cloned()
+            .partition(|z| matches!(z.shape, Shape::Polygon(_)));
+        polygons.into_iter().chain(circles).collect::<Vec<_>>()
+    };
+    let (a, b) = (ordered(original), ordered(converted));
+    let moved = |p: &LatLon, q: &LatLon| {
+        let at = |l: &LatLon| {
+            origin.to_enu(Geodetic {
+                lat_deg: l.lat_deg,
+                lon_deg: l.lon_deg,
+                alt_m: origin.home.alt_m,
+            })
+        };
+        let (p, q) = (at(p), at(q));
+        (p.x_east_m - q.x_east_m).hypot(p.y_north_m - q.y_north_m)
+    };
+    for (k, (z, y)) in a.iter().zip(&b).enumerate() {
+        let what = z.describe(k + 1);
+        if z.inclusion != y.inclusion
+            || std::mem::discriminant(&z.shape) != std::mem::discriminant(&y.shape)
+        {
+            out.push(Loss {
+                setting: format!("fence zone {}", k + 1),
+                from: what.clone(),
+                to: y.describe(k + 1),
+            });
+            continue;
+        }
+        match (&z.shape, &y.shape) {
+            (Shape::Polygon(p), Shape::Polygon(q)) => {
+                if p.len() != q.len() {
+                    out.push(Loss {
+                        setting: format!("{what} vertices (count)"),
+                        from: p.len().to_string(),
+                        to: q.len().to_string(),
+                    });
+                    continue;
+                }
+                for (i, (u, v)) in p.iter().zip(q).enumerate() {
+                    number(
+                        out,
+                        format!("{what} vertex {} (moved, m)", i + 1),
+                        0.0,
+                        moved(u, v),
+                        POSITION_TOLERANCE_M,
+                    );
+                }
+            }
+            (
+                Shape::Circle {
+                    center: c,
+                    radius_m: r,
+                },
+                Shape::Circle {
+                    center: d,
+                    radius_m: s,
+                },
+            ) => {
+                number(
+                    out,
+                    format!("{what} center (moved, m)"),
+                    0.0,
+                    moved(c, d),
+                    POSITION_TOLERANCE_M,
+                );
+                number(
+                    out,
+                    format!("{what} radius_m"),
+                    *r,
+                    *s,
+                    POSITION_TOLERANCE_M,
+                );
+            }
+            _ => {}
+        }
+    }
+    if a.len() != b.len() {
+        out.push(Loss {
+            setting: "fence zones (count)".into(),
+            from: a.len().to_string(),
+            to: b.len().to_string(),
+        });
+    }
+    let local = |m: &Mission, g: Geodetic| {
+        origin.to_enu(Geodetic {
+            alt_m: m.origin.home.alt_m + g.alt_m,
+            ..g
+        })
+    };
+    let distance = |p: super::Enu, q: super::Enu| {
+        ((p.x_east_m - q.x_east_m).powi(2)
+            + (p.y_north_m - q.y_north_m).powi(2)
+            + (p.z_up_m - q.z_up_m).powi(2))
+        .sqrt()
+    };
+    match (original.fence.breach_return, converted.fence.breach_return) {
+        (Some(p), Some(q)) => number(
+            out,
+            "fence breach_return (moved, m)".into(),
+            0.0,
+            distance(local(original, p), local(converted, q)),
+            POSITION_TOLERANCE_M,
+        ),
+        (None, None) => {}
+        (p, q) => out.push(Loss {
+            setting: "fence breach_return".into(),
+            from: if p.is_some() { "a point" } else { "none" }.into(),
+            to: if q.is_some() { "a point" } else { "none" }.into(),
+        }),
+    }
+    let rally_point = |m: &Mission, r: &RallyPoint| {
+        local(
+            m,
+            Geodetic {
+                lat_deg: r.lat_deg,
+                lon_deg: r.lon_deg,
+                alt_m: r.alt_above_home_m,
+            },
+        )
+    };
+    for (k, (r, s)) in original.rally.iter().zip(&converted.rally).enumerate() {
+        number(
+            out,
+            format!("rally point {} (moved, m)", k + 1),
+            0.0,
+            distance(rally_point(original, r), rally_point(converted, s)),
+            POSITION_TOLERANCE_M,
+        );
+    }
+    if original.rally.len() != converted.rally.len() {
+        out.push(Loss {
+            setting: "rally points (count)".into(),
+            from: original.rally.len().to_string(),
+            to: converted.rally.len().to_string(),
+        });
+    }
 }
 
 #[cfg(test)]
@@ -229,6 +383,16 @@ mod tests {
             let stem = file.file_stem().unwrap().to_str().unwrap().to_string();
             for ext in ["toml", "plan", "waypoints"] {
                 let out = Path::new("/converted").join(format!("{stem}.{ext}"));
+                if ext == "waypoints" && m.cannot_be_wpl("").is_some() {
+                    // A fence or rally points: refused, naming the file and what it would lose.
+                    let refused = convert(&m, &out).unwrap_err().to_string();
+                    assert!(
+                        refused.starts_with(&format!("{}: a .waypoints file", out.display()))
+                            && refused.contains("nothing written"),
+                        "{refused}"
+                    );
+                    continue;
+                }
                 let (text, lost) = convert(&m, &out).unwrap();
                 let there = load_str(&text, Format::from_path(&out).unwrap(), Some(&out)).unwrap();
                 if ext == "waypoints" {

@@ -39,7 +39,9 @@ pub struct Zone {
 }
 
 /// A mission's geofence: its zones, and where ArduPilot goes on a breach (QGroundControl's
-/// `breachReturn`, ArduPilot's fence return point), if the file gives one.
+/// `breachReturn`, ArduPilot's fence return point), if the file gives one. The breach return's
+/// `alt_m` is its altitude above home (QGroundControl sends it in
+/// `MAV_FRAME_GLOBAL_RELATIVE_ALT`).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Fence {
     pub zones: Vec<Zone>,
@@ -51,6 +53,74 @@ impl Fence {
     pub fn is_empty(&self) -> bool {
         self.zones.is_empty()
     }
+
+    /// The first zone (its 0-based index) whose rule the point (east, north, in `origin`'s
+    /// frame) breaks: outside an inclusion zone or inside an exclusion zone; None when the point
+    /// keeps them all.
+    ///
+    /// With several inclusion zones the point must be inside every one of them. ArduPilot's
+    /// `AC_PolyFence_loader::breached` (libraries/AC_Fence) counts a breach when the vehicle is
+    /// outside any inclusion zone (their intersection) unless `FENCE_OPTIONS` asks for their
+    /// union (`INCLUSION_UNION`); PX4's `Geofence::isInsidePolygonOrCircle`
+    /// (src/modules/navigator/geofence.cpp) asks only for one (their union). Inside every
+    /// inclusion zone is inside the fence on both autopilots, whatever their settings, so that
+    /// is the rule emplan checks a mission against.
+    pub fn zone_broken_by(&self, origin: &Origin, p: [f64; 2]) -> Option<usize> {
+        self.zones
+            .iter()
+            .position(|zone| zone.local(origin).violated_by(p))
+    }
+
+    /// "1 inclusion polygon (7 vertices), 1 exclusion polygon (4 vertices)": what the fence
+    /// holds, zones of a kind together in the order they first appear, and its breach return
+    /// point if it has one ("none" for an empty fence).
+    pub fn summary(&self) -> String {
+        let mut kinds: Vec<(bool, bool, Vec<usize>)> = Vec::new();
+        for zone in &self.zones {
+            let (polygon, vertices) = match &zone.shape {
+                Shape::Polygon(v) => (true, v.len()),
+                Shape::Circle { .. } => (false, 0),
+            };
+            match kinds
+                .iter_mut()
+                .find(|(i, p, _)| *i == zone.inclusion && *p == polygon)
+            {
+                Some((_, _, counts)) => counts.push(vertices),
+                None => kinds.push((zone.inclusion, polygon, vec![vertices])),
+            }
+        }
+        let mut parts: Vec<String> = kinds
+            .iter()
+            .map(|(inclusion, polygon, counts)| {
+                let kind = if *inclusion { "inclusion" } else { "exclusion" };
+                let n = counts.len();
+                let plural = if n == 1 { "" } else { "s" };
+                if *polygon {
+                    let listed: Vec<String> = counts.iter().map(usize::to_string).collect();
+                    format!(
+                        "{n} {kind} polygon{plural} ({} vertices)",
+                        listed.join(", ")
+                    )
+                } else {
+                    format!("{n} {kind} circle{plural}")
+                }
+            })
+            .collect();
+        if self.breach_return.is_some() {
+            parts.push("a breach return point".to_string());
+        }
+        if parts.is_empty() {
+            "none".to_string()
+        } else {
+            parts.join(", ")
+        }
+    }
+}
+
+/// "1 rally point", "3 rally points".
+pub fn rally_summary(rally: &[RallyPoint]) -> String {
+    let n = rally.len();
+    format!("{n} rally point{}", if n == 1 { "" } else { "s" })
 }
 
 /// A rally point: where an autopilot may return to instead of home (altitude above home).
@@ -128,6 +198,32 @@ impl Zone {
 }
 
 impl LocalZone {
+    /// The first two edges of a polygon that cross or touch, other than neighbours at the
+    /// vertex they share: `(i, j)`, edge `i` running from vertex `i` to vertex `i + 1` (the last
+    /// edge closes the polygon). None for a simple polygon and for a circle.
+    pub fn crossing_edges(&self) -> Option<(usize, usize)> {
+        let LocalShape::Polygon(v) = &self.shape else {
+            return None;
+        };
+        let n = v.len();
+        if n < 4 {
+            return None;
+        }
+        let edge = |i: usize| (v[i], v[(i + 1) % n]);
+        for i in 0..n {
+            for j in i + 2..n {
+                if i == 0 && j == n - 1 {
+                    continue;
+                }
+                let ((a, b), (c, d)) = (edge(i), edge(j));
+                if segment_segment_distance_m(a, b, c, d) <= 1e-9 {
+                    return Some((i, j));
+                }
+            }
+        }
+        None
+    }
+
     /// True when the point (east, north) lies inside the zone's shape (its boundary counts as
     /// inside). Polygons by the even-odd rule.
     pub fn contains(&self, p: [f64; 2]) -> bool {

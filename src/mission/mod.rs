@@ -9,6 +9,8 @@
 pub mod actions;
 pub mod convert;
 pub mod fence;
+#[cfg(test)]
+mod fence_tests;
 pub mod geodesy;
 mod qgc_plan;
 pub mod rehome;
@@ -194,6 +196,9 @@ pub enum Place {
     Line(usize),
     /// A 0-based item of a `.plan` mission's `items` array.
     Item(usize),
+    /// A field of a `.plan` file outside the mission's items, as a path
+    /// (`geoFence.polygons[1].polygon[3]`).
+    Field(String),
 }
 
 impl fmt::Display for Place {
@@ -202,6 +207,7 @@ impl fmt::Display for Place {
             Place::File => Ok(()),
             Place::Line(n) => write!(f, " line {n}:"),
             Place::Item(k) => write!(f, " mission item {k}:"),
+            Place::Field(path) => write!(f, " {path}:"),
         }
     }
 }
@@ -287,12 +293,17 @@ pub fn load_str(
     Ok(mission)
 }
 
-/// A mission rendered in one format.
+/// A mission rendered in one format. A `.waypoints` file holds mission items only: a
+/// mission with a geofence or rally points is refused rather than written without them
+/// ([`Mission::cannot_be_wpl`]).
 pub fn to_string(mission: &Mission, format: Format) -> Result<String, MissionError> {
     match format {
         Format::Toml => toml_format::write(mission),
         Format::QgcPlan => Ok(qgc_plan::write(mission)),
-        Format::Wpl => Ok(wpl::write(mission)),
+        Format::Wpl => match mission.cannot_be_wpl(&mission.name) {
+            Some(e) => Err(e),
+            None => Ok(wpl::write(mission)),
+        },
     }
 }
 
@@ -319,6 +330,31 @@ struct RawWaypoint {
     place: Place,
 }
 
+/// A fence zone as read from a file, with where it was given.
+#[derive(Debug, Clone)]
+struct RawZone {
+    zone: fence::Zone,
+    /// The zone's place: a line, or its `.plan` field (`geoFence.polygons[1]`).
+    place: Place,
+    /// The key its vertices are listed under (`polygon` in a `.plan`, `vertices_deg` or
+    /// `vertices_m` in TOML), to name a vertex (`polygon[3]`).
+    vertices_key: &'static str,
+}
+
+impl RawZone {
+    /// Where vertex `k` (0-based) is, and the words that name it after the zone's: a `.plan`
+    /// field path names it in full; a TOML line needs its index in the message.
+    fn vertex(&self, k: usize) -> (Place, String) {
+        match &self.place {
+            Place::Field(path) => (
+                Place::Field(format!("{path}.{}[{k}]", self.vertices_key)),
+                String::new(),
+            ),
+            other => (other.clone(), format!(" {}[{k}]", self.vertices_key)),
+        }
+    }
+}
+
 /// A mission as read from a file, before validation.
 #[derive(Debug, Clone)]
 struct RawMission {
@@ -330,8 +366,12 @@ struct RawMission {
     waypoints: Vec<RawWaypoint>,
     start_actions: Vec<(actions::Command, Place)>,
     pois: Vec<Poi>,
-    fence: fence::Fence,
-    rally: Vec<fence::RallyPoint>,
+    /// The fence's zones, in file order (a `.plan`'s polygons, then its circles).
+    zones: Vec<RawZone>,
+    /// The fence's breach return point (altitude above home), with its place.
+    breach_return: Option<(Geodetic, Place)>,
+    /// The rally points, each with its place.
+    rally: Vec<(fence::RallyPoint, Place)>,
     /// Where the origin and the mission-level fields are defined.
     place: Place,
 }
@@ -439,6 +479,7 @@ impl RawMission {
         };
         let mut names = HashSet::new();
         let mut waypoints = Vec::with_capacity(self.waypoints.len());
+        let raw_places: Vec<Place> = self.waypoints.iter().map(|w| w.place.clone()).collect();
         for w in self.waypoints {
             let what = format!("waypoint {:?}", w.name);
             if w.name.trim().is_empty() {
@@ -523,6 +564,29 @@ impl RawMission {
             });
         }
         let start_actions = check_actions(file, "the start", self.start_actions)?;
+        let fence = check_fence(file, &origin, self.zones, self.breach_return)?;
+        let rally = check_rally(file, &origin, &fence, self.rally)?;
+        for (w, raw_place) in waypoints.iter().zip(&raw_places) {
+            let p = [w.position.x_east_m, w.position.y_north_m];
+            if let Some(k) = fence.zone_broken_by(&origin, p) {
+                return Err(breaks(
+                    file,
+                    raw_place.clone(),
+                    &format!("waypoint {:?}", w.name),
+                    &fence.zones[k],
+                    k,
+                ));
+            }
+        }
+        if let Some(k) = fence.zone_broken_by(&origin, [0.0, 0.0]) {
+            return Err(breaks(
+                file,
+                place.clone(),
+                "the take-off point above home",
+                &fence.zones[k],
+                k,
+            ));
+        }
         for poi in &self.pois {
             check_lat_lon(
                 file,
@@ -546,11 +610,138 @@ impl RawMission {
             min_height_above_home_m: self.min_height_above_home_m,
             start_actions,
             pois: self.pois,
-            fence: self.fence,
-            rally: self.rally,
+            fence,
+            rally,
             source: None,
         })
     }
+}
+
+/// The error of a point that breaks zone `k` of the fence (0-based): inside an exclusion zone
+/// or outside an inclusion zone.
+fn breaks(file: &str, place: Place, what: &str, zone: &fence::Zone, k: usize) -> MissionError {
+    let (lies, rule) = if zone.inclusion {
+        ("outside", "inside every inclusion zone")
+    } else {
+        ("inside", "outside every exclusion zone")
+    };
+    MissionError::invalid(
+        file,
+        place,
+        format!(
+            "{what} lies {lies} {} of the geofence (it must be {rule})",
+            zone.describe(k + 1)
+        ),
+    )
+}
+
+/// Checks every zone (polygons of at least 3 vertices in range that do not cross themselves,
+/// circles of a positive radius round a valid centre) and the breach return point, and
+/// returns the fence.
+fn check_fence(
+    file: &str,
+    origin: &Origin,
+    zones: Vec<RawZone>,
+    breach_return: Option<(Geodetic, Place)>,
+) -> Result<fence::Fence, MissionError> {
+    for (k, raw) in zones.iter().enumerate() {
+        let what = raw.zone.describe(k + 1);
+        match &raw.zone.shape {
+            fence::Shape::Polygon(vertices) => {
+                if vertices.len() < 3 {
+                    return Err(MissionError::invalid(
+                        file,
+                        raw.place.clone(),
+                        format!(
+                            "{what}: {} vertices (a polygon needs at least 3)",
+                            vertices.len()
+                        ),
+                    ));
+                }
+                for (i, v) in vertices.iter().enumerate() {
+                    let (place, named) = raw.vertex(i);
+                    check_lat_lon(
+                        file,
+                        &place,
+                        &format!("{what}{named}"),
+                        v.lat_deg,
+                        v.lon_deg,
+                    )?;
+                }
+                if let Some((i, j)) = raw.zone.local(origin).crossing_edges() {
+                    let n = vertices.len();
+                    let key = raw.vertices_key;
+                    return Err(MissionError::invalid(
+                        file,
+                        raw.place.clone(),
+                        format!(
+                            "{what}: its edge {key}[{i}]-{key}[{}] crosses its edge \
+                             {key}[{j}]-{key}[{}] (a fence polygon must not cross itself)",
+                            (i + 1) % n,
+                            (j + 1) % n
+                        ),
+                    ));
+                }
+            }
+            fence::Shape::Circle { center, radius_m } => {
+                check_lat_lon(
+                    file,
+                    &raw.place,
+                    &format!("{what} center"),
+                    center.lat_deg,
+                    center.lon_deg,
+                )?;
+                if !(radius_m.is_finite() && *radius_m > 0.0) {
+                    return Err(MissionError::invalid(
+                        file,
+                        raw.place.clone(),
+                        format!(
+                            "{what}: radius_m {radius_m} is not allowed (a positive number is \
+                             required)"
+                        ),
+                    ));
+                }
+            }
+        }
+    }
+    let breach_return = match breach_return {
+        Some((g, place)) => {
+            check_lat_lon(file, &place, "breach return", g.lat_deg, g.lon_deg)?;
+            finite(file, &place, "breach return alt_above_home_m", g.alt_m)?;
+            Some(g)
+        }
+        None => None,
+    };
+    Ok(fence::Fence {
+        zones: zones.into_iter().map(|raw| raw.zone).collect(),
+        breach_return,
+    })
+}
+
+/// Checks every rally point (a valid, finite position that keeps the fence) and returns them.
+fn check_rally(
+    file: &str,
+    origin: &Origin,
+    fence: &fence::Fence,
+    rally: Vec<(fence::RallyPoint, Place)>,
+) -> Result<Vec<fence::RallyPoint>, MissionError> {
+    let mut out = Vec::with_capacity(rally.len());
+    for (k, (r, place)) in rally.into_iter().enumerate() {
+        let what = format!("rally point {}", k + 1);
+        check_lat_lon(file, &place, &what, r.lat_deg, r.lon_deg)?;
+        finite(
+            file,
+            &place,
+            &format!("{what} alt_above_home_m"),
+            r.alt_above_home_m,
+        )?;
+        let p = r.local(origin);
+        if let Some(z) = fence.zone_broken_by(origin, [p.x_east_m, p.y_north_m]) {
+            return Err(breaks(file, place, &what, &fence.zones[z], z));
+        }
+        out.push(r);
+    }
+    Ok(out)
 }
 
 /// Checks each action (a take-able command, finite or empty parameters, a valid position where
@@ -603,6 +794,49 @@ fn check_actions(
 }
 
 impl Mission {
+    /// Why this mission cannot be written as the `.waypoints` file `file` (QGC WPL 110 holds
+    /// mission items only; fence and rally items go up as their own MAVLink mission types): it
+    /// carries a geofence or rally points, which would be lost. None when it can.
+    pub fn cannot_be_wpl(&self, file: &str) -> Option<MissionError> {
+        let fence = !self.fence.is_empty() || self.fence.breach_return.is_some();
+        if !fence && self.rally.is_empty() {
+            return None;
+        }
+        let mut carried = Vec::new();
+        if fence {
+            carried.push(format!("a geofence ({})", self.fence.summary()));
+        }
+        if !self.rally.is_empty() {
+            carried.push(fence::rally_summary(&self.rally));
+        }
+        Some(MissionError::invalid(
+            file,
+            Place::File,
+            format!(
+                "a .waypoints file (QGC WPL 110) cannot hold {}, which mission {} carries; \
+                 nothing written (write a .plan or .toml to keep them)",
+                carried.join(" or "),
+                self.name
+            ),
+        ))
+    }
+
+    /// "fence: 1 inclusion polygon (7 vertices), 1 exclusion polygon (4 vertices); 1 rally
+    /// point": what the mission carries besides its waypoints, in one line (None when it
+    /// carries neither a fence nor rally points).
+    pub fn fence_line(&self) -> Option<String> {
+        let fence = !self.fence.is_empty() || self.fence.breach_return.is_some();
+        if !fence && self.rally.is_empty() {
+            return None;
+        }
+        let rally = if self.rally.is_empty() {
+            "no rally point".to_string()
+        } else {
+            fence::rally_summary(&self.rally)
+        };
+        Some(format!("fence: {}; {rally}", self.fence.summary()))
+    }
+
     /// Every command kept verbatim that emplan does not understand, with the waypoint it
     /// follows (None: the start), for the one warning that lists them.
     pub fn unknown_commands(&self) -> Vec<(Option<&str>, &actions::Command)> {

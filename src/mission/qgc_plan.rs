@@ -5,14 +5,27 @@
 //! mission. Complex items (surveys, scans) are rejected, naming the item.
 //! Waypoint and point-of-interest names, which QGC has no field for, travel in a top-level
 //! `emplan` object QGC ignores.
+//!
+//! The geofence and the rally points are QGroundControl's (`GeoFenceController`,
+//! `QGCFencePolygon`, `QGCFenceCircle`, `QGCMapCircle`, `RallyPointController` and
+//! `RallyPointManager` of its MissionManager): `geoFence` is `{"version": 2, "polygons":
+//! [{"version": 1, "inclusion": bool, "polygon": [[lat, lon], ...]}], "circles": [{"version":
+//! 1, "inclusion": bool, "circle": {"center": [lat, lon], "radius": m}}], "breachReturn":
+//! [lat, lon, alt]}` (`breachReturn` optional), `rallyPoints` is `{"version": 2, "points":
+//! [[lat, lon, alt], ...]}`. QGroundControl uploads rally points and the breach return point
+//! in `MAV_FRAME_GLOBAL_RELATIVE_ALT`, so their altitudes are above home. Like QGroundControl,
+//! a `geoFence` or `rallyPoints` of version 1 or none is the old format and is ignored, but
+//! only when it holds nothing (emplan never drops a zone silently); any other version is
+//! refused.
 
 use serde_json::{json, Value};
 
 use super::actions::{Command, FRAME_GLOBAL_RELATIVE_ALT, FRAME_MISSION};
+use super::fence::{LatLon, RallyPoint, Shape, Zone};
 use super::sequence::{self, Item};
 use super::{
-    Geodetic, Mission, MissionError, Place, Poi, RawMission, DEFAULT_MIN_HEIGHT_ABOVE_HOME_M,
-    DEFAULT_TAKEOFF_HEIGHT_M,
+    Geodetic, Mission, MissionError, Place, Poi, RawMission, RawZone,
+    DEFAULT_MIN_HEIGHT_ABOVE_HOME_M, DEFAULT_TAKEOFF_HEIGHT_M,
 };
 
 /// MAV_CMD ids (common.xml) of the items emplan writes itself.
@@ -158,6 +171,8 @@ pub(super) fn parse(text: &str, file: &str, stem: &str) -> Result<RawMission, Mi
                 .collect()
         })
         .unwrap_or_default();
+    let (zones, breach_return) = geofence(root.get("geoFence"), file)?;
+    let rally = rally_points(root.get("rallyPoints"), file)?;
     let extra_f64 = |key: &str| extra.and_then(|e| e.get(key)).and_then(Value::as_f64);
     Ok(RawMission {
         name: extra
@@ -177,10 +192,272 @@ pub(super) fn parse(text: &str, file: &str, stem: &str) -> Result<RawMission, Mi
         waypoints: seq.waypoints,
         start_actions: seq.start_actions,
         pois,
-        fence: Default::default(),
-        rally: Vec::new(),
+        zones,
+        breach_return,
+        rally,
         place: Place::File,
     })
+}
+
+/// The error at `.plan` field `path`.
+fn at(file: &str, path: &str, problem: impl Into<String>) -> MissionError {
+    MissionError::invalid(file, Place::Field(path.to_string()), problem)
+}
+
+/// Whether a `geoFence` or `rallyPoints` object is in the current format (version 2); an old
+/// one (version 1 or none) may be ignored only when it holds nothing.
+fn current(object: &Value, key: &str, lists: &[&str], file: &str) -> Result<bool, MissionError> {
+    match object.get("version") {
+        Some(v) if v.as_u64() == Some(2) => Ok(true),
+        None => old(object, key, "none", lists, file),
+        Some(v) if v.as_u64() == Some(1) => old(object, key, "1", lists, file),
+        Some(v) => Err(at(
+            file,
+            &format!("{key}.version"),
+            format!("{v} is not supported (allowed: 2, QGroundControl's)"),
+        )),
+    }
+}
+
+fn old(
+    object: &Value,
+    key: &str,
+    version: &str,
+    lists: &[&str],
+    file: &str,
+) -> Result<bool, MissionError> {
+    let holds = lists.iter().any(|list| {
+        object
+            .get(*list)
+            .and_then(Value::as_array)
+            .is_some_and(|a| !a.is_empty())
+    });
+    if holds {
+        Err(at(
+            file,
+            &format!("{key}.version"),
+            format!(
+                "version {version} is QGroundControl's old format, which it ignores; this one \
+                 holds {}, so it is refused rather than dropped (allowed: version 2)",
+                lists.join(" or ")
+            ),
+        ))
+    } else {
+        Ok(false)
+    }
+}
+
+/// `[lat, lon]` or `[lat, lon, alt]` (QGroundControl's coordinate arrays; JSON null is NaN,
+/// refused by validation); `with_alt` asks for the altitude.
+fn coordinate(value: Option<&Value>, with_alt: bool) -> Option<[f64; 3]> {
+    let a = value?.as_array()?;
+    let allowed = if with_alt { 3..=3 } else { 2..=3 };
+    if !allowed.contains(&a.len()) {
+        return None;
+    }
+    let n = |k: usize| a.get(k).map_or(Some(0.0), number);
+    Some([n(0)?, n(1)?, n(2)?])
+}
+
+/// The array at `object[key]` (required).
+fn array<'a>(
+    object: &'a Value,
+    key: &str,
+    path: &str,
+    file: &str,
+) -> Result<&'a [Value], MissionError> {
+    object
+        .get(key)
+        .and_then(Value::as_array)
+        .map(Vec::as_slice)
+        .ok_or_else(|| at(file, &format!("{path}.{key}"), "missing or not an array"))
+}
+
+/// A zone's `version` (1) and `inclusion`.
+fn zone_header(zone: &Value, path: &str, file: &str) -> Result<bool, MissionError> {
+    if !zone.is_object() {
+        return Err(at(file, path, "not an object"));
+    }
+    match zone.get("version").and_then(Value::as_u64) {
+        Some(1) => {}
+        _ => {
+            return Err(at(
+                file,
+                &format!("{path}.version"),
+                "missing or not 1 (QGroundControl's fence zones are version 1)",
+            ))
+        }
+    }
+    zone.get("inclusion")
+        .and_then(Value::as_bool)
+        .ok_or_else(|| {
+            at(
+                file,
+                &format!("{path}.inclusion"),
+                "missing or not true or false",
+            )
+        })
+}
+
+/// The zones (polygons, then circles) and the breach return point of a `geoFence` object.
+#[allow(clippy::type_complexity)]
+fn geofence(
+    fence: Option<&Value>,
+    file: &str,
+) -> Result<(Vec<RawZone>, Option<(Geodetic, Place)>), MissionError> {
+    let Some(fence) = fence else {
+        return Ok((Vec::new(), None));
+    };
+    if !fence.is_object() {
+        return Err(at(file, "geoFence", "not an object"));
+    }
+    if !current(fence, "geoFence", &["polygons", "circles"], file)? {
+        return Ok((Vec::new(), None));
+    }
+    let mut zones = Vec::new();
+    for (k, polygon) in array(fence, "polygons", "geoFence", file)?
+        .iter()
+        .enumerate()
+    {
+        let path = format!("geoFence.polygons[{k}]");
+        let inclusion = zone_header(polygon, &path, file)?;
+        let mut vertices = Vec::new();
+        for (i, v) in array(polygon, "polygon", &path, file)?.iter().enumerate() {
+            let [lat_deg, lon_deg, _] = coordinate(Some(v), false).ok_or_else(|| {
+                at(
+                    file,
+                    &format!("{path}.polygon[{i}]"),
+                    "must be [lat_deg, lon_deg]",
+                )
+            })?;
+            vertices.push(LatLon { lat_deg, lon_deg });
+        }
+        zones.push(RawZone {
+            zone: Zone {
+                inclusion,
+                shape: Shape::Polygon(vertices),
+            },
+            place: Place::Field(path),
+            vertices_key: "polygon",
+        });
+    }
+    for (k, circle) in array(fence, "circles", "geoFence", file)?
+        .iter()
+        .enumerate()
+    {
+        let path = format!("geoFence.circles[{k}]");
+        let inclusion = zone_header(circle, &path, file)?;
+        let shape = circle
+            .get("circle")
+            .filter(|c| c.is_object())
+            .ok_or_else(|| at(file, &format!("{path}.circle"), "missing or not an object"))?;
+        let [lat_deg, lon_deg, _] = coordinate(shape.get("center"), false).ok_or_else(|| {
+            at(
+                file,
+                &format!("{path}.circle.center"),
+                "missing or not [lat_deg, lon_deg]",
+            )
+        })?;
+        let radius_m = shape.get("radius").and_then(number).ok_or_else(|| {
+            at(
+                file,
+                &format!("{path}.circle.radius"),
+                "missing or not a number (metres)",
+            )
+        })?;
+        zones.push(RawZone {
+            zone: Zone {
+                inclusion,
+                shape: Shape::Circle {
+                    center: LatLon { lat_deg, lon_deg },
+                    radius_m,
+                },
+            },
+            place: Place::Field(path),
+            vertices_key: "polygon",
+        });
+    }
+    let breach_return = match fence.get("breachReturn") {
+        None => None,
+        Some(v) => {
+            let [lat_deg, lon_deg, alt_m] = coordinate(Some(v), true).ok_or_else(|| {
+                at(
+                    file,
+                    "geoFence.breachReturn",
+                    "must be [lat_deg, lon_deg, alt_above_home_m]",
+                )
+            })?;
+            Some((
+                Geodetic {
+                    lat_deg,
+                    lon_deg,
+                    alt_m,
+                },
+                Place::Field("geoFence.breachReturn".into()),
+            ))
+        }
+    };
+    Ok((zones, breach_return))
+}
+
+/// The rally points of a `rallyPoints` object (altitudes above home).
+fn rally_points(
+    rally: Option<&Value>,
+    file: &str,
+) -> Result<Vec<(RallyPoint, Place)>, MissionError> {
+    let Some(rally) = rally else {
+        return Ok(Vec::new());
+    };
+    if !rally.is_object() {
+        return Err(at(file, "rallyPoints", "not an object"));
+    }
+    if !current(rally, "rallyPoints", &["points"], file)? {
+        return Ok(Vec::new());
+    }
+    let mut out = Vec::new();
+    for (k, p) in array(rally, "points", "rallyPoints", file)?
+        .iter()
+        .enumerate()
+    {
+        let path = format!("rallyPoints.points[{k}]");
+        let [lat_deg, lon_deg, alt_above_home_m] = coordinate(Some(p), true)
+            .ok_or_else(|| at(file, &path, "must be [lat_deg, lon_deg, alt_above_home_m]"))?;
+        out.push((
+            RallyPoint {
+                lat_deg,
+                lon_deg,
+                alt_above_home_m,
+            },
+            Place::Field(path),
+        ));
+    }
+    Ok(out)
+}
+
+/// The `geoFence` object of a mission: polygons and circles in the fence's order.
+fn geofence_json(mission: &Mission) -> Value {
+    let lat_lon = |p: &LatLon| json!([p.lat_deg, p.lon_deg]);
+    let mut polygons = Vec::new();
+    let mut circles = Vec::new();
+    for zone in &mission.fence.zones {
+        match &zone.shape {
+            Shape::Polygon(vertices) => polygons.push(json!({
+                "version": 1,
+                "inclusion": zone.inclusion,
+                "polygon": vertices.iter().map(lat_lon).collect::<Vec<_>>(),
+            })),
+            Shape::Circle { center, radius_m } => circles.push(json!({
+                "version": 1,
+                "inclusion": zone.inclusion,
+                "circle": { "center": lat_lon(center), "radius": radius_m },
+            })),
+        }
+    }
+    let mut fence = json!({ "version": 2, "circles": circles, "polygons": polygons });
+    if let Some(g) = mission.fence.breach_return {
+        fence["breachReturn"] = json!([g.lat_deg, g.lon_deg, g.alt_m]);
+    }
+    fence
 }
 
 fn simple_item(id: usize, command: u64, frame: u64, params: [Value; 7]) -> Value {
@@ -292,8 +569,11 @@ pub(super) fn write(mission: &Mission) -> String {
             "plannedHomePosition": [home.lat_deg, home.lon_deg, home.alt_m],
             "items": items,
         },
-        "geoFence": { "version": 2, "circles": [], "polygons": [] },
-        "rallyPoints": { "version": 2, "points": [] },
+        "geoFence": geofence_json(mission),
+        "rallyPoints": {
+            "version": 2,
+            "points": mission.rally.iter().map(|r| json!([r.lat_deg, r.lon_deg, r.alt_above_home_m])).collect::<Vec<_>>(),
+        },
         "emplan": {
             "name": mission.name,
             "default_hover_s": mission.default_hover_s,

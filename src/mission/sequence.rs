@@ -162,6 +162,7 @@ fn describe(place: &Place) -> String {
         Place::File => "the file".into(),
         Place::Line(n) => format!("line {n}"),
         Place::Item(k) => format!("mission item {k}"),
+        Place::Field(path) => path.clone(),
     }
 }
 

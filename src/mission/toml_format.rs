@@ -7,14 +7,21 @@
 //! readable key or a raw command (`command`, `frame`, `params`). `roi` names a `[[pois]]` point of
 //! interest (`roi = "none"` clears it). The writer uses the shorthand keys when they say exactly
 //! what the waypoint carries, else the ordered list: nothing is lost.
+//!
+//! The geofence is `[[fence.polygons]]` (`inclusion`, and `vertices_deg = [[lat, lon], ...]`
+//! or `vertices_m = [[x, y], ...]` east and north of the origin), `[[fence.circles]]`
+//! (`inclusion`, `radius_m`, a centre as `lat_deg`/`lon_deg` or `x_m`/`y_m`) and an optional
+//! `[fence.breach_return]`; the rally points are `[[rally_points]]`; a point is placed as a
+//! waypoint is. The writer gives them all geodetically, as the fence is kept.
 
 use serde::{Deserialize, Serialize};
 use toml::Spanned;
 
 use super::actions::{id, Command, FRAME_GLOBAL_RELATIVE_ALT, FRAME_MISSION};
+use super::fence::{LatLon, RallyPoint, Shape, Zone};
 use super::{
     line_of, Enu, Geodetic, Mission, MissionError, Origin, Place, Poi, RawMission, RawPosition,
-    RawWaypoint, WaypointKind, DEFAULT_MIN_HEIGHT_ABOVE_HOME_M,
+    RawWaypoint, RawZone, WaypointKind, DEFAULT_MIN_HEIGHT_ABOVE_HOME_M,
 };
 
 #[derive(Deserialize)]
@@ -30,6 +37,66 @@ struct FileMission {
     pois: Vec<Spanned<FilePoi>>,
     #[serde(default)]
     waypoints: Vec<Spanned<FileWaypoint>>,
+    fence: Option<FileFence>,
+    #[serde(default)]
+    rally_points: Vec<Spanned<FilePoint>>,
+}
+
+/// The geofence: its polygons, its circles and where ArduPilot returns to on a breach.
+#[derive(Deserialize, Serialize, Default)]
+#[serde(deny_unknown_fields)]
+struct FileFence {
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    polygons: Vec<Spanned<FilePolygon>>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    circles: Vec<Spanned<FileCircle>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    breach_return: Option<Spanned<FilePoint>>,
+}
+
+/// A fence polygon: its vertices as latitude and longitude, or east and north of the origin.
+#[derive(Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+struct FilePolygon {
+    inclusion: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    vertices_deg: Option<Vec<[f64; 2]>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    vertices_m: Option<Vec<[f64; 2]>>,
+}
+
+/// A fence circle: its radius and its centre (latitude and longitude, or east and north).
+#[derive(Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+struct FileCircle {
+    inclusion: bool,
+    radius_m: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    lat_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    lon_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    x_m: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    y_m: Option<f64>,
+}
+
+/// A rally point or a breach return point, placed as a waypoint is.
+#[derive(Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+struct FilePoint {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    x_m: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    y_m: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    z_m: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    lat_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    lon_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    alt_above_home_m: Option<f64>,
 }
 
 /// A point of interest: a name and a position (ENU metres or latitude, longitude, altitude
@@ -276,6 +343,117 @@ pub(super) fn parse(text: &str, file: &str) -> Result<RawMission, MissionError> 
             place,
         });
     }
+    let fence = parsed.fence.unwrap_or_default();
+    let mut zones = Vec::new();
+    for spanned in fence.polygons {
+        let place = Place::Line(line_of(text, spanned.span().start));
+        let p = spanned.into_inner();
+        let what = format!("fence polygon {}", zones.len() + 1);
+        let (vertices, vertices_key) = match (p.vertices_deg, p.vertices_m) {
+            (Some(deg), None) => (
+                deg.iter()
+                    .map(|&[lat_deg, lon_deg]| LatLon { lat_deg, lon_deg })
+                    .collect(),
+                "vertices_deg",
+            ),
+            (None, Some(m)) => {
+                let mut vertices = Vec::with_capacity(m.len());
+                for (k, &[x, y]) in m.iter().enumerate() {
+                    vertices.push(local_lat_lon(
+                        file,
+                        &place,
+                        &format!("{what} vertices_m[{k}]"),
+                        &frame,
+                        x,
+                        y,
+                    )?);
+                }
+                (vertices, "vertices_m")
+            }
+            _ => {
+                return Err(MissionError::invalid(
+                    file,
+                    place,
+                    format!("{what}: give exactly one of vertices_deg or vertices_m"),
+                ))
+            }
+        };
+        zones.push(RawZone {
+            zone: Zone {
+                inclusion: p.inclusion,
+                shape: Shape::Polygon(vertices),
+            },
+            place,
+            vertices_key,
+        });
+    }
+    for spanned in fence.circles {
+        let place = Place::Line(line_of(text, spanned.span().start));
+        let c = spanned.into_inner();
+        let what = format!("fence circle {}", zones.len() + 1);
+        let center = match (c.lat_deg, c.lon_deg, c.x_m, c.y_m) {
+            (Some(lat_deg), Some(lon_deg), None, None) => LatLon { lat_deg, lon_deg },
+            (None, None, Some(x), Some(y)) => {
+                local_lat_lon(file, &place, &format!("{what} center"), &frame, x, y)?
+            }
+            _ => {
+                return Err(MissionError::invalid(
+                    file,
+                    place,
+                    format!(
+                        "{what}: its centre needs exactly one of (lat_deg, lon_deg) or (x_m, y_m)"
+                    ),
+                ))
+            }
+        };
+        zones.push(RawZone {
+            zone: Zone {
+                inclusion: c.inclusion,
+                shape: Shape::Circle {
+                    center,
+                    radius_m: c.radius_m,
+                },
+            },
+            place,
+            vertices_key: "vertices_deg",
+        });
+    }
+    let breach_return = match fence.breach_return {
+        Some(spanned) => {
+            let place = Place::Line(line_of(text, spanned.span().start));
+            let (lat_deg, lon_deg, alt_m) = point(
+                file,
+                &place,
+                "fence breach_return",
+                &frame,
+                spanned.into_inner(),
+            )?;
+            Some((
+                Geodetic {
+                    lat_deg,
+                    lon_deg,
+                    alt_m,
+                },
+                place,
+            ))
+        }
+        None => None,
+    };
+    let mut rally = Vec::with_capacity(parsed.rally_points.len());
+    for spanned in parsed.rally_points {
+        let place = Place::Line(line_of(text, spanned.span().start));
+        let what = format!("rally point {}", rally.len() + 1);
+        let (lat_deg, lon_deg, alt_above_home_m) =
+            point(file, &place, &what, &frame, spanned.into_inner())?;
+        rally.push((
+            RallyPoint {
+                lat_deg,
+                lon_deg,
+                alt_above_home_m,
+            },
+            place,
+        ));
+    }
     Ok(RawMission {
         name: parsed.name.unwrap_or_else(|| "mission".to_string()),
         home: Geodetic {
@@ -291,10 +469,112 @@ pub(super) fn parse(text: &str, file: &str) -> Result<RawMission, MissionError> 
         waypoints,
         start_actions,
         pois,
-        fence: Default::default(),
-        rally: Vec::new(),
+        zones,
+        breach_return,
+        rally,
         place: origin_place,
     })
+}
+
+/// The latitude and longitude of the point `x` east and `y` north of the origin, at the height
+/// of home (where a fence's vertices are).
+fn local_lat_lon(
+    file: &str,
+    place: &Place,
+    what: &str,
+    frame: &Origin,
+    x: f64,
+    y: f64,
+) -> Result<LatLon, MissionError> {
+    super::finite(file, place, &format!("{what} x"), x)?;
+    super::finite(file, place, &format!("{what} y"), y)?;
+    let g = frame.to_geodetic(Enu {
+        x_east_m: x,
+        y_north_m: y,
+        z_up_m: -frame.height_above_home_m,
+    });
+    Ok(LatLon {
+        lat_deg: g.lat_deg,
+        lon_deg: g.lon_deg,
+    })
+}
+
+/// A rally or breach return point: latitude, longitude and altitude above home.
+fn point(
+    file: &str,
+    place: &Place,
+    what: &str,
+    frame: &Origin,
+    p: FilePoint,
+) -> Result<(f64, f64, f64), MissionError> {
+    match position(
+        file,
+        place,
+        what,
+        [p.x_m, p.y_m, p.z_m],
+        [p.lat_deg, p.lon_deg, p.alt_above_home_m],
+    )? {
+        RawPosition::Geodetic {
+            lat_deg,
+            lon_deg,
+            alt_above_home_m,
+        } => Ok((lat_deg, lon_deg, alt_above_home_m)),
+        RawPosition::Enu(e) => {
+            super::finite(file, place, &format!("{what} x_m"), e.x_east_m)?;
+            super::finite(file, place, &format!("{what} y_m"), e.y_north_m)?;
+            super::finite(file, place, &format!("{what} z_m"), e.z_up_m)?;
+            let g = frame.to_geodetic(e);
+            Ok((g.lat_deg, g.lon_deg, g.alt_m - frame.home.alt_m))
+        }
+    }
+}
+
+/// A point as the writer gives it: geodetic.
+fn file_point(lat_deg: f64, lon_deg: f64, alt_above_home_m: f64) -> FilePoint {
+    FilePoint {
+        x_m: None,
+        y_m: None,
+        z_m: None,
+        lat_deg: Some(lat_deg),
+        lon_deg: Some(lon_deg),
+        alt_above_home_m: Some(alt_above_home_m),
+    }
+}
+
+/// The fence as written: polygons and circles geodetically (None for no fence).
+fn file_fence(mission: &Mission) -> Option<FileFence> {
+    let fence = &mission.fence;
+    if fence.is_empty() && fence.breach_return.is_none() {
+        return None;
+    }
+    let mut out = FileFence::default();
+    for zone in &fence.zones {
+        match &zone.shape {
+            Shape::Polygon(vertices) => out.polygons.push(Spanned::new(
+                0..0,
+                FilePolygon {
+                    inclusion: zone.inclusion,
+                    vertices_deg: Some(vertices.iter().map(|v| [v.lat_deg, v.lon_deg]).collect()),
+                    vertices_m: None,
+                },
+            )),
+            Shape::Circle { center, radius_m } => out.circles.push(Spanned::new(
+                0..0,
+                FileCircle {
+                    inclusion: zone.inclusion,
+                    radius_m: *radius_m,
+                    lat_deg: Some(center.lat_deg),
+                    lon_deg: Some(center.lon_deg),
+                    x_m: None,
+                    y_m: None,
+                },
+            )),
+        }
+    }
+    out.breach_return = fence
+        .breach_return
+        .map(|g| Spanned::new(0..0, file_point(g.lat_deg, g.lon_deg, g.alt_m)));
+    Some(out)
 }
 
 /// A position given as exactly one of (x_m, y_m, z_m) or (lat_deg, lon_deg, alt_above_home_m).
@@ -696,6 +976,10 @@ struct WriteMission<'a> {
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pois: Vec<FilePoi>,
     waypoints: Vec<FileWaypoint>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    fence: Option<FileFence>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    rally_points: Vec<FilePoint>,
 }
 
 /// The mission as emplan TOML, waypoints in local ENU metres (full precision).
@@ -768,6 +1052,12 @@ pub(super) fn write(mission: &Mission) -> Result<String, MissionError> {
                     actions,
                 }
             })
+            .collect(),
+        fence: file_fence(mission),
+        rally_points: mission
+            .rally
+            .iter()
+            .map(|r| file_point(r.lat_deg, r.lon_deg, r.alt_above_home_m))
             .collect(),
     };
     toml::to_string(&doc).map_err(|e| {

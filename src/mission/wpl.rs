@@ -155,7 +155,8 @@ pub(super) fn parse(text: &str, file: &str, stem: &str) -> Result<RawMission, Mi
         waypoints: seq.waypoints,
         start_actions: seq.start_actions,
         pois: Vec::new(),
-        fence: Default::default(),
+        zones: Vec::new(),
+        breach_return: None,
         rally: Vec::new(),
         place: Place::File,
     })

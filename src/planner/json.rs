@@ -9,6 +9,8 @@
 use serde::Serialize;
 
 use super::{Flight, Leg, Order, Orders, Plan, Sorties};
+use crate::mission::fence::{LatLon, LocalShape, Shape};
+use crate::mission::{Geodetic, Mission, Origin};
 use crate::physics::{Pricing, Profile};
 use crate::tour::solver::Solver;
 use crate::tour::sorties::Method;
@@ -47,6 +49,62 @@ pub struct PlanJson {
     /// A mission with a fence or rally points: the autopilot's return from each waypoint.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub returns: Option<super::returns::ReturnsJson>,
+    /// The mission's geofence (absent without one; [`mission_document`] fills it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fence: Option<FenceJson>,
+    /// The mission's rally points (absent without any; [`mission_document`] fills them).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub rally_points: Vec<PointJson>,
+}
+
+/// The `"fence"` object: the zones in the fence's order and the breach return point.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FenceJson {
+    pub zones: Vec<ZoneJson>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub breach_return: Option<PointJson>,
+}
+
+/// One zone of the fence.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ZoneJson {
+    /// How errors and reports name it: "exclusion polygon 2" (its 1-based place in `zones`).
+    pub name: String,
+    /// True: the vehicle must stay inside it; false: out of it.
+    pub inclusion: bool,
+    /// "polygon" or "circle".
+    pub shape: &'static str,
+    /// A polygon's vertices in order (the last joins the first).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub vertices: Vec<VertexJson>,
+    /// A circle's centre.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub center: Option<VertexJson>,
+    /// A circle's radius.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub radius_m: Option<f64>,
+}
+
+/// A point of a zone: geodetic and in the mission's local frame (east and north of the
+/// origin, metres).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct VertexJson {
+    pub lat_deg: f64,
+    pub lon_deg: f64,
+    pub x_east_m: f64,
+    pub y_north_m: f64,
+}
+
+/// A rally point or the breach return point: geodetic (altitude above home) and in the
+/// mission's local frame.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PointJson {
+    pub lat_deg: f64,
+    pub lon_deg: f64,
+    pub alt_above_home_m: f64,
+    pub x_east_m: f64,
+    pub y_north_m: f64,
+    pub z_up_m: f64,
 }
 
 /// The actions at one place of the flown order.
@@ -390,7 +448,96 @@ pub fn plan_document(plan: &Plan) -> PlanJson {
         wind: wind_json(plan),
         actions: actions_json(plan),
         returns: plan.returns.as_ref().map(super::returns::Returns::json),
+        fence: None,
+        rally_points: Vec::new(),
     }
+}
+
+/// `emplan plan --json` of `plan` made from `mission`: [`plan_document`] with the fence and
+/// the rally points the mission carries.
+pub fn mission_document(plan: &Plan, mission: &Mission) -> PlanJson {
+    PlanJson {
+        fence: fence_json(mission),
+        rally_points: rally_json(mission),
+        ..plan_document(plan)
+    }
+}
+
+fn point_json(origin: &Origin, lat_deg: f64, lon_deg: f64, alt_above_home_m: f64) -> PointJson {
+    let e = origin.to_enu(Geodetic {
+        lat_deg,
+        lon_deg,
+        alt_m: origin.home.alt_m + alt_above_home_m,
+    });
+    PointJson {
+        lat_deg,
+        lon_deg,
+        alt_above_home_m,
+        x_east_m: e.x_east_m,
+        y_north_m: e.y_north_m,
+        z_up_m: e.z_up_m,
+    }
+}
+
+/// The `"fence"` object: None for a mission without a fence.
+pub fn fence_json(mission: &Mission) -> Option<FenceJson> {
+    let fence = &mission.fence;
+    if fence.is_empty() && fence.breach_return.is_none() {
+        return None;
+    }
+    let origin = &mission.origin;
+    let zones = fence
+        .zones
+        .iter()
+        .enumerate()
+        .map(|(k, zone)| {
+            let local = zone.local(origin);
+            let vertex = |p: &LatLon, xy: [f64; 2]| VertexJson {
+                lat_deg: p.lat_deg,
+                lon_deg: p.lon_deg,
+                x_east_m: xy[0],
+                y_north_m: xy[1],
+            };
+            let (shape, vertices, center, radius_m) = match (&zone.shape, &local.shape) {
+                (Shape::Polygon(v), LocalShape::Polygon(xy)) => (
+                    "polygon",
+                    v.iter().zip(xy).map(|(p, xy)| vertex(p, *xy)).collect(),
+                    None,
+                    None,
+                ),
+                (Shape::Circle { center, radius_m }, LocalShape::Circle { center: xy, .. }) => (
+                    "circle",
+                    Vec::new(),
+                    Some(vertex(center, *xy)),
+                    Some(*radius_m),
+                ),
+                _ => ("polygon", Vec::new(), None, None),
+            };
+            ZoneJson {
+                name: zone.describe(k + 1),
+                inclusion: zone.inclusion,
+                shape,
+                vertices,
+                center,
+                radius_m,
+            }
+        })
+        .collect();
+    Some(FenceJson {
+        zones,
+        breach_return: fence
+            .breach_return
+            .map(|g| point_json(origin, g.lat_deg, g.lon_deg, g.alt_m)),
+    })
+}
+
+/// The `"rally_points"` array: empty for a mission without rally points.
+pub fn rally_json(mission: &Mission) -> Vec<PointJson> {
+    mission
+        .rally
+        .iter()
+        .map(|r| point_json(&mission.origin, r.lat_deg, r.lon_deg, r.alt_above_home_m))
+        .collect()
 }
 
 /// The `"actions"` array: empty for a mission without actions.

@@ -33,7 +33,7 @@ use super::wire::{
 use super::Refusal;
 use crate::mission::{Format, Mission, MissionError, Place};
 use crate::physics::VehicleModel;
-use crate::planner::json::{energy_kj, plan_document};
+use crate::planner::json::{energy_kj, mission_document};
 use crate::planner::{plan_mission, Orders, Plan, PlanOptions};
 use crate::tour::cancel::{self, Cancel};
 use crate::tour::solver;
@@ -394,7 +394,7 @@ fn plan_file(path: &Path, bytes: &[u8], settings: &PlanSettings) -> (Option<Miss
             Err(e) => sorties_error = Some(e.to_string()),
         }
     }
-    let document = match serde_json::to_value(plan_document(&plan)) {
+    let document = match serde_json::to_value(mission_document(&plan, &mission)) {
         Ok(d) => d,
         Err(e) => {
             return (
