@@ -28,6 +28,7 @@ fn plan() -> FlightPlan {
             },
             hold_s: 5.0,
             photos: 0,
+            via: Vec::new(),
         })
         .collect();
     points.push(PlannedPoint {
@@ -36,6 +37,7 @@ fn plan() -> FlightPlan {
         enu: Enu::default(),
         hold_s: 0.0,
         photos: 0,
+        via: Vec::new(),
     });
     let n = points.len();
     FlightPlan {
@@ -79,6 +81,7 @@ fn plan() -> FlightPlan {
                 3.50, 3.69, 3.73, 3.77, 3.80, 3.84, 3.87, 3.95, 4.02, 4.11, 4.20,
             ],
             home_j: (0..n).map(|k| 15_000.0 + 100.0 * k as f64).collect(),
+            via_home_j: Vec::new(),
         }),
     }
 }

@@ -1,6 +1,6 @@
 //! The energy guard's live side: its setup priced when a flight is loaded (the pack from the
-//! vehicle file, and the autopilot's return from every point of the plan, as that autopilot
-//! flies it), and its one action: sending the vehicle home when it decides to (policy `rtl`).
+//! vehicle file, and the autopilot's return from every point of the plan and every via point
+//! of a leg round a fence zone, as that autopilot flies it), and its one action: sending the vehicle home when it decides to (policy `rtl`).
 //!
 //! What the guard sees and decides is `flightlog::watch`, run by the recorder's segmenter, so a
 //! replay of the log sees the same; this module only prices and acts.
@@ -75,19 +75,17 @@ pub fn setup(
     let still = Model::new(vehicle);
     let model = still.clone().in_wind(wind.on_heading(0.0));
     let hover_w = model.hover_power_w()?;
-    let home_j = plan
-        .points
-        .iter()
-        .map(|p| {
-            let height = plan.origin_height_m + p.enu.z_up_m;
+    let home_from = |p: &crate::mission::Enu| -> Result<f64, PhysicsError> {
+        {
+            let height = plan.origin_height_m + p.z_up_m;
             let at = height.max(return_alt_m).max(0.0);
             let mut energy = 0.0;
             if at > height + 0.5 {
                 energy += model.operation(profile, 0.0, at - height)?.total_energy_j();
             }
-            let across = p.enu.x_east_m.hypot(p.enu.y_north_m);
+            let across = p.x_east_m.hypot(p.y_north_m);
             if across > 0.5 {
-                let home = wind.on_heading(heading_deg(-p.enu.x_east_m, -p.enu.y_north_m));
+                let home = wind.on_heading(heading_deg(-p.x_east_m, -p.y_north_m));
                 let homeward = still.clone().in_wind(home);
                 energy += homeward.operation(profile, across, 0.0)?.total_energy_j();
             }
@@ -103,8 +101,20 @@ pub fn setup(
                 Flavour::Px4 | Flavour::Generic => model.landing(profile, at)?.total_energy_j(),
             };
             Ok(energy)
-        })
+        }
+    };
+    let home_j = (plan.points.iter())
+        .map(|p| home_from(&p.enu))
         .collect::<Result<Vec<f64>, PhysicsError>>()?;
+    // The return from a leg's via points: the way round a zone can take the vehicle further
+    // from home than either end of the leg.
+    let via_home_j = if plan.points.iter().any(|p| !p.via.is_empty()) {
+        (plan.points.iter())
+            .map(|p| p.via.iter().map(|v| home_from(&v.enu)).collect())
+            .collect::<Result<Vec<Vec<f64>>, PhysicsError>>()?
+    } else {
+        Vec::new()
+    };
     let b = &vehicle.battery;
     Ok(GuardSetup {
         policy,
@@ -116,5 +126,6 @@ pub fn setup(
         ocv_soc: b.ocv_soc.clone(),
         ocv_cell_v: b.ocv_cell_v.clone(),
         home_j,
+        via_home_j,
     })
 }

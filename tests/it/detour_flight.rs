@@ -181,6 +181,15 @@ async fn a_detoured_leg_is_flown_through_its_via_point_and_measured_as_one_leg()
     // Every leg within the fast waypoint tests' 3% of its price.
     for leg in &report.legs {
         let e = leg.error_pct().expect("measured and priced");
+        eprintln!(
+            "{} -> {} via {}: predicted {:.3} kJ, measured {:.3} kJ, {e:+.2}%, {:.1} s",
+            leg.from,
+            leg.to,
+            leg.via_points,
+            leg.predicted_j.unwrap_or(f64::NAN) / 1e3,
+            leg.measured_j.unwrap_or(f64::NAN) / 1e3,
+            leg.duration_s
+        );
         assert!(e.abs() < 3.0, "{} -> {}: {e:+.2}%", leg.from, leg.to);
     }
 
