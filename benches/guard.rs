@@ -28,6 +28,7 @@ fn plan() -> FlightPlan {
             },
             hold_s: 5.0,
             photos: 0,
+            via: Vec::new(),
         })
         .collect();
     points.push(PlannedPoint {
@@ -36,6 +37,7 @@ fn plan() -> FlightPlan {
         enu: Enu::default(),
         hold_s: 0.0,
         photos: 0,
+        via: Vec::new(),
     });
     let n = points.len();
     FlightPlan {
@@ -81,6 +83,7 @@ fn plan() -> FlightPlan {
             home_j: (0..n).map(|k| 15_000.0 + 100.0 * k as f64).collect(),
             return_to: Vec::new(),
             return_rule: None,
+            via_home_j: Vec::new(),
         }),
     }
 }

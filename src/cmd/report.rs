@@ -120,7 +120,15 @@ pub fn print(report: &FlightReport) {
         row("take-off".into(), t);
     }
     for (k, leg) in report.legs.iter().enumerate() {
-        row(format!("leg {}: {} -> {}", k + 1, leg.from, leg.to), leg);
+        let via = match leg.via_points {
+            0 => String::new(),
+            1 => " via 1 point".to_string(),
+            n => format!(" via {n} points"),
+        };
+        row(
+            format!("leg {}: {} -> {}{via}", k + 1, leg.from, leg.to),
+            leg,
+        );
     }
     // A point's settle and hover as one part: the model and the measurement split its time
     // at different moments (FlightReport::at_points), so apart they do not compare.

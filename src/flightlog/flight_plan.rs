@@ -41,6 +41,23 @@ pub struct PlannedPoint {
     /// files written before it was kept).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub photos: u32,
+    /// The points the leg to this point passes through without a hold on its way round a
+    /// fence zone, in the order flown (empty: a straight leg). They are not points of the
+    /// flight: the leg is measured from its departure to its arrival here, as one, against its
+    /// price (the whole chain's). Absent from plan.json when none (and from files written
+    /// before they were kept).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub via: Vec<ViaPoint>,
+}
+
+/// A point a leg passes through without a hold ([`PlannedPoint::via`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ViaPoint {
+    /// Its mission item's sequence number: after the item of the point the leg leaves, before
+    /// the item of the point it goes to.
+    pub seq: u16,
+    /// Position in the mission frame.
+    pub enu: Enu,
 }
 
 fn is_zero(n: &u32) -> bool {
@@ -190,6 +207,56 @@ impl FlightPlan {
         Ok(self)
     }
 
+    /// The plan with each leg's via points (`via[k]`, the leg to points[k]; missing lists
+    /// are straight legs) at the items `via_seqs[k]` the upload holds them in.
+    pub fn routed(
+        mut self,
+        via: &[Vec<Enu>],
+        via_seqs: &[Vec<u16>],
+    ) -> Result<FlightPlan, FlightLogError> {
+        if via.len() > self.points.len() {
+            return Err(plan_error(format!(
+                "via points for {} legs of {}",
+                via.len(),
+                self.points.len()
+            )));
+        }
+        for (k, (point, enus)) in self.points.iter_mut().zip(via).enumerate() {
+            let seqs = via_seqs.get(k).map_or(&[][..], Vec::as_slice);
+            if seqs.len() != enus.len() {
+                return Err(plan_error(format!(
+                    "{} item numbers for the {} via points of the leg to {}",
+                    seqs.len(),
+                    enus.len(),
+                    point.name
+                )));
+            }
+            point.via = seqs
+                .iter()
+                .zip(enus)
+                .map(|(&seq, &enu)| ViaPoint { seq, enu })
+                .collect();
+        }
+        self.validate()?;
+        Ok(self)
+    }
+
+    /// The way leg `k` flies: from the point it leaves (the origin for the first) through its
+    /// via points to points[k].
+    pub fn leg_path(&self, k: usize) -> Vec<Enu> {
+        let from = match k {
+            0 => Enu::default(),
+            _ => self.points.get(k - 1).map_or_else(Enu::default, |p| p.enu),
+        };
+        let Some(to) = self.points.get(k) else {
+            return vec![from];
+        };
+        std::iter::once(from)
+            .chain(to.via.iter().map(|v| v.enu))
+            .chain(std::iter::once(to.enu))
+            .collect()
+    }
+
     /// The plan `fly` uploads for `mission` visited in `order` (indices into its waypoints):
     /// take-off at `first_seq` (1 for ArduPilot, whose seq 0 is home; 0 for PX4), the
     /// waypoints, the origin, landing.
@@ -213,6 +280,7 @@ impl FlightPlan {
                 enu: waypoint.position,
                 hold_s: waypoint.hold_s(),
                 photos: waypoint.photos(),
+                via: Vec::new(),
             });
         }
         points.push(PlannedPoint {
@@ -221,6 +289,7 @@ impl FlightPlan {
             enu: Enu::default(),
             hold_s: 0.0,
             photos: 0,
+            via: Vec::new(),
         });
         let plan = FlightPlan {
             mission: mission.name.clone(),
@@ -257,13 +326,39 @@ impl FlightPlan {
                 )));
             }
         }
-        for p in &self.points {
-            let e = p.enu;
-            if !(e.x_east_m.is_finite() && e.y_north_m.is_finite() && e.z_up_m.is_finite()) {
+        let finite =
+            |e: &Enu| e.x_east_m.is_finite() && e.y_north_m.is_finite() && e.z_up_m.is_finite();
+        for (k, p) in self.points.iter().enumerate() {
+            if !finite(&p.enu) {
                 return Err(plan_error(format!(
                     "point {} has a non-finite position",
                     p.name
                 )));
+            }
+            // Via points sit between the point left (or the take-off) and this one.
+            let mut after = match k {
+                0 => self.takeoff_seq,
+                _ => Some(self.points[k - 1].seq),
+            };
+            for (j, v) in p.via.iter().enumerate() {
+                if after.is_some_and(|a| v.seq <= a) || v.seq >= p.seq {
+                    return Err(plan_error(format!(
+                        "via point {} of the leg to {} has seq {}, not between seq {} and seq {}",
+                        j + 1,
+                        p.name,
+                        v.seq,
+                        after.map_or_else(|| "-".to_string(), |a| a.to_string()),
+                        p.seq
+                    )));
+                }
+                if !finite(&v.enu) {
+                    return Err(plan_error(format!(
+                        "via point {} of the leg to {} has a non-finite position",
+                        j + 1,
+                        p.name
+                    )));
+                }
+                after = Some(v.seq);
             }
         }
         if let (Some(t), Some(first)) = (self.takeoff_seq, self.points.first()) {
@@ -380,7 +475,8 @@ impl FlightPlan {
         })
     }
 
-    /// The leg a mission sequence number belongs to.
+    /// The leg a mission sequence number belongs to: a via point's is its leg's (the vehicle
+    /// passes it on the way to the leg's end).
     pub fn target_of(&self, seq: u16) -> Target {
         if self.takeoff_seq.is_some_and(|t| seq <= t) {
             return Target::BeforeLegs;
@@ -559,6 +655,97 @@ mod tests {
         assert_eq!(plan.target_of(6), Target::Landing);
         assert_eq!(plan.leg_names(0), ("origin".into(), "C".into()));
         assert_eq!(plan.leg_names(3), ("B".into(), "origin".into()));
+    }
+
+    fn enu(x: f64, y: f64, z: f64) -> Enu {
+        Enu {
+            x_east_m: x,
+            y_north_m: y,
+            z_up_m: z,
+        }
+    }
+
+    /// C, A, B, origin with two via points on the leg to A: take-off 0, C 1, via 2 and 3, A 4,
+    /// B 5, origin 6, land 7.
+    fn routed_plan() -> FlightPlan {
+        FlightPlan::for_mission(&mission(), &[2, 0, 1], 0, None)
+            .and_then(|p| p.renumbered(Some(0), &[1, 4, 5, 6], 7))
+            .and_then(|p| {
+                p.routed(
+                    &[vec![], vec![enu(10.0, 40.0, 0.0), enu(30.0, 20.0, 0.0)]],
+                    &[vec![], vec![2, 3]],
+                )
+            })
+            .expect("valid")
+    }
+
+    #[test]
+    fn a_via_points_item_belongs_to_its_leg_and_the_leg_runs_through_it() {
+        let plan = routed_plan();
+        assert_eq!(plan.target_of(1), Target::Leg(0));
+        assert_eq!(plan.target_of(2), Target::Leg(1));
+        assert_eq!(plan.target_of(3), Target::Leg(1));
+        assert_eq!(plan.target_of(4), Target::Leg(1));
+        assert_eq!(plan.target_of(5), Target::Leg(2));
+        assert_eq!(plan.leg_names(1), ("C".into(), "A".into()));
+        let c = plan.points[0].enu;
+        let a = plan.points[1].enu;
+        assert_eq!(
+            plan.leg_path(1),
+            [c, enu(10.0, 40.0, 0.0), enu(30.0, 20.0, 0.0), a]
+        );
+        assert_eq!(plan.leg_path(2), [a, plan.points[2].enu]);
+        assert_eq!(plan.leg_path(0), [Enu::default(), c]);
+    }
+
+    #[test]
+    fn via_points_survive_plan_json_and_a_plan_json_without_them_reads_as_straight_legs() {
+        let plan = routed_plan();
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("plan.json");
+        plan.write_json(&path).expect("written");
+        let text = std::fs::read_to_string(&path).expect("read");
+        assert_eq!(text.matches("\"via\"").count(), 1, "{text}");
+        assert_eq!(FlightPlan::read_json(&path).expect("read"), plan);
+        // A plan.json of straight legs (as written before via points were kept) has no such
+        // key and reads as straight legs.
+        let straight = FlightPlan::for_mission(&mission(), &[2, 0, 1], 0, None).expect("valid");
+        straight.write_json(&path).expect("written");
+        assert!(!std::fs::read_to_string(&path)
+            .expect("read")
+            .contains("via"));
+        let back = FlightPlan::read_json(&path).expect("read");
+        assert!(back.points.iter().all(|p| p.via.is_empty()));
+        assert_eq!(back, straight);
+    }
+
+    #[test]
+    fn a_via_point_out_of_its_legs_items_is_refused_naming_it() {
+        let base = || {
+            FlightPlan::for_mission(&mission(), &[2, 0, 1], 0, None)
+                .and_then(|p| p.renumbered(Some(0), &[1, 4, 5, 6], 7))
+                .expect("valid")
+        };
+        let err = base()
+            .routed(&[vec![], vec![enu(1.0, 2.0, 0.0)]], &[vec![], vec![5]])
+            .expect_err("after its leg's end");
+        assert!(
+            err.to_string()
+                .contains("via point 1 of the leg to A has seq 5, not between seq 1 and seq 4"),
+            "{err}"
+        );
+        let err = base()
+            .routed(&[vec![], vec![enu(1.0, 2.0, 0.0)]], &[vec![], vec![]])
+            .expect_err("no item");
+        assert!(
+            err.to_string()
+                .contains("0 item numbers for the 1 via points of the leg to A"),
+            "{err}"
+        );
+        let err = base()
+            .routed(&[vec![], vec![enu(f64::NAN, 2.0, 0.0)]], &[vec![], vec![2]])
+            .expect_err("not finite");
+        assert!(err.to_string().contains("non-finite"), "{err}");
     }
 
     #[test]

@@ -80,6 +80,12 @@ pub struct GuardSetup {
     /// autopilot or are its defaults.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub return_rule: Option<String>,
+    /// Per point of the plan: the return from each via point of the leg to it (J, in the
+    /// leg's order; empty for a straight leg), so that the return from a leg round a fence
+    /// zone is priced from where the way round has taken the vehicle. Empty when no leg has
+    /// via points (absent from plan.json then, and from files written before it was kept).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub via_home_j: Vec<Vec<f64>>,
 }
 
 /// The prior's standard deviation of `ln(measured / predicted)`: wide enough that an airframe

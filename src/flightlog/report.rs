@@ -99,6 +99,10 @@ pub struct PartReport {
     /// A leg's vehicle when it began: 3D distance from the point left and 3D speed.
     pub start_offset_m: Option<f64>,
     pub start_speed_m_s: Option<f64>,
+    /// The via points a leg round a fence zone passed through (0: a straight leg, or not a
+    /// leg): it is measured as one, from its departure to its arrival, against its chain's
+    /// price.
+    pub via_points: usize,
 }
 
 impl PartReport {
@@ -199,6 +203,10 @@ fn part(
     names: (String, String),
     predicted: Option<(f64, Option<f64>)>,
 ) -> PartReport {
+    let via_points = match segment.kind {
+        SegmentKind::Leg(k) => segmenter.plan().points.get(k).map_or(0, |p| p.via.len()),
+        _ => 0,
+    };
     let m: Measurement = segmenter.measure(segment);
     let mut flags = m.flags;
     if !segment.complete {
@@ -229,6 +237,7 @@ fn part(
         flags,
         start_offset_m: segment.start_state.map(|s| s.offset_m),
         start_speed_m_s: segment.start_state.map(|s| s.speed_m_s),
+        via_points,
     }
 }
 
@@ -600,6 +609,7 @@ pub fn joined(a: &PartReport, b: &PartReport) -> PartReport {
         flags,
         start_offset_m: a.start_offset_m,
         start_speed_m_s: a.start_speed_m_s,
+        via_points: a.via_points.max(b.via_points),
     }
 }
 
@@ -631,6 +641,14 @@ pub struct PartJson {
     pub start_offset_m: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub start_speed_m_s: Option<f64>,
+    /// A leg's via points round a fence zone (absent for a straight leg and from reports
+    /// written before they were kept).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub via_points: usize,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 impl From<&PartReport> for PartJson {
@@ -650,6 +668,7 @@ impl From<&PartReport> for PartJson {
             flags: p.flags.clone(),
             start_offset_m: p.start_offset_m,
             start_speed_m_s: p.start_speed_m_s,
+            via_points: p.via_points,
         }
     }
 }
@@ -671,6 +690,7 @@ impl PartJson {
             flags: self.flags.clone(),
             start_offset_m: self.start_offset_m,
             start_speed_m_s: self.start_speed_m_s,
+            via_points: self.via_points,
         }
     }
 }
@@ -950,6 +970,7 @@ fn mission_part(r: &FlightReport) -> PartReport {
         flags,
         start_offset_m: None,
         start_speed_m_s: None,
+        via_points: 0,
     }
 }
 
@@ -1055,6 +1076,7 @@ mod tests {
             flags,
             start_offset_m: None,
             start_speed_m_s: None,
+            via_points: 0,
         }
     }
 

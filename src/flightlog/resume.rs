@@ -676,6 +676,43 @@ mod tests {
     }
 
     #[test]
+    fn a_via_point_passed_is_no_waypoint_visited_and_its_leg_is_flown_again_whole() {
+        // The leg A -> B round a zone through (75, 10, 2) (take-off 0, A 1, via 2, B 3, C 4,
+        // origin 5, land 6), sent home half-way through it, past the via point.
+        let via = Enu {
+            x_east_m: 75.0,
+            y_north_m: 10.0,
+            z_up_m: 2.0,
+        };
+        let plan = square_plan()
+            .renumbered(Some(0), &[1, 3, 4, 5], 6)
+            .and_then(|p| p.routed(&[vec![], vec![via]], &[vec![], vec![2]]))
+            .expect("valid");
+        let flight = SyntheticFlight::fly(&plan, &SyntheticConfig::default());
+        let leg = flight.part(SegmentKind::Leg(1)).expect("leg 1");
+        let passed = (flight.messages.iter())
+            .find(|m| matches!(m.reading, Reading::ItemReached { seq: 2 }))
+            .map(|m| m.t_s)
+            .expect("the via point passed");
+        assert!(passed < 0.5 * (leg.start_s + leg.end_s));
+        let report = flown(&plan, "f1", Some(SegmentKind::Leg(1)));
+        let seen: Vec<(String, Visit)> = (visits(&plan, &report).into_iter())
+            .map(|v| (v.name, v.visit))
+            .collect();
+        assert_eq!(
+            seen,
+            [
+                ("A".to_string(), Visit::Visited),
+                ("B".to_string(), Visit::NotReached),
+                ("C".to_string(), Visit::NotReached)
+            ]
+        );
+        assert_eq!(report.waypoints_left, ["B", "C"]);
+        let resumed = resume(&square(), &plan, &report, "f1").expect("resumable");
+        assert_eq!(names(&resumed.mission.waypoints), ["C", "B"]);
+    }
+
+    #[test]
     fn a_waypoint_whose_hover_was_cut_short_is_flown_again() {
         let plan = square_plan();
         let report = flown(&plan, "f1", Some(SegmentKind::Hover(1)));

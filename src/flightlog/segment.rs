@@ -3,7 +3,9 @@
 //! - `takeoff`: arming -> the vehicle leaves the origin hover for the first leg;
 //! - `leg` k from P to Q = points[k]: leaves hover at P (MISSION_CURRENT names Q or a later
 //!   item; departure from P as fallback) -> first within the arrival radius (4 m, 3D) of Q, the
-//!   crossing time interpolated between position samples: the paper's operation energy;
+//!   crossing time interpolated between position samples: the paper's operation energy. A leg
+//!   round a fence zone is one leg through its via points (`FlightPlan`'s `via`): their
+//!   MISSION_CURRENT and MISSION_ITEM_REACHED fall inside it, and it ends at Q;
 //! - `settle` at Q: within the radius -> settled: stopped inside the radius (3D speed below
 //!   `stop_speed_m_s` for `stop_hold_s`, the settle ending where the stop began), or
 //!   MISSION_ITEM_REACHED of Q if that comes first. Both PX4 (`mission_block.cpp`: the item is
@@ -511,7 +513,7 @@ impl Segmenter {
     }
 
     /// Velocity `v`'s component along the way out of the current hover point: towards the next
-    /// point horizontally (a leg that is mostly horizontal starts horizontally), else vertically
+    /// point (or the next leg's first via point) horizontally (a leg that is mostly horizontal starts horizontally), else vertically
     /// (straight up or down to it, or down to land after the last point).
     fn speed_towards_next_m_s(&self, v: [f64; 3]) -> f64 {
         let Some(i) = self.hover_index() else {
@@ -520,7 +522,11 @@ impl Segmenter {
         let Some(from) = self.hover_point_at(i) else {
             return f64::INFINITY;
         };
-        let d = match self.hover_point_at(i + 1) {
+        // A leg round a fence zone heads for its first via point.
+        let first_via = (self.plan.points.get(i))
+            .and_then(|p| p.via.first())
+            .map(|v| v.enu);
+        let d = match first_via.or_else(|| self.hover_point_at(i + 1)) {
             Some(to) => sub(to, from),
             // After the last point: down to land.
             None => [0.0, 0.0, -1.0],
@@ -1068,6 +1074,92 @@ mod tests {
         }
         assert!(s.is_finished());
         assert_eq!(s.flight_span(), Some((flight.arm_s, flight.disarm_s)));
+    }
+
+    /// The square with its second leg round a zone through one via point and its return leg
+    /// through two: take-off 0, A 1, via 2, B 3, C 4, via 5 and 6, origin 7, land 8.
+    fn detoured_plan() -> FlightPlan {
+        let enu = |x: f64, y: f64, z: f64| Enu {
+            x_east_m: x,
+            y_north_m: y,
+            z_up_m: z,
+        };
+        let via = [
+            vec![],
+            vec![enu(85.0, 30.0, 5.0)],
+            vec![],
+            vec![enu(-20.0, 50.0, -5.0), enu(-20.0, 10.0, 0.0)],
+        ];
+        let seqs = [vec![], vec![2], vec![], vec![5, 6]];
+        square_plan()
+            .renumbered(Some(0), &[1, 3, 4, 7], 8)
+            .and_then(|p| p.routed(&via, &seqs))
+            .expect("a valid detoured plan")
+    }
+
+    #[test]
+    fn a_leg_through_via_points_is_one_leg_from_its_departure_to_its_arrival() {
+        let plan = detoured_plan();
+        let flight = SyntheticFlight::fly(&plan, &SyntheticConfig::default());
+        // The via points are reported reached and made current as the vehicle passes them.
+        let said = |seq: u16| {
+            flight
+                .messages
+                .iter()
+                .any(|m| matches!(m.reading, Reading::ItemReached { seq: s } if s == seq))
+                && flight.messages.iter().any(
+                    |m| matches!(m.reading, Reading::MissionCurrent { seq: s, .. } if s == seq),
+                )
+        };
+        assert!(said(2) && said(5) && said(6));
+        let s = Segmenter::run(plan.clone(), SegmentConfig::default(), &flight.stamped())
+            .expect("a valid plan");
+        let segments = s.completed();
+        let kinds: Vec<SegmentKind> = segments.iter().map(|x| x.kind).collect();
+        let truth: Vec<SegmentKind> = flight.parts.iter().map(|p| p.kind).collect();
+        assert_eq!(kinds, truth);
+        assert_eq!(kinds.len(), 1 + 3 * 4 + 1);
+        for (seg, part) in segments.iter().zip(&flight.parts) {
+            let (d0, d1) = boundary_s(part.kind);
+            assert!(
+                (seg.start_s - part.start_s).abs() <= d0 && (seg.end_s - part.end_s).abs() <= d1,
+                "{:?}: measured {}..{}, true {}..{}",
+                part.kind,
+                seg.start_s,
+                seg.end_s,
+                part.start_s,
+                part.end_s
+            );
+            assert!(seg.complete && !seg.missed_radius, "{:?}", part.kind);
+            let e = s.measure(seg).energy_j.expect("measured");
+            let tol = tolerance_j(&flight, part.kind);
+            assert!(
+                (e - part.energy_j()).abs() <= tol,
+                "{:?}: {e} J vs true {} J (tolerance {tol})",
+                part.kind,
+                part.energy_j()
+            );
+        }
+        // The detoured legs are longer than straight ones: the truth says so, and so do they.
+        let leg = |k: usize| flight.part(SegmentKind::Leg(k)).expect("a leg");
+        let straight_b = 60.0f64.hypot(10.0) - 4.0;
+        let flown_b = (leg(1).end_s - leg(1).start_s) * SyntheticConfig::default().speed_m_s;
+        assert!(flown_b > straight_b + 10.0, "{flown_b} m vs {straight_b} m");
+        // The report shows each as one leg, naming its ends and how many via points it passed.
+        let report = FlightReport::build("square", &s);
+        let legs: Vec<(&str, &str, usize)> = (report.legs.iter())
+            .map(|l| (l.from.as_str(), l.to.as_str(), l.via_points))
+            .collect();
+        assert_eq!(
+            legs,
+            [
+                ("origin", "A", 0),
+                ("A", "B", 1),
+                ("B", "C", 0),
+                ("C", "origin", 2)
+            ]
+        );
+        assert!(report.complete && report.waypoints_left.is_empty());
     }
 
     #[test]

@@ -4,7 +4,8 @@
 //! a constant electrical power per part (take-off, leg, settle, hover, landing). Telemetry comes
 //! as PX4 sends it: positions and battery at `rate_hz` (battery half a period later, without
 //! boot time), HEARTBEAT, MISSION_CURRENT and EXTENDED_SYS_STATE at 1 Hz and on change, and
-//! MISSION_ITEM_REACHED when an item is left, repeated once a second, never for the last point,
+//! MISSION_ITEM_REACHED when an item is left, repeated once a second, never for the last point
+//! (a leg's via points are flown through at its speed, each reported reached as it is passed),
 //! and each photo a point's `photos` asks for as the vehicle leaves it (CAMERA_TRIGGER, then
 //! CAMERA_IMAGE_CAPTURED where it is, 20 ms later, as PX4 sends them).
 //! Each part's true span and energy (power x duration) is known exactly.
@@ -34,6 +35,7 @@ pub fn square_plan() -> FlightPlan {
         },
         hold_s,
         photos: 0,
+        via: Vec::new(),
     };
     let leg = PredictedLeg {
         energy_j: 25_000.0,
@@ -280,11 +282,24 @@ impl SyntheticFlight {
         let mut from = origin;
         let last = plan.points.len().saturating_sub(1);
         for (k, point) in plan.points.iter().enumerate() {
-            events.push((t, current(point.seq, MissionState::Active)));
+            let leg_start = t;
+            let first = point.via.first().map_or(point.seq, |v| v.seq);
+            events.push((t, current(first, MissionState::Active)));
             if k > 0 {
                 if let Some(prev) = plan.points.get(k - 1) {
                     reached.push((t, prev.seq));
                 }
+            }
+            // Through the leg's via points at the leg's speed, each reported reached as it is
+            // passed and the next item made current.
+            for (j, v) in point.via.iter().enumerate() {
+                let passed = t + dist(from, v.enu) / cfg.speed_m_s;
+                pieces.push(Piece::new(t, passed, from, v.enu, false));
+                let next = point.via.get(j + 1).map_or(point.seq, |n| n.seq);
+                events.push((passed, current(next, MissionState::Active)));
+                reached.push((passed, v.seq));
+                from = v.enu;
+                t = passed;
             }
             let q = point.enu;
             let length = dist(from, q);
@@ -298,7 +313,7 @@ impl SyntheticFlight {
             pieces.push(Piece::new(stop, leave, q, q, false));
             parts.push(TruePart {
                 kind: SegmentKind::Leg(k),
-                start_s: t,
+                start_s: leg_start,
                 end_s: cruise_end,
                 power_w: cfg.leg_power_w,
             });

@@ -14,8 +14,9 @@
 //!   larger than its label).
 //! - The rest: the plan's price of every stage still ahead (take-off, each leg, settle and hover,
 //!   the landing; the stage in progress by its share still to fly), and of the autopilot's
-//!   return from each point ([`GuardSetup::home_j`]), times the correction learned from the
-//!   parts flown (`guard::Correction`).
+//!   return from each point ([`GuardSetup::home_j`]; on a leg round a fence zone, through the
+//!   return from each of its via points, [`GuardSetup::via_home_j`]), times the correction
+//!   learned from the parts flown (`guard::Correction`).
 //! - The decision: `guard::project` and `guard::judge`; a note when the verdict changes, at the
 //!   point of no return, and (policy `rtl`) the one decision to go home: when the plan cannot be
 //!   finished with the reserve and the next point ahead cannot be reached and left for home
@@ -117,6 +118,9 @@ pub struct Watch {
     stages: Vec<(f64, f64)>,
     /// `after[i]`: the energy of the stages after stage i.
     after: Vec<f64>,
+    /// Per point, the leg to it round a fence zone: where along the way (share of its length)
+    /// each via point is, and the return from there (empty for a straight leg).
+    via_homes: Vec<Vec<(f64, f64)>>,
     typical_j: f64,
     /// Valid power samples integrated so far.
     integrated: usize,
@@ -164,6 +168,51 @@ fn stages_after(stages: &[(f64, f64)]) -> Vec<f64> {
     after
 }
 
+/// Where along the leg to points[k] (share of its length through its via points) each via
+/// point is, with the return from it as `setup` prices it; empty for a straight leg or a setup
+/// without those prices.
+fn via_homes(plan: &FlightPlan, setup: &GuardSetup, k: usize) -> Vec<(f64, f64)> {
+    let Some(homes) = setup.via_home_j.get(k) else {
+        return Vec::new();
+    };
+    let path = plan.leg_path(k);
+    if homes.is_empty() || homes.len() + 2 != path.len() {
+        return Vec::new();
+    }
+    let mut run = vec![0.0];
+    for w in path.windows(2) {
+        let d = (w[1].x_east_m - w[0].x_east_m)
+            .hypot(w[1].y_north_m - w[0].y_north_m)
+            .hypot(w[1].z_up_m - w[0].z_up_m);
+        run.push(run.last().copied().unwrap_or(0.0) + d);
+    }
+    let total = run.last().copied().unwrap_or(0.0);
+    if total <= 0.0 {
+        return Vec::new();
+    }
+    homes
+        .iter()
+        .enumerate()
+        .map(|(j, &home_j)| (run[j + 1] / total, home_j))
+        .collect()
+}
+
+/// The value at `share` (0..1) of the straight pieces through `knots` (share, value), in order.
+fn along(knots: &[(f64, f64)], share: f64) -> f64 {
+    for w in knots.windows(2) {
+        let ((s0, v0), (s1, v1)) = (w[0], w[1]);
+        if share <= s1 {
+            let t = if s1 > s0 {
+                ((share - s0) / (s1 - s0)).clamp(0.0, 1.0)
+            } else {
+                1.0
+            };
+            return v0 + (v1 - v0) * t;
+        }
+    }
+    knots.last().map_or(0.0, |k| k.1)
+}
+
 fn stage_of(kind: SegmentKind) -> usize {
     match kind {
         SegmentKind::Takeoff => 0,
@@ -201,7 +250,11 @@ impl Watch {
         } else {
             energies.iter().sum::<f64>() / energies.len() as f64
         };
+        let via_homes = (0..plan.points.len())
+            .map(|k| via_homes(plan, &setup, k))
+            .collect();
         Some(Watch {
+            via_homes,
             setup,
             names: plan.points.iter().map(|p| p.name.clone()).collect(),
             stages,
@@ -525,9 +578,14 @@ impl Watch {
             None => landing_j,
         };
         let home_now_j = match kind {
+            // Along the leg (through its via points, each with its own return) as far as its
+            // time has run.
             SegmentKind::Leg(k) => {
                 let done = 1.0 - share_left;
-                home_of(from) * (1.0 - done) + home_of(Some(k)) * done
+                let mut knots = vec![(0.0, home_of(from))];
+                knots.extend(self.via_homes.get(k).into_iter().flatten().copied());
+                knots.push((1.0, home_of(Some(k))));
+                along(&knots, done)
             }
             _ => home_of(from),
         };
@@ -617,7 +675,16 @@ mod tests {
     /// The square plan priced exactly as the nominal synthetic flight flies it, guarded with
     /// `policy` on a pack of `usable_j`.
     fn plan(usable_j: f64, policy: Policy) -> crate::flightlog::flight_plan::FlightPlan {
-        let mut plan = square_plan();
+        guarded(square_plan(), usable_j, policy)
+    }
+
+    /// `plan` priced exactly as the nominal synthetic flight flies it, guarded with `policy` on
+    /// a pack of `usable_j`.
+    fn guarded(
+        mut plan: crate::flightlog::flight_plan::FlightPlan,
+        usable_j: f64,
+        policy: Policy,
+    ) -> crate::flightlog::flight_plan::FlightPlan {
         let truth = SyntheticFlight::fly(&plan, &SyntheticConfig::default());
         let energy = |kind: SegmentKind| {
             let p = truth.parts.iter().find(|p| p.kind == kind).expect("a part");
@@ -654,6 +721,7 @@ mod tests {
             home_j: vec![60_000.0; n],
             return_to: Vec::new(),
             return_rule: None,
+            via_home_j: Vec::new(),
         });
         plan
     }
@@ -706,6 +774,56 @@ mod tests {
             s.push(r);
         }
         s.watch().and_then(|w| w.view().cloned()).expect("a view")
+    }
+
+    #[test]
+    fn the_way_home_from_a_leg_round_a_zone_is_priced_through_its_via_points() {
+        use crate::flightlog::telemetry::Reading;
+        // The square's leg A -> B round a zone through (85, 30, 5): take-off 0, A 1, via 2, B 3,
+        // C 4, origin 5, land 6.
+        let via = crate::mission::Enu {
+            x_east_m: 85.0,
+            y_north_m: 30.0,
+            z_up_m: 5.0,
+        };
+        let routed = square_plan()
+            .renumbered(Some(0), &[1, 3, 4, 5], 6)
+            .and_then(|p| p.routed(&[vec![], vec![via]], &[vec![], vec![2]]))
+            .expect("valid");
+        let without = guarded(routed, 2_000_000.0, Policy::Warn);
+        // Home from the via point is dearer than from either end of the leg.
+        let mut with = without.clone();
+        if let Some(g) = with.guard.as_mut() {
+            g.via_home_j = vec![vec![], vec![200_000.0], vec![], vec![]];
+        }
+        let flight = SyntheticFlight::fly(&with, &SyntheticConfig::default());
+        let passed = (flight.messages.iter())
+            .find(|m| matches!(m.reading, Reading::ItemReached { seq: 2 }))
+            .map(|m| m.t_s)
+            .expect("the via point passed");
+        let (a, b) = (
+            view_at(&with, &flight, passed),
+            view_at(&without, &flight, passed),
+        );
+        // 140 kJ dearer at the via point, less what the leg's time share misses of it.
+        let dearer_kj = b.left_if_home_now_kj - a.left_if_home_now_kj;
+        assert!(dearer_kj > 100.0 && dearer_kj < 150.0, "{dearer_kj} kJ");
+        // Before the leg, the same.
+        let leg = flight.part(SegmentKind::Leg(1)).expect("leg 1");
+        let (a, b) = (
+            view_at(&with, &flight, leg.start_s - 0.5),
+            view_at(&without, &flight, leg.start_s - 0.5),
+        );
+        assert!((a.left_if_home_now_kj - b.left_if_home_now_kj).abs() < 1e-9);
+        // plan.json keeps the via points' returns.
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("plan.json");
+        with.write_json(&path).expect("written");
+        let back = crate::flightlog::flight_plan::FlightPlan::read_json(&path).expect("read");
+        let via_homes = |p: &crate::flightlog::flight_plan::FlightPlan| {
+            p.guard.as_ref().map(|g| g.via_home_j.clone())
+        };
+        assert_eq!(via_homes(&back), via_homes(&with));
     }
 
     #[test]

@@ -252,6 +252,9 @@ pub struct Layout {
     /// default ending).
     pub point_seqs: Vec<u16>,
     pub land_seq: u16,
+    /// The items of each leg's via points ([`flight_items_noted`]), one list per leg in the
+    /// order flown (the leg to `point_seqs[k]`; the return leg last), empty for a straight leg.
+    pub via_seqs: Vec<Vec<u16>>,
 }
 
 /// The commands run between two navigation items with the horizontal speed first. ArduPilot
@@ -280,6 +283,39 @@ pub fn mission_items_noted(
     order: &[usize],
     opts: &ItemOptions,
 ) -> Result<(Vec<MISSION_ITEM_INT_DATA>, Vec<String>, Layout), ItemsError> {
+    flight_items_noted(mission, order, &[], opts)
+}
+
+/// A via point of a leg as its item: a NAV_WAYPOINT with no hold (param1 0), accepted within
+/// the load's radius, no yaw. Both autopilots fly through it: ArduCopter blends the corner
+/// when a NAV_WAYPOINT follows (`physics::ardupilot_chain::is_fast`), PX4 takes it within its
+/// acceptance radius and turns for the next item at once (mission_block.cpp
+/// `is_mission_item_reached_or_completed`, no hold to wait out).
+fn via_item(origin: &Origin, at: Enu, opts: &ItemOptions) -> MISSION_ITEM_INT_DATA {
+    let g = origin.to_geodetic(at);
+    item(
+        MavCmd::MAV_CMD_NAV_WAYPOINT,
+        MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
+        [0.0, opts.acceptance_radius_m, 0.0, f32::NAN],
+        deg_e7(g.lat_deg),
+        deg_e7(g.lon_deg),
+        (g.alt_m - origin.home.alt_m) as f32,
+    )
+}
+
+/// [`mission_items_noted`] with each leg's via points (`via[k]`: the points the leg to the
+/// `k`th waypoint of `order` passes through round a fence zone, in the mission's frame;
+/// `via[order.len()]` the return leg's; missing lists are straight legs): each goes up as a
+/// NAV_WAYPOINT without a hold ([`via_item`]) just before the leg's own end, after the
+/// commands of the point the leg leaves and the commands that restore the file's settings for
+/// the leg, so a waypoint's actions stay after it and the whole leg flies in the settings the
+/// file gives it.
+pub fn flight_items_noted(
+    mission: &Mission,
+    order: &[usize],
+    via: &[Vec<Enu>],
+    opts: &ItemOptions,
+) -> Result<(Vec<MISSION_ITEM_INT_DATA>, Vec<String>, Layout), ItemsError> {
     if let Some(&k) = order.iter().find(|&&k| k >= mission.waypoints.len()) {
         return Err(ItemsError::UnknownWaypoint(k));
     }
@@ -301,6 +337,16 @@ pub fn mission_items_noted(
     }
     let takeoff_seq = opts.takeoff.then_some(items.len() as u16);
     let mut point_seqs = Vec::with_capacity(order.len() + 1);
+    let mut via_seqs: Vec<Vec<u16>> = Vec::with_capacity(order.len() + 1);
+    let push_via = |items: &mut Vec<MISSION_ITEM_INT_DATA>, via_seqs: &mut Vec<Vec<u16>>| {
+        let leg = via.get(via_seqs.len()).map_or(&[][..], Vec::as_slice);
+        let mut seqs = Vec::with_capacity(leg.len());
+        for &at in leg {
+            seqs.push(items.len() as u16);
+            items.push(via_item(&mission.origin, at, opts));
+        }
+        via_seqs.push(seqs);
+    };
     if opts.takeoff {
         items.push(item(
             MavCmd::MAV_CMD_NAV_TAKEOFF,
@@ -381,6 +427,7 @@ pub fn mission_items_noted(
             use num_traits::FromPrimitive;
             MavCmd::from_u16(command).unwrap_or(MavCmd::MAV_CMD_NAV_WAYPOINT)
         };
+        push_via(&mut items, &mut via_seqs);
         point_seqs.push(items.len() as u16);
         items.push(item(
             nav,
@@ -402,6 +449,9 @@ pub fn mission_items_noted(
             &place,
         )?;
     }
+    // The return leg's via points: before the return waypoint, or before the landing or the
+    // RTL that ends the mission without one.
+    push_via(&mut items, &mut via_seqs);
     if opts.ending == Ending::ReturnAndLand {
         point_seqs.push(items.len() as u16);
         items.push(item(
@@ -439,6 +489,7 @@ pub fn mission_items_noted(
         takeoff_seq,
         point_seqs,
         land_seq,
+        via_seqs,
     };
     Ok((items, notes, layout))
 }
@@ -857,6 +908,77 @@ mod tests {
         // Without photo commands, none.
         let plain = read_flight(&items, Flavour::Px4, m.origin.home.alt_m).unwrap();
         assert_eq!(plain.photos, [0, 0, 0, 0]);
+    }
+
+    #[test]
+    fn via_points_go_up_as_waypoints_without_a_hold_just_before_their_legs_end() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("missions/orchard-inspection.plan");
+        let m = load(&path).unwrap();
+        let order: Vec<usize> = (0..m.waypoints.len()).rev().collect();
+        let enu = |x: f64, y: f64, z: f64| Enu {
+            x_east_m: x,
+            y_north_m: y,
+            z_up_m: z,
+        };
+        // Two via points on the second leg, one on the return leg.
+        let mut via = vec![Vec::new(); order.len() + 1];
+        via[1] = vec![enu(10.0, 20.0, 3.0), enu(15.0, 25.0, 4.0)];
+        via[order.len()] = vec![enu(-5.0, 8.0, 0.0)];
+        for flavour in [Flavour::Px4, Flavour::ArduPilot] {
+            let opts = ItemOptions {
+                flavour,
+                acceptance_radius_m: 3.0,
+                vehicle_speed_m_s: Some(5.0),
+                ..ItemOptions::default()
+            };
+            let (plain, plain_notes, plain_layout) =
+                mission_items_noted(&m, &order, &opts).unwrap();
+            let (items, notes, layout) = flight_items_noted(&m, &order, &via, &opts).unwrap();
+            assert_eq!(notes, plain_notes, "{flavour:?}");
+            assert_eq!(layout.via_seqs.len(), order.len() + 1);
+            assert!(plain_layout.via_seqs.iter().all(Vec::is_empty));
+            // Each via item sits just before its leg's end, in the leg's order.
+            for (k, seqs) in layout.via_seqs.iter().enumerate() {
+                assert_eq!(seqs.len(), via[k].len(), "{flavour:?} leg {k}");
+                for (j, (&seq, at)) in seqs.iter().zip(&via[k]).enumerate() {
+                    assert_eq!(seq + (seqs.len() - j) as u16, layout.point_seqs[k]);
+                    let it = &items[usize::from(seq)];
+                    assert_eq!(it.command, MavCmd::MAV_CMD_NAV_WAYPOINT);
+                    assert_eq!(it.frame, MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT);
+                    assert_eq!((it.param1, it.param2), (0.0, 3.0));
+                    let g = m.origin.to_geodetic(*at);
+                    assert_eq!((it.x, it.y), (deg_e7(g.lat_deg), deg_e7(g.lon_deg)));
+                    let alt = g.alt_m - m.origin.home.alt_m;
+                    assert!((f64::from(it.z) - alt).abs() < 1e-3);
+                }
+            }
+            // Without the via items, the items are the straight flight's, item for item: every
+            // waypoint's actions stay after it and the restoring commands keep their places.
+            let vias: Vec<u16> = layout.via_seqs.concat();
+            // (Compared as JSON: a NaN parameter is null there, equal to itself.)
+            let unnumbered = |i: &MISSION_ITEM_INT_DATA| {
+                item_json(&MISSION_ITEM_INT_DATA {
+                    seq: 0,
+                    ..i.clone()
+                })
+            };
+            let rest: Vec<serde_json::Value> = items
+                .iter()
+                .filter(|i| !vias.contains(&i.seq))
+                .map(unnumbered)
+                .collect();
+            let plain: Vec<serde_json::Value> = plain.iter().map(unnumbered).collect();
+            assert_eq!(rest, plain, "{flavour:?}");
+            assert!(items.iter().enumerate().all(|(k, it)| it.seq as usize == k));
+            assert_eq!(items.len(), plain.len() + 3);
+            // The leg's commands (the point left's actions) come before its via points.
+            let second = usize::from(layout.point_seqs[0]);
+            let first_via = usize::from(layout.via_seqs[1][0]);
+            assert!(items[second + 1..first_via]
+                .iter()
+                .all(|i| i.command != MavCmd::MAV_CMD_NAV_WAYPOINT));
+        }
     }
 
     #[test]

@@ -28,7 +28,7 @@ use crate::link::commands::{drive, keep_streams, request_streams};
 use crate::link::connection::{Autopilot, Link};
 use crate::link::driver::{upload_verified, UploadError, UploadReport};
 use crate::link::flight::{Start, StartConfig, StartError};
-use crate::link::items::{mission_items, ItemOptions};
+use crate::link::items::{flight_items_noted, ItemOptions};
 use crate::link::mav::MISSION_ITEM_INT_DATA;
 use crate::link::transfer::TransferConfig;
 use crate::link::{Flavour, LinkError};
@@ -133,14 +133,9 @@ pub async fn load(
     let measured_against = match priced_with {
         None => flight_plan(mission, plan, flight, target.flavour),
         Some(vehicle) => {
-            let predicted = predicted_by_simulation(
-                vehicle,
-                plan.profile,
-                mission.origin.height_above_home_m,
-                flight,
-                &plan.speeds_m_s,
-            )
-            .map_err(|e| FlyError::Plan(e.to_string()))?;
+            let predicted =
+                predicted_by_simulation(vehicle, plan.profile, mission, flight, &plan.speeds_m_s)
+                    .map_err(|e| FlyError::Plan(e.to_string()))?;
             flight_plan_predicted(mission, flight, target.flavour, predicted)
         }
     }
@@ -218,7 +213,8 @@ pub async fn load(
 }
 
 /// The items `load` sends to an autopilot of `flavour`: its waypoints in the flight's order
-/// with their actions, each accepted within the load's radius, at the vehicle's cruise speed.
+/// with their actions, each accepted within the load's radius, at the vehicle's cruise speed,
+/// and each leg's via points round a fence zone flown through without a hold.
 pub fn items(flavour: Flavour, load: &Load<'_>) -> Result<Vec<MISSION_ITEM_INT_DATA>, FlyError> {
     let options = ItemOptions {
         flavour,
@@ -226,7 +222,10 @@ pub fn items(flavour: Flavour, load: &Load<'_>) -> Result<Vec<MISSION_ITEM_INT_D
         vehicle_speed_m_s: Some(load.vehicle.cruise_speed_m_s(flavour == Flavour::ArduPilot)),
         ..ItemOptions::default()
     };
-    mission_items(load.mission, &load.flight.waypoints(), &options).map_err(FlyError::Items)
+    let via = super::predict::flight_via(load.flight);
+    flight_items_noted(load.mission, &load.flight.waypoints(), &via, &options)
+        .map(|(items, _, _)| items)
+        .map_err(FlyError::Items)
 }
 
 /// Prices the rest of a flight again in a wind heard in flight, as `load` priced it before it
@@ -696,6 +695,7 @@ mod tests {
             flags: Vec::new(),
             start_offset_m: None,
             start_speed_m_s: None,
+            via_points: 0,
         };
         FlightEvent::Ended {
             flight: "f".into(),

@@ -1,6 +1,6 @@
 //! The energy guard's live side: its setup priced when a flight is loaded (the pack from the
-//! vehicle file, and the autopilot's return from every point of the plan, as that autopilot
-//! flies it), and its one action: sending the vehicle home when it decides to (policy `rtl`).
+//! vehicle file, and the autopilot's return from every point of the plan and every via point
+//! of a leg round a fence zone, as that autopilot flies it), and its one action: sending the vehicle home when it decides to (policy `rtl`).
 //!
 //! What the guard sees and decides is `flightlog::watch`, run by the recorder's segmenter, so a
 //! replay of the log sees the same; this module only prices and acts.
@@ -141,31 +141,42 @@ pub async fn send_home(link: &Link, target: &Autopilot) -> Result<(), LinkError>
     Ok(())
 }
 
-/// Where the return from each of `plan`'s points goes by `ret`'s rule: the destination, its
-/// east and north (m, the mission's frame) and the height it is flown to at least (m above
-/// home: a rally point's own altitude; home's is 0).
-pub fn destinations(plan: &FlightPlan, ret: &AutopilotReturn) -> Vec<(Destination, [f64; 2], f64)> {
+/// The rally points of `ret` in `plan`'s local frame (east, north; m).
+fn rally_local(plan: &FlightPlan, ret: &AutopilotReturn) -> Vec<[f64; 2]> {
     let origin = Origin {
         home: plan.home,
         height_above_home_m: plan.origin_height_m,
     };
-    let rally: Vec<[f64; 2]> = (ret.rally.iter())
+    (ret.rally.iter())
         .map(|r| {
             let e = r.local(&origin);
             [e.x_east_m, e.y_north_m]
         })
-        .collect();
-    plan.points
-        .iter()
-        .map(|p| {
-            let from = [p.enu.x_east_m, p.enu.y_north_m];
-            let to = ret.rule.destination([0.0, 0.0], &rally, from);
-            let alt_m = match to {
-                Destination::Rally(k) => ret.rally.get(k).map_or(0.0, |r| r.alt_above_home_m),
-                Destination::Home | Destination::Here => 0.0,
-            };
-            (to, to.at([0.0, 0.0], &rally, from), alt_m)
-        })
+        .collect()
+}
+
+/// Where the return from `from` goes by `ret`'s rule: the destination, its east and north (m,
+/// the mission's frame) and the height it is flown to at least (m above home: a rally point's
+/// own altitude; home's is 0).
+fn destination(
+    ret: &AutopilotReturn,
+    rally: &[[f64; 2]],
+    from: &crate::mission::Enu,
+) -> (Destination, [f64; 2], f64) {
+    let from = [from.x_east_m, from.y_north_m];
+    let to = ret.rule.destination([0.0, 0.0], rally, from);
+    let alt_m = match to {
+        Destination::Rally(k) => ret.rally.get(k).map_or(0.0, |r| r.alt_above_home_m),
+        Destination::Home | Destination::Here => 0.0,
+    };
+    (to, to.at([0.0, 0.0], rally, from), alt_m)
+}
+
+/// Where the return from each of `plan`'s points goes by `ret`'s rule ([`destination`]).
+pub fn destinations(plan: &FlightPlan, ret: &AutopilotReturn) -> Vec<(Destination, [f64; 2], f64)> {
+    let rally = rally_local(plan, ret);
+    (plan.points.iter())
+        .map(|p| destination(ret, &rally, &p.enu))
         .collect()
 }
 
@@ -203,22 +214,31 @@ pub fn setup(
     wind: Wind,
 ) -> Result<GuardSetup, PhysicsError> {
     let return_alt_m = ret.alt_m;
-    let destinations = destinations(plan, ret);
+    let rally = rally_local(plan, ret);
     let descent = match flavour {
         Flavour::ArduPilot => ReturnDescent::Ardupilot,
         Flavour::Px4 | Flavour::Generic => ReturnDescent::Landing,
     };
-    let home_j = plan
-        .points
-        .iter()
-        .zip(&destinations)
-        .map(|(p, (to, at_xy, dest_alt_m))| {
-            let height = plan.origin_height_m + p.enu.z_up_m;
-            let at_m = return_height_m(flavour, *to, height, return_alt_m, *dest_alt_m);
-            let from = [p.enu.x_east_m, p.enu.y_north_m, height];
-            return_j(vehicle, profile, descent, from, *at_xy, at_m, wind)
-        })
+    let home_from = |p: &crate::mission::Enu| -> Result<f64, PhysicsError> {
+        let (to, at_xy, dest_alt_m) = destination(ret, &rally, p);
+        let height = plan.origin_height_m + p.z_up_m;
+        let at_m = return_height_m(flavour, to, height, return_alt_m, dest_alt_m);
+        let from = [p.x_east_m, p.y_north_m, height];
+        return_j(vehicle, profile, descent, from, at_xy, at_m, wind)
+    };
+    let destinations = destinations(plan, ret);
+    let home_j = (plan.points.iter())
+        .map(|p| home_from(&p.enu))
         .collect::<Result<Vec<f64>, PhysicsError>>()?;
+    // The return from a leg's via points: the way round a zone can take the vehicle further
+    // from home than either end of the leg.
+    let via_home_j = if plan.points.iter().any(|p| !p.via.is_empty()) {
+        (plan.points.iter())
+            .map(|p| p.via.iter().map(|v| home_from(&v.enu)).collect())
+            .collect::<Result<Vec<Vec<f64>>, PhysicsError>>()?
+    } else {
+        Vec::new()
+    };
     let b = &vehicle.battery;
     Ok(GuardSetup {
         policy,
@@ -235,6 +255,7 @@ pub fn setup(
             .map(|(to, _, _)| to.describe())
             .collect(),
         return_rule: Some(ret.describe()),
+        via_home_j,
     })
 }
 

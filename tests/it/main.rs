@@ -5,6 +5,7 @@ mod ardupilot;
 mod camera;
 mod cli;
 mod crashes;
+mod detour_flight;
 mod docrefs;
 mod failfast;
 mod fastwp;
