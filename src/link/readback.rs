@@ -475,9 +475,10 @@ fn ardupilot_fence_rally(sent: &MISSION_ITEM_INT_DATA) -> Expect {
             e.z = ruled(Want::Float(0.0, 0.0), AP_FENCE_ALT);
             let p1 = match sent.command {
                 MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION
-                | MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION => {
-                    ruled(Want::Float(whole(sent.param1).min(255.0), 0.0), AP_FENCE_COUNT)
-                }
+                | MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION => ruled(
+                    Want::Float(whole(sent.param1).min(255.0), 0.0),
+                    AP_FENCE_COUNT,
+                ),
                 MAV_CMD_NAV_FENCE_RETURN_POINT => zero,
                 // The radius, a float (AC_PolyFenceItem::radius).
                 _ => e.params[0],

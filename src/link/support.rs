@@ -547,7 +547,7 @@ mod tests {
             asks(&ask.handle(ms(10), &unsupported)),
             vec![(MavCmd::MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, 1.0)]
         );
-        let mut now = ms(10);
+        let mut now = ms(0);
         while ask.finished().is_none() {
             now += ms(100);
             ask.tick(now);
@@ -558,18 +558,30 @@ mod tests {
 
     #[test]
     fn a_fence_is_refused_for_an_autopilot_that_does_not_declare_it_naming_the_bit() {
-        let none = Capabilities::from_bits(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_INT);
-        let err = none.check("MAVSDK (generic MAVLink)", true, false).unwrap_err();
+        let none =
+            Capabilities::from_bits(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_INT);
+        let err = none
+            .check("MAVSDK (generic MAVLink)", true, false)
+            .unwrap_err();
         assert_eq!(
             err.to_string(),
             "the mission has a geofence but the autopilot (MAVSDK (generic MAVLink)) does not \
              declare MAV_PROTOCOL_CAPABILITY_MISSION_FENCE in its AUTOPILOT_VERSION: it would fly \
              without it; refused"
         );
-        assert!(none.check("x", false, true).unwrap_err().to_string().contains("rally points"));
+        assert!(none
+            .check("x", false, true)
+            .unwrap_err()
+            .to_string()
+            .contains("rally points"));
         assert!(none.check("x", false, false).is_ok());
-        let silent = Capabilities::undeclared().check("x", true, false).unwrap_err();
-        assert!(silent.to_string().contains("sent no AUTOPILOT_VERSION"), "{silent}");
+        let silent = Capabilities::undeclared()
+            .check("x", true, false)
+            .unwrap_err();
+        assert!(
+            silent.to_string().contains("sent no AUTOPILOT_VERSION"),
+            "{silent}"
+        );
         let both = Capabilities::from_bits(
             MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_FENCE
                 | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_RALLY,

@@ -8,6 +8,7 @@ mod crashes;
 mod docrefs;
 mod failfast;
 mod fastwp;
+mod fence_link;
 mod flight;
 mod flightlog;
 mod flownprofile;

@@ -589,10 +589,7 @@ mod tests {
             out.first(),
             Some(Action::Send(MavMessage::MISSION_REQUEST_INT(r))) if r.seq == 0 && r.mission_type == rally
         ));
-        let points = crate::link::fence::rally_items(
-            &crate::link::testing::rally(),
-            Flavour::Px4,
-        );
+        let points = crate::link::fence::rally_items(&crate::link::testing::rally(), Flavour::Px4);
         let mut mission_item = points[0].clone();
         mission_item.mission_type = MISSION;
         assert!(down.handle(ms(8), &item(&mission_item)).is_empty());
