@@ -1440,6 +1440,13 @@ mod tests {
         let read = (0..n)
             .filter_map(|seq| answered(&server.handle(ms(3), GCS, &typed(t, req(seq)))))
             .collect();
+        // The ground station's ack ends the download (PX4 refuses another transfer meanwhile).
+        let done = MavMessage::MISSION_ACK(MISSION_ACK_DATA {
+            mavtype: MavMissionResult::MAV_MISSION_ACCEPTED,
+            mission_type: t,
+            ..Default::default()
+        });
+        server.handle(ms(4), GCS, &done);
         (out, read)
     }
 
