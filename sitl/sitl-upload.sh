@@ -10,6 +10,9 @@
 #              latitude 10 degE7 on its way: ArduPilot accepts and stores a different mission,
 #              and this fails unless emplan's read-back catches it (stage verify, accepted, item 3).
 #              Needs pymavlink: target/sitl-venv is made as sitl/mavsdk_peer.sh makes it.
+# A mission with a geofence and rally points (missions/orchard-fenced.plan) has them uploaded
+# beside the mission and read back identical; this then fails unless both are verified and
+# `emplan download OUT.plan` reads the same numbers of fence and rally items back.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 which=${1:?usage: sitl/sitl-upload.sh ardupilot|px4|ardupilot-corrupt [EMPLAN_BINARY] [MISSION]}
@@ -69,12 +72,34 @@ if ! out=$(timeout 90 "$emplan" upload "$mission" --connect "$url" --json); then
   tail -20 "$log" >&2
   exit 1
 fi
-python3 - "$out" "$which" "$start" <<'PY'
+lists=$(python3 - "$out" "$which" "$start" <<'PY'
 import json, sys, time
 doc = json.loads(sys.argv[1])
 report = doc["report"]
 assert report["verified"], doc
 print(f"{sys.argv[2]} SITL: {report['items']} items of {doc['mission']} verified "
       f"({'accepted' if report['acked'] else 'final ack lost, settled by read-back'}), "
-      f"{time.time() - float(sys.argv[3]):.1f} s after the SITL was started")
+      f"{time.time() - float(sys.argv[3]):.1f} s after the SITL was started", file=sys.stderr)
+counts = []
+for key in ("fence", "rally"):
+    got = doc.get(key)
+    assert got is not None, f"{sys.argv[2]} SITL declares no {key} list: {doc}"
+    assert got["verified"], doc
+    print(f"{sys.argv[2]} SITL: {key} {got['count']} ({got['items']} items) verified", file=sys.stderr)
+    counts.append(got["items"] if got["count"] else 0)
+print(*counts)
 PY
+)
+read -r fence_items rally_items <<<"$lists"
+if [ "$fence_items" -gt 0 ] || [ "$rally_items" -gt 0 ]; then
+  held=$(mktemp -d -t emplan-sitl-held.XXXXXX)
+  if ! down=$(timeout 90 "$emplan" download --connect "$url" "$held/held.plan"); then
+    echo "FAIL: emplan download from $which SITL ($url) failed" >&2
+    exit 1
+  fi
+  want="fence $fence_items items, rally points $rally_items items"
+  case "$down" in
+    *"$want"*) echo "$which SITL: download read back the $want" ;;
+    *) echo "FAIL: download from $which SITL: expected '$want' in: $down" >&2; exit 1 ;;
+  esac
+fi

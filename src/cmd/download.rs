@@ -1,7 +1,6 @@
-//! `emplan download`: read the autopilot's mission and write it as JSON mission items.
+//! `emplan download`: read the autopilot's mission, with its geofence and rally points, and
+//! write it as a mission file or as JSON mission items.
 
-use anyhow::Context;
-use emplan::link::driver::download;
 use emplan::output::Output;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -11,7 +10,8 @@ pub struct Args {
     #[command(flatten)]
     link: super::LinkArgs,
     /// File to write: a mission file when it ends in .plan, .waypoints or .toml (the waypoints
-    /// and their actions as the vehicle holds them), else the mission items as JSON
+    /// and their actions, the fence and the rally points as the vehicle holds them), else the
+    /// mission items as JSON
     /// (MISSION_ITEM_INT fields; frame and command as MAVLink numbers, x/y in degE7, NaN params
     /// as null)
     out: PathBuf,
@@ -36,9 +36,12 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     runtime.block_on(async {
         let opened = args.link.open().await?;
         let target = opened.target;
-        let items = download(&opened.link, &target, opened.transfer)
+        let held = emplan::session::download_held(&opened.link, &target, opened.transfer)
             .await
-            .with_context(|| format!("downloading from {}", opened.describe))?;
+            .map_err(|e| {
+                anyhow::Error::new(e).context(format!("downloading from {}", opened.describe))
+            })?;
+        let items = &held.items;
         let as_mission = emplan::mission::Format::from_path(&args.out).ok();
         match as_mission {
             Some(format) => {
@@ -47,10 +50,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                     .file_stem()
                     .and_then(|s| s.to_str())
                     .unwrap_or("mission");
-                let mission = emplan::link::items::mission_of_items(&items, target.flavour, name)
-                    .with_context(|| {
-                    format!("reading the {} items as a mission", items.len())
-                })?;
+                let mission = held.mission(name)?;
                 out.write(emplan::mission::to_string(&mission, format)?.as_bytes())?;
             }
             None => {
@@ -59,8 +59,16 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                 out.write(serde_json::to_string_pretty(&json)?.as_bytes())?;
             }
         }
+        let lists = match (held.capabilities.fence, held.capabilities.rally) {
+            (false, false) => String::new(),
+            _ => format!(
+                "; fence {} items, rally points {} items",
+                held.fence_items.len(),
+                held.rally_items.len()
+            ),
+        };
         println!(
-            "wrote {} ({} items from {:?} autopilot {})",
+            "wrote {} ({} items from {:?} autopilot {}{lists})",
             args.out.display(),
             items.len(),
             target.flavour,

@@ -1,7 +1,8 @@
 //! `emplan upload`: plan a mission, check it against the battery, check that the vehicle stands
 //! at its origin (or, with `--origin vehicle`, plan it from the vehicle's home), upload it to
-//! the autopilot and prove it arrived by reading it back. Exit 0 only when the autopilot took
-//! the mission and the read-back matched; otherwise the message names the stage (`mission`,
+//! the autopilot and prove it arrived by reading it back, with its fence and rally points (an
+//! empty one clears the vehicle's). Exit 0 only when the autopilot took the mission, the fence
+//! and the rally points and every read-back matched; otherwise the message names the stage (`mission`,
 //! `plan`, `connect`, `preflight`, `upload`, `read-back`, `verify`), whether the autopilot had
 //! accepted the mission and the item, and with `--json` a failure prints one JSON document too:
 //! `{"ok": false, "stage", "accepted", "error", "item", "result"}`.
@@ -156,6 +157,8 @@ fn upload(args: Args) -> anyhow::Result<ExitCode> {
                     .iter()
                     .map(emplan::link::items::item_json)
                     .collect(),
+                fence: uploaded.fence,
+                rally: uploaded.rally,
             };
             println!("{}", serde_json::to_string_pretty(&doc)?);
         } else {
@@ -164,6 +167,15 @@ fn upload(args: Args) -> anyhow::Result<ExitCode> {
                 "{}",
                 verified_line(&report, planned.predicted_mission_kj, planned.budget_kj)
             );
+            for line in [
+                list_line("fence", "zones", uploaded.fence.as_ref()),
+                list_line("rally points", "points", uploaded.rally.as_ref()),
+            ]
+            .into_iter()
+            .flatten()
+            {
+                println!("{line}");
+            }
         }
         Ok(ExitCode::SUCCESS)
     })
@@ -195,6 +207,22 @@ fn verified_line(
         predicted_kj,
         budget_kj
     )
+}
+
+/// The line a verified fence or rally upload prints (None: the autopilot holds no such list).
+fn list_line(
+    list: &str,
+    unit: &str,
+    upload: Option<&emplan::session::upload::ListUpload>,
+) -> Option<String> {
+    let upload = upload?;
+    Some(match upload.count {
+        0 => format!("verified: {list} cleared on the vehicle (the mission has none)"),
+        n => format!(
+            "verified: {list}: {n} {unit} in {} items uploaded, read back and matched",
+            upload.items
+        ),
+    })
 }
 
 /// `upload --service URL`: the same through a running service.

@@ -76,6 +76,35 @@ impl CommandMachine for Locate {
     }
 }
 
+impl CommandMachine for super::support::AskCapabilities {
+    fn start(&mut self, now: Duration) -> Vec<MavMessage> {
+        super::support::AskCapabilities::start(self, now)
+    }
+    fn handle(&mut self, now: Duration, message: &MavMessage) -> Vec<MavMessage> {
+        super::support::AskCapabilities::handle(self, now, message)
+    }
+    fn tick(&mut self, now: Duration) -> Vec<MavMessage> {
+        super::support::AskCapabilities::tick(self, now)
+    }
+    fn done(&self) -> bool {
+        self.finished().is_some()
+    }
+}
+
+/// What `target` declares it holds besides a mission (its AUTOPILOT_VERSION capability bits;
+/// nothing when it sends none within `cfg`'s budget).
+pub async fn capabilities(
+    link: &Link,
+    target: &Autopilot,
+    cfg: super::support::AskConfig,
+) -> Result<super::support::Capabilities, LinkError> {
+    let mut machine = super::support::AskCapabilities::new(*target, cfg);
+    drive(link, target, &mut machine).await?;
+    Ok(machine
+        .finished()
+        .unwrap_or_else(super::support::Capabilities::undeclared))
+}
+
 impl CommandMachine for StreamRequests {
     fn start(&mut self, now: Duration) -> Vec<MavMessage> {
         StreamRequests::start(self, now)

@@ -10,10 +10,10 @@ use std::time::Duration;
 use tokio::time::Instant;
 
 use super::connection::{Autopilot, Link};
-use super::mav::{MavMessage, MavMissionResult, MISSION_ITEM_INT_DATA};
+use super::mav::{MavMessage, MavMissionResult, MavMissionType, MISSION_ITEM_INT_DATA};
 use super::readback::{self, ReadbackError};
 use super::transfer::{
-    Action, Command, Download, Rto, Stage, TransferConfig, TransferError, Upload,
+    Action, Command, Download, Rto, Stage, TransferConfig, TransferError, Upload, MISSION,
 };
 use super::LinkError;
 
@@ -32,6 +32,8 @@ pub enum DriverError {
 /// the item concerned and the autopilot's refusal, if any.
 #[derive(Debug, thiserror::Error)]
 pub struct UploadError {
+    /// Which list failed: "mission", "fence" or "rally points" (`list_name`).
+    pub list: &'static str,
     pub stage: Stage,
     /// The autopilot's ACCEPTED ack of this mission arrived.
     pub accepted: bool,
@@ -46,6 +48,9 @@ pub struct UploadError {
 
 impl std::fmt::Display for UploadError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.list != list_name(MISSION) {
+            write!(f, "{}: ", self.list)?;
+        }
         match &self.cause {
             DriverError::Transfer(e) => write!(f, "{e}")?,
             DriverError::Readback(e) => write!(f, "{e}")?,
@@ -53,12 +58,22 @@ impl std::fmt::Display for UploadError {
         }
         match (self.stage, self.accepted) {
             (Stage::Upload, _) => Ok(()),
-            (_, true) => write!(f, " (the autopilot had accepted the mission)"),
+            (_, true) => write!(f, " (the autopilot had accepted the {})", self.list),
             (_, false) => write!(
                 f,
-                " (no MISSION_ACK came: the autopilot may not hold the mission)"
+                " (no MISSION_ACK came: the autopilot may not hold the {})",
+                self.list
             ),
         }
+    }
+}
+
+/// How errors and reports name the autopilot's list of `mission_type`.
+pub fn list_name(mission_type: MavMissionType) -> &'static str {
+    match mission_type {
+        MavMissionType::MAV_MISSION_TYPE_FENCE => "fence",
+        MavMissionType::MAV_MISSION_TYPE_RALLY => "rally points",
+        _ => "mission",
     }
 }
 
@@ -210,15 +225,37 @@ fn remaining(budget: Duration, started: Instant) -> Duration {
     budget.saturating_sub(started.elapsed())
 }
 
-/// Uploads `items` and reads them back; Ok only when the autopilot holds what was sent, as
-/// its flavour stores it. One time budget (`cfg.budget_for(items)`) covers it all.
+/// Uploads the mission `items` and reads them back; Ok only when the autopilot holds what was
+/// sent, as its flavour stores it. One time budget (`cfg.budget_for(items)`) covers it all.
 pub async fn upload_verified(
+    link: &Link,
+    target: &Autopilot,
+    items: &[MISSION_ITEM_INT_DATA],
+    cfg: TransferConfig,
+    progress: impl FnMut(usize, usize),
+) -> Result<UploadReport, UploadError> {
+    upload_verified_of(MISSION, link, target, items, cfg, progress).await
+}
+
+/// Uploads `items` into the autopilot's list of `mission_type` (its mission, fence or rally
+/// points) and reads them back, as [`upload_verified`] does the mission. No items: the list is
+/// emptied (a MISSION_COUNT of 0) and read back empty.
+pub async fn upload_verified_of(
+    mission_type: MavMissionType,
     link: &Link,
     target: &Autopilot,
     items: &[MISSION_ITEM_INT_DATA],
     cfg: TransferConfig,
     mut progress: impl FnMut(usize, usize),
 ) -> Result<UploadReport, UploadError> {
+    let items: Vec<MISSION_ITEM_INT_DATA> = items
+        .iter()
+        .map(|it| MISSION_ITEM_INT_DATA {
+            mission_type,
+            ..it.clone()
+        })
+        .collect();
+    let items = &items[..];
     let cfg = TransferConfig {
         flavour: target.flavour,
         ..cfg
@@ -237,6 +274,7 @@ pub async fn upload_verified(
                 DriverError::Link(_) => (None, None),
             };
             UploadError {
+                list: list_name(mission_type),
                 stage,
                 accepted,
                 item,
@@ -249,7 +287,7 @@ pub async fn upload_verified(
             budget: Some(remaining(budget, started)),
             ..cfg
         };
-        let mut upload = Upload::new(items.to_vec(), stage_cfg, rto);
+        let mut upload = Upload::of_type(mission_type, items.to_vec(), stage_cfg, rto);
         let outcome = run(link, target, &mut upload, &mut progress).await;
         rto = upload.rto();
         count_sent += upload.stats.count_sent;
@@ -267,7 +305,7 @@ pub async fn upload_verified(
             budget: Some(remaining(budget, started)),
             ..cfg
         };
-        let mut down = Download::new(stage_cfg, rto);
+        let mut down = Download::of_type(mission_type, stage_cfg, rto);
         let read = run(link, target, &mut down, |_, _| {}).await;
         rto = down.rto();
         restarts += down.stats.restarts;
@@ -303,6 +341,16 @@ pub async fn download(
     target: &Autopilot,
     cfg: TransferConfig,
 ) -> Result<Vec<MISSION_ITEM_INT_DATA>, DriverError> {
+    download_of(MISSION, link, target, cfg).await
+}
+
+/// Reads the autopilot's list of `mission_type` (its mission, fence or rally points).
+pub async fn download_of(
+    mission_type: MavMissionType,
+    link: &Link,
+    target: &Autopilot,
+    cfg: TransferConfig,
+) -> Result<Vec<MISSION_ITEM_INT_DATA>, DriverError> {
     let cfg = TransferConfig {
         flavour: target.flavour,
         ..cfg
@@ -310,7 +358,7 @@ pub async fn download(
     run(
         link,
         target,
-        &mut Download::new(cfg, Rto::new(cfg.timing)),
+        &mut Download::of_type(mission_type, cfg, Rto::new(cfg.timing)),
         |_, _| {},
     )
     .await

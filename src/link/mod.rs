@@ -8,6 +8,7 @@
 pub mod commands;
 pub mod connection;
 pub mod driver;
+pub mod fence;
 pub mod flavour;
 pub mod flight;
 pub mod home;

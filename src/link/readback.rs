@@ -14,7 +14,7 @@
 
 use std::fmt;
 
-use super::mav::{MavCmd, MavFrame, MISSION_ITEM_INT_DATA};
+use super::mav::{MavCmd, MavFrame, MavMissionType, MISSION_ITEM_INT_DATA};
 use super::Flavour;
 
 /// One field of one item that differs from what the autopilot should hold.
@@ -442,8 +442,57 @@ fn ardupilot(sent: &MISSION_ITEM_INT_DATA) -> Expect {
     e
 }
 
+const AP_FENCE_FRAME: &str = "ArduPilot keeps no frame of a fence item and answers the frame \
+                              of a zeroed item (MissionItemProtocol_Fence::get_item_as_mission_item)";
+const AP_FENCE_ALT: &str = "ArduPilot keeps no altitude of a fence item and answers 0 \
+                            (MissionItemProtocol_Fence::get_item_as_mission_item)";
+const AP_FENCE_COUNT: &str = "ArduPilot keeps a polygon's vertex count as a whole number \
+                              (AC_PolyFenceItem::vertex_count, uint8_t)";
+const AP_RALLY_FRAME: &str = "ArduPilot answers a rally point in MAV_FRAME_GLOBAL_RELATIVE_ALT \
+                              (MissionItemProtocol_Rally::get_item)";
+const AP_RALLY_ALT: &str = "ArduPilot stores a rally point's altitude as whole metres \
+                            (RallyLocation::alt, int16_t, from packet.z)";
+const AP_UNKEPT: &str = "ArduPilot keeps no parameter of this fence or rally item and answers 0";
+
+/// What ArduPilot holds of a fence or rally item: its own stores (`AC_PolyFenceItem`,
+/// `RallyLocation`), not `AP_Mission`'s, and no home at item 0.
+fn ardupilot_fence_rally(sent: &MISSION_ITEM_INT_DATA) -> Expect {
+    use MavCmd::*;
+    let mut e = generic(sent);
+    let zero = ruled(Want::Float(0.0, 0.0), AP_UNKEPT);
+    e.autocontinue = ruled(Want::Any, AP_UNKEPT);
+    match sent.command {
+        MAV_CMD_NAV_RALLY_POINT => {
+            e.frame = ruled(
+                Want::Int(MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT as i64),
+                AP_RALLY_FRAME,
+            );
+            e.z = ruled(Want::Float(sent.z.trunc(), 0.0), AP_RALLY_ALT);
+            e.params = [zero; 4];
+        }
+        _ => {
+            e.frame = ruled(Want::Any, AP_FENCE_FRAME);
+            e.z = ruled(Want::Float(0.0, 0.0), AP_FENCE_ALT);
+            let p1 = match sent.command {
+                MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION
+                | MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION => ruled(
+                    Want::Float(whole(sent.param1).min(255.0), 0.0),
+                    AP_FENCE_COUNT,
+                ),
+                MAV_CMD_NAV_FENCE_RETURN_POINT => zero,
+                // The radius, a float (AC_PolyFenceItem::radius).
+                _ => e.params[0],
+            };
+            e.params = [p1, zero, zero, zero];
+        }
+    }
+    e
+}
+
 fn expect(flavour: Flavour, sent: &MISSION_ITEM_INT_DATA) -> Expect {
+    let mission = sent.mission_type == MavMissionType::MAV_MISSION_TYPE_MISSION;
     match flavour {
+        Flavour::ArduPilot if !mission => ardupilot_fence_rally(sent),
         Flavour::Px4 => px4(sent),
         Flavour::ArduPilot => ardupilot(sent),
         Flavour::Generic => generic(sent),

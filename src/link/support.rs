@@ -14,8 +14,23 @@
 //!   absolute (`relative_alt = 0`): ArduCopter SITL answered DO_SET_ROI_LOCATION sent in frame 2
 //!   in MAV_FRAME_GLOBAL.
 //! - Generic (MAVSDK's MissionRawServer and any other): stores whatever it receives.
+//!
+//! Whether an autopilot holds a geofence and rally points at all is what it declares in
+//! AUTOPILOT_VERSION's capability bits (MAV_PROTOCOL_CAPABILITY_MISSION_FENCE and _RALLY; PX4
+//! `MavlinkMain::send_autopilot_capabilities` sets both, ArduPilot `GCS_MAVLINK::capabilities`
+//! each when its build has a fence or rally library), asked for by [`AskCapabilities`], a
+//! sans-IO machine, and checked by [`Capabilities::check`] before anything is uploaded: a
+//! mission with a fence is never flown by an autopilot that does not say it holds one.
 
-use super::mav::{MavCmd, MavFrame};
+use std::time::Duration;
+
+use mavlink::MessageData;
+
+use super::connection::Autopilot;
+use super::mav::{
+    MavCmd, MavFrame, MavMessage, MavProtocolCapability, MavResult, AUTOPILOT_VERSION_DATA,
+    COMMAND_LONG_DATA,
+};
 use super::Flavour;
 
 use MavCmd::*;
@@ -207,6 +222,198 @@ pub fn action_frame(flavour: Flavour, command: u16, has_position: bool) -> MavFr
     }
 }
 
+/// What an autopilot declared it holds besides a mission.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct Capabilities {
+    /// MAV_PROTOCOL_CAPABILITY_MISSION_FENCE.
+    pub fence: bool,
+    /// MAV_PROTOCOL_CAPABILITY_MISSION_RALLY.
+    pub rally: bool,
+    /// AUTOPILOT_VERSION arrived (false: nothing was declared, so nothing is held).
+    pub declared: bool,
+}
+
+/// A mission the autopilot cannot hold all of.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum SupportError {
+    #[error(
+        "the mission has {what} but the autopilot ({autopilot}) {how}: it would fly without it; \
+         refused"
+    )]
+    Cannot {
+        what: &'static str,
+        autopilot: String,
+        how: String,
+    },
+}
+
+impl Capabilities {
+    /// The capabilities an AUTOPILOT_VERSION declares.
+    pub fn from_bits(bits: MavProtocolCapability) -> Capabilities {
+        Capabilities {
+            fence: bits.contains(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_FENCE),
+            rally: bits.contains(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_RALLY),
+            declared: true,
+        }
+    }
+
+    /// An autopilot that never said what it holds.
+    pub fn undeclared() -> Capabilities {
+        Capabilities {
+            fence: false,
+            rally: false,
+            declared: false,
+        }
+    }
+
+    /// Refuses a mission with a fence (`fence`) or rally points (`rally`) for an autopilot
+    /// (`autopilot`, its name in the error) that does not declare it holds them.
+    pub fn check(&self, autopilot: &str, fence: bool, rally: bool) -> Result<(), SupportError> {
+        let how = |bit: &str| {
+            if self.declared {
+                format!("does not declare {bit} in its AUTOPILOT_VERSION")
+            } else {
+                format!("sent no AUTOPILOT_VERSION, so it does not declare {bit}")
+            }
+        };
+        if fence && !self.fence {
+            return Err(SupportError::Cannot {
+                what: "a geofence",
+                autopilot: autopilot.to_string(),
+                how: how("MAV_PROTOCOL_CAPABILITY_MISSION_FENCE"),
+            });
+        }
+        if rally && !self.rally {
+            return Err(SupportError::Cannot {
+                what: "rally points",
+                autopilot: autopilot.to_string(),
+                how: how("MAV_PROTOCOL_CAPABILITY_MISSION_RALLY"),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Timing of [`AskCapabilities`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AskConfig {
+    /// Ask again when no answer came within this.
+    pub retry: Duration,
+    /// Give up (nothing declared) after this.
+    pub budget: Duration,
+}
+
+impl Default for AskConfig {
+    fn default() -> Self {
+        // Both autopilots answer within a round trip; five requests over a lossy radio.
+        AskConfig {
+            retry: Duration::from_secs(1),
+            budget: Duration::from_secs(5),
+        }
+    }
+}
+
+/// Asks the autopilot for AUTOPILOT_VERSION (MAV_CMD_REQUEST_MESSAGE 148, which PX4 and
+/// ArduPilot answer; an autopilot that answers UNSUPPORTED is asked with the older
+/// MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES) until it comes or the budget runs out.
+#[derive(Debug, Clone)]
+pub struct AskCapabilities {
+    target: Autopilot,
+    cfg: AskConfig,
+    started: Duration,
+    next_send: Duration,
+    legacy: bool,
+    requests: u32,
+    result: Option<Capabilities>,
+}
+
+impl AskCapabilities {
+    pub fn new(target: Autopilot, cfg: AskConfig) -> AskCapabilities {
+        AskCapabilities {
+            target,
+            cfg,
+            started: Duration::ZERO,
+            next_send: Duration::ZERO,
+            legacy: false,
+            requests: 0,
+            result: None,
+        }
+    }
+
+    /// What the autopilot declared, once finished (undeclared when it never answered).
+    pub fn finished(&self) -> Option<Capabilities> {
+        self.result
+    }
+
+    /// Requests sent so far.
+    pub fn requests(&self) -> u32 {
+        self.requests
+    }
+
+    // MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES is superseded by MAV_CMD_REQUEST_MESSAGE, but an
+    // autopilot that does not know the latter knows only it.
+    #[allow(deprecated)]
+    fn request(&mut self, now: Duration) -> Vec<MavMessage> {
+        self.requests += 1;
+        self.next_send = now + self.cfg.retry;
+        let (command, param1) = if self.legacy {
+            (MavCmd::MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, 1.0)
+        } else {
+            (
+                MavCmd::MAV_CMD_REQUEST_MESSAGE,
+                AUTOPILOT_VERSION_DATA::ID as f32,
+            )
+        };
+        vec![MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+            command,
+            param1,
+            target_system: self.target.system_id,
+            target_component: self.target.component_id,
+            ..Default::default()
+        })]
+    }
+
+    pub fn start(&mut self, now: Duration) -> Vec<MavMessage> {
+        self.started = now;
+        self.request(now)
+    }
+
+    pub fn handle(&mut self, now: Duration, message: &MavMessage) -> Vec<MavMessage> {
+        if self.result.is_some() {
+            return Vec::new();
+        }
+        match message {
+            MavMessage::AUTOPILOT_VERSION(v) => {
+                self.result = Some(Capabilities::from_bits(v.capabilities));
+                Vec::new()
+            }
+            MavMessage::COMMAND_ACK(a)
+                if a.command == MavCmd::MAV_CMD_REQUEST_MESSAGE
+                    && a.result == MavResult::MAV_RESULT_UNSUPPORTED
+                    && !self.legacy =>
+            {
+                self.legacy = true;
+                self.request(now)
+            }
+            _ => Vec::new(),
+        }
+    }
+
+    pub fn tick(&mut self, now: Duration) -> Vec<MavMessage> {
+        if self.result.is_some() {
+            return Vec::new();
+        }
+        if now.saturating_sub(self.started) >= self.cfg.budget {
+            self.result = Some(Capabilities::undeclared());
+            return Vec::new();
+        }
+        if now >= self.next_send {
+            return self.request(now);
+        }
+        Vec::new()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -282,5 +489,103 @@ mod tests {
                 MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT
             );
         }
+    }
+
+    fn version(bits: MavProtocolCapability) -> MavMessage {
+        MavMessage::AUTOPILOT_VERSION(AUTOPILOT_VERSION_DATA {
+            capabilities: bits,
+            ..Default::default()
+        })
+    }
+
+    fn asks(out: &[MavMessage]) -> Vec<(MavCmd, f32)> {
+        out.iter()
+            .filter_map(|m| match m {
+                MavMessage::COMMAND_LONG(c) => Some((c.command, c.param1)),
+                _ => None,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_capabilities_are_asked_for_again_until_autopilot_version_comes() {
+        use crate::link::testing::{autopilot, ms};
+        let mut ask = AskCapabilities::new(autopilot(Flavour::Px4), AskConfig::default());
+        assert_eq!(
+            asks(&ask.start(ms(0))),
+            vec![(MavCmd::MAV_CMD_REQUEST_MESSAGE, 148.0)]
+        );
+        assert!(ask.tick(ms(999)).is_empty());
+        assert_eq!(asks(&ask.tick(ms(1000))).len(), 1);
+        let bits = MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_FENCE
+            | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_INT;
+        ask.handle(ms(1100), &version(bits));
+        assert_eq!(
+            ask.finished(),
+            Some(Capabilities {
+                fence: true,
+                rally: false,
+                declared: true
+            })
+        );
+        assert!(ask.tick(ms(2000)).is_empty());
+    }
+
+    #[test]
+    #[allow(deprecated)]
+    fn an_autopilot_that_never_answers_declares_nothing_and_an_unsupported_request_falls_back() {
+        use crate::link::mav::COMMAND_ACK_DATA;
+        use crate::link::testing::{autopilot, ms};
+        let mut ask = AskCapabilities::new(autopilot(Flavour::Generic), AskConfig::default());
+        ask.start(ms(0));
+        let unsupported = MavMessage::COMMAND_ACK(COMMAND_ACK_DATA {
+            command: MavCmd::MAV_CMD_REQUEST_MESSAGE,
+            result: MavResult::MAV_RESULT_UNSUPPORTED,
+            ..Default::default()
+        });
+        assert_eq!(
+            asks(&ask.handle(ms(10), &unsupported)),
+            vec![(MavCmd::MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, 1.0)]
+        );
+        let mut now = ms(0);
+        while ask.finished().is_none() {
+            now += ms(100);
+            ask.tick(now);
+        }
+        assert_eq!(now, ms(5000));
+        assert_eq!(ask.finished(), Some(Capabilities::undeclared()));
+    }
+
+    #[test]
+    fn a_fence_is_refused_for_an_autopilot_that_does_not_declare_it_naming_the_bit() {
+        let none =
+            Capabilities::from_bits(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_INT);
+        let err = none
+            .check("MAVSDK (generic MAVLink)", true, false)
+            .unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "the mission has a geofence but the autopilot (MAVSDK (generic MAVLink)) does not \
+             declare MAV_PROTOCOL_CAPABILITY_MISSION_FENCE in its AUTOPILOT_VERSION: it would fly \
+             without it; refused"
+        );
+        assert!(none
+            .check("x", false, true)
+            .unwrap_err()
+            .to_string()
+            .contains("rally points"));
+        assert!(none.check("x", false, false).is_ok());
+        let silent = Capabilities::undeclared()
+            .check("x", true, false)
+            .unwrap_err();
+        assert!(
+            silent.to_string().contains("sent no AUTOPILOT_VERSION"),
+            "{silent}"
+        );
+        let both = Capabilities::from_bits(
+            MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_FENCE
+                | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_RALLY,
+        );
+        assert!(both.check("PX4", true, true).is_ok());
     }
 }

@@ -13,6 +13,8 @@ use super::mav::{
 };
 use super::transfer::Action;
 use super::Flavour;
+use crate::mission::fence::{Fence, LatLon, RallyPoint, Shape, Zone};
+use crate::mission::Geodetic;
 
 const MISSION: MavMissionType = MavMissionType::MAV_MISSION_TYPE_MISSION;
 
@@ -142,4 +144,59 @@ pub fn autopilot(flavour: Flavour) -> Autopilot {
         component_id: 1,
         flavour,
     }
+}
+
+fn square(lat_deg: f64, lon_deg: f64, side_deg: f64) -> Vec<LatLon> {
+    [(0.0, 0.0), (0.0, 1.0), (1.0, 1.0), (1.0, 0.0)]
+        .iter()
+        .map(|(a, b)| LatLon {
+            lat_deg: lat_deg + a * side_deg,
+            lon_deg: lon_deg + b * side_deg,
+        })
+        .collect()
+}
+
+/// A fence round the sample field: an inclusion pentagon, an exclusion square (about 17 m a
+/// side), an exclusion circle of 12.5 m and a breach return point at 30 m.
+pub fn fence() -> Fence {
+    let ll = |lat_deg, lon_deg| LatLon { lat_deg, lon_deg };
+    Fence {
+        zones: vec![
+            Zone {
+                inclusion: true,
+                shape: Shape::Polygon(vec![
+                    ll(38.5360, -121.7890),
+                    ll(38.5370, -121.7890),
+                    ll(38.5370, -121.7860),
+                    ll(38.5365, -121.7855),
+                    ll(38.5360, -121.7860),
+                ]),
+            },
+            Zone {
+                inclusion: false,
+                shape: Shape::Polygon(square(38.5363, -121.7875, 0.0002)),
+            },
+            Zone {
+                inclusion: false,
+                shape: Shape::Circle {
+                    center: ll(38.5368, -121.7865),
+                    radius_m: 12.5,
+                },
+            },
+        ],
+        breach_return: Some(Geodetic {
+            lat_deg: 38.5362,
+            lon_deg: -121.7875,
+            alt_m: 30.0,
+        }),
+    }
+}
+
+/// One rally point on the sample field, 25.4 m above home (ArduPilot holds 25 m of it).
+pub fn rally() -> Vec<RallyPoint> {
+    vec![RallyPoint {
+        lat_deg: 38.5366,
+        lon_deg: -121.7880,
+        alt_above_home_m: 25.4,
+    }]
 }

@@ -721,6 +721,8 @@ impl Actor {
                 autopilot: target,
                 report,
                 items: loaded.items.iter().map(item_json).collect(),
+                fence: loaded.fence,
+                rally: loaded.rally,
             },
             link,
             px4_parameters: (loaded.params.as_ref())

@@ -26,10 +26,12 @@ use crate::flightlog::report::{FlightReport, ReportJson};
 use crate::flightlog::watch::{NoteKind, Policy};
 use crate::link::commands::{drive, keep_streams, request_streams};
 use crate::link::connection::{Autopilot, Link};
-use crate::link::driver::{upload_verified, UploadError, UploadReport};
+use crate::link::driver::{upload_verified, upload_verified_of, UploadError, UploadReport};
+use crate::link::fence::{fence_items, rally_items, FENCE, RALLY};
 use crate::link::flight::{Start, StartConfig, StartError};
 use crate::link::items::{flight_items_noted, ItemOptions};
 use crate::link::mav::MISSION_ITEM_INT_DATA;
+use crate::link::support::{AskConfig, Capabilities, SupportError};
 use crate::link::transfer::TransferConfig;
 use crate::link::{Flavour, LinkError};
 use crate::mission::rehome::HomeOffset;
@@ -96,6 +98,13 @@ pub struct Loaded {
     /// The vehicle's home against the mission's origin (None: its home is unknown and the
     /// flight went ahead as [`Load::if_home_unknown`] allowed).
     pub home: Option<HomeOffset>,
+    /// What the autopilot declared it holds besides the mission.
+    pub capabilities: Capabilities,
+    /// The mission's fence uploaded and verified (none: its old fence cleared); None when the
+    /// autopilot holds no fence (and the mission has none).
+    pub fence: Option<super::upload::ListUpload>,
+    /// The mission's rally points, as the fence.
+    pub rally: Option<super::upload::ListUpload>,
 }
 
 /// Puts a flight onto the vehicle, the one way every command and the service do it: checks
@@ -105,6 +114,11 @@ pub struct Loaded {
 /// builds the items, uploads them and proves they arrived by reading them back, then hands the
 /// recorder (when there is one: `emplan upload` records nothing) the flight plan to measure the
 /// next flight against.
+///
+/// The mission's geofence and rally points go up with it, each as the autopilot's list of its
+/// mission type, verified by read-back; an empty one clears what the vehicle held from its last
+/// site. A mission with a fence (or rally points) for an autopilot that does not declare it
+/// holds one (AUTOPILOT_VERSION) is refused before anything is sent: it is never flown without.
 #[allow(clippy::too_many_arguments)]
 pub async fn load(
     link: &Link,
@@ -123,6 +137,13 @@ pub async fn load(
         }
         _ => None,
     };
+    let capabilities =
+        crate::link::commands::capabilities(link, target, AskConfig::default()).await?;
+    capabilities.check(
+        &autopilot_name(target),
+        !load.mission.fence.is_empty(),
+        !load.mission.rally.is_empty(),
+    )?;
     checked(params.as_ref());
     let (mission, plan, flight) = (load.mission, load.plan, load.flight);
     let items = items(target.flavour, load)?;
@@ -191,6 +212,27 @@ pub async fn load(
         autopilot_return = Some(ret);
     }
     let upload = upload_verified(link, target, &items, transfer, progress).await?;
+    let fence = match capabilities.fence {
+        false => None,
+        true => {
+            let sent = fence_items(&mission.fence);
+            let report =
+                upload_verified_of(FENCE, link, target, &sent, transfer, |_, _| {}).await?;
+            Some(super::upload::ListUpload::new(
+                mission.fence.zones.len(),
+                &report,
+            ))
+        }
+    };
+    let rally = match capabilities.rally {
+        false => None,
+        true => {
+            let sent = rally_items(&mission.rally, target.flavour);
+            let report =
+                upload_verified_of(RALLY, link, target, &sent, transfer, |_, _| {}).await?;
+            Some(super::upload::ListUpload::new(mission.rally.len(), &report))
+        }
+    };
     match (recorder, load.live_wind) {
         (None, _) => {}
         (Some(recorder), Some(model)) => {
@@ -209,7 +251,20 @@ pub async fn load(
         measured_against,
         params,
         home,
+        capabilities,
+        fence,
+        rally,
     })
+}
+
+/// How errors name the autopilot: its kind and system id.
+fn autopilot_name(target: &Autopilot) -> String {
+    let kind = match target.flavour {
+        Flavour::Px4 => "PX4",
+        Flavour::ArduPilot => "ArduPilot",
+        Flavour::Generic => "a generic MAVLink autopilot",
+    };
+    format!("{kind}, system {}", target.system_id)
 }
 
 /// The items `load` sends to an autopilot of `flavour`: its waypoints in the flight's order
@@ -293,6 +348,10 @@ pub enum FlyError {
     Upload(#[from] UploadError),
     #[error("flight plan: {0}")]
     Plan(String),
+    /// The mission holds what the autopilot cannot (a fence, rally points): found before
+    /// anything was uploaded.
+    #[error(transparent)]
+    Unsupported(#[from] SupportError),
     #[error("start: {0}")]
     Start(#[from] StartError),
     #[error("link: {0}")]
@@ -318,6 +377,7 @@ impl FlyError {
     pub fn stage(&self) -> String {
         match self {
             FlyError::Items(_) | FlyError::Plan(_) => "plan".into(),
+            FlyError::Unsupported(_) => "preflight".into(),
             FlyError::Preflight(e) => e.stage().into(),
             FlyError::Upload(e) => e.stage.to_string(),
             FlyError::Start(_) => "start".into(),
@@ -343,6 +403,7 @@ impl FlyError {
             | FlyError::Plan(_)
             | FlyError::Link(_)
             | FlyError::LogDir(_)
+            | FlyError::Unsupported(_)
             | FlyError::Preflight(_) => false,
         }
     }

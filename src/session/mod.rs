@@ -7,13 +7,15 @@
 //! report, which failures count as accepted), used by `emplan upload`, `emplan fly` and the
 //! service's vehicle actor alike; `home`, the check before any upload that the vehicle stands
 //! at the mission's origin, and the re-planning from the vehicle's home; `held`, the mission a
-//! vehicle holds measured (`emplan record`, the service).
+//! vehicle holds measured (`emplan record`, the service); `download`, what a vehicle holds read
+//! back whole, its mission with its fence and rally points (`emplan download`).
 //!
 //! This is the async glue above `link` (MAVLink, sans-IO machines), `flightlog` (files,
 //! segmentation, energy; no tokio) and `planner`: what is decided lives in those layers, so a
 //! `replay` of a recorded log gives the report the live run gave. The recorder's file work runs
 //! on a thread of its own (blocking writes and fsyncs never stall the link's tasks).
 
+pub mod download;
 pub mod fly;
 pub mod guard;
 pub mod held;
@@ -27,6 +29,7 @@ pub mod replay;
 pub mod upload;
 
 pub use crate::link::commands::{keep_streams, request_streams};
+pub use download::{download_held, DownloadError, Held};
 pub use fly::{
     arm_and_start, discard_unflown, fly, load, Flown, FlyError, FlyFailure, FlyJson, FlyOptions,
     Load, Loaded, StartFailed, DISCARD_ENDED_WITHIN, DISCARD_OPENED_WITHIN,

@@ -1,6 +1,6 @@
 //! The documents of an upload, the same from `emplan upload --json` and from the service's
 //! upload endpoint: what was uploaded and proven (the planning fields, the autopilot, the
-//! transfer's report, the items sent), or why not (`{"ok": false, "stage", "accepted", "error",
+//! transfer's report, the items sent, the fence and the rally points), or why not (`{"ok": false, "stage", "accepted", "error",
 //! "item", "result"}`).
 
 use serde::{Deserialize, Serialize};
@@ -19,6 +19,38 @@ pub struct UploadJson {
     pub report: UploadReport,
     /// The items sent (and read back), as MISSION_ITEM_INT fields (`link::items::item_json`).
     pub items: Vec<serde_json::Value>,
+    /// The fence uploaded and verified (0 zones: the vehicle's old fence cleared); null when
+    /// the autopilot holds no fence.
+    #[serde(default)]
+    pub fence: Option<ListUpload>,
+    /// The rally points uploaded and verified, as the fence.
+    #[serde(default)]
+    pub rally: Option<ListUpload>,
+}
+
+/// A fence or rally list uploaded and verified by read-back.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ListUpload {
+    /// Zones of the fence, or rally points, sent (0: the vehicle's old list cleared).
+    pub count: usize,
+    /// Mission items sent and read back.
+    pub items: usize,
+    /// The autopilot's ACCEPTED ack arrived.
+    pub acked: bool,
+    /// The read-back matched what was sent.
+    pub verified: bool,
+}
+
+impl ListUpload {
+    /// `count` zones or points, uploaded as `report` says.
+    pub fn new(count: usize, report: &UploadReport) -> ListUpload {
+        ListUpload {
+            count,
+            items: report.items,
+            acked: report.acked,
+            verified: report.verified,
+        }
+    }
 }
 
 /// The document of a failed upload: the stage it failed in (`mission`, `plan`, `connect`,

@@ -4,7 +4,8 @@
 //! direction (`up` is ground to vehicle), duplication, reordering and delay. With a
 //! [`FlightConfig`] it also flies: a [`SimVehicle`] beside the server answers commands, flies the
 //! stored mission in simulated time (`speedup` x wall time) and streams its telemetry (and its
-//! heartbeat) through the same faulty outbox. Without one it still answers a request for its
+//! heartbeat, and as ArduPilot its fence status from the server's fence check) through the same
+//! faulty outbox. Without one it still answers a request for its
 //! home (MAV_CMD_REQUEST_MESSAGE of HOME_POSITION), as every autopilot with a position does.
 
 use std::net::SocketAddr;
@@ -116,6 +117,8 @@ pub enum SimError {
 struct Shared {
     revision: u64,
     mission: Vec<MISSION_ITEM_INT_DATA>,
+    fence: Vec<MISSION_ITEM_INT_DATA>,
+    rally: Vec<MISSION_ITEM_INT_DATA>,
     stats: ServerStats,
     vehicle: Option<Snapshot>,
 }
@@ -140,6 +143,22 @@ impl MockHandle {
         self.shared
             .lock()
             .map(|s| s.mission.clone())
+            .unwrap_or_default()
+    }
+
+    /// The stored fence items, as received.
+    pub fn fence(&self) -> Vec<MISSION_ITEM_INT_DATA> {
+        self.shared
+            .lock()
+            .map(|s| s.fence.clone())
+            .unwrap_or_default()
+    }
+
+    /// The stored rally point items, as received.
+    pub fn rally(&self) -> Vec<MISSION_ITEM_INT_DATA> {
+        self.shared
+            .lock()
+            .map(|s| s.rally.clone())
             .unwrap_or_default()
     }
 
@@ -329,6 +348,7 @@ async fn run(
 ) -> Result<(), SimError> {
     let mut flight = sim_vehicle(&config, &vehicle)?;
     let mut autostarted = 0;
+    let mut fence_due_s = 0.0;
     let f = config.faults;
     let mut server = MissionServer::new(
         config.flavour,
@@ -402,7 +422,7 @@ async fn run(
                     if flight.is_none() {
                         replies.extend(home_answer(&config, from, &message));
                     }
-                    if let Some(vehicle) = flight.as_mut() {
+                    if let Some(vehicle) = flight.as_mut().filter(|_| !MissionServer::answers_version_request(&message)) {
                         // Up to date with the clock and the stored mission before it answers.
                         replies.extend(vehicle.step(now.as_secs_f64() * config.speedup));
                         vehicle.set_mission(server.mission(), server.current());
@@ -421,6 +441,15 @@ async fn run(
                         vehicle.autostart();
                     }
                     out.extend(vehicle.step(start.elapsed().as_secs_f64() * config.speedup));
+                    // ArduPilot's extended status stream: FENCE_STATUS at 2 Hz.
+                    let snapshot = vehicle.snapshot();
+                    if snapshot.time_s >= fence_due_s {
+                        fence_due_s = snapshot.time_s + 0.5;
+                        let at = [snapshot.position[0], snapshot.position[1]];
+                        if let Some(home) = config.flight.map(|f| f.home) {
+                            out.extend(server.fence_status((snapshot.time_s * 1e3) as u32, home, at));
+                        }
+                    }
                 }
                 out
             }
@@ -431,6 +460,8 @@ async fn run(
             if s.revision != server.revision() {
                 s.revision = server.revision();
                 s.mission = server.mission().to_vec();
+                s.fence = server.fence().to_vec();
+                s.rally = server.rally().to_vec();
             }
             s.stats = server.stats;
             s.vehicle = flight.as_ref().map(SimVehicle::snapshot);

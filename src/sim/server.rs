@@ -20,16 +20,26 @@
 //!   times and is given up after 5 half-second timeouts; requests beyond the next item, a COUNT
 //!   during an upload and a REQUEST_LIST during a download are ignored; items kept as received.
 //!
+//! Beside the mission each flavour holds a fence and rally points as PX4 and ArduPilot do,
+//! through the same protocol with MISSION_TYPE_FENCE and _RALLY (PX4 `MavlinkMissionManager`,
+//! one transfer of one type at a time; ArduPilot `MissionItemProtocol_Fence`, `_Rally`): they
+//! declare it in AUTOPILOT_VERSION (MAV_PROTOCOL_CAPABILITY_MISSION_FENCE and _RALLY), which
+//! the server answers a request for. The generic flavour, like MAVSDK's MissionRawServer,
+//! holds only a mission and declares neither. ArduPilot's deferred final ack (its mission
+//! checksum) and its item 0 being home are the mission's only.
+//!
 //! What each flavour stores of an item is `sim::storage`.
 
 use std::time::Duration;
 
-use super::storage::{stored, Home};
+use mavlink::MessageData;
+
+use super::storage::{fence_rally_supported, stored, stored_fence_rally, Home};
 #[allow(deprecated)]
 use crate::link::mav::{
-    MavCmd, MavFrame, MavMessage, MavMissionResult, MavMissionType, MISSION_ACK_DATA,
-    MISSION_COUNT_DATA, MISSION_CURRENT_DATA, MISSION_ITEM_INT_DATA, MISSION_REQUEST_DATA,
-    MISSION_REQUEST_INT_DATA,
+    MavCmd, MavFrame, MavMessage, MavMissionResult, MavMissionType, MavProtocolCapability,
+    MavResult, AUTOPILOT_VERSION_DATA, COMMAND_ACK_DATA, MISSION_ACK_DATA, MISSION_COUNT_DATA,
+    MISSION_CURRENT_DATA, MISSION_ITEM_INT_DATA, MISSION_REQUEST_DATA, MISSION_REQUEST_INT_DATA,
 };
 use crate::link::Flavour;
 
@@ -37,6 +47,8 @@ use crate::link::Flavour;
 pub const MAX_ITEMS: u16 = 2000;
 
 const MISSION: MavMissionType = MavMissionType::MAV_MISSION_TYPE_MISSION;
+const FENCE: MavMissionType = MavMissionType::MAV_MISSION_TYPE_FENCE;
+const RALLY: MavMissionType = MavMissionType::MAV_MISSION_TYPE_RALLY;
 
 /// PX4 gives up a transfer after 5 s without hearing from the ground
 /// (`MAVLINK_MISSION_PROTOCOL_TIMEOUT_DEFAULT`).
@@ -88,6 +100,7 @@ impl Default for ServerConfig {
 
 #[derive(Debug, Clone)]
 struct Receiving {
+    mission_type: MavMissionType,
     count: u16,
     items: Vec<MISSION_ITEM_INT_DATA>,
     last_request: Duration,
@@ -99,6 +112,7 @@ struct Receiving {
 
 #[derive(Debug, Clone, Copy)]
 struct Sending {
+    mission_type: MavMissionType,
     count: u16,
     /// PX4 `_transfer_seq`, MAVSDK `_next_sequence`: the item after the last one sent.
     next: u16,
@@ -111,6 +125,8 @@ struct Sending {
 /// What the server has done (for tests and reports).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct ServerStats {
+    /// Missions stored (fence and rally uploads are not counted: a ground station that starts
+    /// each newly stored mission must not start it again for its fence).
     pub uploads_accepted: u32,
     pub uploads_rejected: u32,
     pub uploads_abandoned: u32,
@@ -121,6 +137,20 @@ pub struct ServerStats {
     pub boot_refusals: u32,
 }
 
+/// ArduPilot's fence check of the vehicle's position (`AC_Fence::check`, the polygon and
+/// circle zones of `AC_PolyFence_loader::breached`: outside any inclusion zone or inside any
+/// exclusion zone is a breach) and what it reports of it in FENCE_STATUS
+/// (`GCS_MAVLINK::send_fence_status`: sent only while a fence is enabled, in the extended
+/// status stream). The mock's fence is enabled whenever it holds a zone (ArduPilot also needs
+/// FENCE_ENABLE). PX4 streams no FENCE_STATUS (its mavlink module has no such stream), so the
+/// PX4 and generic flavours report nothing.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct FenceMonitor {
+    breached: bool,
+    count: u16,
+    breach_time_ms: u32,
+}
+
 /// The vehicle side of the mission protocol.
 #[derive(Debug, Clone)]
 pub struct MissionServer {
@@ -128,15 +158,21 @@ pub struct MissionServer {
     cfg: ServerConfig,
     /// The mission as received (what it answers is `storage::stored` of it).
     mission: Vec<MISSION_ITEM_INT_DATA>,
+    /// The fence and the rally points as received (answered as `storage::stored_fence_rally`).
+    fence: Vec<MISSION_ITEM_INT_DATA>,
+    rally: Vec<MISSION_ITEM_INT_DATA>,
     revision: u64,
     receiving: Option<Receiving>,
     sending: Option<Sending>,
     /// ArduPilot: when the deferred final ack goes out.
     pending_ack: Option<Duration>,
-    /// PX4: the item count of the upload completed last (a repeat of its last item is acked).
-    completed: Option<u16>,
+    /// PX4: the type and item count of the upload completed last (a repeat of its last item is
+    /// acked).
+    completed: Option<(MavMissionType, u16)>,
     /// (system, component) of the ground station being answered.
     gcs: (u8, u8),
+    /// The fence check's state (ArduPilot's breach count and time).
+    fence_monitor: FenceMonitor,
     /// The current item (MISSION_SET_CURRENT), where a flight would resume.
     current: u16,
     pub stats: ServerStats,
@@ -242,12 +278,15 @@ impl MissionServer {
             flavour,
             cfg,
             mission: Vec::new(),
+            fence: Vec::new(),
+            rally: Vec::new(),
             revision: 0,
             receiving: None,
             sending: None,
             pending_ack: None,
             completed: None,
             gcs: (255, 190),
+            fence_monitor: FenceMonitor::default(),
             current: 0,
             stats: ServerStats::default(),
         }
@@ -263,9 +302,154 @@ impl MissionServer {
         &self.mission
     }
 
-    /// Changes whenever the stored mission does.
+    /// The stored fence, as received.
+    pub fn fence(&self) -> &[MISSION_ITEM_INT_DATA] {
+        &self.fence
+    }
+
+    /// The stored rally points, as received.
+    pub fn rally(&self) -> &[MISSION_ITEM_INT_DATA] {
+        &self.rally
+    }
+
+    /// The rally points the vehicle holds, as its flavour stores them (ArduPilot: whole metres),
+    /// for the simulated vehicle's return.
+    pub fn rally_points(&self) -> Vec<crate::mission::fence::RallyPoint> {
+        let held: Vec<MISSION_ITEM_INT_DATA> = self
+            .rally
+            .iter()
+            .map(|it| stored_fence_rally(self.flavour, true, it))
+            .collect();
+        crate::link::fence::rally_of_items(&held).unwrap_or_default()
+    }
+
+    /// The fence the vehicle holds (its zones and breach return), for the simulated vehicle's
+    /// fence check.
+    pub fn fence_zones(&self) -> crate::mission::fence::Fence {
+        crate::link::fence::fence_of_items(&self.fence).unwrap_or_default()
+    }
+
+    /// The FENCE_STATUS an ArduPilot holding this fence sends with the vehicle `east_north_m`
+    /// from `home` at `time_boot_ms` (None: no fence enabled, or a flavour that sends none).
+    pub fn fence_status(
+        &mut self,
+        time_boot_ms: u32,
+        home: crate::mission::Geodetic,
+        east_north_m: [f64; 2],
+    ) -> Option<MavMessage> {
+        use crate::link::mav::{FenceBreach, FenceMitigate, FENCE_STATUS_DATA};
+        if self.flavour != Flavour::ArduPilot {
+            return None;
+        }
+        let fence = self.fence_zones();
+        if fence.is_empty() {
+            return None;
+        }
+        let origin = crate::mission::Origin {
+            home,
+            height_above_home_m: 0.0,
+        };
+        let breached = (fence.zones.iter()).any(|z| z.local(&origin).violated_by(east_north_m));
+        let m = &mut self.fence_monitor;
+        if breached && !m.breached {
+            m.count = m.count.saturating_add(1);
+            m.breach_time_ms = time_boot_ms;
+        }
+        m.breached = breached;
+        Some(MavMessage::FENCE_STATUS(FENCE_STATUS_DATA {
+            breach_time: m.breach_time_ms,
+            breach_count: m.count,
+            breach_status: u8::from(breached),
+            breach_type: if m.count > 0 {
+                FenceBreach::FENCE_BREACH_BOUNDARY
+            } else {
+                FenceBreach::FENCE_BREACH_NONE
+            },
+            breach_mitigation: FenceMitigate::FENCE_MITIGATE_UNKNOWN,
+        }))
+    }
+
+    /// Changes whenever a stored list (mission, fence, rally points) does.
     pub fn revision(&self) -> u64 {
         self.revision
+    }
+
+    /// Whether this flavour holds a list of `mission_type`.
+    fn holds(&self, mission_type: MavMissionType) -> bool {
+        match mission_type {
+            MISSION => true,
+            FENCE | RALLY => self.flavour != Flavour::Generic,
+            _ => false,
+        }
+    }
+
+    fn list(&self, mission_type: MavMissionType) -> &Vec<MISSION_ITEM_INT_DATA> {
+        match mission_type {
+            FENCE => &self.fence,
+            RALLY => &self.rally,
+            _ => &self.mission,
+        }
+    }
+
+    fn list_mut(&mut self, mission_type: MavMissionType) -> &mut Vec<MISSION_ITEM_INT_DATA> {
+        match mission_type {
+            FENCE => &mut self.fence,
+            RALLY => &mut self.rally,
+            _ => &mut self.mission,
+        }
+    }
+
+    /// The capabilities this flavour declares in AUTOPILOT_VERSION (PX4
+    /// `send_autopilot_capabilities`, ArduPilot `GCS_MAVLINK::capabilities`: fence and rally in
+    /// a copter build; MAVSDK's server: a mission in MISSION_ITEM_INT only).
+    pub fn capabilities(&self) -> MavProtocolCapability {
+        let mut bits = MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_INT
+            | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MAVLINK2;
+        if self.holds(FENCE) {
+            bits |= MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_FENCE;
+        }
+        if self.holds(RALLY) {
+            bits |= MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_RALLY;
+        }
+        bits
+    }
+
+    /// The answer to a request for AUTOPILOT_VERSION (MAV_CMD_REQUEST_MESSAGE 148 or
+    /// MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES): the ack, then the message.
+    #[allow(deprecated)]
+    fn version_answer(&self, from: (u8, u8), message: &MavMessage) -> Option<Vec<MavMessage>> {
+        let MavMessage::COMMAND_LONG(c) = message else {
+            return None;
+        };
+        let asked = (c.command == MavCmd::MAV_CMD_REQUEST_MESSAGE
+            && c.param1 == AUTOPILOT_VERSION_DATA::ID as f32)
+            || c.command == MavCmd::MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES;
+        if !asked {
+            return None;
+        }
+        Some(vec![
+            MavMessage::COMMAND_ACK(COMMAND_ACK_DATA {
+                command: c.command,
+                result: MavResult::MAV_RESULT_ACCEPTED,
+                target_system: from.0,
+                target_component: from.1,
+                ..Default::default()
+            }),
+            MavMessage::AUTOPILOT_VERSION(AUTOPILOT_VERSION_DATA {
+                capabilities: self.capabilities(),
+                ..Default::default()
+            }),
+        ])
+    }
+
+    /// Whether `message` is a request for AUTOPILOT_VERSION, which this server answers (the
+    /// simulated vehicle beside it leaves it alone).
+    #[allow(deprecated)]
+    pub fn answers_version_request(message: &MavMessage) -> bool {
+        matches!(message, MavMessage::COMMAND_LONG(c)
+            if (c.command == MavCmd::MAV_CMD_REQUEST_MESSAGE
+                && c.param1 == AUTOPILOT_VERSION_DATA::ID as f32)
+                || c.command == MavCmd::MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES)
     }
 
     fn ack(&self, result: MavMissionResult, mission_type: MavMissionType) -> MavMessage {
@@ -278,60 +462,64 @@ impl MissionServer {
         })
     }
 
-    fn count(&self) -> MavMessage {
+    fn count(&self, mission_type: MavMissionType) -> MavMessage {
         MavMessage::MISSION_COUNT(MISSION_COUNT_DATA {
-            count: self.mission.len() as u16,
+            count: self.list(mission_type).len() as u16,
             target_system: self.gcs.0,
             target_component: self.gcs.1,
-            mission_type: MISSION,
+            mission_type,
             opaque_id: 0,
         })
     }
 
     #[allow(deprecated)]
-    fn request(&self, seq: u16) -> MavMessage {
+    fn request(&self, seq: u16, mission_type: MavMissionType) -> MavMessage {
         if self.flavour == Flavour::ArduPilot {
             // ArduPilot still requests with the legacy MISSION_REQUEST (queued_request_send).
             return MavMessage::MISSION_REQUEST(MISSION_REQUEST_DATA {
                 seq,
                 target_system: self.gcs.0,
                 target_component: self.gcs.1,
-                mission_type: MISSION,
+                mission_type,
             });
         }
         MavMessage::MISSION_REQUEST_INT(MISSION_REQUEST_INT_DATA {
             seq,
             target_system: self.gcs.0,
             target_component: self.gcs.1,
-            mission_type: MISSION,
+            mission_type,
         })
     }
 
     /// Item `seq` as this flavour answers a read-back of it.
-    fn item(&self, seq: u16) -> Option<MavMessage> {
-        let mut item = stored(
-            self.flavour,
-            self.mission.get(usize::from(seq))?,
-            &self.cfg.home,
-        );
+    fn item(&self, seq: u16, mission_type: MavMissionType) -> Option<MavMessage> {
+        let held = self.list(mission_type).get(usize::from(seq))?;
+        let mut item = match mission_type {
+            MISSION => stored(self.flavour, held, &self.cfg.home),
+            _ => stored_fence_rally(self.flavour, mission_type == RALLY, held),
+        };
         if self.cfg.faults.corrupt_readback == Some(seq) {
             item.x = item.x.wrapping_add(1);
         }
         item.target_system = self.gcs.0;
         item.target_component = self.gcs.1;
-        item.mission_type = MISSION;
+        item.mission_type = mission_type;
         Some(MavMessage::MISSION_ITEM_INT(item))
     }
 
-    fn store(&mut self, items: Vec<MISSION_ITEM_INT_DATA>) {
-        self.mission = items;
+    fn store(&mut self, mission_type: MavMissionType, items: Vec<MISSION_ITEM_INT_DATA>) {
+        *self.list_mut(mission_type) = items;
         self.revision += 1;
     }
 
-    fn reject(&mut self, result: MavMissionResult) -> Vec<MavMessage> {
+    fn reject(
+        &mut self,
+        result: MavMissionResult,
+        mission_type: MavMissionType,
+    ) -> Vec<MavMessage> {
         self.receiving = None;
         self.stats.uploads_rejected += 1;
-        vec![self.ack(result, MISSION)]
+        vec![self.ack(result, mission_type)]
     }
 
     /// Reacts to a message from the ground station `(system, component)`.
@@ -342,25 +530,28 @@ impl MissionServer {
         from: (u8, u8),
         message: &MavMessage,
     ) -> Vec<MavMessage> {
+        if let Some(answer) = self.version_answer(from, message) {
+            return answer;
+        }
         match message {
             MavMessage::MISSION_COUNT(c) => {
                 self.gcs = from;
-                if c.mission_type != MISSION {
+                if !self.holds(c.mission_type) {
                     return vec![
                         self.ack(MavMissionResult::MAV_MISSION_UNSUPPORTED, c.mission_type)
                     ];
                 }
-                self.count_received(now, c.count)
+                self.count_received(now, c.count, c.mission_type)
             }
             MavMessage::MISSION_ITEM_INT(item) => self.item_received(now, item),
             MavMessage::MISSION_REQUEST_LIST(r) => {
                 self.gcs = from;
-                if r.mission_type != MISSION {
+                if !self.holds(r.mission_type) {
                     return vec![
                         self.ack(MavMissionResult::MAV_MISSION_UNSUPPORTED, r.mission_type)
                     ];
                 }
-                self.list_requested(now)
+                self.list_requested(now, r.mission_type)
             }
             MavMessage::MISSION_REQUEST_INT(MISSION_REQUEST_INT_DATA {
                 seq, mission_type, ..
@@ -369,12 +560,16 @@ impl MissionServer {
                 seq, mission_type, ..
             }) => {
                 self.gcs = from;
-                if *mission_type != MISSION {
+                if !self.holds(*mission_type) {
                     return vec![self.ack(MavMissionResult::MAV_MISSION_UNSUPPORTED, *mission_type)];
                 }
-                self.item_requested(now, *seq)
+                self.item_requested(now, *seq, *mission_type)
             }
-            MavMessage::MISSION_ACK(a) if a.mission_type == MISSION => {
+            MavMessage::MISSION_ACK(a)
+                if self
+                    .sending
+                    .is_some_and(|tx| tx.mission_type == a.mission_type) =>
+            {
                 // The ground station's ack ends a download (PX4 `handle_mission_ack`, MAVSDK
                 // `process_mission_ack`).
                 self.sending = None;
@@ -395,10 +590,13 @@ impl MissionServer {
             }
             MavMessage::MISSION_CLEAR_ALL(c) => {
                 self.gcs = from;
-                if c.mission_type == MISSION
-                    || c.mission_type == MavMissionType::MAV_MISSION_TYPE_ALL
-                {
-                    self.store(Vec::new());
+                let all = c.mission_type == MavMissionType::MAV_MISSION_TYPE_ALL;
+                if all || self.holds(c.mission_type) {
+                    for t in [MISSION, FENCE, RALLY] {
+                        if (all && self.holds(t)) || t == c.mission_type {
+                            self.store(t, Vec::new());
+                        }
+                    }
                     self.receiving = None;
                     self.sending = None;
                     vec![self.ack(MavMissionResult::MAV_MISSION_ACCEPTED, c.mission_type)]
@@ -410,70 +608,84 @@ impl MissionServer {
         }
     }
 
-    fn count_received(&mut self, now: Duration, count: u16) -> Vec<MavMessage> {
+    fn count_received(
+        &mut self,
+        now: Duration,
+        count: u16,
+        mission_type: MavMissionType,
+    ) -> Vec<MavMessage> {
         if self.flavour == Flavour::ArduPilot && now < self.cfg.boot {
             self.stats.boot_refusals += 1;
-            return vec![self.ack(MavMissionResult::MAV_MISSION_NO_SPACE, MISSION)];
+            return vec![self.ack(MavMissionResult::MAV_MISSION_NO_SPACE, mission_type)];
         }
         if let Some(rx) = self.receiving.as_mut() {
             match self.flavour {
-                Flavour::Px4 if rx.items.is_empty() => {
+                Flavour::Px4 if rx.items.is_empty() && rx.mission_type == mission_type => {
                     // "looks like our MISSION_REQUEST was lost, try again"
                     rx.last_progress = now;
                     rx.last_request = now;
-                    return vec![self.request(0)];
+                    return vec![self.request(0, mission_type)];
                 }
-                Flavour::Px4 => return vec![self.ack(MavMissionResult::MAV_MISSION_ERROR, MISSION)],
+                Flavour::Px4 => {
+                    return vec![self.ack(MavMissionResult::MAV_MISSION_ERROR, mission_type)]
+                }
                 Flavour::Generic => return Vec::new(),
                 Flavour::ArduPilot => self.receiving = None, // the same ground station restarts
             }
         }
         if self.sending.is_some() {
             match self.flavour {
-                Flavour::Px4 => return vec![self.ack(MavMissionResult::MAV_MISSION_ERROR, MISSION)],
+                Flavour::Px4 => {
+                    return vec![self.ack(MavMissionResult::MAV_MISSION_ERROR, mission_type)]
+                }
                 _ => return Vec::new(),
             }
         }
         if count > MAX_ITEMS {
-            return self.reject(MavMissionResult::MAV_MISSION_NO_SPACE);
+            return self.reject(MavMissionResult::MAV_MISSION_NO_SPACE, mission_type);
         }
         if count == 0 {
-            self.store(Vec::new());
-            self.stats.uploads_accepted += 1;
-            return vec![self.ack(MavMissionResult::MAV_MISSION_ACCEPTED, MISSION)];
+            self.store(mission_type, Vec::new());
+            self.stats.uploads_accepted += u32::from(mission_type == MISSION);
+            return vec![self.ack(MavMissionResult::MAV_MISSION_ACCEPTED, mission_type)];
         }
-        if self.flavour == Flavour::ArduPilot {
+        if self.flavour == Flavour::ArduPilot && mission_type == MISSION {
             let mut kept = std::mem::take(&mut self.mission);
             kept.truncate(usize::from(count));
-            self.store(kept);
+            self.store(MISSION, kept);
         }
         self.completed = None;
         self.receiving = Some(Receiving {
+            mission_type,
             count,
             items: Vec::with_capacity(usize::from(count)),
             last_request: now,
             last_progress: now,
             requests: 1,
         });
-        vec![self.request(0)]
+        vec![self.request(0, mission_type)]
     }
 
     fn item_received(&mut self, now: Duration, item: &MISSION_ITEM_INT_DATA) -> Vec<MavMessage> {
-        if item.mission_type != MISSION {
-            return Vec::new();
-        }
-        let Some(rx) = self.receiving.as_mut() else {
+        let mission_type = item.mission_type;
+        let Some(rx) = self
+            .receiving
+            .as_mut()
+            .filter(|rx| rx.mission_type == mission_type)
+        else {
             return match self.flavour {
                 // The last item again after the upload completed: PX4 acks it again
                 // ("the GCS did not receive the last ack and sent the same item again").
-                Flavour::Px4 if self.completed == Some(item.seq.wrapping_add(1)) => {
+                Flavour::Px4
+                    if self.completed == Some((mission_type, item.seq.wrapping_add(1))) =>
+                {
                     if self.cfg.faults.drop_final_ack {
                         Vec::new()
                     } else {
-                        vec![self.ack(MavMissionResult::MAV_MISSION_ACCEPTED, MISSION)]
+                        vec![self.ack(MavMissionResult::MAV_MISSION_ACCEPTED, mission_type)]
                     }
                 }
-                Flavour::ArduPilot if self.pending_ack.is_some() => {
+                Flavour::ArduPilot if self.pending_ack.is_some() && mission_type == MISSION => {
                     vec![self.ack(MavMissionResult::MAV_MISSION_INVALID_SEQUENCE, MISSION)]
                 }
                 _ => Vec::new(),
@@ -491,7 +703,7 @@ impl MissionServer {
                     Vec::new()
                 }
                 Flavour::ArduPilot => {
-                    vec![self.ack(MavMissionResult::MAV_MISSION_INVALID_SEQUENCE, MISSION)]
+                    vec![self.ack(MavMissionResult::MAV_MISSION_INVALID_SEQUENCE, mission_type)]
                 }
             };
         }
@@ -507,10 +719,14 @@ impl MissionServer {
                 .faults
                 .nack_result
                 .unwrap_or(MavMissionResult::MAV_MISSION_ERROR);
-            return self.reject(result);
+            return self.reject(result, mission_type);
         }
-        if let Err(result) = supported(self.flavour, item) {
-            return self.reject(result);
+        let taken = match mission_type {
+            MISSION => supported(self.flavour, item),
+            _ => fence_rally_supported(self.flavour, mission_type == RALLY, item),
+        };
+        if let Err(result) = taken {
+            return self.reject(result, mission_type);
         }
         let mut item = item.clone();
         item.target_system = 0;
@@ -520,7 +736,7 @@ impl MissionServer {
         rx.last_request = now;
         rx.requests = 1;
         let (received, count) = (rx.items.len(), rx.count);
-        if self.flavour == Flavour::ArduPilot {
+        if self.flavour == Flavour::ArduPilot && mission_type == MISSION {
             // Not atomic: each item is written as it arrives.
             let seq = usize::from(item.seq);
             if seq < self.mission.len() {
@@ -531,30 +747,30 @@ impl MissionServer {
             self.revision += 1;
         }
         if received < usize::from(count) {
-            return vec![self.request(received as u16)];
+            return vec![self.request(received as u16, mission_type)];
         }
         let items = self.receiving.take().map(|r| r.items).unwrap_or_default();
-        self.store(items);
-        self.stats.uploads_accepted += 1;
-        self.completed = Some(count);
-        if self.flavour == Flavour::ArduPilot {
+        self.store(mission_type, items);
+        self.stats.uploads_accepted += u32::from(mission_type == MISSION);
+        self.completed = Some((mission_type, count));
+        if self.flavour == Flavour::ArduPilot && mission_type == MISSION {
             self.pending_ack = Some(now + ARDUPILOT_ACK_DELAY);
             return Vec::new();
         }
         if self.cfg.faults.drop_final_ack {
             return Vec::new();
         }
-        vec![self.ack(MavMissionResult::MAV_MISSION_ACCEPTED, MISSION)]
+        vec![self.ack(MavMissionResult::MAV_MISSION_ACCEPTED, mission_type)]
     }
 
-    fn list_requested(&mut self, now: Duration) -> Vec<MavMessage> {
-        let count = self.mission.len() as u16;
+    fn list_requested(&mut self, now: Duration, mission_type: MavMissionType) -> Vec<MavMessage> {
+        let count = self.list(mission_type).len() as u16;
         match self.flavour {
             Flavour::ArduPilot => {
                 if self.receiving.is_some() || self.pending_ack.is_some() {
-                    return vec![self.ack(MavMissionResult::MAV_MISSION_DENIED, MISSION)];
+                    return vec![self.ack(MavMissionResult::MAV_MISSION_DENIED, mission_type)];
                 }
-                vec![self.count()]
+                vec![self.count(mission_type)]
             }
             Flavour::Px4 => {
                 if self.receiving.is_some() {
@@ -563,46 +779,58 @@ impl MissionServer {
                 }
                 // A new REQUEST_LIST restarts the download at item 0.
                 self.sending = (count > 0).then_some(Sending {
+                    mission_type,
                     count,
                     next: 0,
                     last_heard: now,
                     retries: 0,
                     first_request_seen: false,
                 });
-                vec![self.count()]
+                vec![self.count(mission_type)]
             }
             Flavour::Generic => {
                 if self.sending.is_some() || self.receiving.is_some() {
                     return Vec::new(); // Busy
                 }
                 self.sending = (count > 0).then_some(Sending {
+                    mission_type,
                     count,
                     next: 0,
                     last_heard: now,
                     retries: 1,
                     first_request_seen: false,
                 });
-                vec![self.count()]
+                vec![self.count(mission_type)]
             }
         }
     }
 
-    fn item_requested(&mut self, now: Duration, seq: u16) -> Vec<MavMessage> {
+    fn item_requested(
+        &mut self,
+        now: Duration,
+        seq: u16,
+        mission_type: MavMissionType,
+    ) -> Vec<MavMessage> {
         match self.flavour {
             Flavour::ArduPilot => {
                 if self.receiving.is_some() || self.pending_ack.is_some() {
-                    return vec![self.ack(MavMissionResult::MAV_MISSION_DENIED, MISSION)];
+                    return vec![self.ack(MavMissionResult::MAV_MISSION_DENIED, mission_type)];
                 }
-                match self.item(seq) {
+                match self.item(seq, mission_type) {
                     Some(item) => vec![item],
                     None => vec![
-                        self.count(),
-                        self.ack(MavMissionResult::MAV_MISSION_INVALID_SEQUENCE, MISSION),
+                        self.count(mission_type),
+                        self.ack(MavMissionResult::MAV_MISSION_INVALID_SEQUENCE, mission_type),
                     ],
                 }
             }
             Flavour::Px4 => {
-                let Some(tx) = self.sending.as_mut() else {
+                // "WPM: Unexpected mission type": a request of another type is ignored.
+                let Some(tx) = self
+                    .sending
+                    .as_mut()
+                    .filter(|tx| tx.mission_type == mission_type)
+                else {
                     return Vec::new(); // no transfer: silently ignored
                 };
                 tx.last_heard = now;
@@ -612,12 +840,16 @@ impl MissionServer {
                     // "REJ. CMD: Req. WP was unexpected": the download ends.
                     self.sending = None;
                     self.stats.downloads_abandoned += 1;
-                    return vec![self.ack(MavMissionResult::MAV_MISSION_ERROR, MISSION)];
+                    return vec![self.ack(MavMissionResult::MAV_MISSION_ERROR, mission_type)];
                 }
-                self.item(seq).into_iter().collect()
+                self.item(seq, mission_type).into_iter().collect()
             }
             Flavour::Generic => {
-                let Some(tx) = self.sending.as_mut() else {
+                let Some(tx) = self
+                    .sending
+                    .as_mut()
+                    .filter(|tx| tx.mission_type == mission_type)
+                else {
                     return Vec::new();
                 };
                 tx.first_request_seen = true;
@@ -635,7 +867,7 @@ impl MissionServer {
                 tx.retries += 1;
                 tx.next = seq + 1;
                 tx.last_heard = now;
-                self.item(seq).into_iter().collect()
+                self.item(seq, mission_type).into_iter().collect()
             }
         }
     }
@@ -656,6 +888,7 @@ impl MissionServer {
         let Some(rx) = self.receiving.as_mut() else {
             return out;
         };
+        let mission_type = rx.mission_type;
         let abandoned = match self.flavour {
             Flavour::Px4 => now.saturating_sub(rx.last_progress) >= PX4_ABANDON,
             Flavour::ArduPilot => now.saturating_sub(rx.last_progress) >= ARDUPILOT_ABANDON,
@@ -667,7 +900,10 @@ impl MissionServer {
             self.receiving = None;
             self.stats.uploads_abandoned += 1;
             if self.flavour == Flavour::ArduPilot {
-                out.push(self.ack(MavMissionResult::MAV_MISSION_OPERATION_CANCELLED, MISSION));
+                out.push(self.ack(
+                    MavMissionResult::MAV_MISSION_OPERATION_CANCELLED,
+                    mission_type,
+                ));
             }
             return out;
         }
@@ -676,7 +912,7 @@ impl MissionServer {
             rx.requests += 1;
             let seq = rx.items.len() as u16;
             self.stats.rerequests += 1;
-            out.push(self.request(seq));
+            out.push(self.request(seq, mission_type));
         }
         out
     }
@@ -702,7 +938,8 @@ impl MissionServer {
                     }
                     tx.retries += 1;
                     if !tx.first_request_seen {
-                        out.push(self.count());
+                        let mission_type = tx.mission_type;
+                        out.push(self.count(mission_type));
                     }
                 }
             }
@@ -1062,9 +1299,10 @@ mod tests {
     #[test]
     fn a_wrong_mission_type_or_frame_or_an_injected_nack_is_refused_and_the_old_mission_stays() {
         let mut s = server(Flavour::Px4);
+        // PX4 holds a mission, a fence and rally points: a list of any other type is refused.
         let fence = MavMessage::MISSION_COUNT(MISSION_COUNT_DATA {
             count: 2,
-            mission_type: MavMissionType::MAV_MISSION_TYPE_FENCE,
+            mission_type: MavMissionType::MAV_MISSION_TYPE_ALL,
             ..Default::default()
         });
         assert_eq!(
@@ -1164,5 +1402,182 @@ mod tests {
             vec![MavMissionResult::MAV_MISSION_ACCEPTED]
         );
         assert!(s.mission().is_empty());
+    }
+
+    fn typed(mission_type: MavMissionType, message: MavMessage) -> MavMessage {
+        match message {
+            MavMessage::MISSION_COUNT(c) => {
+                MavMessage::MISSION_COUNT(MISSION_COUNT_DATA { mission_type, ..c })
+            }
+            MavMessage::MISSION_REQUEST_LIST(l) => {
+                MavMessage::MISSION_REQUEST_LIST(MISSION_REQUEST_LIST_DATA { mission_type, ..l })
+            }
+            MavMessage::MISSION_REQUEST_INT(r) => {
+                MavMessage::MISSION_REQUEST_INT(MISSION_REQUEST_INT_DATA { mission_type, ..r })
+            }
+            other => other,
+        }
+    }
+
+    /// Uploads `list` as the autopilot's list of its items' mission type, then reads it back.
+    fn round_trip(
+        server: &mut MissionServer,
+        list: &[MISSION_ITEM_INT_DATA],
+    ) -> (Vec<MavMessage>, Vec<MISSION_ITEM_INT_DATA>) {
+        let t = list[0].mission_type;
+        let mut out = server.handle(ms(0), GCS, &typed(t, count(list.len() as u16)));
+        for it in list {
+            out.extend(server.handle(ms(1), GCS, &item(it)));
+        }
+        let listed = server.handle(ms(2), GCS, &typed(t, super::tests::list()));
+        let n = listed
+            .iter()
+            .find_map(|m| match m {
+                MavMessage::MISSION_COUNT(c) if c.mission_type == t => Some(c.count),
+                _ => None,
+            })
+            .unwrap_or(0);
+        let read = (0..n)
+            .filter_map(|seq| answered(&server.handle(ms(3), GCS, &typed(t, req(seq)))))
+            .collect();
+        // The ground station's ack ends the download (PX4 refuses another transfer meanwhile).
+        let done = MavMessage::MISSION_ACK(MISSION_ACK_DATA {
+            mavtype: MavMissionResult::MAV_MISSION_ACCEPTED,
+            mission_type: t,
+            ..Default::default()
+        });
+        server.handle(ms(4), GCS, &done);
+        (out, read)
+    }
+
+    #[test]
+    fn px4_and_ardupilot_hold_a_fence_and_rally_points_beside_the_mission_as_they_store_them() {
+        use crate::link::fence::{fence_items, rally_items};
+        use crate::link::readback::verify;
+        let fence = fence_items(&crate::link::testing::fence());
+        for flavour in [Flavour::Px4, Flavour::ArduPilot] {
+            let mut server = server(flavour);
+            upload(&mut server, ms(0), &mission(flavour, 5));
+            server.tick(ms(600));
+            let positions = |items: &[MISSION_ITEM_INT_DATA]| -> Vec<(u32, i32, i32)> {
+                items.iter().map(|i| (i.command as u32, i.x, i.y)).collect()
+            };
+            let before = positions(server.mission());
+            let (out, read) = round_trip(&mut server, &fence);
+            assert_eq!(acks(&out), vec![MavMissionResult::MAV_MISSION_ACCEPTED]);
+            assert!(out
+                .iter()
+                .all(|m| !matches!(m, MavMessage::MISSION_ACK(a) if a.mission_type != FENCE)));
+            assert_eq!(server.fence().len(), 11);
+            assert_eq!(
+                positions(server.mission()),
+                before,
+                "{flavour:?}: the mission stays"
+            );
+            // What link::readback expects of the flavour is what the mock answers.
+            verify(flavour, &fence, &read).unwrap_or_else(|e| panic!("{flavour:?}: {e}"));
+            let rally = rally_items(&crate::link::testing::rally(), flavour);
+            let (_, read) = round_trip(&mut server, &rally);
+            verify(flavour, &rally, &read).unwrap_or_else(|e| panic!("{flavour:?}: {e}"));
+            assert_eq!(server.rally_points().len(), 1);
+            assert_eq!(server.fence_zones().zones.len(), 3);
+        }
+        // ArduPilot answers a fence item without its altitude, a rally point's in whole metres.
+        let mut ap = server(Flavour::ArduPilot);
+        let (_, read) = round_trip(&mut ap, &fence);
+        assert_eq!(read[0].command, MavCmd::MAV_CMD_NAV_FENCE_RETURN_POINT);
+        assert_eq!(read[0].z, 0.0);
+        let mut rally = rally_items(&crate::link::testing::rally(), Flavour::Px4);
+        rally[0].z = 25.7;
+        let (_, read) = round_trip(&mut ap, &rally);
+        assert_eq!(read[0].z, 25.0);
+        assert_eq!(read[0].frame, MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT);
+    }
+
+    #[test]
+    fn the_generic_flavour_holds_no_fence_and_each_flavour_declares_what_it_holds() {
+        let fence = crate::link::fence::fence_items(&crate::link::testing::fence());
+        let mut mavsdk = server(Flavour::Generic);
+        let out = mavsdk.handle(ms(0), GCS, &typed(FENCE, count(fence.len() as u16)));
+        assert_eq!(acks(&out), vec![MavMissionResult::MAV_MISSION_UNSUPPORTED]);
+        let ask = MavMessage::COMMAND_LONG(crate::link::mav::COMMAND_LONG_DATA {
+            command: MavCmd::MAV_CMD_REQUEST_MESSAGE,
+            param1: 148.0,
+            ..Default::default()
+        });
+        for (flavour, holds) in [
+            (Flavour::Px4, true),
+            (Flavour::ArduPilot, true),
+            (Flavour::Generic, false),
+        ] {
+            let out = server(flavour).handle(ms(0), GCS, &ask);
+            let bits = out
+                .iter()
+                .find_map(|m| match m {
+                    MavMessage::AUTOPILOT_VERSION(v) => Some(v.capabilities),
+                    _ => None,
+                })
+                .expect("AUTOPILOT_VERSION");
+            let caps = crate::link::support::Capabilities::from_bits(bits);
+            assert_eq!((caps.fence, caps.rally), (holds, holds), "{flavour:?}");
+        }
+    }
+
+    #[test]
+    fn a_rally_point_in_an_absolute_frame_is_refused_by_ardupilot_and_a_fence_count_of_zero_clears()
+    {
+        let mut rally =
+            crate::link::fence::rally_items(&crate::link::testing::rally(), Flavour::ArduPilot);
+        rally[0].frame = MavFrame::MAV_FRAME_GLOBAL;
+        let mut ap = server(Flavour::ArduPilot);
+        let (out, read) = round_trip(&mut ap, &rally);
+        assert_eq!(
+            acks(&out),
+            vec![MavMissionResult::MAV_MISSION_UNSUPPORTED_FRAME]
+        );
+        assert!(read.is_empty());
+        let fence = crate::link::fence::fence_items(&crate::link::testing::fence());
+        round_trip(&mut ap, &fence);
+        let out = ap.handle(ms(9), GCS, &typed(FENCE, count(0)));
+        assert_eq!(acks(&out), vec![MavMissionResult::MAV_MISSION_ACCEPTED]);
+        assert!(ap.fence().is_empty());
+    }
+
+    #[test]
+    fn ardupilot_reports_a_breach_when_the_vehicle_enters_an_exclusion_zone_and_px4_reports_none() {
+        let fence = crate::link::testing::fence();
+        let home = fence.breach_return.unwrap();
+        let mut ap = server(Flavour::ArduPilot);
+        assert!(
+            ap.fence_status(0, home, [0.0, 0.0]).is_none(),
+            "no fence, no status"
+        );
+        round_trip(&mut ap, &crate::link::fence::fence_items(&fence));
+        let status = |m: Option<MavMessage>| match m {
+            Some(MavMessage::FENCE_STATUS(s)) => (s.breach_status, s.breach_count, s.breach_time),
+            other => panic!("{other:?}"),
+        };
+        // The breach return point lies west of the exclusion square, inside the pentagon.
+        assert_eq!(status(ap.fence_status(1000, home, [0.0, 0.0])), (0, 0, 0));
+        // The exclusion square's centre: 0.0001 deg north of its south edge, about 9 m east.
+        let origin = crate::mission::Origin {
+            home,
+            height_above_home_m: 0.0,
+        };
+        let centre = origin.to_enu(crate::mission::Geodetic {
+            lat_deg: 38.5364,
+            lon_deg: -121.7874,
+            alt_m: home.alt_m,
+        });
+        let inside = [centre.x_east_m, centre.y_north_m];
+        assert_eq!(status(ap.fence_status(2000, home, inside)), (1, 1, 2000));
+        assert_eq!(status(ap.fence_status(2500, home, inside)), (1, 1, 2000));
+        assert_eq!(
+            status(ap.fence_status(3000, home, [0.0, 0.0])),
+            (0, 1, 2000)
+        );
+        let mut px4 = server(Flavour::Px4);
+        round_trip(&mut px4, &crate::link::fence::fence_items(&fence));
+        assert!(px4.fence_status(2000, home, inside).is_none());
     }
 }

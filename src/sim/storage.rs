@@ -5,7 +5,7 @@
 //! (`AP_Mission.cpp`, `mavlink_int_to_mission_cmd`, `mission_cmd_to_mavlink_int`), item 0 being
 //! its home (`read_cmd_from_storage`); MAVSDK keeps the items as they came.
 
-use crate::link::mav::{MavCmd, MavFrame, MISSION_ITEM_INT_DATA};
+use crate::link::mav::{MavCmd, MavFrame, MavMissionResult, MISSION_ITEM_INT_DATA};
 use crate::link::Flavour;
 
 /// The vehicle's own home (what ArduPilot answers for item 0).
@@ -719,6 +719,157 @@ pub fn stored(
             ..Default::default()
         },
         Flavour::ArduPilot => ap_format(&ap_parse(item), item.seq),
+        Flavour::Generic => MISSION_ITEM_INT_DATA {
+            target_system: 0,
+            target_component: 0,
+            ..item.clone()
+        },
+    }
+}
+
+/// Whether `flavour` takes `item` into its fence or rally list (`rally`), and if not the
+/// MISSION_ACK it refuses it with:
+/// - PX4 (`parse_mavlink_mission_item`): a global frame, and a fence command in the fence, the
+///   rally point in the rally list (a polygon of fewer than 3 vertices refused);
+/// - ArduPilot: a fence item in a global frame (`convert_MISSION_ITEM_INT_to_AC_PolyFenceItem`),
+///   a rally point only in MAV_FRAME_GLOBAL_RELATIVE_ALT(_INT) and with an altitude that fits
+///   its int16 (`convert_MISSION_ITEM_INT_to_RallyLocation`).
+#[allow(deprecated)]
+pub fn fence_rally_supported(
+    flavour: Flavour,
+    rally: bool,
+    item: &MISSION_ITEM_INT_DATA,
+) -> Result<(), MavMissionResult> {
+    use MavCmd::*;
+    use MavFrame::*;
+    use MavMissionResult::*;
+    let global = matches!(
+        item.frame,
+        MAV_FRAME_GLOBAL
+            | MAV_FRAME_GLOBAL_RELATIVE_ALT
+            | MAV_FRAME_GLOBAL_INT
+            | MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+    );
+    let fence_command = matches!(
+        item.command,
+        MAV_CMD_NAV_FENCE_RETURN_POINT
+            | MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION
+            | MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION
+            | MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION
+            | MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION
+    );
+    let vertex = matches!(
+        item.command,
+        MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION | MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION
+    );
+    let takes = if rally {
+        item.command == MAV_CMD_NAV_RALLY_POINT
+    } else {
+        fence_command
+    };
+    if !takes {
+        return Err(MAV_MISSION_UNSUPPORTED);
+    }
+    match flavour {
+        Flavour::ArduPilot if rally => {
+            if !matches!(
+                item.frame,
+                MAV_FRAME_GLOBAL_RELATIVE_ALT | MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+            ) {
+                return Err(MAV_MISSION_UNSUPPORTED_FRAME);
+            }
+            if !(item.z >= f32::from(i16::MIN) && item.z <= f32::from(i16::MAX)) {
+                return Err(MAV_MISSION_INVALID_PARAM7);
+            }
+        }
+        _ if !global => return Err(MAV_MISSION_UNSUPPORTED_FRAME),
+        // PX4: "Fence: too few vertices".
+        Flavour::Px4 if vertex && (item.param1.is_nan() || item.param1 < 3.0) => {
+            return Err(MAV_MISSION_ERROR)
+        }
+        _ => {}
+    }
+    Ok(())
+}
+
+/// What `flavour` answers a read-back of fence or rally (`rally`) item `item` with:
+/// - PX4 (`send_mission_item`, `format_mavlink_mission_item`): a fence point keeps its command,
+///   position, altitude, vertex count or radius, nothing else (answered in MAV_FRAME_GLOBAL_INT,
+///   autocontinue 0); a rally point is kept as a parsed mission item (its frame's _INT form);
+/// - ArduPilot (`MissionItemProtocol_Fence::get_item_as_mission_item`,
+///   `MissionItemProtocol_Rally::get_item`): a fence point its command, position and vertex
+///   count (uint8) or radius, z 0, in a zeroed item's frame (MAV_FRAME_GLOBAL); a rally point
+///   its position and altitude in whole metres (int16, truncated as C converts), in
+///   MAV_FRAME_GLOBAL_RELATIVE_ALT;
+/// - Generic (MAVSDK): as received.
+#[allow(deprecated)]
+pub fn stored_fence_rally(
+    flavour: Flavour,
+    rally: bool,
+    item: &MISSION_ITEM_INT_DATA,
+) -> MISSION_ITEM_INT_DATA {
+    use MavCmd::*;
+    let base = MISSION_ITEM_INT_DATA {
+        seq: item.seq,
+        command: item.command,
+        x: item.x,
+        y: item.y,
+        ..Default::default()
+    };
+    let vertex = matches!(
+        item.command,
+        MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION | MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION
+    );
+    let circle = matches!(
+        item.command,
+        MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION | MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION
+    );
+    match flavour {
+        Flavour::Px4 if rally => {
+            let relative = matches!(
+                item.frame,
+                MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT
+                    | MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+            );
+            MISSION_ITEM_INT_DATA {
+                frame: if relative {
+                    MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+                } else {
+                    MavFrame::MAV_FRAME_GLOBAL_INT
+                },
+                z: item.z,
+                autocontinue: item.autocontinue,
+                ..base
+            }
+        }
+        Flavour::Px4 => MISSION_ITEM_INT_DATA {
+            frame: MavFrame::MAV_FRAME_GLOBAL_INT,
+            z: item.z,
+            param1: if vertex {
+                f32::from(to_u16(item.param1))
+            } else if circle {
+                item.param1
+            } else {
+                0.0
+            },
+            ..base
+        },
+        Flavour::ArduPilot if rally => MISSION_ITEM_INT_DATA {
+            frame: MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
+            z: f32::from(to_i16(item.z)),
+            ..base
+        },
+        Flavour::ArduPilot => MISSION_ITEM_INT_DATA {
+            frame: MavFrame::MAV_FRAME_GLOBAL,
+            param1: if vertex {
+                f32::from(to_u8(item.param1))
+            } else if circle {
+                item.param1
+            } else {
+                0.0
+            },
+            ..base
+        },
         Flavour::Generic => MISSION_ITEM_INT_DATA {
             target_system: 0,
             target_component: 0,

@@ -10,6 +10,7 @@ mod docrefs;
 mod failfast;
 mod fastwp;
 mod fence_files;
+mod fence_link;
 mod flight;
 mod flightlog;
 mod flownprofile;

@@ -9,12 +9,13 @@ use super::rto::Rto;
 use super::{Action, Spent, Stage, TransferConfig, TransferError, Waiting, MISSION};
 #[allow(deprecated)]
 use crate::link::mav::{
-    MavMessage, MavMissionResult, MISSION_CLEAR_ALL_DATA, MISSION_SET_CURRENT_DATA,
+    MavMessage, MavMissionResult, MavMissionType, MISSION_CLEAR_ALL_DATA, MISSION_SET_CURRENT_DATA,
 };
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 enum Kind {
-    ClearAll,
+    /// Clears the list of this type.
+    ClearAll(MavMissionType),
     SetCurrent(u16),
 }
 
@@ -49,7 +50,12 @@ impl Command {
 
     /// Clears the autopilot's mission.
     pub fn clear_all(cfg: TransferConfig, rto: Rto) -> Command {
-        Command::new(cfg, rto, Kind::ClearAll)
+        Command::new(cfg, rto, Kind::ClearAll(MISSION))
+    }
+
+    /// Clears the autopilot's list of `mission_type` (its mission, fence or rally points).
+    pub fn clear_type(mission_type: MavMissionType, cfg: TransferConfig, rto: Rto) -> Command {
+        Command::new(cfg, rto, Kind::ClearAll(mission_type))
     }
 
     /// Makes item `seq` the current one.
@@ -69,7 +75,7 @@ impl Command {
 
     fn stage(&self) -> Stage {
         match self.kind {
-            Kind::ClearAll => Stage::Clear,
+            Kind::ClearAll(_) => Stage::Clear,
             Kind::SetCurrent(_) => Stage::SetCurrent,
         }
     }
@@ -81,10 +87,10 @@ impl Command {
         self.sent += 1;
         let (target_system, target_component) = (self.cfg.target_system, self.cfg.target_component);
         Action::Send(match self.kind {
-            Kind::ClearAll => MavMessage::MISSION_CLEAR_ALL(MISSION_CLEAR_ALL_DATA {
+            Kind::ClearAll(mission_type) => MavMessage::MISSION_CLEAR_ALL(MISSION_CLEAR_ALL_DATA {
                 target_system,
                 target_component,
-                mission_type: MISSION,
+                mission_type,
             }),
             Kind::SetCurrent(seq) => MavMessage::MISSION_SET_CURRENT(MISSION_SET_CURRENT_DATA {
                 seq,
@@ -108,7 +114,7 @@ impl Command {
             return Vec::new();
         }
         match (self.kind, message) {
-            (Kind::ClearAll, MavMessage::MISSION_ACK(a)) if a.mission_type == MISSION => {
+            (Kind::ClearAll(kind), MavMessage::MISSION_ACK(a)) if a.mission_type == kind => {
                 self.result = Some(if a.mavtype == MavMissionResult::MAV_MISSION_ACCEPTED {
                     Ok(())
                 } else {
@@ -135,7 +141,7 @@ impl Command {
         if now >= self.ends {
             let item = match self.kind {
                 Kind::SetCurrent(seq) => Some(seq),
-                Kind::ClearAll => None,
+                Kind::ClearAll(_) => None,
             };
             let spent = Spent {
                 started: self.started,
@@ -219,5 +225,27 @@ mod tests {
             "set-current: gave up after 2.5 s (the time budget) waiting for the confirmation; \
              2 messages sent, 0 fresh starts"
         );
+    }
+
+    #[test]
+    fn clearing_the_fence_sends_a_fence_clear_and_waits_for_the_fence_ack() {
+        use crate::link::mav::{MavMissionType, MISSION_ACK_DATA};
+        let fence = MavMissionType::MAV_MISSION_TYPE_FENCE;
+        let mut clear = Command::clear_type(fence, TransferConfig::default(), rto());
+        assert!(matches!(
+            clear.start(ms(0)).first(),
+            Some(Action::Send(MavMessage::MISSION_CLEAR_ALL(c))) if c.mission_type == fence
+        ));
+        let ack_of = |mission_type| {
+            MavMessage::MISSION_ACK(MISSION_ACK_DATA {
+                mavtype: MavMissionResult::MAV_MISSION_ACCEPTED,
+                mission_type,
+                ..Default::default()
+            })
+        };
+        clear.handle(ms(5), &ack_of(MISSION));
+        assert!(clear.finished().is_none());
+        clear.handle(ms(6), &ack_of(fence));
+        assert_eq!(clear.finished(), Some(&Ok(())));
     }
 }

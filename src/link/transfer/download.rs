@@ -18,7 +18,7 @@ use super::rto::Rto;
 use super::{Action, Spent, Stage, TransferConfig, TransferError, Waiting, MISSION};
 use crate::link::flavour::Refusal;
 use crate::link::mav::{
-    MavMessage, MavMissionResult, MISSION_ACK_DATA, MISSION_ITEM_INT_DATA,
+    MavMessage, MavMissionResult, MavMissionType, MISSION_ACK_DATA, MISSION_ITEM_INT_DATA,
     MISSION_REQUEST_INT_DATA, MISSION_REQUEST_LIST_DATA,
 };
 
@@ -46,6 +46,8 @@ enum Phase {
 /// Downloading (reading back) the autopilot's mission.
 #[derive(Debug, Clone)]
 pub struct Download {
+    /// Which of the autopilot's lists: mission, fence or rally.
+    mission_type: MavMissionType,
     cfg: TransferConfig,
     rto: Rto,
     phase: Phase,
@@ -70,9 +72,16 @@ pub struct Download {
 }
 
 impl Download {
-    /// A download from the configured target, timing its requests with `rto`.
+    /// A download of the configured target's mission, timing its requests with `rto`.
     pub fn new(cfg: TransferConfig, rto: Rto) -> Download {
+        Download::of_type(MISSION, cfg, rto)
+    }
+
+    /// A download of the target's list of `mission_type` (MISSION_TYPE_MISSION, _FENCE or
+    /// _RALLY): every message it sends and heeds is of that type.
+    pub fn of_type(mission_type: MavMissionType, cfg: TransferConfig, rto: Rto) -> Download {
         Download {
+            mission_type,
             cfg,
             rto,
             phase: Phase::Listing,
@@ -118,7 +127,7 @@ impl Download {
             MISSION_REQUEST_LIST_DATA {
                 target_system: self.cfg.target_system,
                 target_component: self.cfg.target_component,
-                mission_type: MISSION,
+                mission_type: self.mission_type,
             },
         ))
     }
@@ -129,7 +138,7 @@ impl Download {
             seq: self.next,
             target_system: self.cfg.target_system,
             target_component: self.cfg.target_component,
-            mission_type: MISSION,
+            mission_type: self.mission_type,
         }))
     }
 
@@ -146,7 +155,7 @@ impl Download {
             target_system: self.cfg.target_system,
             target_component: self.cfg.target_component,
             mavtype: MavMissionResult::MAV_MISSION_ACCEPTED,
-            mission_type: MISSION,
+            mission_type: self.mission_type,
             opaque_id: 0,
         }))
     }
@@ -183,20 +192,20 @@ impl Download {
     pub fn handle(&mut self, now: Duration, message: &MavMessage) -> Vec<Action> {
         match message {
             MavMessage::MISSION_COUNT(c)
-                if c.mission_type == MISSION
+                if c.mission_type == self.mission_type
                     && (self.phase == Phase::Listing || self.probing.is_some()) =>
             {
                 self.listed(now, c.count)
             }
             MavMessage::MISSION_ITEM_INT(item)
-                if item.mission_type == MISSION
+                if item.mission_type == self.mission_type
                     && self.phase == Phase::Items
                     && item.seq == self.next =>
             {
                 self.received(now, item)
             }
             MavMessage::MISSION_ACK(a)
-                if a.mission_type == MISSION && self.phase != Phase::Finished =>
+                if a.mission_type == self.mission_type && self.phase != Phase::Finished =>
             {
                 self.refused(now, a.mavtype)
             }
@@ -549,5 +558,46 @@ mod tests {
                 result: MavMissionResult::MAV_MISSION_UNSUPPORTED
             }))
         );
+    }
+
+    #[test]
+    fn a_rally_download_lists_and_requests_rally_items_and_skips_the_missions() {
+        use crate::link::mav::MavMissionType;
+        let rally = MavMissionType::MAV_MISSION_TYPE_RALLY;
+        let mut down = Download::of_type(
+            rally,
+            TransferConfig {
+                flavour: Flavour::Px4,
+                ..TransferConfig::default()
+            },
+            Rto::new(Timing::default()),
+        );
+        let out = down.start(ms(0));
+        assert!(matches!(
+            out.first(),
+            Some(Action::Send(MavMessage::MISSION_REQUEST_LIST(l))) if l.mission_type == rally
+        ));
+        // The mission's count is another list's.
+        assert!(down.handle(ms(3), &count(5)).is_empty());
+        let rally_count = MavMessage::MISSION_COUNT(MISSION_COUNT_DATA {
+            count: 1,
+            mission_type: rally,
+            ..Default::default()
+        });
+        let out = down.handle(ms(5), &rally_count);
+        assert!(matches!(
+            out.first(),
+            Some(Action::Send(MavMessage::MISSION_REQUEST_INT(r))) if r.seq == 0 && r.mission_type == rally
+        ));
+        let points = crate::link::fence::rally_items(&crate::link::testing::rally(), Flavour::Px4);
+        let mut mission_item = points[0].clone();
+        mission_item.mission_type = MISSION;
+        assert!(down.handle(ms(8), &item(&mission_item)).is_empty());
+        let out = down.handle(ms(10), &item(&points[0]));
+        assert!(matches!(
+            out.first(),
+            Some(Action::Send(MavMessage::MISSION_ACK(a))) if a.mission_type == rally
+        ));
+        assert_eq!(down.finished(), Some(&Ok(points)));
     }
 }

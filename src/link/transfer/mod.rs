@@ -13,7 +13,8 @@
 //! Resends follow the link: the round-trip time of every request/answer pair sent once (Karn's
 //! rule) feeds a smoothed RTT and its variance as TCP does (RFC 6298), bounded below and above
 //! (`Timing`). A transfer ends when done, refused, or out of its time budget, never after a
-//! fixed count of retries. Messages of another mission type are ignored.
+//! fixed count of retries. Each machine moves one list of the autopilot, its mission, its fence
+//! or its rally points (MAV_MISSION_TYPE_*, `of_type`); messages of another type are ignored.
 
 mod command;
 mod download;
@@ -32,6 +33,8 @@ use super::mav::{MavMessage, MavMissionResult, MavMissionType};
 use super::Flavour;
 
 pub(crate) const MISSION: MavMissionType = MavMissionType::MAV_MISSION_TYPE_MISSION;
+/// The mission type of a mission's items (the fence's and the rally points' are `link::fence`'s).
+pub const MISSION_TYPE: MavMissionType = MISSION;
 
 /// Addressing and timing of a transfer.
 #[derive(Debug, Clone, Copy, PartialEq)]

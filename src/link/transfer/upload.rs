@@ -21,7 +21,9 @@ use std::time::Duration;
 use super::rto::Rto;
 use super::{Action, Spent, Stage, TransferConfig, TransferError, Waiting, MISSION};
 use crate::link::flavour::Refusal;
-use crate::link::mav::{MavMessage, MavMissionResult, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA};
+use crate::link::mav::{
+    MavMessage, MavMissionResult, MavMissionType, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
+};
 
 /// Resends of an item before waiting for the autopilot's own re-request.
 const ITEM_RESENDS: u32 = 2;
@@ -61,9 +63,11 @@ struct Sent {
     once: bool,
 }
 
-/// Uploading a mission.
+/// Uploading a mission, a fence or a rally list.
 #[derive(Debug, Clone)]
 pub struct Upload {
+    /// Which of the autopilot's lists: mission, fence or rally.
+    mission_type: MavMissionType,
     items: Vec<MISSION_ITEM_INT_DATA>,
     cfg: TransferConfig,
     rto: Rto,
@@ -83,18 +87,31 @@ pub struct Upload {
 }
 
 impl Upload {
-    /// An upload of `items` (numbered 0..n), timing its resends with `rto`.
+    /// An upload of the mission `items` (numbered 0..n), timing its resends with `rto`.
     pub fn new(items: Vec<MISSION_ITEM_INT_DATA>, cfg: TransferConfig, rto: Rto) -> Upload {
+        Upload::of_type(MISSION, items, cfg, rto)
+    }
+
+    /// An upload of `items` (numbered 0..n) into the autopilot's list of `mission_type`
+    /// (MISSION_TYPE_MISSION, _FENCE or _RALLY): every message it sends and heeds is of that
+    /// type.
+    pub fn of_type(
+        mission_type: MavMissionType,
+        items: Vec<MISSION_ITEM_INT_DATA>,
+        cfg: TransferConfig,
+        rto: Rto,
+    ) -> Upload {
         let items = items
             .into_iter()
             .map(|mut item| {
                 item.target_system = cfg.target_system;
                 item.target_component = cfg.target_component;
-                item.mission_type = MISSION;
+                item.mission_type = mission_type;
                 item
             })
             .collect();
         Upload {
+            mission_type,
             items,
             cfg,
             rto,
@@ -143,9 +160,14 @@ impl Upload {
             count: self.items.len() as u16,
             target_system: self.cfg.target_system,
             target_component: self.cfg.target_component,
-            mission_type: MISSION,
+            mission_type: self.mission_type,
             opaque_id: 0,
         }))
+    }
+
+    /// The list this upload fills.
+    pub fn mission_type(&self) -> MavMissionType {
+        self.mission_type
     }
 
     fn item(&mut self, now: Duration, seq: u16) -> Option<Action> {
@@ -193,7 +215,7 @@ impl Upload {
             MavMessage::MISSION_ACK(a) => (None, a.mission_type),
             _ => return Vec::new(),
         };
-        if mission_type != MISSION {
+        if mission_type != self.mission_type {
             self.stats.ignored_other_mission_type += 1;
             return Vec::new();
         }
@@ -660,6 +682,77 @@ mod tests {
         up.handle(ms(31), &request(2));
         assert_eq!(sent_items(&up.handle(ms(32), &request(1))), vec![1]);
         up.handle(ms(40), &ack(MavMissionResult::MAV_MISSION_ACCEPTED));
+        assert_eq!(up.finished(), Some(&Ok(())));
+    }
+
+    #[test]
+    fn a_fence_upload_sends_its_count_and_items_as_fence_and_ignores_mission_requests() {
+        let fence = MavMissionType::MAV_MISSION_TYPE_FENCE;
+        let items = crate::link::fence::fence_items(&crate::link::testing::fence());
+        let n = items.len();
+        let mut up = Upload::of_type(
+            fence,
+            items,
+            config(Flavour::ArduPilot),
+            Rto::new(Timing::default()),
+        );
+        let first = up.start(ms(0));
+        assert!(matches!(
+            first.first(),
+            Some(Action::Send(MavMessage::MISSION_COUNT(c))) if c.mission_type == fence && usize::from(c.count) == n
+        ));
+        // A request of the mission (another transfer) is not answered with a fence item.
+        assert!(up.handle(ms(5), &request(0)).is_empty());
+        let of_fence = |seq: u16| {
+            MavMessage::MISSION_REQUEST(MISSION_REQUEST_DATA {
+                seq,
+                target_system: 255,
+                target_component: 190,
+                mission_type: fence,
+            })
+        };
+        for seq in 0..n as u16 {
+            let out = up.handle(ms(10 + u64::from(seq)), &of_fence(seq));
+            assert!(matches!(
+                out.first(),
+                Some(Action::Send(MavMessage::MISSION_ITEM_INT(i))) if i.seq == seq && i.mission_type == fence
+            ));
+        }
+        // The mission's ACCEPTED is not the fence's.
+        up.handle(ms(50), &ack(MavMissionResult::MAV_MISSION_ACCEPTED));
+        assert!(up.finished().is_none());
+        up.handle(
+            ms(60),
+            &MavMessage::MISSION_ACK(MISSION_ACK_DATA {
+                mavtype: MavMissionResult::MAV_MISSION_ACCEPTED,
+                mission_type: fence,
+                ..Default::default()
+            }),
+        );
+        assert_eq!(up.finished(), Some(&Ok(())));
+    }
+
+    #[test]
+    fn an_empty_rally_upload_is_a_count_of_zero_finished_by_the_rally_ack() {
+        let rally = MavMissionType::MAV_MISSION_TYPE_RALLY;
+        let mut up = Upload::of_type(
+            rally,
+            Vec::new(),
+            config(Flavour::Px4),
+            Rto::new(Timing::default()),
+        );
+        assert!(matches!(
+            up.start(ms(0)).first(),
+            Some(Action::Send(MavMessage::MISSION_COUNT(c))) if c.mission_type == rally && c.count == 0
+        ));
+        up.handle(
+            ms(10),
+            &MavMessage::MISSION_ACK(MISSION_ACK_DATA {
+                mavtype: MavMissionResult::MAV_MISSION_ACCEPTED,
+                mission_type: rally,
+                ..Default::default()
+            }),
+        );
         assert_eq!(up.finished(), Some(&Ok(())));
     }
 }
