@@ -168,8 +168,8 @@ fn upload(args: Args) -> anyhow::Result<ExitCode> {
                 verified_line(&report, planned.predicted_mission_kj, planned.budget_kj)
             );
             for line in [
-                list_line("fence", "zones", uploaded.fence.as_ref()),
-                list_line("rally points", "points", uploaded.rally.as_ref()),
+                list_line("fence", "zone", uploaded.fence.as_ref()),
+                list_line("rally points", "point", uploaded.rally.as_ref()),
             ]
             .into_iter()
             .flatten()
@@ -219,10 +219,20 @@ fn list_line(
     Some(match upload.count {
         0 => format!("verified: {list} cleared on the vehicle (the mission has none)"),
         n => format!(
-            "verified: {list}: {n} {unit} in {} items uploaded, read back and matched",
-            upload.items
+            "verified: {list}: {} in {} uploaded, read back and matched",
+            counted(n, unit),
+            counted(upload.items, "item")
         ),
     })
+}
+
+/// `n` of `unit`, plural when not one: "1 zone", "2 zones".
+fn counted(n: usize, unit: &str) -> String {
+    if n == 1 {
+        format!("1 {unit}")
+    } else {
+        format!("{n} {unit}s")
+    }
 }
 
 /// `upload --service URL`: the same through a running service.

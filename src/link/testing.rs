@@ -174,7 +174,7 @@ pub fn fence() -> Fence {
             },
             Zone {
                 inclusion: false,
-                shape: Shape::Polygon(square(38.5363, -121.7875, 0.0002)),
+                shape: Shape::Polygon(square(38.5364, -121.7888, 0.0002)),
             },
             Zone {
                 inclusion: false,

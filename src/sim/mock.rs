@@ -349,6 +349,8 @@ async fn run(
     let mut flight = sim_vehicle(&config, &vehicle)?;
     let mut autostarted = 0;
     let mut fence_due_s = 0.0;
+    // The rally points the vehicle returns to, handed over whenever a stored list changes.
+    let mut rally_revision = None;
     let f = config.faults;
     let mut server = MissionServer::new(
         config.flavour,
@@ -435,6 +437,10 @@ async fn run(
                 let mut out = server.tick(start.elapsed());
                 if let Some(vehicle) = flight.as_mut() {
                     vehicle.set_mission(server.mission(), server.current());
+                    if rally_revision != Some(server.revision()) {
+                        rally_revision = Some(server.revision());
+                        vehicle.set_rally_points(&server.rally_points());
+                    }
                     let stored = server.stats.uploads_accepted;
                     if config.autostart && stored > autostarted && !server.mission().is_empty() && !vehicle.armed() {
                         autostarted = stored;

@@ -1557,16 +1557,17 @@ mod tests {
             Some(MavMessage::FENCE_STATUS(s)) => (s.breach_status, s.breach_count, s.breach_time),
             other => panic!("{other:?}"),
         };
-        // The breach return point lies west of the exclusion square, inside the pentagon.
+        // The breach return point lies east of the exclusion square, inside the pentagon.
         assert_eq!(status(ap.fence_status(1000, home, [0.0, 0.0])), (0, 0, 0));
-        // The exclusion square's centre: 0.0001 deg north of its south edge, about 9 m east.
+        // The exclusion square's centre: 0.0001 deg north of its south edge, about 9 m east
+        // of its west edge.
         let origin = crate::mission::Origin {
             home,
             height_above_home_m: 0.0,
         };
         let centre = origin.to_enu(crate::mission::Geodetic {
-            lat_deg: 38.5364,
-            lon_deg: -121.7874,
+            lat_deg: 38.5365,
+            lon_deg: -121.7887,
             alt_m: home.alt_m,
         });
         let inside = [centre.x_east_m, centre.y_north_m];

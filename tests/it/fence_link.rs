@@ -25,6 +25,14 @@ fn mission(fenced: bool) -> Mission {
     if fenced {
         mission.fence = emplan::link::testing::fence();
         mission.rally = emplan::link::testing::rally();
+        // Written and read again, so the mission's validation checks the fence against its
+        // points as it does a file's.
+        let plan = emplan::mission::to_string(&mission, emplan::mission::Format::QgcPlan)
+            .expect("written");
+        let source = mission.source.clone();
+        mission = emplan::mission::load_str(&plan, emplan::mission::Format::QgcPlan, None)
+            .expect("the fenced sample is a valid mission");
+        mission.source = source;
     }
     mission
 }

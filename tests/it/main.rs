@@ -11,6 +11,7 @@ mod failfast;
 mod fastwp;
 mod fence_files;
 mod fence_link;
+mod fence_mission;
 mod flight;
 mod flightlog;
 mod flownprofile;
