@@ -99,7 +99,8 @@ def mission(path):
     items = [i for i in plan["mission"]["items"] if i.get("type") == "SimpleItem" and i.get("command") == 16]
     names = (plan.get("emplan") or {}).get("waypoint_names") or []
     if len(names) != len(items):
-        names = [str(k + 1) for k in range(len(items))]
+        # emplan's names for a .plan's waypoints without its own (src/mission/qgc_plan.rs).
+        names = [f"WP{k + 1}" for k in range(len(items))]
     waypoints = {n: local(lat0, lon0, i["params"][4], i["params"][5]) for n, i in zip(names, items)}
     zones = []
     fence = plan.get("geoFence") or {}

@@ -8,33 +8,15 @@
 use std::path::Path;
 
 use emplan::link::Flavour;
-use emplan::mission::fence::{Fence, LocalZone, Shape};
+use emplan::mission::fence::LocalZone;
 use emplan::mission::Mission;
-use emplan::sim::{MockConfig, MockHandle};
+use emplan::sim::MockHandle;
 
+use super::fence_link::{assert_same_fence, mock_at};
 use super::service::root;
 use crate::emplan;
 
 const ORCHARD: &str = "missions/orchard-fenced.plan";
-
-async fn mock_at(mission: &Mission) -> MockHandle {
-    let home = mission.origin.home;
-    emplan::sim::MockAutopilot::spawn(
-        "udpin:127.0.0.1:0",
-        MockConfig {
-            flavour: Flavour::Px4,
-            home: emplan::sim::storage::Home {
-                lat_e7: emplan::link::items::deg_e7(home.lat_deg),
-                lon_e7: emplan::link::items::deg_e7(home.lon_deg),
-                alt_m: home.alt_m as f32,
-            },
-            boot: std::time::Duration::ZERO,
-            ..MockConfig::default()
-        },
-    )
-    .await
-    .expect("mock")
-}
 
 /// The path the downloaded mission flies, east and north of `origin` (m): home, each waypoint
 /// in the order held, home again.
@@ -71,24 +53,6 @@ fn breaking(path: &[[f64; 2]], zones: &[LocalZone]) -> Vec<(usize, usize)> {
     out
 }
 
-fn assert_same_fence(read: &Fence, sent: &Fence) {
-    assert_eq!(read.zones.len(), sent.zones.len(), "{read:?}");
-    for (a, b) in read.zones.iter().zip(&sent.zones) {
-        assert_eq!(a.inclusion, b.inclusion, "{read:?}");
-        match (&a.shape, &b.shape) {
-            (Shape::Polygon(p), Shape::Polygon(q)) => {
-                assert_eq!(p.len(), q.len());
-                for (u, v) in p.iter().zip(q) {
-                    // degE7 on the wire: 1e-7 degrees, about a centimetre.
-                    assert!((u.lat_deg - v.lat_deg).abs() < 2e-7, "{u:?} {v:?}");
-                    assert!((u.lon_deg - v.lon_deg).abs() < 2e-7, "{u:?} {v:?}");
-                }
-            }
-            (a, b) => panic!("{a:?} read back as {b:?}"),
-        }
-    }
-}
-
 /// Uploads `file` in `order` to `mock` and downloads what it holds as a `.plan` in `dir`.
 fn upload_and_download(mock: &MockHandle, file: &Path, order: &str, dir: &Path) -> Mission {
     let url = format!("udpout:{}", mock.local_addr());
@@ -117,7 +81,7 @@ fn the_fenced_orchard_goes_up_in_the_energy_order_inside_the_field_clear_of_the_
 ) {
     let sent = emplan::mission::load(&root().join(ORCHARD)).expect("mission");
     let runtime = tokio::runtime::Runtime::new().expect("runtime");
-    let mock = runtime.block_on(mock_at(&sent));
+    let mock = runtime.block_on(mock_at(&sent, Flavour::Px4));
     let tmp = tempfile::tempdir().expect("temp dir");
     let held = upload_and_download(&mock, &root().join(ORCHARD), "energy", tmp.path());
 
@@ -189,7 +153,7 @@ fn a_leg_across_the_square_goes_up_round_it_through_a_point_without_a_hold() {
     assert_eq!(names[4..7], ["WP5", "WP7", "WP6"]);
 
     let runtime = tokio::runtime::Runtime::new().expect("runtime");
-    let mock = runtime.block_on(mock_at(&sent));
+    let mock = runtime.block_on(mock_at(&sent, Flavour::Px4));
     let held = upload_and_download(&mock, &swapped, "listed", tmp.path());
     // Every waypoint, and one more point between WP5 and WP7 held without a hold.
     assert_eq!(held.waypoints.len(), sent.waypoints.len() + 1, "{held:?}");
