@@ -137,13 +137,36 @@ pub async fn load(
         }
         _ => None,
     };
-    let capabilities =
-        crate::link::commands::capabilities(link, target, AskConfig::default()).await?;
-    capabilities.check(
+    let declared = crate::link::commands::capabilities(link, target, AskConfig::default()).await?;
+    declared.check(
         &autopilot_name(target),
         !load.mission.fence.is_empty(),
         !load.mission.rally.is_empty(),
     )?;
+    // Only PX4 and ArduPilot are known to keep a list per mission type. MAVSDK's mission server
+    // (a generic autopilot) declares fence and rally points and takes any MISSION_COUNT as its
+    // mission's: the empty fence that clears an old one wiped the mission just sent there
+    // (sitl/mavsdk_peer.sh). A generic autopilot is held to hold neither.
+    let capabilities = match target.flavour {
+        Flavour::Generic => crate::link::support::Capabilities {
+            fence: false,
+            rally: false,
+            ..declared
+        },
+        Flavour::Px4 | Flavour::ArduPilot => declared,
+    };
+    if target.flavour == Flavour::Generic
+        && (!load.mission.fence.is_empty() || !load.mission.rally.is_empty())
+    {
+        return Err(crate::link::support::SupportError::Cannot {
+            what: "a geofence or rally points",
+            autopilot: autopilot_name(target),
+            how: "is neither PX4 nor ArduPilot, whose fence and rally lists emplan knows (a \
+                  generic autopilot may take them for its mission)"
+                .into(),
+        }
+        .into());
+    }
     checked(params.as_ref());
     let (mission, plan, flight) = (load.mission, load.plan, load.flight);
     let items = items(target.flavour, load)?;
