@@ -577,6 +577,7 @@ mod tests {
             pois: Vec::new(),
             fence: Default::default(),
             rally: Vec::new(),
+            blocks: Vec::new(),
         }
     }
 

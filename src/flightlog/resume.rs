@@ -608,6 +608,7 @@ mod tests {
             pois: Vec::new(),
             fence: Default::default(),
             rally: Vec::new(),
+            blocks: Vec::new(),
         }
     }
 

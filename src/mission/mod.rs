@@ -7,6 +7,7 @@
 //! input; every error names the file and the line or field at fault.
 
 pub mod actions;
+pub mod blocks;
 pub mod convert;
 pub mod fence;
 #[cfg(test)]
@@ -139,6 +140,8 @@ pub struct Mission {
     pub fence: fence::Fence,
     /// Where the autopilot may return to instead of home.
     pub rally: Vec<fence::RallyPoint>,
+    /// Runs of waypoints flown whole (surveys, scans, hand-written blocks), in file order.
+    pub blocks: Vec<blocks::Block>,
     /// The file this mission was read from, if any (for error messages and reports).
     pub source: Option<PathBuf>,
 }
@@ -612,6 +615,7 @@ impl RawMission {
             pois: self.pois,
             fence,
             rally,
+            blocks: Vec::new(),
             source: None,
         })
     }

@@ -163,6 +163,7 @@ mod tests {
                     start: crate::physics::Start::Behind,
                     via: Vec::new(),
                     detour: None,
+                    block: None,
                 }
             })
             .collect();
@@ -178,6 +179,7 @@ mod tests {
             duration_s: legs.len() as f64,
             legs,
             proof: None,
+            blocks: Vec::new(),
         }
     }
 

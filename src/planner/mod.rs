@@ -110,6 +110,9 @@ pub struct Leg {
     /// fence), and what its straight line would have measured and cost (the cost None when
     /// the model cannot price it); None for a straight leg.
     pub detour: Option<DetourOf>,
+    /// The block (an index into the mission's blocks) when the leg flies between two of its
+    /// waypoints: a leg of the block's own lines, priced as the profile flies the block.
+    pub block: Option<usize>,
 }
 
 /// What a leg routed round the fence goes round, and its straight line for comparison.
@@ -163,6 +166,18 @@ pub struct Order {
     /// What the solver proved (in J for the energy order, metres for a baseline); absent on
     /// reversed baselines and the listed order.
     pub proof: Option<Proof>,
+    /// The mission's blocks in the order flown, each with the direction it is flown in (empty
+    /// for a mission without blocks).
+    pub blocks: Vec<FlownBlock>,
+}
+
+/// A block as an order flies it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FlownBlock {
+    /// Index into the mission's blocks.
+    pub block: usize,
+    /// Flown last waypoint first.
+    pub reversed: bool,
 }
 
 impl Order {
@@ -931,6 +946,7 @@ fn plan_core<'scope>(
             pricing: options.pricing,
             start,
             via: detoured.map(|d| d.via.clone()).unwrap_or_default(),
+            block: None,
             detour: detoured.map(|d| DetourOf {
                 zones: d.zones.clone(),
                 straight_distance_m: straight.distance_m(from, to),
@@ -973,6 +989,7 @@ fn plan_core<'scope>(
             nodes,
             legs,
             proof,
+            blocks: Vec::new(),
         })
     };
     let orders: Vec<Order> = if options.orders == Orders::Listed {

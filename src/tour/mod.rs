@@ -9,6 +9,7 @@ pub mod bound;
 pub mod branch_cut;
 pub mod brute;
 pub mod cancel;
+pub mod clusters;
 pub mod energy;
 pub mod geometry;
 pub mod held_karp;

@@ -129,6 +129,7 @@ pub fn random_mission(
         pois: Vec::new(),
         fence: Default::default(),
         rally: Vec::new(),
+        blocks: Vec::new(),
     })
 }
 
