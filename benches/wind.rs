@@ -1,4 +1,4 @@
-//! Criterion bench of planning in a steady wind (issue 29's timing targets: a 20-waypoint
+//! Criterion bench of planning in a steady wind (the timing targets: a 20-waypoint
 //! mission under 2 s, a 100-waypoint one under 30 s, on 2 cores): `plan_mission` of generated
 //! missions (the study's 30 m, 25 m distribution, 5 s holds) with the shipped S1000's px4 table
 //! in a 6 m/s wind from the west. In wind every ordered leg is simulated directly on its

@@ -10,84 +10,8 @@
 //! that cannot be read (its recording cut off and never resumed, a torn file, a sample no battery
 //! gives) is left out whole, named with its reason ([`Flights::skipped`]), and the others fitted.
 //!
-//! What a flight's energies identify ([`KNOBS`]). Each parameter fitted changes hover, climb and
-//! cruise power in its own proportion, so legs of different geometry and the holds between
-//! them tell them apart:
-//! - `motor.esc_efficiency`: the powertrain's efficiency between the battery's terminals and the
-//!   motors' shaft power as modelled (ESC, wiring, what the motor model leaves out). It scales
-//!   every electrical watt alike: hover, climb and cruise by the same factor. This is what
-//!   differs most between airframes (ArduCopter SITL's frame costs about twice the S1000's
-//!   model in every phase). Bounds 0.5-1.0: none exceeds 1; below one half is no working
-//!   powertrain (the vehicle file's own check).
-//! - `rotor.induced_power_factor` (kappa, the rotor's figure of merit): the induced power only,
-//!   which is most of hover and slow flight and falls away in fast cruise as the induced
-//!   velocity drops; it moves the holds' power against cruising legs'. Bounds 1.0-1.5: uniform
-//!   inflow to a poor small rotor (Leishman, Principles of Helicopter Aerodynamics 2nd ed. 3.3:
-//!   about 1.15).
-//! - `body.mass_kg`: the weight lifted, the only one of these that adds the climb's m g v_z; a
-//!   climbing leg costs more than a level one by it, a descending one less. Bounds 0.6-1.6 times
-//!   the vehicle's value.
-//! - `body.drag_coefficient_n_s2_m2` (C_BD): the parasite power of horizontal flight, growing
-//!   as the speed cubed; nothing in hover or a vertical leg. Bounds 0.25-4 times the vehicle's.
-//! - `rotor.descent_inflow_factor`: the share of a descent's rate in the rotors' inflow
-//!   (docs/energy-model.md "Descent"): how much cheaper than a level leg a descending one is;
-//!   climbs and hover do not move it. Bounds 0-1: 1 is momentum theory (the paper's model);
-//!   0 a rotor that recovers nothing of its descent.
-//! - `rotor.airflow_factor`: the share of the airspeed (forward, climbing, descending) in the
-//!   rotors' aerodynamics (docs/energy-model.md "Airflow"): how far translational lift lowers,
-//!   and a climb's inflow and the parasite power raise, a moving vehicle's power from its
-//!   hover at the same thrust. Bounds 0-1: 1 is momentum and blade-element theory (the paper's
-//!   model, a real rotor's); 0 a rotor whose power follows its thrust alone. ArduCopter SITL's
-//!   frame is that (ArduPilot's SIM_Motor: power = factor x thrust) and fits about 0.17, where
-//!   the descent's share then hardly matters; a real airframe that fits far below 1 is worth a
-//!   second look at its logs. Fitted only with the mass weighed (`--mass-kg`): a climb's work
-//!   through the disk is the airflow times m g v_z / eta, so unweighed it trades with the mass
-//!   and efficiency; it then keeps the vehicle's value.
-//!
-//! Mass, efficiency and kappa all raise the hover power, and a few flights' holds and legs tell
-//! them apart only by the climbs' m g v_z and the accelerations: fitted together, they wander
-//! along that valley (ArduCopter SITL's flights put the mass anywhere from 7.4 to 9.3 kg; the
-//! built-in mock's flights of a perturbed vehicle pin mass over efficiency within 0.4% but the
-//! mass alone only within about 6%). The
-//! mass is the one a scale measures: `calibrate --from-logs --mass-kg KG`
-//! ([`calibrate_weighed`]) sets it and fits the others around it.
-//!
-//! - `ardupilot.tracking_lag_s` (the `ardupilot` profile only): how much longer than its
-//!   S-curve ArduCopter takes over a leg (it slows the S-curve while the vehicle trails it),
-//!   fitted first and apart, to the legs' measured durations ([`fit_tracking_lag`]): time, not
-//!   energy, so the energies do not trade it against the others.
-//!
-//! The fit keeps to vehicles that can fly the profile's envelope ([`envelope_legs`]: the
-//! tables' grid corners and edges and the legs at the autopilot's horizontal and vertical
-//! speed limits at once), with the pack as fitted: flights of short legs can ask for a vehicle
-//! so heavy and draggy that its motors saturate on the long legs the autopilot flies, and its
-//! tables could not be built. When that bound the fit, it says so ([`EnvelopeBound`]).
-//!
-//! The rotor's profile drag is not fitted: in hover it acts as kappa does and in cruise as the
-//! body drag, so legs and holds leave it a direction they do not fix. A fitted value at a
-//! bound is reported ([`Fitted::at_bound`]): the data asked for more than that parameter can
-//! physically give, and another cause (the profile's kinematics, a parameter not fitted) is
-//! left in the errors.
-//!
-//! The fit's residuals are the clean legs (battery terminal energy from leaving hover to the
-//! 4 m crossing against the model's operation energy) and the clean holds at the waypoints (the
-//! measured energy against the model's hover power times the hold's measured time): the holds
-//! fix the hover power, the legs what climbing and cruising add to it. The battery's internal
-//! resistance and capacity do not change a part's terminal energy in the model (the pack's own
-//! losses happen before the power module measures), so they are not fitted from these; a
-//! weaker battery shows in the voltage and state of charge. The profile's trajectory
-//! parameters (PTF/HVB limits, PX4's parameters) are kinematic and stay as they are.
-//!
-//! The pack's resistance and capacity are fitted apart, from the voltage and current in
-//! samples.csv ([`battery`]); the planning budget's usable energy is scaled with the capacity.
-//!
-//! The fit is Nelder-Mead (`physics::calibration`'s) on the sum of squared relative errors of
-//! the legs and holds, parameters clamped to their bounds (and penalised past them, so the
-//! simplex does not wander off where the clamp leaves the objective flat), from two starts when
-//! a parameter sits at a bound of its physical range (`fit_starts`). Leave-one-flight-out: for each
-//! flight, fit on all the others and measure the error of the one left out. The vehicle
-//! directory written ([`vehicle_dir`]) marks each fitted value with the flights it came from
-//! and carries every profile's table rebuilt, so the next flight is planned and priced with it.
+//! What each fitted parameter identifies, its bounds and their sources, how the fit keeps to
+//! vehicles that can fly the envelope, and the fit itself: docs/calibration-from-logs.md.
 
 pub mod battery;
 pub mod vehicle_dir;
@@ -1615,8 +1539,8 @@ mod tests {
         assert_eq!(same, given);
     }
 
-    /// ArduCopter SITL's flights of the two paper samples (2026-11-27, `sitl/ardupilot-
-    /// calibrate.sh`): each leg's Xf, Zf, measured energy (J) and duration (s), and each
+    /// ArduCopter SITL's flights of the two paper samples (`sitl/ardupilot-calibrate.sh`,
+    /// docs/ardupilot-sitl.md): each leg's Xf, Zf, measured energy (J) and duration (s), and each
     /// hold's duration and energy. Their 17-57 m legs never reach WP_SPD.
     fn arducopter_sitl_flights() -> Flights {
         let legs = [

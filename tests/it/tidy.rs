@@ -603,6 +603,84 @@ fn no_source_or_test_reads_the_shared_folder_beside_the_repository() {
     );
 }
 
+/// Whether `text` holds a calendar date (`YYYY-MM-DD`) that is not a timestamp's (a date
+/// followed by a time of day is a value a test converts, not when something was written).
+fn has_date(text: &str) -> bool {
+    let b = text.as_bytes();
+    (0..b.len().saturating_sub(9)).any(|i| {
+        let digits = |r: std::ops::Range<usize>| r.clone().all(|k| b[k].is_ascii_digit());
+        let before = i == 0 || !b[i - 1].is_ascii_digit();
+        let date = before
+            && digits(i..i + 4)
+            && b[i + 4] == b'-'
+            && digits(i + 5..i + 7)
+            && b[i + 7] == b'-'
+            && digits(i + 8..i + 10)
+            && &text[i..i + 2] == "20";
+        let time = text[i + 10..]
+            .trim_start()
+            .as_bytes()
+            .get(..3)
+            .is_some_and(|t| t[0].is_ascii_digit() && t[1].is_ascii_digit() && t[2] == b':');
+        date && !time
+    })
+}
+
+/// Whether `text` names an issue by number (the word, then a number, with or without `#`).
+fn has_issue_number(text: &str) -> bool {
+    let lower = text.to_lowercase();
+    lower.match_indices("issue").any(|(i, _)| {
+        let rest = lower[i + 5..].trim_start_matches([' ', '#']);
+        rest.len() < lower[i + 5..].len() && rest.starts_with(|c: char| c.is_ascii_digit())
+    })
+}
+
+/// The comment a line ends with: from the first `//` outside a string literal.
+fn comment_of(line: &str) -> Option<&str> {
+    let mut in_string = false;
+    let mut escaped = false;
+    for (i, c) in line.char_indices() {
+        match c {
+            _ if escaped => escaped = false,
+            '\\' if in_string => escaped = true,
+            '"' => in_string = !in_string,
+            '/' if !in_string && line[i..].starts_with("//") => return Some(&line[i..]),
+            _ => {}
+        }
+    }
+    None
+}
+
+#[test]
+fn no_comment_carries_a_date_or_an_issue_number() {
+    // Code says what is true now; when something was measured, and which issue asked for it,
+    // belong in docs/ and the history.
+    let mut problems = Vec::new();
+    for s in sources() {
+        for (k, line) in s.text.lines().enumerate() {
+            let Some(comment) = comment_of(line) else {
+                continue;
+            };
+            if has_date(comment) || has_issue_number(comment) {
+                problems.push(format!("{}:{}: {}", s.rel, k + 1, line.trim()));
+            }
+        }
+    }
+    fail("a comment with a date or an issue number", &problems);
+}
+
+#[test]
+fn dates_and_issue_numbers_are_recognised() {
+    assert!(has_date("// measured on 2026-11-29: legs"));
+    assert!(!has_date("// 2026-03-01 00:00:00 UTC = 1772323200 s."));
+    assert!(!has_date("// 12026-11-29 and 1-2-3"));
+    assert!(has_issue_number("//! issue 29's timing targets"));
+    assert!(has_issue_number("// see Issue #4"));
+    assert!(!has_issue_number("// an issue the radio has"));
+    assert_eq!(comment_of(r#"f("a // b"); // c"#), Some("// c"));
+    assert_eq!(comment_of(r#"f("a // b");"#), None);
+}
+
 #[test]
 fn no_two_files_import_each_other() {
     let sources = sources();

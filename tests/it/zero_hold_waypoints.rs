@@ -43,7 +43,7 @@ fn fly(dir: &Path, hover_s: &str) -> (String, Value) {
         logs.to_str().unwrap(),
         // The mock's default speed-up (20x), not 50x: an event between two 10 Hz position
         // anchors is stamped by wall time, and a 2 ms tick is 0.1 s of flight at 50x, 2.5% of
-        // these 4 s legs (measured on 2026-11-29: legs -3.1..+2.1% at 50x, -0.6..+1.2% at 20x).
+        // these 4 s legs (measured: legs -3.1..+2.1% at 50x, -0.6..+1.2% at 20x).
         "--json",
     ]);
     let flight = report["log_dir"].as_str().expect("the flight directory");
