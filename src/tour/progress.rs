@@ -159,6 +159,6 @@ mod tests {
             ]
         );
         // Without a listener the work just runs.
-        assert_eq!(translated(|e| Some(e), || 7), 7);
+        assert_eq!(translated(Some, || 7), 7);
     }
 }
