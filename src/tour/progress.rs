@@ -4,6 +4,7 @@
 //! line draws it as a progress line, the library never prints.
 
 use std::cell::RefCell;
+use std::rc::Rc;
 
 /// What a solve has reached.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -43,6 +44,39 @@ pub fn report(event: Event) {
             }
         }
     });
+}
+
+/// Runs `work` with every event it reports passed through `map` before the listener hears it
+/// (`None`: not at all), as a solver run on a transformed problem reports in the original's
+/// terms. Without a listener, `work` runs as is.
+pub fn translated<R>(
+    map: impl Fn(Event) -> Option<Event> + 'static,
+    work: impl FnOnce() -> R,
+) -> R {
+    let Some(outer) = SINK.with(|s| s.borrow_mut().take()) else {
+        return work();
+    };
+    let outer = Rc::new(RefCell::new(outer));
+    let inner = Rc::clone(&outer);
+    let wrapper: Sink = Box::new(move |e| {
+        if let Some(e) = map(e) {
+            (inner.borrow_mut())(e);
+        }
+    });
+    SINK.with(|s| *s.borrow_mut() = Some(wrapper));
+    // Puts the listener back even if `work` panics.
+    struct Restore(Rc<RefCell<Sink>>);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            // Dropping the wrapper releases its handle on the listener.
+            drop(SINK.with(|s| s.borrow_mut().take()));
+            let placeholder: Sink = Box::new(|_| {});
+            let outer = std::mem::replace(&mut *self.0.borrow_mut(), placeholder);
+            SINK.with(|s| *s.borrow_mut() = Some(outer));
+        }
+    }
+    let _restore = Restore(outer);
+    work()
 }
 
 #[cfg(test)]
@@ -90,5 +124,41 @@ mod tests {
         assert!(*incumbents.last().unwrap() >= solved.tour.cost - 1e-9);
         // After the listener is gone, reports go nowhere.
         report(Event::Phase("nobody"));
+    }
+
+    #[test]
+    fn a_translated_run_is_heard_through_its_map_and_the_listener_is_back_after() {
+        let heard = Rc::new(RefCell::new(Vec::new()));
+        let h = heard.clone();
+        listen(
+            move |e| h.borrow_mut().push(e),
+            || {
+                report(Event::Incumbent(10.0));
+                translated(
+                    |e| match e {
+                        Event::Incumbent(c) => Some(Event::Incumbent(c - 100.0)),
+                        Event::Phase(_) => None,
+                        other => Some(other),
+                    },
+                    || {
+                        report(Event::Incumbent(105.0));
+                        report(Event::Phase("hidden"));
+                        report(Event::Bound(3.0));
+                    },
+                );
+                report(Event::Incumbent(4.0));
+            },
+        );
+        assert_eq!(
+            *heard.borrow(),
+            [
+                Event::Incumbent(10.0),
+                Event::Incumbent(5.0),
+                Event::Bound(3.0),
+                Event::Incumbent(4.0)
+            ]
+        );
+        // Without a listener the work just runs.
+        assert_eq!(translated(Some, || 7), 7);
     }
 }
