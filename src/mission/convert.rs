@@ -483,6 +483,7 @@ mod tests {
                     for l in &lost {
                         assert!(
                             l.setting.ends_with(" name")
+                                || l.setting.starts_with("block ")
                                 || l.setting == "default_hover_s"
                                 || l.setting == "min_height_above_home_m",
                             "{}: {l}",

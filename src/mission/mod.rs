@@ -8,6 +8,8 @@
 
 pub mod actions;
 pub mod blocks;
+#[cfg(test)]
+mod block_files_tests;
 pub mod convert;
 pub mod fence;
 #[cfg(test)]
