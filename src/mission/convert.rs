@@ -50,7 +50,12 @@ pub fn convert(mission: &Mission, output: &Path) -> Result<(String, Vec<Loss>), 
             return Err(e);
         }
     }
-    let text = to_string(mission, format)?;
+    // A .waypoints file cannot hold blocks: its waypoints are written and the blocks are
+    // listed as lost (`emplan convert` refuses that without --lossy).
+    let text = match format {
+        Format::Wpl => super::wpl::write(mission),
+        _ => to_string(mission, format)?,
+    };
     let back = load_str(&text, format, Some(output))?;
     Ok((text, losses(mission, &back)))
 }
@@ -170,6 +175,7 @@ pub fn losses(original: &Mission, converted: &Mission) -> Vec<Loss> {
         }
     }
     fence_losses(&mut out, original, converted);
+    block_losses(&mut out, original, converted);
     if original.name != converted.name {
         out.push(Loss {
             setting: "name".into(),
@@ -185,6 +191,82 @@ pub fn losses(original: &Mission, converted: &Mission) -> Vec<Loss> {
         });
     }
     out
+}
+
+/// What a block is, in one phrase: "survey of waypoints WP1-WP24, reversible".
+fn block_summary(m: &Mission, b: &super::blocks::Block) -> String {
+    let name = |k: usize| m.waypoints.get(k).map_or("?", |w| w.name.as_str());
+    format!(
+        "{} of waypoints {}-{}, {}",
+        b.kind.word(),
+        name(b.first),
+        name(b.first + b.len - 1),
+        if b.reversible { "reversible" } else { "one way" }
+    )
+}
+
+/// The complex item a block was read from, without its generated items (those are the
+/// block's waypoints, compared as waypoints).
+fn settings_of(source: &serde_json::Value) -> serde_json::Value {
+    let mut s = source.clone();
+    if let Some(t) = s
+        .get_mut("TransectStyleComplexItem")
+        .and_then(serde_json::Value::as_object_mut)
+    {
+        t.remove("Items");
+    }
+    s
+}
+
+/// The blocks, one by one in file order: each named, its kind, waypoints, direction and
+/// complex item's settings as they were.
+fn block_losses(out: &mut Vec<Loss>, original: &Mission, converted: &Mission) {
+    for (k, a) in original.blocks.iter().enumerate() {
+        let setting = format!("block {:?}", a.name);
+        let Some(b) = converted.blocks.get(k) else {
+            out.push(Loss {
+                setting,
+                from: block_summary(original, a),
+                to: "none (its waypoints kept as points)".into(),
+            });
+            continue;
+        };
+        let (x, y) = (block_summary(original, a), block_summary(converted, b));
+        if a.name != b.name || x != y {
+            out.push(Loss {
+                setting,
+                from: x,
+                to: format!("{:?}: {y}", b.name),
+            });
+            continue;
+        }
+        let (p, q) = (a.source.as_ref(), b.source.as_ref());
+        if p.map(settings_of) != q.map(settings_of) {
+            let says = |s: Option<&serde_json::Value>| {
+                match s {
+                    Some(_) => "its QGroundControl complex item",
+                    None => "none",
+                }
+                .to_string()
+            };
+            out.push(Loss {
+                setting: format!("{setting} complex item"),
+                from: says(p),
+                to: if p.is_some() && q.is_some() {
+                    "changed settings".into()
+                } else {
+                    says(q)
+                },
+            });
+        }
+    }
+    for b in converted.blocks.iter().skip(original.blocks.len()) {
+        out.push(Loss {
+            setting: format!("block {:?}", b.name),
+            from: "none".into(),
+            to: block_summary(converted, b),
+        });
+    }
 }
 
 /// The fence's zones (in the order the formats write them: polygons, then circles), its
@@ -401,6 +483,7 @@ mod tests {
                     for l in &lost {
                         assert!(
                             l.setting.ends_with(" name")
+                                || l.setting.starts_with("block ")
                                 || l.setting == "default_hover_s"
                                 || l.setting == "min_height_above_home_m",
                             "{}: {l}",

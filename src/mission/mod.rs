@@ -8,6 +8,8 @@
 
 pub mod actions;
 pub mod blocks;
+#[cfg(test)]
+mod block_files_tests;
 pub mod convert;
 pub mod fence;
 #[cfg(test)]
@@ -298,12 +300,17 @@ pub fn load_str(
 
 /// A mission rendered in one format. A `.waypoints` file holds mission items only: a
 /// mission with a geofence or rally points is refused rather than written without them
-/// ([`Mission::cannot_be_wpl`]).
+/// ([`Mission::cannot_be_wpl`]), and so is one with blocks
+/// ([`Mission::blocks_cannot_be_wpl`]; `emplan convert --lossy` writes its waypoints and says
+/// the blocks are lost).
 pub fn to_string(mission: &Mission, format: Format) -> Result<String, MissionError> {
     match format {
         Format::Toml => toml_format::write(mission),
         Format::QgcPlan => Ok(qgc_plan::write(mission)),
-        Format::Wpl => match mission.cannot_be_wpl(&mission.name) {
+        Format::Wpl => match mission
+            .cannot_be_wpl(&mission.name)
+            .or_else(|| mission.blocks_cannot_be_wpl(&mission.name))
+        {
             Some(e) => Err(e),
             None => Ok(wpl::write(mission)),
         },
@@ -358,6 +365,19 @@ impl RawZone {
     }
 }
 
+/// A block as read from a file: waypoints `first..first + len` of the raw waypoints.
+#[derive(Debug, Clone)]
+struct RawBlock {
+    name: String,
+    kind: blocks::BlockKind,
+    first: usize,
+    len: usize,
+    reversible: bool,
+    source: Option<serde_json::Value>,
+    /// Where it is given (a `.plan` complex item, a TOML `[[blocks]]` line).
+    place: Place,
+}
+
 /// A mission as read from a file, before validation.
 #[derive(Debug, Clone)]
 struct RawMission {
@@ -375,6 +395,8 @@ struct RawMission {
     breach_return: Option<(Geodetic, Place)>,
     /// The rally points, each with its place.
     rally: Vec<(fence::RallyPoint, Place)>,
+    /// The blocks, in file order.
+    blocks: Vec<RawBlock>,
     /// Where the origin and the mission-level fields are defined.
     place: Place,
 }
@@ -569,6 +591,7 @@ impl RawMission {
         let start_actions = check_actions(file, "the start", self.start_actions)?;
         let fence = check_fence(file, &origin, self.zones, self.breach_return)?;
         let rally = check_rally(file, &origin, &fence, self.rally)?;
+        let blocks = check_blocks(file, &origin, &fence, &waypoints, self.blocks)?;
         for (w, raw_place) in waypoints.iter().zip(&raw_places) {
             let p = [w.position.x_east_m, w.position.y_north_m];
             if let Some(k) = fence.zone_broken_by(&origin, p) {
@@ -615,10 +638,109 @@ impl RawMission {
             pois: self.pois,
             fence,
             rally,
-            blocks: Vec::new(),
+            blocks,
             source: None,
         })
     }
+}
+
+/// Checks every block (its waypoints in range, at least two, in no other block, its name
+/// unique) and that no line of it (the segment between two consecutive waypoints of it)
+/// crosses an exclusion zone or leaves an inclusion zone: the planner detours round the fence
+/// between points, never inside a block, which is flown as written.
+fn check_blocks(
+    file: &str,
+    origin: &Origin,
+    fence: &fence::Fence,
+    waypoints: &[Waypoint],
+    raw: Vec<RawBlock>,
+) -> Result<Vec<blocks::Block>, MissionError> {
+    let zones: Vec<fence::LocalZone> = fence.zones.iter().map(|z| z.local(origin)).collect();
+    let mut out: Vec<blocks::Block> = Vec::with_capacity(raw.len());
+    for b in raw {
+        let what = format!("block {:?}", b.name);
+        if b.name.trim().is_empty() {
+            return Err(MissionError::invalid(file, b.place, "block name is empty"));
+        }
+        if out.iter().any(|o| o.name == b.name) {
+            return Err(MissionError::invalid(
+                file,
+                b.place,
+                format!("{what}: duplicate name (block names must be unique)"),
+            ));
+        }
+        if b.len < 2 {
+            return Err(MissionError::invalid(
+                file,
+                b.place,
+                format!(
+                    "{what}: {} waypoint(s) (a block needs at least 2, flown whole from one \
+                     end to the other)",
+                    b.len
+                ),
+            ));
+        }
+        if b.first + b.len > waypoints.len() {
+            return Err(MissionError::invalid(
+                file,
+                b.place,
+                format!(
+                    "{what}: waypoints {}..{} of a mission of {} (out of range)",
+                    b.first + 1,
+                    b.first + b.len,
+                    waypoints.len()
+                ),
+            ));
+        }
+        let block = blocks::Block {
+            name: b.name,
+            kind: b.kind,
+            first: b.first,
+            len: b.len,
+            reversible: b.reversible,
+            source: b.source,
+        };
+        if let Some(other) = out
+            .iter()
+            .find(|o| block.waypoints().any(|k| o.contains(k)))
+        {
+            return Err(MissionError::invalid(
+                file,
+                b.place,
+                format!(
+                    "{what}: shares waypoints with block {:?} (a waypoint belongs to one block \
+                     at most)",
+                    other.name
+                ),
+            ));
+        }
+        for k in block.first..block.first + block.len - 1 {
+            let (u, v) = (&waypoints[k], &waypoints[k + 1]);
+            let a = [u.position.x_east_m, u.position.y_north_m];
+            let c = [v.position.x_east_m, v.position.y_north_m];
+            if let Some(z) = zones.iter().position(|z| z.segment_violates(a, c, 0.0)) {
+                let zone = &fence.zones[z];
+                let how = if zone.inclusion {
+                    "leaves"
+                } else {
+                    "crosses"
+                };
+                return Err(MissionError::invalid(
+                    file,
+                    b.place,
+                    format!(
+                        "{what}: its line {:?}-{:?} {how} {} of the geofence (a block is flown \
+                         as written, so the planner cannot detour round the zone inside it)",
+                        u.name,
+                        v.name,
+                        zone.describe(z + 1)
+                    ),
+                ));
+            }
+        }
+        out.push(block);
+    }
+    Ok(out)
 }
 
 /// The error of a point that breaks zone `k` of the fence (0-based): inside an exclusion zone
@@ -820,6 +942,31 @@ impl Mission {
                 "a .waypoints file (QGC WPL 110) cannot hold {}, which mission {} carries; \
                  nothing written (write a .plan or .toml to keep them)",
                 carried.join(" or "),
+                self.name
+            ),
+        ))
+    }
+
+    /// Why this mission cannot be written as the `.waypoints` file `file` without losing its
+    /// blocks (QGC WPL 110 has no complex items: a block would become free points), naming
+    /// them. None when it has none.
+    pub fn blocks_cannot_be_wpl(&self, file: &str) -> Option<MissionError> {
+        if self.blocks.is_empty() {
+            return None;
+        }
+        let named: Vec<String> = self
+            .blocks
+            .iter()
+            .map(|b| format!("block {:?} ({}, {} waypoints)", b.name, b.kind.word(), b.len))
+            .collect();
+        Some(MissionError::invalid(
+            file,
+            Place::File,
+            format!(
+                "a .waypoints file (QGC WPL 110) cannot hold {}, which mission {} carries; \
+                 nothing written (write a .plan or .toml to keep them, or convert with --lossy \
+                 to write the waypoints without the blocks)",
+                named.join(", "),
                 self.name
             ),
         ))

@@ -2,7 +2,10 @@
 //! format; docs/mission-files.md). `plannedHomePosition` is home; the items are read as
 //! [`super::sequence`] reads them: NAV_TAKEOFF sets the origin's height above home, the
 //! waypoints (param1 = hover time) carry the commands that follow them, RTL / LAND end the
-//! mission. Complex items (surveys, scans) are rejected, naming the item.
+//! mission. A `survey` or `CorridorScan` complex item is read from the items QGroundControl
+//! generated for it (`TransectStyleComplexItem.Items`, through the same reader) as a block of
+//! waypoints, the complex item kept to write it back; other complex items (a `StructureScan`
+//! stores no generated items) are refused, naming the item.
 //! Waypoint and point-of-interest names, which QGC has no field for, travel in a top-level
 //! `emplan` object QGC ignores.
 //!
@@ -23,8 +26,9 @@ use serde_json::{json, Value};
 use super::actions::{Command, FRAME_GLOBAL_RELATIVE_ALT, FRAME_MISSION};
 use super::fence::{LatLon, RallyPoint, Shape, Zone};
 use super::sequence::{self, Item};
+use super::blocks::{Block, BlockKind};
 use super::{
-    Geodetic, Mission, MissionError, Place, Poi, RawMission, RawZone,
+    Geodetic, Mission, MissionError, Place, Poi, RawBlock, RawMission, RawZone,
     DEFAULT_MIN_HEIGHT_ABOVE_HOME_M, DEFAULT_TAKEOFF_HEIGHT_M,
 };
 
@@ -32,6 +36,8 @@ use super::{
 pub(super) const NAV_WAYPOINT: u64 = 16;
 pub(super) const NAV_RETURN_TO_LAUNCH: u64 = 20;
 pub(super) const NAV_TAKEOFF: u64 = 22;
+const NAV_LAND: u64 = 21;
+const NAV_DO_JUMP: u64 = 177;
 
 fn number(v: &Value) -> Option<f64> {
     match v {
@@ -93,58 +99,46 @@ pub(super) fn parse(text: &str, file: &str, stem: &str) -> Result<RawMission, Mi
         .unwrap_or_default();
 
     let mut read = Vec::with_capacity(items.len());
+    // The complex items read as blocks: their item index, kind and JSON.
+    let mut complex: Vec<(usize, BlockKind, Value)> = Vec::new();
     for (k, item) in items.iter().enumerate() {
         let place = Place::Item(k);
         let kind = item.get("type").and_then(Value::as_str).unwrap_or("");
         if kind == "ComplexItem" {
-            let what = item
-                .get("complexItemType")
-                .and_then(Value::as_str)
-                .unwrap_or("unknown");
-            return Err(bad(
-                place,
-                format!(
-                    "complex item \"{what}\" is not supported (only simple items: convert the \
-                     survey to waypoints in QGroundControl first)"
-                ),
-            ));
+            let (block_kind, generated) = complex_item(item, k, file)?;
+            let group = complex.len();
+            for (i, g) in generated.iter().enumerate() {
+                let path = format!("mission.items[{k}].TransectStyleComplexItem.Items[{i}]");
+                let one = simple(g, Place::Field(path.clone()), file, Some(group))?;
+                if matches!(
+                    one.command,
+                    NAV_TAKEOFF | NAV_RETURN_TO_LAUNCH | NAV_LAND | NAV_DO_JUMP
+                ) {
+                    return Err(at(
+                        file,
+                        &format!("{path}.command"),
+                        format!(
+                            "{} in a complex item is not supported (a block flies waypoints and \
+                             their commands)",
+                            one.command
+                        ),
+                    ));
+                }
+                read.push(one);
+            }
+            complex.push((k, block_kind, item.clone()));
+            continue;
         }
         if kind != "SimpleItem" {
             return Err(bad(
                 place,
-                format!("field \"type\": {kind:?} is not supported (allowed: \"SimpleItem\")"),
+                format!(
+                    "field \"type\": {kind:?} is not supported (allowed: \"SimpleItem\", \
+                     \"ComplexItem\")"
+                ),
             ));
         }
-        let field_u64 = |key: &str| {
-            item.get(key).and_then(Value::as_u64).ok_or_else(|| {
-                bad(
-                    place.clone(),
-                    format!("field {key:?}: missing or not a non-negative integer"),
-                )
-            })
-        };
-        let command = field_u64("command")?;
-        let frame = field_u64("frame")?;
-        let params: Vec<f64> = item
-            .get("params")
-            .and_then(Value::as_array)
-            .filter(|a| a.len() == 7)
-            .map(|a| a.iter().map(number).collect::<Option<Vec<f64>>>())
-            .unwrap_or(None)
-            .ok_or_else(|| {
-                bad(
-                    place.clone(),
-                    "field \"params\": must be an array of 7 numbers or nulls".into(),
-                )
-            })?;
-        read.push(Item {
-            command,
-            frame,
-            params: [
-                params[0], params[1], params[2], params[3], params[4], params[5], params[6],
-            ],
-            place,
-        });
+        read.push(simple(item, place, file, None)?);
     }
     let mut seq = sequence::read(file, read, home[2])?;
     let use_names = names.len() == seq.waypoints.len();
@@ -154,6 +148,41 @@ pub(super) fn parse(text: &str, file: &str, stem: &str) -> Result<RawMission, Mi
         } else {
             format!("WP{}", i + 1)
         };
+    }
+    let listed: Vec<&Value> = extra
+        .and_then(|e| e.get("blocks"))
+        .and_then(Value::as_array)
+        .map(|a| a.iter().collect())
+        .unwrap_or_default();
+    let use_listed = listed.len() == complex.len();
+    let mut blocks = Vec::with_capacity(complex.len());
+    for (group, (k, kind, source)) in complex.into_iter().enumerate() {
+        let mine: Vec<usize> = (0..seq.groups.len())
+            .filter(|&i| seq.groups[i] == Some(group))
+            .collect();
+        let nth = blocks
+            .iter()
+            .filter(|b: &&RawBlock| b.kind == kind)
+            .count()
+            + 1;
+        let given = use_listed.then(|| listed[group]);
+        let name = given
+            .and_then(|b| b.get("name"))
+            .and_then(Value::as_str)
+            .map_or_else(|| format!("{} {nth}", kind.word()), String::from);
+        let reversible = given
+            .and_then(|b| b.get("reversible"))
+            .and_then(Value::as_bool)
+            .unwrap_or(kind != BlockKind::Structure);
+        blocks.push(RawBlock {
+            name,
+            kind,
+            first: mine.first().copied().unwrap_or(0),
+            len: mine.len(),
+            reversible,
+            source: Some(source),
+            place: Place::Item(k),
+        });
     }
     let pois = extra
         .and_then(|e| e.get("pois"))
@@ -195,8 +224,126 @@ pub(super) fn parse(text: &str, file: &str, stem: &str) -> Result<RawMission, Mi
         zones,
         breach_return,
         rally,
+        blocks,
         place: Place::File,
     })
+}
+
+/// One simple item (a `SimpleItem` of `mission.items` or of a complex item's `Items`).
+fn simple(
+    item: &Value,
+    place: Place,
+    file: &str,
+    group: Option<usize>,
+) -> Result<Item, MissionError> {
+    let bad = |problem: String| MissionError::invalid(file, place.clone(), problem);
+    if group.is_some() && item.get("type").and_then(Value::as_str) != Some("SimpleItem") {
+        return Err(bad(
+            "field \"type\": must be \"SimpleItem\" (a complex item's generated items are \
+             simple items)"
+                .into(),
+        ));
+    }
+    let field_u64 = |key: &str| {
+        item.get(key)
+            .and_then(Value::as_u64)
+            .ok_or_else(|| bad(format!("field {key:?}: missing or not a non-negative integer")))
+    };
+    let command = field_u64("command")?;
+    let frame = field_u64("frame")?;
+    let params: Vec<f64> = item
+        .get("params")
+        .and_then(Value::as_array)
+        .filter(|a| a.len() == 7)
+        .map(|a| a.iter().map(number).collect::<Option<Vec<f64>>>())
+        .unwrap_or(None)
+        .ok_or_else(|| bad("field \"params\": must be an array of 7 numbers or nulls".into()))?;
+    Ok(Item {
+        command,
+        frame,
+        params: [
+            params[0], params[1], params[2], params[3], params[4], params[5], params[6],
+        ],
+        place,
+        group,
+    })
+}
+
+/// A complex item's kind and its generated items (`TransectStyleComplexItem.Items`):
+/// QGroundControl's `survey` (versions 3 to 5) and `CorridorScan` (version 3) store them; a
+/// `StructureScan` stores none (QGroundControl rebuilds them from its polygon on loading), nor
+/// does any other complex item emplan knows of, and those are refused.
+fn complex_item<'a>(
+    item: &'a Value,
+    k: usize,
+    file: &str,
+) -> Result<(BlockKind, &'a [Value]), MissionError> {
+    let what = item
+        .get("complexItemType")
+        .and_then(Value::as_str)
+        .unwrap_or("unknown");
+    let kind = match what {
+        "survey" => BlockKind::Survey,
+        "CorridorScan" => BlockKind::Corridor,
+        "StructureScan" => {
+            return Err(MissionError::invalid(
+                file,
+                Place::Item(k),
+                "complex item \"StructureScan\" is not supported: QGroundControl stores no \
+                 generated items for a structure scan (it rebuilds them from the structure's \
+                 polygon when it loads the plan); convert the structure scan to waypoints in \
+                 QGroundControl first",
+            ))
+        }
+        _ => {
+            return Err(MissionError::invalid(
+                file,
+                Place::Item(k),
+                format!(
+                    "complex item \"{what}\" is not supported (only simple items, \"survey\" \
+                     and \"CorridorScan\": convert it to waypoints in QGroundControl first)"
+                ),
+            ))
+        }
+    };
+    let version = item.get("version").and_then(Value::as_u64);
+    if !matches!(version, Some(3..=5)) {
+        let given = item
+            .get("version")
+            .map_or_else(|| "none".to_string(), Value::to_string);
+        return Err(at(
+            file,
+            &format!("mission.items[{k}].version"),
+            format!("{given} is not supported for complex item \"{what}\" (allowed: 3 to 5)"),
+        ));
+    }
+    let inner = item
+        .get("TransectStyleComplexItem")
+        .filter(|v| v.is_object())
+        .ok_or_else(|| {
+            at(
+                file,
+                &format!("mission.items[{k}].TransectStyleComplexItem"),
+                format!(
+                    "missing or not an object (where QGroundControl keeps a {}'s generated \
+                     items; a {what} of version {} without it stores none: open and save the \
+                     plan in QGroundControl 4 first)",
+                    kind.word(),
+                    version.unwrap_or(0)
+                ),
+            )
+        })?;
+    let generated = inner
+        .get("Items")
+        .and_then(Value::as_array)
+        .ok_or_else(|| {
+            at(
+                file,
+                &format!("mission.items[{k}].TransectStyleComplexItem.Items"),
+                "missing or not an array (the complex item's generated items)",
+            )
+        })?;
+    Ok((kind, generated.as_slice()))
 }
 
 /// The error at `.plan` field `path`.
@@ -496,8 +643,114 @@ fn command_item(id: usize, c: &Command) -> Value {
     )
 }
 
+/// Waypoint `k` as simple items (its navigation item, then its commands), numbered from `id`.
+fn waypoint_items(mission: &Mission, k: usize, id: usize) -> Vec<Value> {
+    let home = mission.origin.home;
+    let w = &mission.waypoints[k];
+    let g = mission.origin.to_geodetic(w.position);
+    let [p2, p3, p4] = match w.kind {
+        super::WaypointKind::LoiterTime { params } => params.map(param),
+        _ => [json!(0), json!(0), Value::Null],
+    };
+    let mut out = vec![simple_item(
+        id,
+        u64::from(w.kind.command()),
+        u64::from(FRAME_GLOBAL_RELATIVE_ALT),
+        [
+            json!(w.hover_s),
+            p2,
+            p3,
+            p4,
+            json!(g.lat_deg),
+            json!(g.lon_deg),
+            json!(g.alt_m - home.alt_m),
+        ],
+    )];
+    for c in &w.actions {
+        out.push(command_item(id + out.len(), c));
+    }
+    out
+}
+
+/// A block's waypoints as the generated items of its complex item (`Items`), numbered from
+/// `id`: QGroundControl's `MissionItem` keys, without a simple item's altitude keys.
+fn block_items(mission: &Mission, block: &Block, id: usize) -> Vec<Value> {
+    let mut out: Vec<Value> = Vec::new();
+    for k in block.waypoints() {
+        for mut item in waypoint_items(mission, k, id + out.len()) {
+            if let Some(o) = item.as_object_mut() {
+                for key in ["AltitudeMode", "Altitude", "AMSLAltAboveTerrain"] {
+                    o.remove(key);
+                }
+            }
+            out.push(item);
+        }
+    }
+    out
+}
+
+/// Whether a block's complex item still generates the mission's waypoints for it (positions
+/// to a millimetre, holds, kinds and commands as they are): then it is written back exactly as
+/// it was read, else its `Items` are rewritten from the waypoints (moved by a new home, say).
+fn unchanged(mission: &Mission, block: &Block, source: &Value) -> bool {
+    let Some(generated) = source
+        .get("TransectStyleComplexItem")
+        .and_then(|t| t.get("Items"))
+        .and_then(Value::as_array)
+    else {
+        return false;
+    };
+    let home = mission.origin.home;
+    let read: Option<Vec<Item>> = generated
+        .iter()
+        .map(|g| simple(g, Place::File, "", Some(0)).ok())
+        .collect();
+    let Some(seq) = read.and_then(|items| sequence::read("", items, home.alt_m).ok()) else {
+        return false;
+    };
+    if seq.waypoints.len() != block.len || !seq.start_actions.is_empty() {
+        return false;
+    }
+    let same_params = |a: &[f64; 7], b: &[f64; 7]| {
+        a.iter()
+            .zip(b)
+            .all(|(p, q)| (p.is_nan() && q.is_nan()) || (p - q).abs() <= 1e-9 * p.abs().max(1.0))
+    };
+    seq.waypoints
+        .iter()
+        .zip(&mission.waypoints[block.waypoints()])
+        .all(|(r, w)| {
+            let super::RawPosition::Geodetic {
+                lat_deg,
+                lon_deg,
+                alt_above_home_m,
+            } = r.position
+            else {
+                return false;
+            };
+            let p = mission.origin.to_enu(Geodetic {
+                lat_deg,
+                lon_deg,
+                alt_m: home.alt_m + alt_above_home_m,
+            });
+            let moved_m = ((p.x_east_m - w.position.x_east_m).powi(2)
+                + (p.y_north_m - w.position.y_north_m).powi(2)
+                + (p.z_up_m - w.position.z_up_m).powi(2))
+            .sqrt();
+            moved_m <= 1e-3
+                && r.hover_s.is_some_and(|h| (h - w.hover_s).abs() <= 1e-3)
+                && r.kind == w.kind
+                && r.actions.len() == w.actions.len()
+                && r.actions.iter().zip(&w.actions).all(|((c, _), d)| {
+                    c.command == d.command && c.frame == d.frame && same_params(&c.params, &d.params)
+                })
+        })
+}
+
 /// The mission as a QGroundControl plan: take-off to the origin, the waypoints in file order,
-/// return to launch. Altitudes relative to home (frame 3).
+/// return to launch. Altitudes relative to home (frame 3). A block read from a complex item is
+/// written as that complex item (its `Items` rewritten only when its waypoints changed); a
+/// block written by hand in TOML has no complex item and is written as simple items.
 pub(super) fn write(mission: &Mission) -> String {
     let home = mission.origin.home;
     let mut items = vec![simple_item(
@@ -514,35 +767,37 @@ pub(super) fn write(mission: &Mission) -> String {
             json!(mission.origin.height_above_home_m),
         ],
     )];
+    let mut id = 2;
     for c in &mission.start_actions {
-        items.push(command_item(items.len() + 1, c));
+        items.push(command_item(id, c));
+        id += 1;
     }
-    for w in &mission.waypoints {
-        let g = mission.origin.to_geodetic(w.position);
-        let [p2, p3, p4] = match w.kind {
-            super::WaypointKind::LoiterTime { params } => params.map(param),
-            _ => [json!(0), json!(0), Value::Null],
-        };
-        items.push(simple_item(
-            items.len() + 1,
-            u64::from(w.kind.command()),
-            u64::from(FRAME_GLOBAL_RELATIVE_ALT),
-            [
-                json!(w.hover_s),
-                p2,
-                p3,
-                p4,
-                json!(g.lat_deg),
-                json!(g.lon_deg),
-                json!(g.alt_m - home.alt_m),
-            ],
-        ));
-        for c in &w.actions {
-            items.push(command_item(items.len() + 1, c));
+    let mut k = 0;
+    while k < mission.waypoints.len() {
+        let complex = mission
+            .block_of(k)
+            .map(|b| &mission.blocks[b])
+            .filter(|b| b.first == k)
+            .and_then(|b| Some((b, b.source.as_ref()?)));
+        if let Some((block, source)) = complex {
+            let mut item = source.clone();
+            let generated = block_items(mission, block, id);
+            id += generated.len();
+            if !unchanged(mission, block, source) {
+                item["TransectStyleComplexItem"]["Items"] = Value::Array(generated);
+            }
+            items.push(item);
+            k += block.len;
+            continue;
         }
+        for item in waypoint_items(mission, k, id) {
+            items.push(item);
+            id += 1;
+        }
+        k += 1;
     }
     items.push(simple_item(
-        items.len() + 1,
+        id,
         NAV_RETURN_TO_LAUNCH,
         u64::from(FRAME_MISSION),
         [
@@ -579,6 +834,10 @@ pub(super) fn write(mission: &Mission) -> String {
             "default_hover_s": mission.default_hover_s,
             "min_height_above_home_m": mission.min_height_above_home_m,
             "waypoint_names": mission.waypoints.iter().map(|w| w.name.clone()).collect::<Vec<_>>(),
+            "blocks": mission.blocks.iter().filter(|b| b.source.is_some()).map(|b| json!({
+                "name": b.name,
+                "reversible": b.reversible,
+            })).collect::<Vec<_>>(),
             "pois": mission.pois.iter().map(|p| json!({
                 "name": p.name,
                 "lat_deg": p.lat_deg,

@@ -19,9 +19,10 @@ use toml::Spanned;
 
 use super::actions::{id, Command, FRAME_GLOBAL_RELATIVE_ALT, FRAME_MISSION};
 use super::fence::{LatLon, RallyPoint, Shape, Zone};
+use super::blocks::BlockKind;
 use super::{
-    line_of, Enu, Geodetic, Mission, MissionError, Origin, Place, Poi, RawMission, RawPosition,
-    RawWaypoint, RawZone, WaypointKind, DEFAULT_MIN_HEIGHT_ABOVE_HOME_M,
+    line_of, Enu, Geodetic, Mission, MissionError, Origin, Place, Poi, RawBlock, RawMission,
+    RawPosition, RawWaypoint, RawZone, WaypointKind, DEFAULT_MIN_HEIGHT_ABOVE_HOME_M,
 };
 
 #[derive(Deserialize)]
@@ -40,6 +41,20 @@ struct FileMission {
     fence: Option<FileFence>,
     #[serde(default)]
     rally_points: Vec<Spanned<FilePoint>>,
+    #[serde(default)]
+    blocks: Vec<Spanned<FileBlock>>,
+}
+
+/// A block: the waypoints that name it (`block = "NAME"`, contiguous in the file) flown whole,
+/// and, for a block read from a QGroundControl `.plan`, its complex item as JSON (`qgc`), kept
+/// to write the survey or scan back as QGroundControl reads it.
+#[derive(Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+struct FileBlock {
+    name: String,
+    reversible: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    qgc: Option<String>,
 }
 
 /// The geofence: its polygons, its circles and where ArduPilot returns to on a breach.
@@ -210,6 +225,9 @@ struct FileWaypoint {
     delay_s: Option<f64>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     actions: Vec<FileAction>,
+    /// The `[[blocks]]` block it belongs to.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    block: Option<String>,
 }
 
 pub(super) fn parse(text: &str, file: &str) -> Result<RawMission, MissionError> {
@@ -273,9 +291,11 @@ pub(super) fn parse(text: &str, file: &str) -> Result<RawMission, MissionError> 
         start_actions.push((action(file, &place, "start_actions", &a, &pois)?, place));
     }
     let mut waypoints = Vec::with_capacity(parsed.waypoints.len());
+    let mut block_names: Vec<Option<String>> = Vec::with_capacity(parsed.waypoints.len());
     for spanned in parsed.waypoints {
         let place = Place::Line(line_of(text, spanned.span().start));
         let w = spanned.into_inner();
+        block_names.push(w.block.clone());
         let what = format!("waypoint {:?}", w.name);
         let mut actions = Vec::new();
         let keys = FileAction {
@@ -454,7 +474,9 @@ pub(super) fn parse(text: &str, file: &str) -> Result<RawMission, MissionError> 
             place,
         ));
     }
+    let blocks = blocks(file, text, parsed.blocks, &block_names, &waypoints)?;
     Ok(RawMission {
+        blocks,
         name: parsed.name.unwrap_or_else(|| "mission".to_string()),
         home: Geodetic {
             lat_deg: origin.lat_deg,
@@ -474,6 +496,107 @@ pub(super) fn parse(text: &str, file: &str) -> Result<RawMission, MissionError> 
         rally,
         place: origin_place,
     })
+}
+
+/// The blocks: each `[[blocks]]` entry with the run of waypoints that name it. A block's
+/// waypoints are contiguous (a name used again after other waypoints is refused), and every
+/// name a waypoint gives is declared.
+fn blocks(
+    file: &str,
+    text: &str,
+    declared: Vec<Spanned<FileBlock>>,
+    names: &[Option<String>],
+    waypoints: &[RawWaypoint],
+) -> Result<Vec<RawBlock>, MissionError> {
+    // The runs of waypoints naming a block, in file order: (name, first, len).
+    let mut runs: Vec<(String, usize, usize)> = Vec::new();
+    for (k, name) in names.iter().enumerate() {
+        let Some(name) = name else { continue };
+        let w = &waypoints[k];
+        if !declared.iter().any(|d| d.get_ref().name == *name) {
+            return Err(MissionError::invalid(
+                file,
+                w.place.clone(),
+                format!(
+                    "waypoint {:?}: block {name:?} is not declared (add [[blocks]] with name = \
+                     {name:?} and reversible = true or false)",
+                    w.name
+                ),
+            ));
+        }
+        match runs.last_mut() {
+            Some((last, first, len)) if last == name && *first + *len == k => *len += 1,
+            _ => {
+                if runs.iter().any(|(r, _, _)| r == name) {
+                    return Err(MissionError::invalid(
+                        file,
+                        w.place.clone(),
+                        format!(
+                            "waypoint {:?}: block {name:?} is used again after other waypoints \
+                             (a block's waypoints must follow each other in the file)",
+                            w.name
+                        ),
+                    ));
+                }
+                runs.push((name.clone(), k, 1));
+            }
+        }
+    }
+    let mut out = Vec::with_capacity(declared.len());
+    for spanned in declared {
+        let place = Place::Line(line_of(text, spanned.span().start));
+        let b = spanned.into_inner();
+        let what = format!("block {:?}", b.name);
+        let Some(&(_, first, len)) = runs.iter().find(|(r, _, _)| *r == b.name) else {
+            return Err(MissionError::invalid(
+                file,
+                place,
+                format!(
+                    "{what}: no waypoint belongs to it (give its waypoints block = {:?})",
+                    b.name
+                ),
+            ));
+        };
+        let (kind, source) = match &b.qgc {
+            None => (BlockKind::Listed, None),
+            Some(json) => {
+                let value: serde_json::Value = serde_json::from_str(json).map_err(|e| {
+                    MissionError::invalid(
+                        file,
+                        place.clone(),
+                        format!("{what}: qgc is not valid JSON ({e})"),
+                    )
+                })?;
+                let kind = match value.get("complexItemType").and_then(|v| v.as_str()) {
+                    Some("survey") => BlockKind::Survey,
+                    Some("CorridorScan") => BlockKind::Corridor,
+                    other => {
+                        return Err(MissionError::invalid(
+                            file,
+                            place,
+                            format!(
+                                "{what}: qgc's complexItemType {} is not supported (allowed: \
+                                 \"survey\", \"CorridorScan\")",
+                                other.map_or_else(|| "(none)".to_string(), |o| format!("{o:?}"))
+                            ),
+                        ))
+                    }
+                };
+                (kind, Some(value))
+            }
+        };
+        out.push(RawBlock {
+            name: b.name,
+            kind,
+            first,
+            len,
+            reversible: b.reversible,
+            source,
+            place,
+        });
+    }
+    out.sort_by_key(|b| b.first);
+    Ok(out)
 }
 
 /// The latitude and longitude of the point `x` east and `y` north of the origin, at the height
@@ -980,6 +1103,8 @@ struct WriteMission<'a> {
     fence: Option<FileFence>,
     #[serde(skip_serializing_if = "Vec::is_empty")]
     rally_points: Vec<FilePoint>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    blocks: Vec<FileBlock>,
 }
 
 /// The mission as emplan TOML, waypoints in local ENU metres (full precision).
@@ -1015,7 +1140,8 @@ pub(super) fn write(mission: &Mission) -> Result<String, MissionError> {
         waypoints: mission
             .waypoints
             .iter()
-            .map(|w| {
+            .enumerate()
+            .map(|(k, w)| {
                 let (shorthand, actions) = match as_shorthand(&w.actions, &pois) {
                     Some(s) => (s, Vec::new()),
                     None => (
@@ -1050,6 +1176,7 @@ pub(super) fn write(mission: &Mission) -> Result<String, MissionError> {
                     photo: shorthand.photo,
                     delay_s: shorthand.delay_s,
                     actions,
+                    block: mission.block_of(k).map(|b| mission.blocks[b].name.clone()),
                 }
             })
             .collect(),
@@ -1058,6 +1185,18 @@ pub(super) fn write(mission: &Mission) -> Result<String, MissionError> {
             .rally
             .iter()
             .map(|r| file_point(r.lat_deg, r.lon_deg, r.alt_above_home_m))
+            .collect(),
+        blocks: mission
+            .blocks
+            .iter()
+            .map(|b| FileBlock {
+                name: b.name.clone(),
+                reversible: b.reversible,
+                qgc: b
+                    .source
+                    .as_ref()
+                    .and_then(|v| serde_json::to_string_pretty(v).ok()),
+            })
             .collect(),
     };
     toml::to_string(&doc).map_err(|e| {

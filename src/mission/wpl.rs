@@ -133,6 +133,7 @@ pub(super) fn parse(text: &str, file: &str, stem: &str) -> Result<RawMission, Mi
             frame,
             params,
             place: Place::Line(n),
+            group: None,
         });
     }
     let home = home.ok_or_else(|| {
@@ -147,6 +148,7 @@ pub(super) fn parse(text: &str, file: &str, stem: &str) -> Result<RawMission, Mi
         w.name = format!("WP{}", i + 1);
     }
     Ok(RawMission {
+        blocks: Vec::new(),
         name: stem.to_string(),
         home,
         height_above_home_m: seq.height_above_home_m.unwrap_or(DEFAULT_TAKEOFF_HEIGHT_M),
