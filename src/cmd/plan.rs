@@ -196,8 +196,12 @@ fn print_table(plan: &Plan, doc: &PlanJson, mission: &emplan::mission::Mission) 
             );
         }
     }
+    print_blocks(plan, doc);
     if let Some(explanation) = &plan.explanation {
         explain(plan, explanation);
+    }
+    for note in &doc.notes {
+        println!("note: {note}");
     }
     if let Some(w) = &doc.wind {
         print_wind(w);
@@ -215,6 +219,45 @@ fn print_table(plan: &Plan, doc: &PlanJson, mission: &emplan::mission::Mission) 
         battery.budget_kj,
         battery.reserve_pct,
         if battery.feasible { "feasible" } else { "NOT FEASIBLE on one battery" }
+    );
+}
+
+/// The flown order's blocks, each with its direction, ends, lines and energy, and the legs
+/// that connect them with the points.
+fn print_blocks(plan: &Plan, doc: &PlanJson) {
+    let Some(flown) = doc.orders.get(plan.flown) else {
+        return;
+    };
+    if flown.blocks.is_empty() {
+        return;
+    }
+    println!("blocks in the flown order ({}):", flown.objective);
+    for b in &flown.blocks {
+        println!(
+            "  {} {:?} {}: {} -> {}, {} waypoints, {:.0} m of lines, {:.2} kJ{}",
+            b.kind.word(),
+            b.name,
+            if b.reversed { "reversed" } else { "forward" },
+            b.entry,
+            b.exit,
+            b.waypoints,
+            b.distance_m,
+            b.energy_kj,
+            b.other_end_kj
+                .map(|k| format!(" (entering at the other end: {k:+.2} kJ)"))
+                .unwrap_or_default(),
+        );
+    }
+    let connecting: Vec<String> = flown
+        .legs
+        .iter()
+        .filter(|l| l.block.is_none())
+        .map(|l| format!("{} -> {} {:.2} kJ", l.from, l.to, l.energy_kj))
+        .collect();
+    println!(
+        "  connecting legs ({}): {}",
+        connecting.len(),
+        connecting.join(", ")
     );
 }
 

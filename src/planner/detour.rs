@@ -311,7 +311,22 @@ pub fn price_chain(
     start: Start,
 ) -> Result<LegEnergy, PhysicsError> {
     let points: Vec<Enu> = via.iter().copied().chain(std::iter::once(to)).collect();
-    let parts: Vec<LegEnergy> = if model.profile == Profile::Ardupilot {
+    let fast: Vec<bool> = (0..points.len()).map(|k| k + 1 < points.len()).collect();
+    Ok(joined(&chain_parts(model, from, &points, &fast, start)?))
+}
+
+/// The legs of the chain `from` -> `points`... one by one, as [`price_chain`] prices them:
+/// with the `ardupilot` profile ArduCopter's chain, the points with `fast[k]` flown through
+/// (the last one never is); with the others each leg rest to rest after the leg before, the
+/// first starting `start`.
+pub fn chain_parts(
+    model: &VehicleModel,
+    from: Enu,
+    points: &[Enu],
+    fast: &[bool],
+    start: Start,
+) -> Result<Vec<LegEnergy>, PhysicsError> {
+    if model.profile == Profile::Ardupilot {
         let vehicle = match model.speed_m_s {
             Some(v) => model.vehicle.at_speed(v),
             None => model.vehicle.clone(),
@@ -321,10 +336,10 @@ pub fn price_chain(
             .enumerate()
             .map(|(k, p)| ChainPoint {
                 enu_m: [p.x_east_m, p.y_north_m, p.z_up_m],
-                fast: k + 1 < points.len(),
+                fast: k + 1 < points.len() && fast.get(k).copied().unwrap_or(false),
             })
             .collect();
-        Model::new(&vehicle)
+        return Ok(Model::new(&vehicle)
             .ardupilot_chain_in_wind(
                 [from.x_east_m, from.y_north_m, from.z_up_m],
                 &chain,
@@ -332,30 +347,28 @@ pub fn price_chain(
             )?
             .iter()
             .map(LegEnergy::from)
-            .collect()
-    } else {
-        let mut parts = Vec::with_capacity(points.len());
-        let mut previous = None;
-        let mut a = from;
-        for (k, &b) in points.iter().enumerate() {
-            let (dx, dy) = (b.x_east_m - a.x_east_m, b.y_north_m - a.y_north_m);
-            let s = if k == 0 {
-                start
-            } else {
-                start_case(previous, (dx, dy))
-            };
-            parts.push(model.leg_on_heading(
-                dx.hypot(dy),
-                b.z_up_m - a.z_up_m,
-                s,
-                heading_deg(dx, dy),
-            )?);
-            previous = Some((dx, dy));
-            a = b;
-        }
-        parts
-    };
-    Ok(joined(&parts))
+            .collect());
+    }
+    let mut parts = Vec::with_capacity(points.len());
+    let mut previous = None;
+    let mut a = from;
+    for (k, &b) in points.iter().enumerate() {
+        let (dx, dy) = (b.x_east_m - a.x_east_m, b.y_north_m - a.y_north_m);
+        let s = if k == 0 {
+            start
+        } else {
+            start_case(previous, (dx, dy))
+        };
+        parts.push(model.leg_on_heading(
+            dx.hypot(dy),
+            b.z_up_m - a.z_up_m,
+            s,
+            heading_deg(dx, dy),
+        )?);
+        previous = Some((dx, dy));
+        a = b;
+    }
+    Ok(parts)
 }
 
 /// The legs of a chain as one leg: everything before the last leg's 4 m rule, then its settle.

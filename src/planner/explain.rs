@@ -43,6 +43,21 @@ pub struct Explanation {
     pub distance_direction: Direction,
     /// `None` when the energy order costs no less: it is the distance order's.
     pub saving: Option<Saving>,
+    /// The energy order's blocks in flown order: which end each is entered at, and what
+    /// entering at the other end would have added (empty without blocks).
+    pub blocks: Vec<BlockEntry>,
+}
+
+/// Which end the energy order enters a block at.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BlockEntry {
+    /// Index into the mission's blocks.
+    pub block: usize,
+    /// Entered at its last waypoint.
+    pub reversed: bool,
+    /// What flying it the other way, everything else as flown, would add (J; never negative
+    /// when the order is proven optimal); None for a block flown only as written.
+    pub other_end_j: Option<f64>,
 }
 
 /// Where the energy order saves; each pair is (energy order, distance order).
@@ -101,6 +116,7 @@ impl Explanation {
         Explanation {
             distance_direction: distance.direction,
             saving,
+            blocks: Vec::new(),
         }
     }
 }

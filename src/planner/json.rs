@@ -55,6 +55,50 @@ pub struct PlanJson {
     /// The mission's rally points (absent without any; [`mission_document`] fills them).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub rally_points: Vec<PointJson>,
+    /// The mission's blocks in file order (absent without any).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub blocks: Vec<MissionBlockJson>,
+    /// What the plan could not do as asked, or did otherwise, in words (absent: nothing).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
+}
+
+/// One block of the mission, as the file gives it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MissionBlockJson {
+    pub name: String,
+    /// "survey", "corridor", "structure" or "listed" (written by hand).
+    pub kind: crate::mission::blocks::BlockKind,
+    /// Whether it may be flown last waypoint first.
+    pub reversible: bool,
+    /// Its waypoints' names in file order.
+    pub waypoints: Vec<String>,
+}
+
+/// One block as an order flies it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BlockJson {
+    pub name: String,
+    pub kind: crate::mission::blocks::BlockKind,
+    /// Flown last waypoint first.
+    pub reversed: bool,
+    /// The waypoints it is entered at and left from.
+    pub entry: String,
+    pub exit: String,
+    /// How many waypoints it has.
+    pub waypoints: usize,
+    /// Its lines (3D), from entry to exit.
+    pub distance_m: f64,
+    /// Its lines' energy and the turns at their ends (part of the order's `energy_kj`).
+    pub energy_kj: f64,
+    /// The holds at its waypoints (counted in the battery's `hover_kj`).
+    pub hover_kj: f64,
+    /// Its lines' duration.
+    pub duration_s: f64,
+    /// The energy order's blocks: what entering at the other end would add, the rest of the
+    /// order as flown (absent for a block flown only as written, and on other orders).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub other_end_kj: Option<f64>,
 }
 
 /// The `"fence"` object: the zones in the fence's order and the breach return point.
@@ -181,6 +225,9 @@ pub struct OrderJson {
     pub legs: Vec<LegJson>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub proof: Option<ProofJson>,
+    /// The blocks in flown order (absent for a mission without blocks).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub blocks: Vec<BlockJson>,
 }
 
 /// One leg of an order.
@@ -208,6 +255,9 @@ pub struct LegJson {
     pub detour_m: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub detour_kj: Option<f64>,
+    /// A line of a block: the block's name (absent on a connecting leg).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub block: Option<String>,
 }
 
 /// One point a leg passes through round a fence zone: geodetic (altitude above mean sea
@@ -348,6 +398,59 @@ fn legs(plan: &Plan, legs: &[Leg]) -> Vec<LegJson> {
                 .as_ref()
                 .and_then(|d| d.straight_energy_j)
                 .map(|straight_j| kj(l.energy_j() - straight_j)),
+            block: l
+                .block
+                .and_then(|b| plan.blocks.get(b))
+                .map(|b| b.name.clone()),
+        })
+        .collect()
+}
+
+/// The blocks an order flies, as printed: each block's lines from the order's legs.
+fn blocks_json(plan: &Plan, order: &Order) -> Vec<BlockJson> {
+    let explained = plan
+        .explanation
+        .as_ref()
+        .filter(|_| {
+            plan.cheapest(Objective::Energy)
+                .is_some_and(|e| std::ptr::eq(e, order))
+        })
+        .map_or(&[][..], |e| &e.blocks[..]);
+    order
+        .blocks
+        .iter()
+        .filter_map(|f| {
+            let block = plan.blocks.get(f.block)?;
+            let lines: Vec<&Leg> = order
+                .legs
+                .iter()
+                .filter(|l| l.block == Some(f.block))
+                .collect();
+            // The turns at its lines' ends: what its way's price adds to its lines'.
+            let turns_j = plan.block_ways.get(f.block, f.reversed).map_or(0.0, |w| {
+                w.inner_j
+                    - w.legs
+                        .iter()
+                        .map(|l| l.predicted.priced_energy_j(plan.pricing))
+                        .sum::<f64>()
+            });
+            Some(BlockJson {
+                name: block.name.clone(),
+                kind: block.kind,
+                reversed: f.reversed,
+                entry: plan.name(block.entry(f.reversed) + 1).to_string(),
+                exit: plan.name(block.exit(f.reversed) + 1).to_string(),
+                waypoints: block.len,
+                distance_m: lines.iter().map(|l| l.distance_m).sum(),
+                energy_kj: lines.iter().map(|l| kj(l.energy_j())).sum::<f64>() + kj(turns_j),
+                hover_kj: block.waypoints().map(|k| kj(plan.hover_j(k))).sum(),
+                duration_s: lines.iter().map(|l| l.duration_s()).sum(),
+                other_end_kj: explained
+                    .iter()
+                    .find(|e| e.block == f.block)
+                    .and_then(|e| e.other_end_j)
+                    .map(kj),
+            })
         })
         .collect()
 }
@@ -361,7 +464,11 @@ pub fn order_json(plan: &Plan, order: &Order) -> OrderJson {
         1.0
     };
     OrderJson {
-        objective: objective_name(order.objective),
+        objective: match (order.objective, plan.asked) {
+            // The file's own order beside the solved ones (a mission with blocks).
+            (None, Orders::All) => "file",
+            (objective, _) => objective_name(objective),
+        },
         direction: order.direction,
         sequence: sequence(plan, &order.nodes),
         distance_m: order.distance_m,
@@ -377,6 +484,7 @@ pub fn order_json(plan: &Plan, order: &Order) -> OrderJson {
             gap_pct: p.gap_pct,
             seconds: p.seconds,
         }),
+        blocks: blocks_json(plan, order),
     }
 }
 
@@ -450,6 +558,20 @@ pub fn plan_document(plan: &Plan) -> PlanJson {
         returns: plan.returns.as_ref().map(super::returns::Returns::json),
         fence: None,
         rally_points: Vec::new(),
+        blocks: plan
+            .blocks
+            .iter()
+            .map(|b| MissionBlockJson {
+                name: b.name.clone(),
+                kind: b.kind,
+                reversible: b.reversible,
+                waypoints: b
+                    .waypoints()
+                    .map(|k| plan.name(k + 1).to_string())
+                    .collect(),
+            })
+            .collect(),
+        notes: plan.notes.clone(),
     }
 }
 

@@ -20,6 +20,7 @@
 //!
 //! Invariant: pure; no IO, no tokio, no MAVLink.
 
+pub mod blocks;
 pub mod detour;
 pub mod explain;
 pub mod json;
@@ -33,6 +34,7 @@ use crate::mission::Mission;
 use crate::physics::{
     start_case, BatteryCheck, Budget, LegEnergy, PhysicsError, Pricing, Profile, Start, Wind,
 };
+use crate::tour::clusters::Visit;
 use crate::tour::energy::energy_matrix_of_legs;
 use crate::tour::orders::{baseline, energy_order, plan_orders, SolvedOrder};
 use crate::tour::sorties::{self, Method, SortieError, SortieOptions, SortieProblem};
@@ -263,6 +265,13 @@ pub struct Plan {
     /// The autopilot's return from every waypoint of the flown order (a mission with a fence
     /// or rally points): where it goes, its price against the battery, the zones it crosses.
     pub returns: Option<returns::Returns>,
+    /// What the plan could not do as asked, or did otherwise, in words (a block split across
+    /// sorties, a refinement left out for a mission with blocks).
+    pub notes: Vec<String>,
+    /// Each block's ways as priced (empty without blocks).
+    pub block_ways: blocks::BlockWays,
+    /// The mission's blocks (`Order::blocks` and `Leg::block` index them).
+    pub blocks: Vec<crate::mission::blocks::Block>,
 }
 
 /// One command at a place of the flown order, priced.
@@ -807,15 +816,70 @@ fn plan_core<'scope>(
         )
     };
     let solver = &options.solver;
+    let mut notes: Vec<String> = Vec::new();
+    // Each block's ways, priced once: its lines as the profile flies the block, each at the
+    // speed the file flies it at.
+    let block_ways = if mission.has_blocks() {
+        use rayon::prelude::*;
+        let line_speed = |a: usize, b: usize| speeds[a.max(b)];
+        let model_at = |v: Option<f64>| -> &VehicleModel {
+            at_speeds
+                .iter()
+                .find(|(s, _)| *s == v)
+                .map_or(model, |(_, m)| m)
+        };
+        let jobs: Vec<(usize, bool)> = mission
+            .blocks
+            .iter()
+            .enumerate()
+            .flat_map(|(b, block)| {
+                std::iter::once((b, false)).chain(block.reversible.then_some((b, true)))
+            })
+            .collect();
+        let priced: Vec<Result<blocks::PricedWay, blocks::PriceFailure>> = jobs
+            .par_iter()
+            .map(|&(b, reversed)| {
+                blocks::price_way(
+                    mission,
+                    b,
+                    reversed,
+                    straight.points(),
+                    &line_speed,
+                    &model_at,
+                    &turn_j,
+                    options.pricing,
+                )
+            })
+            .collect();
+        let mut ways = blocks::BlockWays {
+            ways: vec![[None, None]; mission.blocks.len()],
+        };
+        for (&(b, reversed), way) in jobs.iter().zip(priced) {
+            let way = way.map_err(|(from, to, e)| {
+                pricing(PlanError::LegEnergy {
+                    from: names[from].clone(),
+                    to: names[to].clone(),
+                    xf_m: straight.horizontal_m(from, to),
+                    zf_m: straight.vertical_m(from, to),
+                    reason: format!("flying block {}: {e}", mission.blocks[b].name),
+                })
+            })?;
+            ways.ways[b][usize::from(reversed)] = Some(way);
+        }
+        ways
+    } else {
+        blocks::BlockWays::default()
+    };
     // The distance baselines need only the geometry. Of a mission Held-Karp solves exactly
     // (the min-vertical baseline's lexicographic Held-Karp is the slowest solve of a
     // 20-waypoint plan) they run on a thread of their own from the start, beside the energy
     // pricing and solve, each solve within the time limit as before; a larger mission's
     // solves share the time limit one after the other on this thread, their progress shown.
-    let parallel_baselines =
-        options.orders == Orders::All && geometry.len() <= held_karp::MAX_NODES + 1;
+    let parallel_baselines = options.orders == Orders::All
+        && geometry.len() <= held_karp::MAX_NODES + 1
+        && !mission.has_blocks();
     let token = cancel::current();
-    let (energy, still_air_plan, solved) = std::thread::scope(|scope| {
+    let (energy, still_air_plan, solved, pair_skipped) = std::thread::scope(|scope| {
         let baselines = parallel_baselines.then(|| {
             scope.spawn(|| {
                 let solve = || plan_orders(&geometry, None, solver);
@@ -873,41 +937,93 @@ fn plan_core<'scope>(
                 _ => Ok(order),
             }
         };
-        let solved: Vec<SolvedOrder> = match (options.orders, baselines) {
-            (Orders::All, Some(baselines)) => {
-                let energy_first = energy_order(&geometry, &energy, solver).map_err(planning)?;
-                let rest = baselines
-                    .join()
-                    .map_err(|_| {
-                        planning(PlanError::Infeasible(
-                            "the distance baselines stopped unexpectedly".into(),
-                        ))
-                    })?
-                    .map_err(planning)?;
-                std::iter::once(energy_first)
-                    .chain(rest)
-                    .map(pair_aware)
-                    .collect::<Result<_, _>>()?
+        let solved: Vec<SolvedOrder> = if mission.has_blocks() {
+            // Points and blocks: each block a cluster of its ways (tour::clusters).
+            let stop_orders = |objective, energy| {
+                blocks::stop_orders(mission, &geometry, &straight, energy, objective, solver)
+                    .map_err(planning)
+            };
+            let energy_order = || stop_orders(Objective::Energy, Some((&energy, &block_ways)));
+            match options.orders {
+                Orders::All => {
+                    let mut all = energy_order()?;
+                    for objective in [
+                        Objective::Distance,
+                        Objective::Horizontal,
+                        Objective::Vertical,
+                    ] {
+                        all.extend(stop_orders(objective, None)?);
+                    }
+                    all
+                }
+                Orders::Energy => energy_order()?,
+                Orders::Distance => stop_orders(Objective::Distance, None)?,
+                Orders::Listed => Vec::new(),
             }
-            (Orders::All, None) => plan_orders(&geometry, Some(&energy), solver)
-                .map_err(planning)?
-                .into_iter()
-                .map(pair_aware)
-                .collect::<Result<_, _>>()?,
-            (Orders::Energy, _) => vec![pair_aware(
-                energy_order(&geometry, &energy, solver).map_err(planning)?,
-            )?],
-            (Orders::Distance, _) => baseline(&geometry, Objective::Distance, solver)
-                .map_err(planning)?
-                .to_vec(),
-            (Orders::Listed, _) => Vec::new(),
+        } else {
+            match (options.orders, baselines) {
+                (Orders::All, Some(baselines)) => {
+                    let energy_first =
+                        energy_order(&geometry, &energy, solver).map_err(planning)?;
+                    let rest = baselines
+                        .join()
+                        .map_err(|_| {
+                            planning(PlanError::Infeasible(
+                                "the distance baselines stopped unexpectedly".into(),
+                            ))
+                        })?
+                        .map_err(planning)?;
+                    std::iter::once(energy_first)
+                        .chain(rest)
+                        .map(pair_aware)
+                        .collect::<Result<_, _>>()?
+                }
+                (Orders::All, None) => plan_orders(&geometry, Some(&energy), solver)
+                    .map_err(planning)?
+                    .into_iter()
+                    .map(pair_aware)
+                    .collect::<Result<_, _>>()?,
+                (Orders::Energy, _) => vec![pair_aware(
+                    energy_order(&geometry, &energy, solver).map_err(planning)?,
+                )?],
+                (Orders::Distance, _) => baseline(&geometry, Objective::Distance, solver)
+                    .map_err(planning)?
+                    .to_vec(),
+                (Orders::Listed, _) => Vec::new(),
+            }
         };
-        Ok::<_, PlannerError>((energy, still_air_plan, solved))
+        let pair_skipped = ahead.is_some()
+            && mission.has_blocks()
+            && matches!(options.orders, Orders::All | Orders::Energy);
+        Ok::<_, PlannerError>((energy, still_air_plan, solved, pair_skipped))
     })?;
+    if pair_skipped {
+        notes.push(
+            "the px4 profile's refinement of the energy order by the turn between legs is left \
+             out for a mission with blocks (each leg priced behind PX4's trajectory in the solve)"
+                .into(),
+        );
+    }
     if cancel::requested() {
         return Err(stopped());
     }
     let leg = |previous: Option<usize>, from: usize, to: usize| -> Result<Leg, PlannerError> {
+        // A line of a block: priced as the profile flies the whole block, straight.
+        if let Some((b, inner)) = block_ways.inner(mission, from, to) {
+            return Ok(Leg {
+                from,
+                to,
+                horizontal_m: straight.horizontal_m(from, to),
+                vertical_m: straight.vertical_m(from, to),
+                distance_m: straight.distance_m(from, to),
+                predicted: inner.predicted,
+                pricing: options.pricing,
+                start: inner.start,
+                via: Vec::new(),
+                detour: None,
+                block: Some(b),
+            });
+        }
         let (horizontal_m, vertical_m) = (
             geometry.horizontal_m(from, to),
             geometry.vertical_m(from, to),
@@ -977,6 +1093,7 @@ fn plan_core<'scope>(
     let priced = |objective, direction, nodes: Vec<usize>, proof| -> Result<Order, PlannerError> {
         let legs = legs(&nodes)?;
         let actions_j = turns_j(&legs);
+        let flown_blocks = blocks::flown_blocks(mission, &nodes);
         Ok(Order {
             objective,
             direction,
@@ -989,7 +1106,7 @@ fn plan_core<'scope>(
             nodes,
             legs,
             proof,
-            blocks: Vec::new(),
+            blocks: flown_blocks,
         })
     };
     let orders: Vec<Order> = if options.orders == Orders::Listed {
@@ -1005,8 +1122,19 @@ fn plan_core<'scope>(
         solved
             .into_par_iter()
             .map(|o| priced(Some(o.objective), o.direction, o.nodes, o.proof))
-            .collect::<Result<_, _>>()?
+            .collect::<Result<Vec<_>, _>>()?
     };
+    // With blocks, the file's own order is a baseline too (every block forward: as
+    // QGroundControl would fly it).
+    let mut orders = orders;
+    if options.orders == Orders::All && mission.has_blocks() {
+        orders.push(priced(
+            None,
+            Direction::Forward,
+            (1..=mission.waypoints.len()).collect(),
+            None,
+        )?);
+    }
     let flown = match options.orders {
         Orders::Distance => cheapest(&orders, Objective::Distance)
             .and_then(|c| orders.iter().position(|o| std::ptr::eq(o, c)))
@@ -1117,19 +1245,92 @@ fn plan_core<'scope>(
             }
         })?;
         let hover_j: Vec<f64> = hover_s.iter().map(|&s| budget.hover_j(s)).collect();
-        let problem = SortieProblem {
-            energy: &energy,
-            hover_j: &hover_j,
-            fixed_j: budget.fixed_j(),
-            budget_j: budget.usable_j,
-        };
-        let split = sorties::split(
-            &problem,
-            &SortieOptions {
-                giant_tour: Some(energy_order.nodes.clone()),
-                ..SortieOptions::default()
-            },
-        )
+        let split = if mission.has_blocks() {
+            // The split works on the stops, each block whole in the way the energy order flies
+            // it; a block one battery cannot fly is split into its waypoints, and said so.
+            let mut broken: Vec<usize> = Vec::new();
+            loop {
+                let set = blocks::StopSet::new(mission, &broken, |b, reversed| {
+                    block_ways
+                        .get(b, reversed)
+                        .map_or(f64::INFINITY, |w| w.inner_j)
+                });
+                let visits = set.visits(mission, &energy_order.nodes);
+                let mut way = vec![0; set.stops.len()];
+                for v in &visits {
+                    way[v.stop] = v.way;
+                }
+                let contracted = blocks::contract(&energy, &set, &way, &hover_j);
+                let problem = SortieProblem {
+                    energy: &contracted.energy,
+                    hover_j: &contracted.hover_j,
+                    fixed_j: budget.fixed_j(),
+                    budget_j: budget.usable_j,
+                };
+                let split = sorties::split(
+                    &problem,
+                    &SortieOptions {
+                        giant_tour: Some(visits.iter().map(|v| v.stop + 1).collect()),
+                        ..SortieOptions::default()
+                    },
+                );
+                let of_stops = |order: &[usize]| -> Vec<usize> {
+                    let visits: Vec<Visit> = order
+                        .iter()
+                        .map(|&k| Visit {
+                            stop: k - 1,
+                            way: way[k - 1],
+                        })
+                        .collect();
+                    set.nodes(mission, &visits)
+                };
+                match split {
+                    Err(SortieError::Unreachable { node, .. })
+                        if set.block.get(node - 1).is_some_and(Option::is_some) =>
+                    {
+                        let b = set.block[node - 1].unwrap_or_default();
+                        notes.push(format!(
+                            "block {} cannot be flown whole on one battery: its waypoints are \
+                             split among the sorties as points",
+                            mission.blocks[b].name
+                        ));
+                        broken.push(b);
+                    }
+                    Err(SortieError::Unreachable {
+                        node,
+                        alone_j,
+                        budget_j,
+                    }) => {
+                        break Err(SortieError::Unreachable {
+                            node: of_stops(&[node]).first().copied().unwrap_or(node),
+                            alone_j,
+                            budget_j,
+                        })
+                    }
+                    Err(e) => break Err(e),
+                    Ok(mut split) => {
+                        for s in &mut split.sorties {
+                            s.order = of_stops(&s.order);
+                        }
+                        break Ok(split);
+                    }
+                }
+            }
+        } else {
+            let problem = SortieProblem {
+                energy: &energy,
+                hover_j: &hover_j,
+                fixed_j: budget.fixed_j(),
+                budget_j: budget.usable_j,
+            };
+            sorties::split(
+                &problem,
+                &SortieOptions {
+                    giant_tour: Some(energy_order.nodes.clone()),
+                    ..SortieOptions::default()
+                },
+            )
+        }
         .map_err(|err| match err {
             SortieError::Unreachable { node, alone_j, .. } => {
                 let waypoint = node.checked_sub(1).and_then(|k| mission.waypoints.get(k));
@@ -1181,6 +1382,27 @@ fn plan_core<'scope>(
         (Some(energy), Some(distance)) => Some(Explanation::of(energy, distance)),
         _ => None,
     };
+    // Which end each block of the energy order is entered at, and what the other end costs.
+    let explanation = explanation.map(|mut e| {
+        if let Some(order) = cheapest(&orders, Objective::Energy) {
+            let set = blocks::StopSet::new(mission, &[], |b, reversed| {
+                block_ways
+                    .get(b, reversed)
+                    .map_or(f64::INFINITY, |w| w.inner_j)
+            });
+            let visits = set.visits(mission, &order.nodes);
+            e.blocks = order
+                .blocks
+                .iter()
+                .map(|f| explain::BlockEntry {
+                    block: f.block,
+                    reversed: f.reversed,
+                    other_end_j: blocks::other_end_j(&energy, &set, &visits, f.block),
+                })
+                .collect();
+        }
+        e
+    });
     Ok(Plan {
         mission: mission.name.clone(),
         profile: model.profile,
@@ -1204,6 +1426,9 @@ fn plan_core<'scope>(
         zones: zone_names,
         fence_margin_m: margin_m,
         returns: None,
+        notes,
+        block_ways,
+        blocks: mission.blocks.clone(),
     })
 }
 
