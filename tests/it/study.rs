@@ -381,7 +381,11 @@ fn study_with_blocks_reports_savings_over_the_file_and_distance_orders_and_repro
     assert_eq!(doc["waypoints"], 6);
     assert_eq!(pct(&doc, "block_spacing_m"), 10.0);
     assert_eq!(doc["unproven_missions"], 0);
-    for baseline in ["saving_over_file", "saving_over_distance"] {
+    for baseline in [
+        "saving_over_file",
+        "saving_over_distance",
+        "saving_over_forward_blocks",
+    ] {
         let stats = &doc[baseline];
         let (mean, median, max) = (
             pct(stats, "mean_pct"),

@@ -10,7 +10,9 @@
 //! - the min-distance order (the same solve on the 3D distances), in its better direction or in
 //!   the solver's ([`BaselineDirection`]);
 //! - the file's order: the points and blocks as generated, every block forward, "as
-//!   QGroundControl would fly it".
+//!   QGroundControl would fly it";
+//! - the blocks-forward order: the minimum-energy order with every block flown forward (what
+//!   choosing each block's direction adds to ordering the stops).
 //!
 //! The summary says how often and how much the energy order saves over the other two (as a share
 //! of their energy) and how often it flies a block reversed. Deterministic as the study: mission
@@ -311,6 +313,8 @@ pub struct BlockOrders {
     /// The min-distance order, in the direction flown.
     pub distance: Vec<Visit>,
     pub file: Vec<Visit>,
+    /// The minimum-energy order with every block forward.
+    pub forward: StopTour,
 }
 
 /// What one mission of the study with blocks found. Energies are whole tours (origin to origin).
@@ -322,6 +326,8 @@ pub struct BlockOutcome {
     pub distance_j: f64,
     /// The file's order, every block forward.
     pub file_j: f64,
+    /// The minimum-energy order with every block forward.
+    pub forward_j: f64,
     /// Blocks the energy order flies reversed.
     pub reversed_blocks: usize,
     /// The min-distance order (in the direction flown; in neither, for the better direction)
@@ -346,6 +352,12 @@ impl BlockOutcome {
     /// What the energy order saves over the file's order, % of the file order's energy.
     pub fn saving_over_file_pct(&self) -> f64 {
         saving_pct(self.energy_j, self.file_j)
+    }
+
+    /// What the energy order saves over the best order flying every block forward, % of the
+    /// latter's energy: what choosing the blocks' directions saves.
+    pub fn saving_over_forward_pct(&self) -> f64 {
+        saving_pct(self.energy_j, self.forward_j)
     }
 
     /// What the energy order saves over the min-distance order, % of the latter's energy.
@@ -389,6 +401,13 @@ pub fn solve_block_mission<E: Display + Send>(
         },
     };
     let file = drawn.file_order();
+    let forward_stops: Vec<Stop> = energy_stops
+        .iter()
+        .map(|stop| Stop {
+            ways: stop.ways[..1].to_vec(),
+        })
+        .collect();
+    let forward_blocks = clusters::solve(&energy, &forward_stops, &options).map_err(plan_err)?;
     Ok((
         drawn,
         energy,
@@ -396,6 +415,7 @@ pub fn solve_block_mission<E: Display + Send>(
             energy: energy_tour,
             distance,
             file,
+            forward: forward_blocks,
         },
     ))
 }
@@ -424,6 +444,7 @@ pub fn run_block_mission<E: Display + Send>(
         energy_j: price(&orders.energy.visits),
         distance_j: price(&orders.distance),
         file_j: price(&orders.file),
+        forward_j: price(&orders.forward.visits),
         reversed_blocks: orders.energy.visits.iter().filter(|v| v.way == 1).count(),
         distance_differs,
         optimal: orders.energy.optimal,
@@ -478,6 +499,8 @@ pub struct BlockSummary {
     pub saving_over_file: SavingStats,
     /// The energy order against the min-distance order in the direction flown.
     pub saving_over_distance: SavingStats,
+    /// The energy order against the best order flying every block forward.
+    pub saving_over_forward_blocks: SavingStats,
     /// Share of missions whose energy order flies at least one block reversed (%).
     pub reverses_a_block_pct: f64,
     /// Share of all blocks of all missions the energy order flies reversed (%).
@@ -498,11 +521,16 @@ impl BlockSummary {
             .iter()
             .map(|o| o.saving_over_distance_pct())
             .collect();
+        let over_forward: Vec<f64> = outcomes
+            .iter()
+            .map(|o| o.saving_over_forward_pct())
+            .collect();
         let reversed: usize = outcomes.iter().map(|o| o.reversed_blocks).sum();
         BlockSummary {
             missions: outcomes.len(),
             saving_over_file: SavingStats::of(&over_file),
             saving_over_distance: SavingStats::of(&over_distance),
+            saving_over_forward_blocks: SavingStats::of(&over_forward),
             reverses_a_block_pct: share(outcomes.iter().filter(|o| o.reversed_blocks > 0).count()),
             blocks_reversed_pct: 100.0 * reversed as f64 / (n * blocks.max(1) as f64),
             distance_differs_pct: share(outcomes.iter().filter(|o| o.distance_differs).count()),
@@ -762,6 +790,18 @@ mod tests {
         for (k, o) in study.outcomes.iter().enumerate() {
             assert!(o.energy_j <= o.file_j * (1.0 + 1e-12), "mission {k}: {o:?}");
             assert!(
+                o.energy_j <= o.forward_j * (1.0 + 1e-12),
+                "mission {k}: {o:?}"
+            );
+            // Ordering the stops with the blocks forward is never worse than the file's order.
+            assert!(
+                o.forward_j <= o.file_j * (1.0 + 1e-12),
+                "mission {k}: {o:?}"
+            );
+            if o.reversed_blocks == 0 {
+                assert!(o.saving_over_forward_pct() < 1e-6, "mission {k}: {o:?}");
+            }
+            assert!(
                 o.energy_j <= o.distance_j * (1.0 + 1e-12),
                 "mission {k}: {o:?}"
             );
@@ -784,7 +824,13 @@ mod tests {
                 let (drawn, _, orders) =
                     solve_block_mission(&s, &two_blocks(), mission, direction, &climb_averse)
                         .unwrap();
-                for visits in [&orders.energy.visits, &orders.distance, &orders.file] {
+                assert!(orders.forward.visits.iter().all(|v| v.way == 0));
+                for visits in [
+                    &orders.energy.visits,
+                    &orders.distance,
+                    &orders.file,
+                    &orders.forward.visits,
+                ] {
                     let mut seen: Vec<usize> = visits.iter().map(|v| v.stop).collect();
                     seen.sort_unstable();
                     assert_eq!(seen, (0..drawn.items.len()).collect::<Vec<_>>());
