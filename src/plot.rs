@@ -3,7 +3,9 @@
 //! arrows giving the direction of flight) and histograms of the random-mission study's
 //! baseline/minimum-energy energy ratios. A mission's geofence is drawn in the top view (an
 //! inclusion zone outlined in green, an exclusion zone filled in red) and its rally points in
-//! every view (a purple cross, `R1`, `R2`, ...).
+//! every view (a purple cross, `R1`, `R2`, ...). A block (a survey's or scan's lines) is drawn as
+//! one wide teal path under the orders, its entry and exit in the energy order marked and the
+//! block labelled with its name and that direction; the orders' lines are its connecting legs.
 //!
 //! Figures are rendered into a string: the command line writes it to a file once (so a write
 //! error is reported with the file name and never lost in a drop), the service answers it as
@@ -28,6 +30,9 @@ const DISTANCE_COLOUR: RGBColor = RGBColor(0xd6, 0x4b, 0x1c);
 const INCLUSION_COLOUR: RGBColor = RGBColor(0x2e, 0x8b, 0x57);
 const EXCLUSION_COLOUR: RGBColor = RGBColor(0xc0, 0x1c, 0x28);
 const RALLY_COLOUR: RGBColor = RGBColor(0x81, 0x3d, 0x9c);
+const BLOCK_COLOUR: RGBColor = RGBColor(0x00, 0x89, 0x7b);
+/// Stroke width of a block's lines (the orders' connecting legs are 2).
+const BLOCK_STROKE_PX: u32 = 6;
 /// Straight sides a fence circle is drawn with.
 const CIRCLE_SIDES: usize = 72;
 const WIDTH_PX: u32 = 1800;
@@ -128,6 +133,12 @@ pub fn plan_svg(mission: &Mission, plan: &Plan) -> Result<String, PlotError> {
     };
     let energy_path = closed(&energy.nodes);
     let distance_path = closed(&distance.nodes);
+    // The legs inside a block are its lines, drawn as the block; the orders draw the rest.
+    let energy_runs = connecting_runs(mission, &energy_path);
+    let distance_runs = connecting_runs(mission, &distance_path);
+    let blocks: Vec<DrawnBlock> = (0..mission.blocks.len())
+        .map(|b| DrawnBlock::of(mission, energy, b))
+        .collect();
 
     // The fence's zones as closed outlines (east, north) and the rally points, in the local frame.
     let zones: Vec<(bool, Vec<(f64, f64)>)> = mission
@@ -184,11 +195,28 @@ pub fn plan_svg(mission: &Mission, plan: &Plan) -> Result<String, PlotError> {
             saving_words(energy.energy_j, distance.energy_j)
         );
         let sequence = |o: &Order| {
-            std::iter::once("origin")
-                .chain(o.nodes.iter().map(|&n| plan.name(n)))
-                .chain(std::iter::once("origin"))
-                .collect::<Vec<_>>()
-                .join(" > ")
+            // A block is named once, with its direction in this order.
+            let mut words = vec!["origin".to_string()];
+            let mut last_block = None;
+            for &n in &o.nodes {
+                match mission.block_of(n - 1) {
+                    Some(b) if last_block == Some(b) => {}
+                    Some(b) => {
+                        words.push(format!(
+                            "{} ({})",
+                            mission.blocks[b].name,
+                            direction_word(flown_reversed(mission, o, b))
+                        ));
+                        last_block = Some(b);
+                    }
+                    None => {
+                        words.push(plan.name(n).to_string());
+                        last_block = None;
+                    }
+                }
+            }
+            words.push("origin".to_string());
+            words.join(" > ")
         };
         header
             .draw(&Text::new(title, (20, 14), (FONT, 24).into_font()))
@@ -272,26 +300,39 @@ pub fn plan_svg(mission: &Mission, plan: &Plan) -> Result<String, PlotError> {
                 }
             }
 
-            chart
-                .draw_series(LineSeries::new(
-                    energy_path.iter().map(|&n| at(n)),
-                    ENERGY_COLOUR.stroke_width(2),
-                ))
-                .map_err(&err)?;
-            chart
-                .draw_series(DashedLineSeries::new(
-                    distance_path.iter().map(|&n| at(n)),
-                    8,
-                    6,
-                    DISTANCE_COLOUR.stroke_width(2),
-                ))
-                .map_err(&err)?;
+            for block in &blocks {
+                chart
+                    .draw_series(std::iter::once(PathElement::new(
+                        block.nodes.iter().map(|&n| at(n)).collect::<Vec<_>>(),
+                        BLOCK_COLOUR.mix(0.6).stroke_width(BLOCK_STROKE_PX),
+                    )))
+                    .map_err(&err)?;
+            }
+            for run in &energy_runs {
+                chart
+                    .draw_series(LineSeries::new(
+                        run.iter().map(|&n| at(n)),
+                        ENERGY_COLOUR.stroke_width(2),
+                    ))
+                    .map_err(&err)?;
+            }
+            for run in &distance_runs {
+                chart
+                    .draw_series(DashedLineSeries::new(
+                        run.iter().map(|&n| at(n)),
+                        8,
+                        6,
+                        DISTANCE_COLOUR.stroke_width(2),
+                    ))
+                    .map_err(&err)?;
+            }
             for (path_nodes, colour, along) in [
                 (&energy_path, ENERGY_COLOUR, 0.55),
                 (&distance_path, DISTANCE_COLOUR, 0.45),
             ] {
                 let arrows: Vec<_> = path_nodes
                     .windows(2)
+                    .filter(|w| !inner_leg(mission, w[0], w[1]))
                     .filter_map(|w| arrow(&chart, at(w[0]), at(w[1]), along))
                     .collect();
                 chart
@@ -307,11 +348,45 @@ pub fn plan_svg(mission: &Mission, plan: &Plan) -> Result<String, PlotError> {
                     } else {
                         Circle::new((0, 0), 4, BLACK.filled()).into_dyn()
                     };
+                    // A block's waypoints are named by the block's label.
+                    let name = if node > 0 && mission.block_of(node - 1).is_some() {
+                        ""
+                    } else {
+                        names[node]
+                    };
                     EmptyElement::at((view.project)(p))
                         + marker
-                        + Text::new(names[node].to_string(), (7, -18), (FONT, 15))
+                        + Text::new(name.to_string(), (7, -18), (FONT, 15))
                 }))
                 .map_err(&err)?;
+            for block in &blocks {
+                let mark = |node: usize, word: &'static str, filled: bool| {
+                    let style = if filled {
+                        BLOCK_COLOUR.filled()
+                    } else {
+                        BLOCK_COLOUR.stroke_width(2)
+                    };
+                    EmptyElement::at(at(node))
+                        + Rectangle::new([(-7, -7), (7, 7)], style)
+                        + Text::new(word, (10, 4), (FONT, 14).into_font().color(&BLOCK_COLOUR))
+                };
+                chart
+                    .draw_series([
+                        mark(block.entry, "entry", true),
+                        mark(block.exit, "exit", false),
+                    ])
+                    .map_err(&err)?;
+                chart
+                    .draw_series(std::iter::once(
+                        EmptyElement::at(block.label_at(&points, view.project))
+                            + Text::new(
+                                block.label.clone(),
+                                (-30, -30),
+                                (FONT, 16).into_font().color(&BLOCK_COLOUR),
+                            ),
+                    ))
+                    .map_err(&err)?;
+            }
             if rally.is_empty() {
                 continue;
             }
@@ -330,6 +405,97 @@ pub fn plan_svg(mission: &Mission, plan: &Plan) -> Result<String, PlotError> {
         root.present().map_err(&err)?;
     }
     Ok(svg)
+}
+
+/// A block as the figure draws it: its nodes in file order (its lines), where the energy order
+/// enters and leaves it, and its label (name, kind, that direction).
+struct DrawnBlock {
+    nodes: Vec<usize>,
+    entry: usize,
+    exit: usize,
+    label: String,
+}
+
+impl DrawnBlock {
+    fn of(mission: &Mission, energy: &Order, b: usize) -> DrawnBlock {
+        let block = &mission.blocks[b];
+        let reversed = flown_reversed(mission, energy, b);
+        DrawnBlock {
+            nodes: block.waypoints().map(|k| k + 1).collect(),
+            entry: block.entry(reversed) + 1,
+            exit: block.exit(reversed) + 1,
+            label: format!(
+                "{}: {}, {}",
+                block.name,
+                block.kind.word(),
+                direction_word(reversed)
+            ),
+        }
+    }
+
+    /// Where its label goes in a view: the middle of its waypoints.
+    fn label_at(&self, points: &[Enu], project: fn(&Enu) -> (f64, f64)) -> (f64, f64) {
+        let n = self.nodes.len().max(1) as f64;
+        let (x, y) = self.nodes.iter().fold((0.0, 0.0), |(x, y), &k| {
+            let (px, py) = project(&points[k]);
+            (x + px, y + py)
+        });
+        (x / n, y / n)
+    }
+}
+
+fn direction_word(reversed: bool) -> &'static str {
+    if reversed {
+        "reversed"
+    } else {
+        "forward"
+    }
+}
+
+/// Whether `order` flies block `b` reversed: as the order says, else as its nodes show (its last
+/// waypoint visited before its first).
+fn flown_reversed(mission: &Mission, order: &Order, b: usize) -> bool {
+    if let Some(f) = order.blocks.iter().find(|f| f.block == b) {
+        return f.reversed;
+    }
+    let block = &mission.blocks[b];
+    let at = |k: usize| order.nodes.iter().position(|&n| n == k + 1);
+    matches!(
+        (at(block.entry(false)), at(block.exit(false))),
+        (Some(first), Some(last)) if last < first
+    )
+}
+
+/// Whether the leg between nodes `a` and `b` is one of a block's own lines (two neighbouring
+/// waypoints of the same block).
+fn inner_leg(mission: &Mission, a: usize, b: usize) -> bool {
+    a > 0
+        && b > 0
+        && a.abs_diff(b) == 1
+        && mission
+            .block_of(a - 1)
+            .is_some_and(|block| mission.block_of(b - 1) == Some(block))
+}
+
+/// A closed path cut where it flies a block's lines: the runs of connecting legs (the whole path
+/// for a mission without blocks).
+fn connecting_runs(mission: &Mission, path: &[usize]) -> Vec<Vec<usize>> {
+    let mut runs = Vec::new();
+    let mut run: Vec<usize> = path.first().copied().into_iter().collect();
+    for w in path.windows(2) {
+        if inner_leg(mission, w[0], w[1]) {
+            if run.len() > 1 {
+                runs.push(std::mem::take(&mut run));
+            }
+            run = vec![w[1]];
+        } else {
+            run.push(w[1]);
+        }
+    }
+    if run.len() > 1 {
+        runs.push(run);
+    }
+    runs
 }
 
 /// An arrowhead: its anchor in data coordinates and its corners in pixels around the anchor.
@@ -589,4 +755,88 @@ pub fn flight_svg(analyses: &[crate::flightlog::replay::Analysis]) -> Result<Str
         root.present().map_err(&err)?;
     }
     Ok(svg)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mission::blocks::{Block, BlockKind};
+    use crate::planner::{plan_mission, FlownBlock, PlanOptions, VehicleModel};
+
+    fn repo(path: &str) -> std::path::PathBuf {
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
+    }
+
+    /// The polylines of an SVG drawn in `colour` `width` px wide, as their point counts.
+    fn polylines(svg: &str, colour: RGBColor, width: u32) -> Vec<usize> {
+        let (r, g, b) = (colour.0, colour.1, colour.2);
+        let stroke = format!("stroke=\"#{r:02X}{g:02X}{b:02X}\" stroke-width=\"{width}\"");
+        svg.split("<polyline")
+            .skip(1)
+            .filter(|p| p.contains(&stroke))
+            .map(|p| {
+                let points = p.split("points=\"").nth(1).unwrap_or("");
+                points
+                    .split('"')
+                    .next()
+                    .unwrap_or("")
+                    .split_whitespace()
+                    .count()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_block_is_drawn_as_its_own_path_with_its_entry_exit_and_direction_apart_from_the_legs() {
+        let model = VehicleModel::load(&repo("models/s1000"), None).unwrap();
+        let mut mission = crate::mission::load(&repo("missions/paper-sample-8wp.toml")).unwrap();
+        // C, D and E as a survey's lines.
+        mission.blocks = vec![Block {
+            name: "S1".into(),
+            kind: BlockKind::Survey,
+            first: 2,
+            len: 3,
+            reversible: true,
+            source: None,
+        }];
+        let mut plan = plan_mission(&mission, &model, &PlanOptions::default()).unwrap();
+        let k = plan
+            .orders
+            .iter()
+            .position(|o| o.objective == Some(Objective::Energy))
+            .unwrap();
+        // The energy order as the planner flies a block: whole, here reversed (E, D, C).
+        plan.orders[k].nodes = vec![1, 2, 5, 4, 3, 6, 7, 8];
+        plan.orders[k].blocks = vec![FlownBlock {
+            block: 0,
+            reversed: true,
+        }];
+        let svg = plan_svg(&mission, &plan).unwrap();
+        // The block's lines: one wide path through its three waypoints in each of the 3 views.
+        assert_eq!(polylines(&svg, BLOCK_COLOUR, BLOCK_STROKE_PX), vec![3; 3]);
+        let texts = |text: &str| svg.lines().filter(|l| l.trim() == text).count();
+        assert_eq!(texts("S1: survey, reversed"), 3, "{svg}");
+        assert_eq!(texts("entry"), 3);
+        assert_eq!(texts("exit"), 3);
+        // The energy order's connecting legs: the legend's sample, then in every view the run
+        // to the block's entry (origin, A, B, E) and the run from its exit (C, F, G, H, origin).
+        assert_eq!(
+            polylines(&svg, ENERGY_COLOUR, 2),
+            vec![2, 4, 5, 4, 5, 4, 5],
+            "{svg}"
+        );
+        assert!(svg
+            .contains("origin &gt; A &gt; B &gt; S1 (reversed) &gt; F &gt; G &gt; H &gt; origin"));
+    }
+
+    #[test]
+    fn without_blocks_each_order_is_one_path() {
+        let model = VehicleModel::load(&repo("models/s1000"), None).unwrap();
+        let mission = crate::mission::load(&repo("missions/paper-sample-8wp.toml")).unwrap();
+        let plan = plan_mission(&mission, &model, &PlanOptions::default()).unwrap();
+        let svg = plan_svg(&mission, &plan).unwrap();
+        assert_eq!(polylines(&svg, ENERGY_COLOUR, 2), vec![2, 10, 10, 10]);
+        assert!(polylines(&svg, BLOCK_COLOUR, BLOCK_STROKE_PX).is_empty());
+        assert!(!svg.lines().any(|l| l.trim() == "entry"));
+    }
 }

@@ -47,6 +47,8 @@ pub fn setting_error(e: emplan::planner::study::StudyError) -> anyhow::Error {
                 "xy_m" => "--xy",
                 "z_m" => "--z",
                 "missions" => "--missions",
+                "blocks" => "--blocks",
+                "block_spacing_m" => "--block-spacing",
                 "lat_deg" => "--origin-lat",
                 "lon_deg" => "--origin-lon",
                 "home_alt_amsl_m" => "--home-alt-amsl",

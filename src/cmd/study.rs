@@ -8,6 +8,7 @@ use std::process::ExitCode;
 use anyhow::{anyhow, bail};
 use emplan::output::Output;
 use emplan::physics::Profile;
+use emplan::planner::study::blocks::{self, BlockSettings, BlockStudyJson, SavingStats};
 use emplan::planner::study::{
     self, check_envelope, study_document, BaselineDirection, Stats, StudyJson, StudyRunError,
     StudySettings,
@@ -80,6 +81,15 @@ pub struct Args {
     /// heading)
     #[arg(long, value_name = "SPEED@FROM_DEG", allow_hyphen_values = true)]
     wind: Vec<emplan::physics::Wind>,
+    /// Instead of the baselines: every mission gains K random survey rectangles (QGroundControl's
+    /// grid: parallel transects flown back and forth), each a block flown whole either way; what
+    /// the energy order over points and blocks saves over the file's order (every block forward)
+    /// and over the min-distance order, and how often it reverses a block
+    #[arg(long, value_name = "K", conflicts_with_all = ["wind", "histogram"])]
+    blocks: Option<usize>,
+    /// The spacing of the --blocks surveys' transects
+    #[arg(long, value_name = "M", default_value_t = blocks::DEFAULT_SPACING_M, requires = "blocks")]
+    block_spacing: f64,
 }
 
 /// `emplan study --wind ... --json`: one setting's rows, a wind each.
@@ -243,6 +253,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     if !args.wind.is_empty() {
         return run_in_wind(&args, &settings, &model);
     }
+    if let Some(k) = args.blocks {
+        return run_with_blocks(&args, &settings, &model, k);
+    }
     // Every histogram checked before the first study runs.
     let histograms: Vec<Option<Output>> = settings
         .iter()
@@ -344,6 +357,119 @@ fn print_table(docs: &[StudyJson], profile: Profile, args: &Args) {
             d.worst_mission.distance.unwrap_or(0),
             d.worst_mission.horizontal.unwrap_or(0),
             d.worst_mission.vertical.unwrap_or(0)
+        );
+    }
+}
+
+/// The study with `k` survey blocks a mission, for each setting.
+fn run_with_blocks(
+    args: &Args,
+    settings: &[StudySettings],
+    model: &emplan::physics::VehicleModel,
+    k: usize,
+) -> anyhow::Result<ExitCode> {
+    let block_settings = BlockSettings {
+        blocks: k,
+        spacing_m: args.block_spacing,
+    };
+    for s in settings {
+        block_settings.validate(s).map_err(super::setting_error)?;
+    }
+    let mut docs = Vec::with_capacity(settings.len());
+    for s in settings {
+        let bar = super::progress::bar(
+            s.missions as u64,
+            "{prefix} [{bar:40}] {pos}/{len} missions, {eta} left",
+        );
+        bar.set_prefix(format!("N={} K={k} XY={} Z={}", s.waypoints, s.xy_m, s.z_m));
+        let done = blocks::run_blocks(
+            s,
+            &block_settings,
+            model,
+            args.pricing,
+            args.baseline_direction,
+            &|| bar.inc(1),
+        )
+        .map_err(refusal)?;
+        bar.finish_and_clear();
+        docs.push(blocks::block_study_document(&done));
+    }
+    if args.json {
+        if args.all_paper_settings {
+            println!("{}", serde_json::to_string_pretty(&docs)?);
+        } else if let Some(doc) = docs.first() {
+            println!("{}", serde_json::to_string_pretty(doc)?);
+        }
+    } else {
+        print_block_table(&docs, model.profile, args);
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn print_block_table(docs: &[BlockStudyJson], profile: Profile, args: &Args) {
+    println!(
+        "random-mission study with survey blocks: {} missions per setting, seed {}, transects {} m \
+         apart, each survey a block flown whole either way; legs priced with the {profile} \
+         profile ({} pricing)",
+        args.missions, args.seed, args.block_spacing, args.pricing
+    );
+    let direction = match args.baseline_direction {
+        BaselineDirection::Better => "its better direction",
+        BaselineDirection::Solver => "the solver's direction",
+    };
+    println!(
+        "energy saving of the minimum-energy order over the file's order (every block forward), \
+         over the min-distance order ({direction}) and over the best order with every block \
+         forward, % of that order: mean / median / max, missions saving > 1%"
+    );
+    println!(
+        "{:>3} {:>2} {:>5} {:>5} | {:^28} | {:^28} | {:^28} | {:>11} {:>9} {:>9} {:>8}",
+        "N",
+        "K",
+        "XY_m",
+        "Z_m",
+        "over file order",
+        "over min-D",
+        "over blocks forward",
+        "reverses_1+",
+        "reversed",
+        "D_differs",
+        "seconds"
+    );
+    let cell = |s: &SavingStats| {
+        format!(
+            "{:>5.2} {:>6.2} {:>6.2} {:>7.1}%",
+            s.mean_pct, s.median_pct, s.max_pct, s.over_1pct_missions_pct
+        )
+    };
+    for d in docs {
+        println!(
+            "{:>3} {:>2} {:>5} {:>5} | {:^28} | {:^28} | {:^28} | {:>10.1}% {:>8.1}% {:>8.1}% \
+             {:>8.2}",
+            d.waypoints,
+            d.blocks,
+            d.xy_m,
+            d.z_m,
+            cell(&d.summary.saving_over_file),
+            cell(&d.summary.saving_over_distance),
+            cell(&d.summary.saving_over_forward_blocks),
+            d.summary.reverses_a_block_pct,
+            d.summary.blocks_reversed_pct,
+            d.summary.distance_differs_pct,
+            d.seconds
+        );
+        if d.summary.unproven_missions > 0 {
+            println!(
+                "    {} missions' energy orders are not proven optimal",
+                d.summary.unproven_missions
+            );
+        }
+    }
+    if let [d] = docs {
+        println!(
+            "largest savings: over the file's order mission {}, over min-D mission {}",
+            d.best_mission.file.unwrap_or(0),
+            d.best_mission.distance.unwrap_or(0)
         );
     }
 }

@@ -350,3 +350,103 @@ fn the_solver_direction_reports_the_file_order_tour_and_the_better_one_its_cheap
     // Flown the dearer way round, the min-distance tour is never the energy order.
     assert_eq!(pct(&solver, "distance_differs_pct"), 100.0);
 }
+
+const BLOCK_STUDY: [&str; 14] = [
+    "study",
+    "--waypoints",
+    "6",
+    "--xy",
+    "30",
+    "--z",
+    "25",
+    "--missions",
+    "20",
+    "--seed",
+    "3",
+    "--blocks",
+    "2",
+    "--json",
+];
+
+#[test]
+fn study_with_blocks_reports_savings_over_the_file_and_distance_orders_and_reproduces() {
+    let without_time = |mut doc: Value| {
+        doc.as_object_mut().unwrap().remove("seconds");
+        doc
+    };
+    let doc = without_time(json(&BLOCK_STUDY));
+    assert_eq!(doc, without_time(json(&BLOCK_STUDY)));
+    assert_eq!(doc["missions"], 20);
+    assert_eq!(doc["blocks"], 2);
+    assert_eq!(doc["waypoints"], 6);
+    assert_eq!(pct(&doc, "block_spacing_m"), 10.0);
+    assert_eq!(doc["unproven_missions"], 0);
+    for baseline in [
+        "saving_over_file",
+        "saving_over_distance",
+        "saving_over_forward_blocks",
+    ] {
+        let stats = &doc[baseline];
+        let (mean, median, max) = (
+            pct(stats, "mean_pct"),
+            pct(stats, "median_pct"),
+            pct(stats, "max_pct"),
+        );
+        // The energy order is exact: it never costs more than either baseline.
+        assert!(
+            0.0 <= mean && mean <= max && 0.0 <= median && median <= max,
+            "{baseline}: {stats}"
+        );
+        let over = pct(stats, "over_1pct_missions_pct");
+        // 20 missions: a whole number of 5% steps.
+        assert!((over / 5.0 - (over / 5.0).round()).abs() < 1e-9, "{over}");
+    }
+    // The file's order flies every block forward wherever the generator put it: ordering saves.
+    assert!(pct(&doc["saving_over_file"], "mean_pct") > 0.0, "{doc}");
+    for share in [
+        "reverses_a_block_pct",
+        "blocks_reversed_pct",
+        "distance_differs_pct",
+    ] {
+        assert!((0.0..=100.0).contains(&pct(&doc, share)), "{share}");
+    }
+    let mut other = BLOCK_STUDY;
+    other[10] = "4";
+    assert_ne!(doc["saving_over_file"], json(&other)["saving_over_file"]);
+    // Its table says what it compared.
+    let (ok, table, stderr) = emplan(&BLOCK_STUDY[..13]);
+    assert!(ok, "{stderr}");
+    assert!(table.contains("survey blocks"), "{table}");
+    assert!(table.contains("over file order"), "{table}");
+}
+
+#[test]
+fn study_with_blocks_refuses_bad_blocks_naming_the_option() {
+    for (args, option) in [
+        (vec!["--blocks", "0"], "--blocks"),
+        (vec!["--blocks", "9"], "--blocks"),
+        (
+            vec!["--blocks", "2", "--block-spacing", "0"],
+            "--block-spacing",
+        ),
+        (vec!["--blocks", "2", "--wind", "4@270"], "--wind"),
+        (vec!["--block-spacing", "5"], "--blocks"),
+    ] {
+        let mut full = vec![
+            "study",
+            "--missions",
+            "3",
+            "--waypoints",
+            "6",
+            "--xy",
+            "30",
+            "--z",
+            "25",
+        ];
+        full.extend(args);
+        let (ok, _, stderr) = emplan(&full);
+        assert!(!ok, "{full:?} succeeded");
+        assert!(stderr.contains(option), "{full:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{full:?}: {stderr}");
+    }
+}

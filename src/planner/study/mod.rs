@@ -23,6 +23,7 @@ use crate::tour::held_karp;
 use crate::tour::orders::{solve_order, Objective};
 use crate::tour::PlanError;
 
+pub mod blocks;
 mod random;
 mod summary;
 mod vehicle;

@@ -16,7 +16,12 @@ pub fn waypoint_name(k: usize) -> String {
 /// `Rng::stream(seed, mission)`. `settings.missions` is not used, so any mission number can be
 /// regenerated on its own.
 pub fn random_points(settings: &StudySettings, mission: u64) -> Vec<Enu> {
-    let mut rng = Rng::stream(settings.seed, mission);
+    draw_points(settings, &mut Rng::stream(settings.seed, mission))
+}
+
+/// The waypoints of [`random_points`], drawn from `rng` (which goes on to draw whatever the
+/// mission has besides, its survey blocks).
+pub(super) fn draw_points(settings: &StudySettings, rng: &mut Rng) -> Vec<Enu> {
     let (xy, z) = (settings.xy_m, settings.z_m);
     (0..settings.waypoints)
         .map(|_| {
