@@ -81,7 +81,8 @@ impl BlockSettings {
                 ),
             );
         }
-        if !(settings.xy_m > 0.0) {
+        // Finite and not negative: the setting's own checks passed.
+        if settings.xy_m <= 0.0 {
             return bad(
                 "xy_m",
                 settings.xy_m.to_string(),
