@@ -201,6 +201,61 @@ fn setting_commands(from: &State, to: &State, clearing: &[Command]) -> Vec<Comma
         .collect()
 }
 
+/// A test mission's survey: `lines` lines `length_m` long, `spacing_m` apart northwards from
+/// `at`, flown back and forth as waypoints without a hold named `{name}1..`, the camera
+/// trigger on every `trigger_m` at its entry and off at its exit (as QGroundControl writes a
+/// survey's items), appended to `mission` as a reversible survey block.
+#[cfg(test)]
+pub(crate) fn with_survey(
+    mut mission: super::Mission,
+    name: &str,
+    at: super::Enu,
+    lines: usize,
+    length_m: f64,
+    spacing_m: f64,
+    trigger_m: f64,
+) -> super::Mission {
+    let first = mission.waypoints.len();
+    let trigger = |d: f64| {
+        Command::new(
+            actions::id::DO_SET_CAM_TRIGG_DIST,
+            [d, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0],
+        )
+    };
+    for k in 0..2 * lines {
+        let line = k / 2;
+        let east = if (k % 2 == 0) == (line % 2 == 0) {
+            0.0
+        } else {
+            length_m
+        };
+        mission.waypoints.push(super::Waypoint {
+            name: format!("{name}{}", k + 1),
+            position: super::Enu {
+                x_east_m: at.x_east_m + east,
+                y_north_m: at.y_north_m + spacing_m * line as f64,
+                z_up_m: at.z_up_m,
+            },
+            hover_s: 0.0,
+            actions: match k {
+                0 => vec![trigger(trigger_m)],
+                k if k + 1 == 2 * lines => vec![trigger(0.0)],
+                _ => Vec::new(),
+            },
+            ..super::Waypoint::default()
+        });
+    }
+    mission.blocks.push(Block {
+        name: name.to_string(),
+        kind: BlockKind::Survey,
+        first,
+        len: 2 * lines,
+        reversible: true,
+        source: None,
+    });
+    mission
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
