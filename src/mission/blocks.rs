@@ -259,7 +259,7 @@ pub(crate) fn with_survey(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mission::actions::{id, FileStates, Setting};
+    use crate::mission::actions::{id, FileStates};
     use crate::mission::{Enu, Geodetic, Mission, Origin, Waypoint};
     use proptest::prelude::*;
 
@@ -344,10 +344,6 @@ mod tests {
             }
         }
         out
-    }
-
-    fn trigger_of(s: &State) -> Option<f64> {
-        s.get(Setting::TriggerDistance).map(|c| c.params[0])
     }
 
     #[test]
