@@ -174,7 +174,10 @@ pub fn planned_blocks(mission: &Mission, order: &[usize]) -> Vec<PlannedBlock> {
     let mut out = Vec::new();
     let mut i = 0;
     while i < order.len() {
-        let Some(block) = mission.block_of(order[i]).and_then(|b| mission.blocks.get(b)) else {
+        let Some(block) = mission
+            .block_of(order[i])
+            .and_then(|b| mission.blocks.get(b))
+        else {
             i += 1;
             continue;
         };
@@ -185,9 +188,9 @@ pub fn planned_blocks(mission: &Mission, order: &[usize]) -> Vec<PlannedBlock> {
                 _ => None,
             }
         };
-        let reversed = order.get(i + 1).and_then(|&n| {
-            step(order[i], n).filter(|_| block.contains(n))
-        });
+        let reversed = order
+            .get(i + 1)
+            .and_then(|&n| step(order[i], n).filter(|_| block.contains(n)));
         let Some(reversed) = reversed else {
             i += 1;
             continue;
@@ -208,7 +211,10 @@ pub fn planned_blocks(mission: &Mission, order: &[usize]) -> Vec<PlannedBlock> {
                 .map(|c| c.params[0])
                 .filter(|d| d.is_finite() && *d > 0.0);
             if let Some(d) = on {
-                let (a, b) = (mission.waypoints[line].position, mission.waypoints[line + 1].position);
+                let (a, b) = (
+                    mission.waypoints[line].position,
+                    mission.waypoints[line + 1].position,
+                );
                 triggered_m += (a.x_east_m - b.x_east_m)
                     .hypot(a.y_north_m - b.y_north_m)
                     .hypot(a.z_up_m - b.z_up_m);

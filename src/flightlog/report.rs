@@ -234,7 +234,11 @@ fn blocks(
     plan.blocks
         .iter()
         .map(|b| {
-            let name = |k: usize| plan.points.get(k).map_or_else(String::new, |p| p.name.clone());
+            let name = |k: usize| {
+                plan.points
+                    .get(k)
+                    .map_or_else(String::new, |p| p.name.clone())
+            };
             // The legs inside it, and the stops between them (at its entry up to the point
             // before its exit).
             let predicted = b
@@ -282,7 +286,6 @@ fn blocks(
         })
         .collect()
 }
-
 
 /// The rest of a flight priced again in a wind heard in flight (`fly --wind live`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

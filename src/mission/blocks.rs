@@ -267,7 +267,8 @@ mod tests {
         Command::new(id::DO_CHANGE_SPEED, [1.0, v, -1.0, 0.0, 0.0, 0.0, 0.0])
     }
     fn trigger(d: f64) -> Command {
-        Command::new(id::DO_SET_CAM_TRIGG_DIST, [d, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0])
+        let now = if d > 0.0 { 1.0 } else { 0.0 };
+        Command::new(id::DO_SET_CAM_TRIGG_DIST, [d, 0.0, now, 0.0, 0.0, 0.0, 0.0])
     }
     fn photo() -> Command {
         Command::new(id::DO_DIGICAM_CONTROL, [0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0])
