@@ -171,8 +171,8 @@ fn check_held(m: &Mission, order: &[usize], held: &Mission) {
             .get(emplan::mission::actions::Setting::TriggerDistance)
             .map(|c| c.params[0])
             .expect("the survey triggers");
-        for i in at..at + block.len {
-            in_blocks[i] = true;
+        for (i, inside) in in_blocks.iter_mut().enumerate().skip(at).take(block.len) {
+            *inside = true;
             let expected = match i - at {
                 0 => vec![on],
                 j if j + 1 == block.len => vec![0.0],
