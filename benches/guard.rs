@@ -69,6 +69,7 @@ fn plan() -> FlightPlan {
         wind: None,
         repricings: Vec::new(),
         priced_by: None,
+        blocks: Vec::new(),
         guard: Some(GuardSetup {
             policy: Policy::Rtl,
             usable_j: 720_000.0,

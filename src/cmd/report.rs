@@ -159,6 +159,10 @@ pub fn print(report: &FlightReport) {
     for breach in &report.breaches {
         println!("FLAG {}", breach.line());
     }
+    // Each block (a survey, a scan) as one: its legs predicted and measured, its photos.
+    for block in &report.blocks {
+        println!("{}", block.line());
+    }
     // The photos the autopilot reported: one line per point with photos, one per photo apart.
     for line in emplan::flightlog::photos::lines(&report.photos) {
         println!("{line}");

@@ -119,6 +119,120 @@ pub struct FlightPlan {
     /// plan without predictions.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub priced_by: Option<PricedBy>,
+    /// The mission's blocks (surveys, scans) the flight flies, in flying order: which of its
+    /// points each is and which way it is flown. Absent from plan.json when none (and from
+    /// files written before they were kept).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub blocks: Vec<PlannedBlock>,
+}
+
+/// A block of the mission as the flight flies it: `points[first_point..=last_point]`, its inner
+/// legs the legs to `points[first_point + 1..=last_point]` (the leg to its first point is the
+/// connecting leg that enters it).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlannedBlock {
+    pub name: String,
+    /// What made it (`survey`, `corridor scan`, `structure scan`, `block`).
+    pub kind: String,
+    /// Flown last waypoint first.
+    pub reversed: bool,
+    pub first_point: usize,
+    pub last_point: usize,
+    /// The camera trigger distance in force on its lines (the first line flown with one;
+    /// None: the trigger is off on all of them).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trigger_distance_m: Option<f64>,
+    /// The length of its lines flown with the camera trigger on (m, 3D).
+    #[serde(default, skip_serializing_if = "is_zero_f64")]
+    pub triggered_m: f64,
+}
+
+impl PlannedBlock {
+    /// Its inner legs, as indices of the legs to `points[k]`.
+    pub fn legs(&self) -> std::ops::RangeInclusive<usize> {
+        self.first_point + 1..=self.last_point
+    }
+
+    /// The photos its distance trigger takes along its lines, about: one each trigger
+    /// distance (0 with the trigger off).
+    pub fn photos_expected(&self) -> u32 {
+        match self.trigger_distance_m {
+            Some(d) if d > 0.0 => (self.triggered_m / d).round() as u32,
+            _ => 0,
+        }
+    }
+}
+
+fn is_zero_f64(v: &f64) -> bool {
+    *v == 0.0
+}
+
+/// The runs of `order` (indices into `mission`'s waypoints) that fly two or more waypoints of
+/// one of its blocks in a row, forward or reversed, as the flight's blocks.
+pub fn planned_blocks(mission: &Mission, order: &[usize]) -> Vec<PlannedBlock> {
+    let states = mission.file_states();
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < order.len() {
+        let Some(block) = mission
+            .block_of(order[i])
+            .and_then(|b| mission.blocks.get(b))
+        else {
+            i += 1;
+            continue;
+        };
+        let step = |a: usize, b: usize| -> Option<bool> {
+            match () {
+                _ if b == a + 1 => Some(false),
+                _ if b + 1 == a => Some(true),
+                _ => None,
+            }
+        };
+        let reversed = order
+            .get(i + 1)
+            .and_then(|&n| step(order[i], n).filter(|_| block.contains(n)));
+        let Some(reversed) = reversed else {
+            i += 1;
+            continue;
+        };
+        let mut j = i + 1;
+        while j + 1 < order.len()
+            && block.contains(order[j + 1])
+            && step(order[j], order[j + 1]) == Some(reversed)
+        {
+            j += 1;
+        }
+        let (lo, hi) = (order[i].min(order[j]), order[i].max(order[j]));
+        let mut trigger_distance_m = None;
+        let mut triggered_m = 0.0;
+        for line in lo..hi {
+            let on = states.after[line]
+                .get(crate::mission::actions::Setting::TriggerDistance)
+                .map(|c| c.params[0])
+                .filter(|d| d.is_finite() && *d > 0.0);
+            if let Some(d) = on {
+                let (a, b) = (
+                    mission.waypoints[line].position,
+                    mission.waypoints[line + 1].position,
+                );
+                triggered_m += (a.x_east_m - b.x_east_m)
+                    .hypot(a.y_north_m - b.y_north_m)
+                    .hypot(a.z_up_m - b.z_up_m);
+                trigger_distance_m.get_or_insert(d);
+            }
+        }
+        out.push(PlannedBlock {
+            name: block.name.clone(),
+            kind: block.kind.word().to_string(),
+            reversed,
+            first_point: i,
+            last_point: j,
+            trigger_distance_m,
+            triggered_m,
+        });
+        i = j + 1;
+    }
+    out
 }
 
 /// The vehicle and the profile a flight's predictions were priced with. The profile is its
@@ -304,6 +418,7 @@ impl FlightPlan {
             wind: None,
             repricings: Vec::new(),
             priced_by: None,
+            blocks: planned_blocks(mission, order),
         };
         plan.validate()?;
         Ok(plan)
@@ -393,6 +508,18 @@ impl FlightPlan {
                 return Err(plan_error(format!(
                     "{} predicted legs for {} points",
                     p.legs.len(),
+                    self.points.len()
+                )));
+            }
+        }
+        for b in &self.blocks {
+            // The origin (the last point) is in no block.
+            if b.first_point >= b.last_point || b.last_point + 1 >= self.points.len() {
+                return Err(plan_error(format!(
+                    "block {} has points {} to {} of {}",
+                    b.name,
+                    b.first_point,
+                    b.last_point,
                     self.points.len()
                 )));
             }

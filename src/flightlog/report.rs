@@ -158,6 +158,133 @@ pub struct FlightReport {
     /// The photos the autopilot reported, per point of the plan and apart
     /// (`flightlog::photos`).
     pub photos: PhotoReport,
+    /// The plan's blocks (surveys, scans) as flown: each measured from the arrival at its
+    /// entry to the arrival at its exit, and its photos.
+    pub blocks: Vec<BlockReport>,
+}
+
+/// One block of the plan (`flight_plan::PlannedBlock`) as flown: its inner legs, and the
+/// settles and hovers between them, predicted and measured as one part, from the arrival at
+/// its entry (4 m) to the arrival at its exit, and the photos the autopilot reported taken in
+/// that time (its distance trigger's, along its lines).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BlockReport {
+    pub name: String,
+    pub kind: String,
+    pub reversed: bool,
+    /// Its entry and exit points, as flown.
+    pub from: String,
+    pub to: String,
+    /// How many legs it has (its lines and the turns between them).
+    pub legs: usize,
+    pub predicted_j: Option<f64>,
+    /// None until the flight has arrived at its exit.
+    pub measured_j: Option<f64>,
+    pub duration_s: Option<f64>,
+    pub predicted_duration_s: Option<f64>,
+    /// About one per trigger distance of its lines flown with the camera trigger on.
+    pub photos_expected: u32,
+    pub photos_taken: u32,
+}
+
+impl BlockReport {
+    /// The measurement's error against the prediction (%).
+    pub fn error_pct(&self) -> Option<f64> {
+        match (self.predicted_j, self.measured_j) {
+            (Some(p), Some(m)) if p > 0.0 => Some((m - p) / p * 100.0),
+            _ => None,
+        }
+    }
+
+    /// One line for the user.
+    pub fn line(&self) -> String {
+        let kj = |j: Option<f64>| j.map_or("-".to_string(), |j| format!("{:.3} kJ", j / 1e3));
+        let error = self
+            .error_pct()
+            .map_or(String::new(), |e| format!(" ({e:+.1}%)"));
+        format!(
+            "{} {}{}: {} -> {}, {} legs: predicted {}, measured {}{error}; {} photos taken along its lines (about {} expected)",
+            self.kind,
+            self.name,
+            if self.reversed { " (reversed)" } else { "" },
+            self.from,
+            self.to,
+            self.legs,
+            kj(self.predicted_j),
+            kj(self.measured_j),
+            self.photos_taken,
+            self.photos_expected
+        )
+    }
+}
+
+/// Each block of the plan as `segments` flew it, with the photos of `photos` taken along it.
+fn blocks(
+    segmenter: &Segmenter,
+    segments: &[Segment],
+    photos: &[super::photos::TakenPhoto],
+) -> Vec<BlockReport> {
+    let plan = segmenter.plan();
+    let arrival = |k: usize| {
+        segments.iter().find_map(|s| match s.kind {
+            SegmentKind::Leg(i) if i == k && s.complete => Some(s.end_s),
+            _ => None,
+        })
+    };
+    plan.blocks
+        .iter()
+        .map(|b| {
+            let name = |k: usize| {
+                plan.points
+                    .get(k)
+                    .map_or_else(String::new, |p| p.name.clone())
+            };
+            // The legs inside it, and the stops between them (at its entry up to the point
+            // before its exit).
+            let predicted = b
+                .legs()
+                .map(|k| plan.predicted_leg(k))
+                .chain((b.first_point..b.last_point).map(|k| plan.predicted_leg(k)))
+                .collect::<Option<Vec<_>>>();
+            let n_legs = b.legs().count();
+            let (predicted_j, predicted_duration_s) = match predicted {
+                Some(legs) => {
+                    let (inner, stops) = legs.split_at(n_legs);
+                    let mut j: f64 = inner.iter().map(|l| l.energy_j).sum();
+                    let mut t: f64 = inner.iter().map(|l| l.duration_s).sum();
+                    for (k, l) in (b.first_point..b.last_point).zip(stops) {
+                        let hold_s = plan.points.get(k).map_or(0.0, |p| p.hold_s);
+                        let power = plan.predicted_hover_power_w(k).unwrap_or(0.0);
+                        j += l.settle_energy_j + power * hold_s;
+                        t += l.settle_duration_s + hold_s;
+                    }
+                    (Some(j), Some(t))
+                }
+                None => (None, None),
+            };
+            let span = arrival(b.first_point).zip(arrival(b.last_point));
+            let measured = span.map(|(t0, t1)| segmenter.series().measure(t0, t1));
+            let photos_taken = span.map_or(0, |(t0, t1)| {
+                (photos.iter())
+                    .filter(|p| p.captured && p.t_s >= t0 && p.t_s <= t1)
+                    .count()
+            });
+            BlockReport {
+                name: b.name.clone(),
+                kind: b.kind.clone(),
+                reversed: b.reversed,
+                from: name(b.first_point),
+                to: name(b.last_point),
+                legs: n_legs,
+                predicted_j,
+                measured_j: measured.as_ref().and_then(|m| m.energy_j),
+                duration_s: measured.map(|m| m.duration_s),
+                predicted_duration_s,
+                photos_expected: b.photos_expected(),
+                photos_taken: u32::try_from(photos_taken).unwrap_or(u32::MAX),
+            }
+        })
+        .collect()
 }
 
 /// The rest of a flight priced again in a wind heard in flight (`fly --wind live`).
@@ -284,9 +411,11 @@ impl FlightReport {
             )),
             repriced,
             photos: PhotoReport::default(),
+            blocks: Vec::new(),
         };
         let segments = segmenter.segments();
         report.photos = super::photos::assign(plan, &segments, segmenter.photos().photos());
+        report.blocks = blocks(segmenter, &segments, segmenter.photos().photos());
         report.breaches = segmenter.breaches().to_vec();
         // The guard's decision to go home and its price of the way home from there.
         let sent_home = (report.guard.iter())
@@ -468,6 +597,7 @@ impl FlightReport {
             repriced: self.repriced.clone(),
             photo_points: self.photos.points.clone(),
             photos_apart: self.photos.apart.clone(),
+            blocks: self.blocks.iter().map(BlockJson::from).collect(),
         }
     }
 
@@ -498,6 +628,7 @@ impl FlightReport {
                 points: json.photo_points.clone(),
                 apart: json.photos_apart.clone(),
             },
+            blocks: json.blocks.iter().map(BlockJson::to_block).collect(),
         }
     }
 }
@@ -759,6 +890,67 @@ pub struct ReportJson {
     /// The photos taken near no point of the plan (absent when there are none).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub photos_apart: Vec<PlacedPhoto>,
+    /// The plan's blocks (surveys, scans) as flown ([`BlockReport`]; absent when the plan has
+    /// none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub blocks: Vec<BlockJson>,
+}
+
+/// A block as flown in the report JSON (kJ).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BlockJson {
+    pub name: String,
+    pub kind: String,
+    pub reversed: bool,
+    pub from: String,
+    pub to: String,
+    pub legs: usize,
+    pub predicted_kj: Option<f64>,
+    pub measured_kj: Option<f64>,
+    pub error_pct: Option<f64>,
+    pub duration_s: Option<f64>,
+    pub predicted_duration_s: Option<f64>,
+    pub photos_expected: u32,
+    pub photos_taken: u32,
+}
+
+impl From<&BlockReport> for BlockJson {
+    fn from(b: &BlockReport) -> Self {
+        BlockJson {
+            name: b.name.clone(),
+            kind: b.kind.clone(),
+            reversed: b.reversed,
+            from: b.from.clone(),
+            to: b.to.clone(),
+            legs: b.legs,
+            predicted_kj: b.predicted_j.map(kj),
+            measured_kj: b.measured_j.map(kj),
+            error_pct: b.error_pct(),
+            duration_s: b.duration_s,
+            predicted_duration_s: b.predicted_duration_s,
+            photos_expected: b.photos_expected,
+            photos_taken: b.photos_taken,
+        }
+    }
+}
+
+impl BlockJson {
+    pub fn to_block(&self) -> BlockReport {
+        BlockReport {
+            name: self.name.clone(),
+            kind: self.kind.clone(),
+            reversed: self.reversed,
+            from: self.from.clone(),
+            to: self.to.clone(),
+            legs: self.legs,
+            predicted_j: self.predicted_kj.map(j),
+            measured_j: self.measured_kj.map(j),
+            duration_s: self.duration_s,
+            predicted_duration_s: self.predicted_duration_s,
+            photos_expected: self.photos_expected,
+            photos_taken: self.photos_taken,
+        }
+    }
 }
 
 /// One leg of a flight measured from two logs of it: the ground station's `.tlog` and the flight
@@ -1102,6 +1294,7 @@ mod tests {
             source: None,
             repriced: vec![],
             photos: PhotoReport::default(),
+            blocks: Vec::new(),
         }
     }
 

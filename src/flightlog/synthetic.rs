@@ -70,6 +70,7 @@ pub fn square_plan() -> FlightPlan {
         wind: None,
         repricings: Vec::new(),
         priced_by: None,
+        blocks: Vec::new(),
     }
 }
 

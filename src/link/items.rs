@@ -8,7 +8,10 @@
 //! and the landing the plan priced: PX4's RTL would first climb to RTL_RETURN_ALT, which is not
 //! the planned leg); NAV_RETURN_TO_LAUNCH or a bare NAV_LAND on request. Frames PX4 accepts: GLOBAL_RELATIVE_ALT (3) for navigation items,
 //! MISSION (2) for commands (PX4's mission item checks; docs/mavlink.md). ArduPilot
-//! gets its home item at seq 0.
+//! gets its home item at seq 0. A block an order flies last to first ([`reversed_runs`]) goes
+//! up laid out as `mission::Mission::reversing` reverses it: its items contiguous, each line in
+//! the file's settings on it, its camera trigger on at the end it enters and off at the end it
+//! leaves; its flown-through waypoints keep the file's hold (a survey's: none).
 
 use super::mav::{MavCmd, MavFrame, MavMissionType, MISSION_ITEM_INT_DATA};
 use super::Flavour;
@@ -319,6 +322,25 @@ pub fn flight_items_noted(
     if let Some(&k) = order.iter().find(|&&k| k >= mission.waypoints.len()) {
         return Err(ItemsError::UnknownWaypoint(k));
     }
+    // A block flown last to first goes up as the reversed block (`Mission::reversing`): its
+    // lines in the file's states on them, its trigger on at the end it enters and off at the
+    // end it leaves; the order then flies it forward there.
+    let runs = reversed_runs(mission, order);
+    let oriented;
+    let flown;
+    let (mission, order) = if runs.is_empty() {
+        (mission, order)
+    } else {
+        oriented = mission.reversing(&runs);
+        flown = order
+            .iter()
+            .map(|&k| match runs.iter().find(|r| r.contains(&k)) {
+                Some(r) => r.start + r.end - 1 - k,
+                None => k,
+            })
+            .collect::<Vec<_>>();
+        (&oriented, flown.as_slice())
+    };
     let home = mission.origin.home;
     let (lat, lon) = (deg_e7(home.lat_deg), deg_e7(home.lon_deg));
     let relative = MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT;
@@ -492,6 +514,31 @@ pub fn flight_items_noted(
         via_seqs,
     };
     Ok((items, notes, layout))
+}
+
+/// The runs of `order` that fly a block's waypoints last to first: two or more waypoints of
+/// one block in a row, each the one before the last in the file, as ranges of file indices.
+pub fn reversed_runs(mission: &Mission, order: &[usize]) -> Vec<std::ops::Range<usize>> {
+    let mut runs = Vec::new();
+    let mut i = 0;
+    while i < order.len() {
+        let Some(block) = mission
+            .block_of(order[i])
+            .and_then(|b| mission.blocks.get(b))
+        else {
+            i += 1;
+            continue;
+        };
+        let mut j = i;
+        while j + 1 < order.len() && order[j + 1] + 1 == order[j] && block.contains(order[j + 1]) {
+            j += 1;
+        }
+        if j > i {
+            runs.push(order[j]..order[i] + 1);
+        }
+        i = j + 1;
+    }
+    runs
 }
 
 /// The items that fly `mission` in `order` ([`mission_items_noted`] without its notes).
@@ -814,6 +861,79 @@ mod tests {
         assert!(items
             .iter()
             .all(|it| it.frame == MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT));
+    }
+
+    /// The sample's three points and a survey of three lines after them (waypoints 3..9).
+    fn surveyed() -> Mission {
+        let at = crate::mission::Enu {
+            x_east_m: 40.0,
+            y_north_m: 40.0,
+            z_up_m: 0.0,
+        };
+        crate::mission::blocks::with_survey(sample(), "S", at, 3, 60.0, 15.0, 25.0)
+    }
+
+    /// The camera trigger distances each waypoint's commands set, in flown order.
+    fn triggers(m: &Mission) -> Vec<Vec<f64>> {
+        (m.waypoints.iter())
+            .map(|w| {
+                (w.actions.iter())
+                    .filter(|c| c.command == id::DO_SET_CAM_TRIGG_DIST)
+                    .map(|c| c.params[0])
+                    .collect()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_reversed_survey_goes_up_whole_with_its_trigger_on_at_its_far_end_and_off_at_its_near_one()
+    {
+        let m = surveyed();
+        for flavour in [Flavour::ArduPilot, Flavour::Px4] {
+            let opts = ItemOptions {
+                flavour,
+                ..ItemOptions::default()
+            };
+            let order = [0, 8, 7, 6, 5, 4, 3, 1, 2];
+            let items = mission_items(&m, &order, &opts).unwrap();
+            let back = mission_of_items(&items, flavour, "held").unwrap();
+            let names: Vec<String> = order.iter().map(|&k| m.waypoints[k].name.clone()).collect();
+            for (w, name) in back.waypoints.iter().zip(&names) {
+                let k = m.waypoints.iter().position(|v| &v.name == name).unwrap();
+                let moved = (w.position.x_east_m - m.waypoints[k].position.x_east_m)
+                    .hypot(w.position.y_north_m - m.waypoints[k].position.y_north_m);
+                assert!(moved < 0.02, "{flavour:?} {name}: {moved} m");
+            }
+            // Nothing switches the camera on before the survey's far end: on there, off where
+            // it is left, nothing between; its waypoints flown through.
+            assert_eq!(
+                triggers(&back),
+                vec![
+                    vec![],
+                    vec![25.0],
+                    vec![],
+                    vec![],
+                    vec![],
+                    vec![],
+                    vec![0.0],
+                    vec![],
+                    vec![]
+                ],
+                "{flavour:?}"
+            );
+            assert!(back.waypoints[1..7].iter().all(|w| w.hover_s == 0.0));
+            assert!(back.waypoints[1..7].iter().all(|w| w.actions.len() <= 1));
+            // Forward: as the file has it.
+            let order = [0, 3, 4, 5, 6, 7, 8, 1, 2];
+            let back =
+                mission_of_items(&mission_items(&m, &order, &opts).unwrap(), flavour, "held")
+                    .unwrap();
+            assert_eq!(triggers(&back)[1], vec![25.0]);
+            assert_eq!(triggers(&back)[6], vec![0.0]);
+        }
+        assert_eq!(reversed_runs(&m, &[0, 8, 7, 6, 5, 4, 3, 1, 2]), vec![3..9]);
+        // Only a block's waypoints in a row make a run; points in any order do not.
+        assert!(reversed_runs(&m, &[2, 1, 0, 3, 4, 5, 6, 7, 8]).is_empty());
     }
 
     #[test]

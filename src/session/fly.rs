@@ -805,6 +805,7 @@ mod tests {
                 source: None,
                 repriced: Vec::new(),
                 photos: Default::default(),
+                blocks: Vec::new(),
             })),
         }
     }

@@ -264,6 +264,7 @@ pub fn plan_from_items(
         wind: model.map(|m| m.wind).filter(|w| !w.is_calm()),
         repricings: Vec::new(),
         priced_by: model.map(priced_by),
+        blocks: Vec::new(),
     };
     plan.validate()?;
     Ok(plan)

@@ -30,7 +30,12 @@
 //! takes that many, at the moment the item runs (after the waypoint before it completes: ArduPilot
 //! `AP_Mission::advance_current_nav_cmd` starts the DO commands that follow a navigation command
 //! once it completes, PX4's navigator likewise) and without holding the flight (neither autopilot
-//! waits for the camera); NAV_LAND flies above the point at the current height (when not
+//! waits for the camera); DO_SET_CAM_TRIGG_DIST sets the camera's distance trigger (param1 m, 0
+//! off), taking one photo at once when param3 is 1 (ArduPilot `AP_Mission::start_command_camera`
+//! takes a picture after setting the distance), then one each time the vehicle is the trigger
+//! distance (horizontally) from where the last was taken, the first counted from where the
+//! trigger was set (ArduPilot `AP_Camera` `update`: `last_location.get_distance(current_loc)
+//! < trigg_dist` waits; PX4's camera_trigger distance mode likewise); NAV_LAND flies above the point at the current height (when not
 //! there), settles, descends and touches down; NAV_RETURN_TO_LAUNCH (simplified: no climb to a
 //! return altitude) flies above home, settles, descends and touches down. The descent is the
 //! profile's landing (PX4's NAV_LAND, slowing near the ground, for the px4 profile), as the
@@ -89,6 +94,8 @@ pub enum Command {
     Jump { to: u16, repeat: i32 },
     /// Take `count` photos now, where the vehicle is, and go on at once.
     Photo { count: u32 },
+    /// The camera's distance trigger: a photo every `every_m` (0: off), one at once with `now`.
+    TriggerDistance { every_m: f64, now: bool },
     /// Not flown (ArduPilot's home at seq 0, or a command the flight ignores).
     Skip,
 }
@@ -101,6 +108,7 @@ impl Command {
             Command::ChangeSpeed { .. }
                 | Command::Jump { .. }
                 | Command::Photo { .. }
+                | Command::TriggerDistance { .. }
                 | Command::Skip
         )
     }
@@ -261,6 +269,10 @@ fn command(item: &MISSION_ITEM_INT_DATA, frame: &Origin) -> Result<Command, Flig
             }
         }
         MavCmd::MAV_CMD_DO_DIGICAM_CONTROL if item.x == 1 => Command::Photo { count: 1 },
+        MavCmd::MAV_CMD_DO_SET_CAM_TRIGG_DIST => Command::TriggerDistance {
+            every_m: finite(item.param1, 0.0).max(0.0),
+            now: item.param3 == 1.0,
+        },
         MavCmd::MAV_CMD_IMAGE_START_CAPTURE
             if finite(item.param2, -1.0) == 0.0 && finite(item.param3, 0.0) >= 1.0 =>
         {
@@ -444,6 +456,9 @@ pub struct Flight<'v> {
     /// the hover in its speed (`mission::wind`). The paths over the ground are the still-air
     /// ones, as the autopilots fly them.
     wind: Wind,
+    /// The camera's distance trigger while on: every how many metres, and where the last photo
+    /// was taken (or the trigger set).
+    trigger: Option<(f64, Local)>,
 }
 
 /// Most items started without time passing before the flight stops and hovers.
@@ -478,6 +493,7 @@ impl<'v> Flight<'v> {
             last_leg_xy: None,
             chain_ahead: VecDeque::new(),
             wind: Wind::CALM,
+            trigger: None,
         })
     }
 
@@ -646,6 +662,7 @@ impl<'v> Flight<'v> {
         self.complete = false;
         self.in_mission = true;
         self.cruise_m_s = None;
+        self.trigger = None;
         if self.on_ground() {
             self.motion = Motion::SpoolUp {
                 until_s: self.now_s + spool_up_s,
@@ -737,12 +754,26 @@ impl<'v> Flight<'v> {
             }
             _ => {}
         }
+        self.distance_trigger(&mut events);
         if let Some((purpose, end_s, settle_s)) = line_end {
             self.velocity = [0.0; 3];
             self.line_done(purpose, end_s, settle_s, &mut events);
         }
         self.check_progress(&mut events);
         events
+    }
+
+    /// A photo of the distance trigger when the vehicle is its distance (horizontally) from
+    /// where the last was taken.
+    fn distance_trigger(&mut self, events: &mut Vec<Event>) {
+        let Some((every_m, last)) = self.trigger else {
+            return;
+        };
+        let here = self.position;
+        if self.in_mission && (here[0] - last[0]).hypot(here[1] - last[1]) >= every_m {
+            events.push(Event::Photo);
+            self.trigger = Some((every_m, here));
+        }
     }
 
     /// Starts item `seq` (or completes the mission when there is none).
@@ -833,6 +864,13 @@ impl<'v> Flight<'v> {
             Command::Photo { count } => {
                 if self.in_mission {
                     events.extend((0..count).map(|_| Event::Photo));
+                }
+                self.finish(progress.seq, events);
+            }
+            Command::TriggerDistance { every_m, now } => {
+                self.trigger = (every_m > 0.0).then_some((every_m, here));
+                if now && self.in_mission {
+                    events.push(Event::Photo);
                 }
                 self.finish(progress.seq, events);
             }
@@ -1032,7 +1070,12 @@ impl<'v> Flight<'v> {
     fn is_photo(&self, k: usize) -> bool {
         matches!(
             self.commands.get(k),
-            Some(Command::Photo { .. } | Command::ChangeSpeed { .. } | Command::Skip)
+            Some(
+                Command::Photo { .. }
+                    | Command::TriggerDistance { .. }
+                    | Command::ChangeSpeed { .. }
+                    | Command::Skip
+            )
         )
     }
 
@@ -1379,6 +1422,79 @@ mod tests {
                 )
             })
             .collect()
+    }
+
+    #[test]
+    fn the_distance_trigger_takes_a_photo_every_trigger_distance_between_on_and_off() {
+        // Take-off to 20 m, a waypoint 10 m east; trigger every 20 m, one at once; a waypoint
+        // 110 m east (a 100 m line); trigger off; a waypoint back at 10 m east; land.
+        let v = shipped();
+        let frame = MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT;
+        let mission = MavFrame::MAV_FRAME_MISSION;
+        let waypoint = |seq: u16, east_m: f64| {
+            let (x, y) = at(east_m, 0.0);
+            item(
+                seq,
+                MavCmd::MAV_CMD_NAV_WAYPOINT,
+                frame,
+                [0.0, 2.0, 0.0, f32::NAN],
+                (x, y, 20.0),
+            )
+        };
+        let trigger = |seq: u16, every_m: f32| {
+            item(
+                seq,
+                MavCmd::MAV_CMD_DO_SET_CAM_TRIGG_DIST,
+                mission,
+                // Once at once when switched on, as QGroundControl writes a survey's.
+                [every_m, 0.0, if every_m > 0.0 { 1.0 } else { 0.0 }, 0.0],
+                (0, 0, 0.0),
+            )
+        };
+        let (x, y) = at(10.0, 0.0);
+        let items = [
+            item(
+                0,
+                MavCmd::MAV_CMD_NAV_TAKEOFF,
+                frame,
+                [0.0; 4],
+                (0, 0, 20.0),
+            ),
+            waypoint(1, 10.0),
+            trigger(2, 20.0),
+            waypoint(3, 110.0),
+            trigger(4, 0.0),
+            waypoint(5, 10.0),
+            item(6, MavCmd::MAV_CMD_NAV_LAND, frame, [0.0; 4], (x, y, 0.0)),
+        ];
+        for profile in [Profile::Ardupilot, Profile::Px4] {
+            let mut f = Flight::new(&v, profile).unwrap();
+            f.arm();
+            f.start(commands(&items, HOME, false).unwrap(), 0, 1.0);
+            let mut photos = Vec::new();
+            for k in 1..60_000 {
+                let t = k as f64 * 0.01;
+                for e in f.advance(t) {
+                    if e == Event::Photo {
+                        photos.push(f.position()[0]);
+                    }
+                }
+                if f.complete() {
+                    break;
+                }
+            }
+            assert!(f.complete(), "{profile}");
+            // One as it is switched on (near 10 m east: PX4 accepts the waypoint within its
+            // 2 m radius), then every 20 m from there up to the line's end (the last not when
+            // the vehicle stops short of the distance); none on the way back with the trigger
+            // off.
+            assert!((5..=6).contains(&photos.len()), "{profile}: {photos:?}");
+            assert!((photos[0] - 10.0).abs() < 2.5, "{profile}: {photos:?}");
+            for (k, east_m) in photos.iter().enumerate() {
+                let expected = photos[0] + 20.0 * k as f64;
+                assert!((east_m - expected).abs() < 0.5, "{profile}: {photos:?}");
+            }
+        }
     }
 
     #[test]

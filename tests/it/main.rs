@@ -2,6 +2,7 @@
 
 mod actions;
 mod ardupilot;
+mod blocks_flight;
 mod camera;
 mod cli;
 mod crashes;
