@@ -2,6 +2,7 @@
 
 mod actions;
 mod ardupilot;
+mod block_files;
 mod camera;
 mod cli;
 mod crashes;
