@@ -11,7 +11,12 @@ use super::convert::{convert, losses};
 use super::{load, load_str, to_string, Format, Mission};
 
 fn shipped(file: &str) -> Mission {
-    load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("missions").join(file)).unwrap()
+    load(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("missions")
+            .join(file),
+    )
+    .unwrap()
 }
 
 fn plan(items: Vec<Value>) -> String {
@@ -33,11 +38,35 @@ fn item(command: u64, frame: u64, params: [Value; 7]) -> Value {
 }
 
 fn takeoff() -> Value {
-    item(22, 3, [json!(0), json!(0), json!(0), Value::Null, json!(38.5), json!(-121.7), json!(20)])
+    item(
+        22,
+        3,
+        [
+            json!(0),
+            json!(0),
+            json!(0),
+            Value::Null,
+            json!(38.5),
+            json!(-121.7),
+            json!(20),
+        ],
+    )
 }
 
 fn wp(north_deg: f64, alt: f64) -> Value {
-    item(16, 3, [json!(0), json!(0), json!(0), Value::Null, json!(38.5 + north_deg), json!(-121.7), json!(alt)])
+    item(
+        16,
+        3,
+        [
+            json!(0),
+            json!(0),
+            json!(0),
+            Value::Null,
+            json!(38.5 + north_deg),
+            json!(-121.7),
+            json!(alt),
+        ],
+    )
 }
 
 fn command(id: u64, params: [f64; 7]) -> Value {
@@ -83,7 +112,10 @@ fn the_shipped_orchard_survey_reads_as_two_survey_blocks_with_their_trigger_insi
     // The points between and around them are not in a block.
     assert_eq!(m.block_of(0), None);
     assert_eq!(m.block_of(m.blocks[0].first + m.blocks[0].len), None);
-    assert_eq!(m.waypoints.len() - m.blocks.iter().map(|b| b.len).sum::<usize>(), 5);
+    assert_eq!(
+        m.waypoints.len() - m.blocks.iter().map(|b| b.len).sum::<usize>(),
+        5
+    );
 }
 
 #[test]
@@ -95,14 +127,22 @@ fn commands_a_complex_item_carries_before_its_first_waypoint_stay_in_its_block()
         complex(
             "survey",
             5,
-            vec![speed, wp(0.001, 30.0), command(206, [10.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0]), wp(0.0015, 30.0)],
+            vec![
+                speed,
+                wp(0.001, 30.0),
+                command(206, [10.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0]),
+                wp(0.0015, 30.0),
+            ],
         ),
     ]);
     let m = read(&text).unwrap();
     assert_eq!(m.blocks.len(), 1);
     let b = &m.blocks[0];
     assert_eq!((b.first, b.len), (1, 2));
-    assert!(m.waypoints[0].actions.is_empty(), "rode on the waypoint before");
+    assert!(
+        m.waypoints[0].actions.is_empty(),
+        "rode on the waypoint before"
+    );
     let carried: Vec<u16> = m.waypoints[1].actions.iter().map(|c| c.command).collect();
     assert_eq!(carried, [178, 206]);
     assert_eq!(m.waypoints[1].name, "WP2");
@@ -110,12 +150,16 @@ fn commands_a_complex_item_carries_before_its_first_waypoint_stay_in_its_block()
 
 #[test]
 fn a_corridor_scan_is_a_reversible_block_and_a_structure_scan_or_another_item_is_refused() {
-    let text = plan(vec![takeoff(), complex("CorridorScan", 3, vec![wp(0.001, 30.0), wp(0.002, 30.0)])]);
+    let text = plan(vec![
+        takeoff(),
+        complex("CorridorScan", 3, vec![wp(0.001, 30.0), wp(0.002, 30.0)]),
+    ]);
     let m = read(&text).unwrap();
     assert_eq!(m.blocks[0].kind, BlockKind::Corridor);
     assert_eq!(m.blocks[0].name, "corridor scan 1");
     assert!(m.blocks[0].reversible);
-    let structure = json!({"type": "ComplexItem", "complexItemType": "StructureScan", "version": 3});
+    let structure =
+        json!({"type": "ComplexItem", "complexItemType": "StructureScan", "version": 3});
     let e = read(&plan(vec![takeoff(), structure])).unwrap_err();
     assert!(
         e.starts_with("t.plan: mission item 1: complex item \"StructureScan\" is not supported")
@@ -124,28 +168,61 @@ fn a_corridor_scan_is_a_reversible_block_and_a_structure_scan_or_another_item_is
     );
     let other = json!({"type": "ComplexItem", "complexItemType": "fw_landing", "version": 1});
     let e = read(&plan(vec![takeoff(), other])).unwrap_err();
-    assert!(e.contains("mission item 1: complex item \"fw_landing\" is not supported"), "{e}");
+    assert!(
+        e.contains("mission item 1: complex item \"fw_landing\" is not supported"),
+        "{e}"
+    );
 }
 
 #[test]
 fn errors_in_a_complex_items_generated_items_name_the_file_and_the_item() {
     let bad = json!({"type": "SimpleItem", "command": 16, "frame": 3, "params": [0, 0]});
-    let e = read(&plan(vec![takeoff(), complex("survey", 5, vec![wp(0.001, 30.0), bad])])).unwrap_err();
+    let e = read(&plan(vec![
+        takeoff(),
+        complex("survey", 5, vec![wp(0.001, 30.0), bad]),
+    ]))
+    .unwrap_err();
     assert!(
-        e.starts_with("t.plan: mission.items[1].TransectStyleComplexItem.Items[1]: field \"params\""),
+        e.starts_with(
+            "t.plan: mission.items[1].TransectStyleComplexItem.Items[1]: field \"params\""
+        ),
         "{e}"
     );
     let rtl = command(20, [0.0; 7]);
-    let e = read(&plan(vec![takeoff(), complex("survey", 5, vec![wp(0.001, 30.0), wp(0.002, 30.0), rtl])])).unwrap_err();
-    assert!(e.contains("mission.items[1].TransectStyleComplexItem.Items[2].command: 20 in a complex item"), "{e}");
+    let e = read(&plan(vec![
+        takeoff(),
+        complex("survey", 5, vec![wp(0.001, 30.0), wp(0.002, 30.0), rtl]),
+    ]))
+    .unwrap_err();
+    assert!(
+        e.contains(
+            "mission.items[1].TransectStyleComplexItem.Items[2].command: 20 in a complex item"
+        ),
+        "{e}"
+    );
     let mut old = complex("survey", 3, vec![]);
-    old.as_object_mut().unwrap().remove("TransectStyleComplexItem");
+    old.as_object_mut()
+        .unwrap()
+        .remove("TransectStyleComplexItem");
     let e = read(&plan(vec![takeoff(), old])).unwrap_err();
-    assert!(e.starts_with("t.plan: mission.items[1].TransectStyleComplexItem: missing"), "{e}");
+    assert!(
+        e.starts_with("t.plan: mission.items[1].TransectStyleComplexItem: missing"),
+        "{e}"
+    );
     let e = read(&plan(vec![takeoff(), complex("survey", 6, vec![])])).unwrap_err();
-    assert!(e.contains("mission.items[1].version: 6 is not supported"), "{e}");
-    let e = read(&plan(vec![takeoff(), complex("survey", 5, vec![wp(0.001, 30.0)])])).unwrap_err();
-    assert!(e.starts_with("t.plan: mission item 1: block \"survey 1\": 1 waypoint(s)"), "{e}");
+    assert!(
+        e.contains("mission.items[1].version: 6 is not supported"),
+        "{e}"
+    );
+    let e = read(&plan(vec![
+        takeoff(),
+        complex("survey", 5, vec![wp(0.001, 30.0)]),
+    ]))
+    .unwrap_err();
+    assert!(
+        e.starts_with("t.plan: mission item 1: block \"survey 1\": 1 waypoint(s)"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -169,7 +246,9 @@ fn an_unchanged_block_is_written_back_exactly_and_a_moved_one_has_its_items_rewr
     let text = to_string(&moved, Format::QgcPlan).unwrap();
     let back = read(&text).unwrap();
     assert_eq!(losses(&moved, &back), vec![]);
-    assert!(losses(&m, &back).iter().any(|l| l.setting.contains(&m.waypoints[k].name)));
+    assert!(losses(&m, &back)
+        .iter()
+        .any(|l| l.setting.contains(&m.waypoints[k].name)));
     assert_eq!(back.blocks[0].source, m.blocks[0].source);
     assert_ne!(back.blocks[1].source, m.blocks[1].source);
 }
@@ -200,10 +279,17 @@ fn toml_blocks_are_runs_of_waypoints_naming_a_declared_block() {
         toml_wp("E", 40.0, None),
     ]
     .concat();
-    let m = read_toml(&toml_mission(&wps, "[[blocks]]\nname = \"rows\"\nreversible = false\n")).unwrap();
+    let m = read_toml(&toml_mission(
+        &wps,
+        "[[blocks]]\nname = \"rows\"\nreversible = false\n",
+    ))
+    .unwrap();
     assert_eq!(m.blocks.len(), 1);
     let b = &m.blocks[0];
-    assert_eq!((b.name.as_str(), b.kind, b.first, b.len, b.reversible), ("rows", BlockKind::Listed, 1, 3, false));
+    assert_eq!(
+        (b.name.as_str(), b.kind, b.first, b.len, b.reversible),
+        ("rows", BlockKind::Listed, 1, 3, false)
+    );
     assert!(b.source.is_none());
     // Written and read back, block by block.
     let text = to_string(&m, Format::Toml).unwrap();
@@ -229,28 +315,48 @@ fn toml_block_errors_name_the_line_and_the_block() {
     let e = read_toml(&text).unwrap_err();
     let at = header_line(&text, "name = \"D\"");
     assert!(
-        e.starts_with(&format!("t.toml: line {at}: waypoint \"D\": block \"rows\" is used again")),
+        e.starts_with(&format!(
+            "t.toml: line {at}: waypoint \"D\": block \"rows\" is used again"
+        )),
         "{e}"
     );
     let one = [toml_wp("A", 0.0, Some("rows")), toml_wp("B", 10.0, None)].concat();
     let text = toml_mission(&one, declared);
     let e = read_toml(&text).unwrap_err();
     let at = header_line(&text, "name = \"rows\"");
-    assert!(e.starts_with(&format!("t.toml: line {at}: block \"rows\": 1 waypoint(s)")), "{e}");
-    let undeclared = [toml_wp("A", 0.0, Some("row")), toml_wp("B", 10.0, Some("row"))].concat();
+    assert!(
+        e.starts_with(&format!("t.toml: line {at}: block \"rows\": 1 waypoint(s)")),
+        "{e}"
+    );
+    let undeclared = [
+        toml_wp("A", 0.0, Some("row")),
+        toml_wp("B", 10.0, Some("row")),
+    ]
+    .concat();
     let text = toml_mission(&undeclared, declared);
     let e = read_toml(&text).unwrap_err();
     let at = header_line(&text, "name = \"A\"");
     assert!(
-        e.starts_with(&format!("t.toml: line {at}: waypoint \"A\": block \"row\" is not declared")),
+        e.starts_with(&format!(
+            "t.toml: line {at}: waypoint \"A\": block \"row\" is not declared"
+        )),
         "{e}"
     );
     let none = [toml_wp("A", 0.0, None), toml_wp("B", 10.0, None)].concat();
     let text = toml_mission(&none, declared);
     let e = read_toml(&text).unwrap_err();
     let at = header_line(&text, "name = \"rows\"");
-    assert!(e.starts_with(&format!("t.toml: line {at}: block \"rows\": no waypoint belongs to it")), "{e}");
-    let two = [toml_wp("A", 0.0, Some("rows")), toml_wp("B", 10.0, Some("rows"))].concat();
+    assert!(
+        e.starts_with(&format!(
+            "t.toml: line {at}: block \"rows\": no waypoint belongs to it"
+        )),
+        "{e}"
+    );
+    let two = [
+        toml_wp("A", 0.0, Some("rows")),
+        toml_wp("B", 10.0, Some("rows")),
+    ]
+    .concat();
     let e = read_toml(&toml_mission(&two, &format!("{declared}{declared}"))).unwrap_err();
     assert!(e.contains("block \"rows\": duplicate name"), "{e}");
     let bad = "[[blocks]]\nname = \"rows\"\nreversible = true\nqgc = \"{\"\n";
@@ -266,10 +372,17 @@ fn a_block_line_across_an_exclusion_zone_is_refused_naming_the_block_the_line_an
     let fence = "[[fence.polygons]]\ninclusion = false\n\
                  vertices_m = [[-5.0, 20.0], [5.0, 20.0], [5.0, 30.0], [-5.0, 30.0]]\n";
     let blocks = "[[blocks]]\nname = \"rows\"\nreversible = true\n";
-    let wps = [at("A", -30.0, "block = \"rows\"\n"), at("B", 30.0, "block = \"rows\"\n"), at("C", 40.0, "")].concat();
+    let wps = [
+        at("A", -30.0, "block = \"rows\"\n"),
+        at("B", 30.0, "block = \"rows\"\n"),
+        at("C", 40.0, ""),
+    ]
+    .concat();
     let e = read_toml(&toml_mission(&wps, &format!("{fence}{blocks}"))).unwrap_err();
     assert!(
-        e.contains("block \"rows\": its line \"A\"-\"B\" crosses exclusion polygon 1 of the geofence"),
+        e.contains(
+            "block \"rows\": its line \"A\"-\"B\" crosses exclusion polygon 1 of the geofence"
+        ),
         "{e}"
     );
     // Without the block, the same leg is the planner's to detour round.
@@ -296,11 +409,17 @@ fn blocks_out_of_range_of_one_waypoint_or_overlapping_are_refused() {
     };
     assert_eq!(check(vec![raw(0, 2, "a"), raw(2, 3, "b")]), Ok(2));
     let e = check(vec![raw(6, 3, "a")]).unwrap_err();
-    assert!(e.starts_with("f: line 3: block \"a\": waypoints 7..9 of a mission of 8"), "{e}");
+    assert!(
+        e.starts_with("f: line 3: block \"a\": waypoints 7..9 of a mission of 8"),
+        "{e}"
+    );
     let e = check(vec![raw(0, 1, "a")]).unwrap_err();
     assert!(e.contains("block \"a\": 1 waypoint(s)"), "{e}");
     let e = check(vec![raw(0, 3, "a"), raw(2, 2, "b")]).unwrap_err();
-    assert!(e.contains("block \"b\": shares waypoints with block \"a\""), "{e}");
+    assert!(
+        e.contains("block \"b\": shares waypoints with block \"a\""),
+        "{e}"
+    );
 }
 
 #[test]
@@ -314,11 +433,22 @@ fn the_orchard_survey_round_trips_toml_and_plan_block_by_block_and_waypoints_los
     assert_eq!(read(&plan).unwrap().blocks, m.blocks);
     // .waypoints: refused when written, a loss per block when converted.
     let e = to_string(&m, Format::Wpl).unwrap_err().to_string();
-    assert!(e.contains("cannot hold block \"survey 1\" (survey, 24 waypoints), block \"survey 2\""), "{e}");
+    assert!(
+        e.contains("cannot hold block \"survey 1\" (survey, 24 waypoints), block \"survey 2\""),
+        "{e}"
+    );
     let (_, lost) = convert(&m, Path::new("o.waypoints")).unwrap();
-    let blocks: Vec<String> = lost.iter().filter(|l| l.setting.starts_with("block")).map(|l| l.to_string()).collect();
+    let blocks: Vec<String> = lost
+        .iter()
+        .filter(|l| l.setting.starts_with("block"))
+        .map(|l| l.to_string())
+        .collect();
     assert_eq!(blocks.len(), 2, "{blocks:?}");
-    assert!(blocks[0].starts_with("block \"survey 1\": survey of waypoints WP3-WP26, reversible -> none"), "{blocks:?}");
+    assert!(
+        blocks[0]
+            .starts_with("block \"survey 1\": survey of waypoints WP3-WP26, reversible -> none"),
+        "{blocks:?}"
+    );
 }
 
 #[test]
@@ -329,12 +459,51 @@ fn convert_names_a_block_that_differs() {
     other.blocks[0].name = "north".into();
     let said: Vec<String> = losses(&m, &other).iter().map(|l| l.to_string()).collect();
     assert_eq!(said.len(), 2, "{said:?}");
-    assert!(said[0].starts_with("block \"survey 1\": survey of waypoints WP3-WP26, reversible -> \"north\""), "{said:?}");
-    assert!(said[1].starts_with("block \"survey 2\": survey of waypoints") && said[1].ends_with("one way"), "{said:?}");
+    assert!(
+        said[0].starts_with(
+            "block \"survey 1\": survey of waypoints WP3-WP26, reversible -> \"north\""
+        ),
+        "{said:?}"
+    );
+    assert!(
+        said[1].starts_with("block \"survey 2\": survey of waypoints")
+            && said[1].ends_with("one way"),
+        "{said:?}"
+    );
     let mut settings = m.clone();
     if let Some(s) = settings.blocks[0].source.as_mut() {
         s["angle"] = json!(40);
     }
-    let said: Vec<String> = losses(&m, &settings).iter().map(|l| l.to_string()).collect();
-    assert_eq!(said, ["block \"survey 1\" complex item: its QGroundControl complex item -> changed settings"]);
+    let said: Vec<String> = losses(&m, &settings)
+        .iter()
+        .map(|l| l.to_string())
+        .collect();
+    assert_eq!(
+        said,
+        ["block \"survey 1\" complex item: its QGroundControl complex item -> changed settings"]
+    );
+}
+
+#[test]
+fn a_subset_keeps_what_remains_of_each_block_and_flies_a_lone_remnant_as_a_point() {
+    let m = shipped("orchard-survey.plan");
+    let (one, two) = (&m.blocks[0], &m.blocks[1]);
+    // Resumed after the first waypoint of survey 1 (and the two points before it).
+    let kept: Vec<usize> = (one.first + 1..m.waypoints.len()).collect();
+    let rest = m.keeping(&kept);
+    assert_eq!(rest.blocks.len(), 2);
+    assert_eq!((rest.blocks[0].first, rest.blocks[0].len), (0, one.len - 1));
+    assert_eq!(rest.blocks[1].first, two.first - one.first - 1);
+    assert_eq!(rest.blocks[1].len, two.len);
+    for b in &rest.blocks {
+        assert_eq!(
+            rest.waypoints[b.first].name,
+            m.waypoints[kept[b.first]].name
+        );
+    }
+    // Only the last waypoint of survey 1 left: it is a point.
+    let kept: Vec<usize> = (one.first + one.len - 1..m.waypoints.len()).collect();
+    let rest = m.keeping(&kept);
+    assert_eq!(rest.blocks.len(), 1);
+    assert_eq!(rest.blocks[0].name, "survey 2");
 }

@@ -201,7 +201,11 @@ fn block_summary(m: &Mission, b: &super::blocks::Block) -> String {
         b.kind.word(),
         name(b.first),
         name(b.first + b.len - 1),
-        if b.reversible { "reversible" } else { "one way" }
+        if b.reversible {
+            "reversible"
+        } else {
+            "one way"
+        }
     )
 }
 

@@ -7,9 +7,9 @@
 //! input; every error names the file and the line or field at fault.
 
 pub mod actions;
-pub mod blocks;
 #[cfg(test)]
 mod block_files_tests;
+pub mod blocks;
 pub mod convert;
 pub mod fence;
 #[cfg(test)]
@@ -720,11 +720,7 @@ fn check_blocks(
             let c = [v.position.x_east_m, v.position.y_north_m];
             if let Some(z) = zones.iter().position(|z| z.segment_violates(a, c, 0.0)) {
                 let zone = &fence.zones[z];
-                let how = if zone.inclusion {
-                    "leaves"
-                } else {
-                    "crosses"
-                };
+                let how = if zone.inclusion { "leaves" } else { "crosses" };
                 return Err(MissionError::invalid(
                     file,
                     b.place,
@@ -957,7 +953,14 @@ impl Mission {
         let named: Vec<String> = self
             .blocks
             .iter()
-            .map(|b| format!("block {:?} ({}, {} waypoints)", b.name, b.kind.word(), b.len))
+            .map(|b| {
+                format!(
+                    "block {:?} ({}, {} waypoints)",
+                    b.name,
+                    b.kind.word(),
+                    b.len
+                )
+            })
             .collect();
         Some(MissionError::invalid(
             file,
@@ -1072,7 +1075,9 @@ impl Mission {
     /// The mission of the waypoints `kept` (indices, in file order) alone, each in the state
     /// the whole file has there: the commands that would have changed a setting at a waypoint
     /// left out are carried, as restoring commands, by the waypoint before it (the start
-    /// before the first), so a resume or any subset flies what remains as the file does.
+    /// before the first), so a resume or any subset flies what remains as the file does. A
+    /// block keeps the waypoints of it that remain when they still follow each other (at least
+    /// two); otherwise what is left of it is flown as points.
     pub fn keeping(&self, kept: &[usize]) -> Mission {
         let inserted = self.restoring(kept, None);
         let commands = |i: usize| {
@@ -1094,9 +1099,25 @@ impl Mission {
                 Some(w)
             })
             .collect();
+        let blocks = self
+            .blocks
+            .iter()
+            .filter_map(|b| {
+                let at: Vec<usize> = (0..kept.len()).filter(|&i| b.contains(kept[i])).collect();
+                let follow = at
+                    .windows(2)
+                    .all(|w| w[1] == w[0] + 1 && kept[w[1]] == kept[w[0]] + 1);
+                (at.len() >= 2 && follow).then(|| blocks::Block {
+                    first: at[0],
+                    len: at.len(),
+                    ..b.clone()
+                })
+            })
+            .collect();
         Mission {
             waypoints,
             start_actions,
+            blocks,
             ..self.clone()
         }
     }

@@ -24,9 +24,9 @@
 use serde_json::{json, Value};
 
 use super::actions::{Command, FRAME_GLOBAL_RELATIVE_ALT, FRAME_MISSION};
+use super::blocks::{Block, BlockKind};
 use super::fence::{LatLon, RallyPoint, Shape, Zone};
 use super::sequence::{self, Item};
-use super::blocks::{Block, BlockKind};
 use super::{
     Geodetic, Mission, MissionError, Place, Poi, RawBlock, RawMission, RawZone,
     DEFAULT_MIN_HEIGHT_ABOVE_HOME_M, DEFAULT_TAKEOFF_HEIGHT_M,
@@ -160,11 +160,7 @@ pub(super) fn parse(text: &str, file: &str, stem: &str) -> Result<RawMission, Mi
         let mine: Vec<usize> = (0..seq.groups.len())
             .filter(|&i| seq.groups[i] == Some(group))
             .collect();
-        let nth = blocks
-            .iter()
-            .filter(|b: &&RawBlock| b.kind == kind)
-            .count()
-            + 1;
+        let nth = blocks.iter().filter(|b: &&RawBlock| b.kind == kind).count() + 1;
         let given = use_listed.then(|| listed[group]);
         let name = given
             .and_then(|b| b.get("name"))
@@ -245,9 +241,11 @@ fn simple(
         ));
     }
     let field_u64 = |key: &str| {
-        item.get(key)
-            .and_then(Value::as_u64)
-            .ok_or_else(|| bad(format!("field {key:?}: missing or not a non-negative integer")))
+        item.get(key).and_then(Value::as_u64).ok_or_else(|| {
+            bad(format!(
+                "field {key:?}: missing or not a non-negative integer"
+            ))
+        })
     };
     let command = field_u64("command")?;
     let frame = field_u64("frame")?;
@@ -742,7 +740,9 @@ fn unchanged(mission: &Mission, block: &Block, source: &Value) -> bool {
                 && r.kind == w.kind
                 && r.actions.len() == w.actions.len()
                 && r.actions.iter().zip(&w.actions).all(|((c, _), d)| {
-                    c.command == d.command && c.frame == d.frame && same_params(&c.params, &d.params)
+                    c.command == d.command
+                        && c.frame == d.frame
+                        && same_params(&c.params, &d.params)
                 })
         })
 }
@@ -810,7 +810,7 @@ pub(super) fn write(mission: &Mission) -> String {
             json!(0),
         ],
     ));
-    let doc = json!({
+    let mut doc = json!({
         "fileType": "Plan",
         "version": 1,
         "groundStation": "emplan",
@@ -834,10 +834,6 @@ pub(super) fn write(mission: &Mission) -> String {
             "default_hover_s": mission.default_hover_s,
             "min_height_above_home_m": mission.min_height_above_home_m,
             "waypoint_names": mission.waypoints.iter().map(|w| w.name.clone()).collect::<Vec<_>>(),
-            "blocks": mission.blocks.iter().filter(|b| b.source.is_some()).map(|b| json!({
-                "name": b.name,
-                "reversible": b.reversible,
-            })).collect::<Vec<_>>(),
             "pois": mission.pois.iter().map(|p| json!({
                 "name": p.name,
                 "lat_deg": p.lat_deg,
@@ -846,6 +842,16 @@ pub(super) fn write(mission: &Mission) -> String {
             })).collect::<Vec<_>>(),
         },
     });
+    let complex: Vec<Value> = mission
+        .blocks
+        .iter()
+        .filter(|b| b.source.is_some())
+        .map(|b| json!({ "name": b.name, "reversible": b.reversible }))
+        .collect();
+    if !complex.is_empty() {
+        // The blocks written as complex items, in order: their names and directions.
+        doc["emplan"]["blocks"] = Value::Array(complex);
+    }
     let mut text = serde_json::to_string_pretty(&doc).unwrap_or_default();
     text.push('\n');
     text

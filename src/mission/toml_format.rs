@@ -18,8 +18,8 @@ use serde::{Deserialize, Serialize};
 use toml::Spanned;
 
 use super::actions::{id, Command, FRAME_GLOBAL_RELATIVE_ALT, FRAME_MISSION};
-use super::fence::{LatLon, RallyPoint, Shape, Zone};
 use super::blocks::BlockKind;
+use super::fence::{LatLon, RallyPoint, Shape, Zone};
 use super::{
     line_of, Enu, Geodetic, Mission, MissionError, Origin, Place, Poi, RawBlock, RawMission,
     RawPosition, RawWaypoint, RawZone, WaypointKind, DEFAULT_MIN_HEIGHT_ABOVE_HOME_M,

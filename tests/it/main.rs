@@ -3,6 +3,7 @@
 mod actions;
 mod ardupilot;
 mod blocks_flight;
+mod block_files;
 mod camera;
 mod cli;
 mod crashes;

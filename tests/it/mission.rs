@@ -202,11 +202,24 @@ const TAKEOFF: &str = r#"{"type": "SimpleItem", "command": 22, "frame": 3, "para
 
 #[test]
 fn malformed_plan_files_are_rejected_naming_the_item_or_line() {
-    let complex = r#"{"type": "ComplexItem", "complexItemType": "survey", "version": 5}"#;
+    let complex = r#"{"type": "ComplexItem", "complexItemType": "StructureScan", "version": 3}"#;
+    let survey = r#"{"type": "ComplexItem", "complexItemType": "survey", "version": 5}"#;
     let cases: Vec<(String, Vec<&str>)> = vec![
         (
             plan_with_items(&format!("{TAKEOFF}, {complex}")),
-            vec!["bad.plan", "mission item 1", "complex item \"survey\""],
+            vec![
+                "bad.plan",
+                "mission item 1",
+                "complex item \"StructureScan\"",
+            ],
+        ),
+        (
+            plan_with_items(&format!("{TAKEOFF}, {survey}")),
+            vec![
+                "bad.plan",
+                "mission.items[1].TransectStyleComplexItem",
+                "generated items",
+            ],
         ),
         (
             plan_with_items(&format!(
