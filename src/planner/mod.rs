@@ -1135,6 +1135,35 @@ fn plan_core<'scope>(
             None,
         )?);
     }
+    // With blocks the px4 profile's solve prices every leg behind PX4's trajectory, which the
+    // order as flown is not (a turn of less than 90 degrees starts the next leg ahead); the
+    // solved order flown backwards, every block flipped, is priced too and the cheaper flown.
+    if pair_skipped && mission.blocks.iter().all(|b| b.reversible) {
+        if let Some(k) = orders
+            .iter()
+            .position(|o| o.objective == Some(Objective::Energy))
+        {
+            let back: Vec<usize> = orders[k].nodes.iter().rev().copied().collect();
+            let mut other = priced(
+                Some(Objective::Energy),
+                Direction::Forward,
+                back,
+                orders[k].proof.clone(),
+            )?;
+            if other.energy_j < orders[k].energy_j {
+                notes.push(format!(
+                    "the solved energy order flown backwards costs {:.2} kJ less with the turns \
+                     between legs priced: it is flown so (its proof is the solve's, every leg \
+                     priced behind)",
+                    (orders[k].energy_j - other.energy_j) / 1000.0
+                ));
+                if let Some(proof) = other.proof.as_mut() {
+                    proof.optimal = false;
+                }
+                orders[k] = other;
+            }
+        }
+    }
     let flown = match options.orders {
         Orders::Distance => cheapest(&orders, Objective::Distance)
             .and_then(|c| orders.iter().position(|o| std::ptr::eq(o, c)))
