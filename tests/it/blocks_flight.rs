@@ -302,3 +302,79 @@ async fn two_surveys_one_reversed_go_up_whole_and_are_measured_with_their_photos
     check_held(&m, &order, &held);
     mock.shutdown().await.expect("mock stops");
 }
+
+/// The waypoint of `m` nearest each of `held`'s first waypoints (horizontally, within 5 cm):
+/// the order the vehicle holds, as indices into `m`'s waypoints.
+fn order_held(m: &Mission, held: &Mission) -> Vec<usize> {
+    held.waypoints
+        .iter()
+        .take(m.waypoints.len())
+        .map(|h| {
+            let off = |k: usize| {
+                let p = m.waypoints[k].position;
+                (p.x_east_m - h.position.x_east_m).hypot(p.y_north_m - h.position.y_north_m)
+            };
+            let k = (0..m.waypoints.len())
+                .min_by(|&a, &b| off(a).total_cmp(&off(b)))
+                .expect("waypoints");
+            assert!(off(k) < 0.05, "{} held is no waypoint of the file", h.name);
+            k
+        })
+        .collect()
+}
+
+#[test]
+fn the_shipped_orchard_survey_goes_up_in_the_energy_order_each_survey_whole_with_its_trigger_at_its_ends(
+) {
+    let file = root().join("missions/orchard-survey.plan");
+    let m = emplan::mission::load(&file).expect("the shipped survey mission");
+    assert_eq!(m.blocks.len(), 2);
+    let runtime = tokio::runtime::Runtime::new().expect("runtime");
+    let mock = runtime.block_on(super::fence_link::mock_at(&m, Flavour::ArduPilot));
+    let url = format!("udpout:{}", mock.local_addr());
+    let (ok, stdout, stderr) = emplan(&[
+        "upload",
+        file.to_str().expect("path"),
+        "--order",
+        "energy",
+        "--profile",
+        "ardupilot",
+        "--connect",
+        &url,
+    ]);
+    assert!(ok, "{stdout}\n{stderr}");
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let out = tmp.path().join("held.plan");
+    let (ok, stdout, stderr) = emplan(&["download", "--connect", &url, out.to_str().unwrap()]);
+    assert!(ok, "{stdout}\n{stderr}");
+    let held = emplan::mission::load(&out).expect("the downloaded plan reads");
+    let order = order_held(&m, &held);
+    // The order held is the plan's energy order with the same profile.
+    let doc = crate::json(&[
+        "plan",
+        "missions/orchard-survey.plan",
+        "--order",
+        "energy",
+        "--profile",
+        "ardupilot",
+        "--json",
+    ]);
+    let names: Vec<&str> = doc["orders"][0]["sequence"]
+        .as_array()
+        .expect("sequence")
+        .iter()
+        .filter_map(|s| s.as_str())
+        .collect();
+    let planned: Vec<usize> = names
+        .iter()
+        .map(|n| {
+            m.waypoints
+                .iter()
+                .position(|w| w.name == *n)
+                .expect("a waypoint")
+        })
+        .collect();
+    assert_eq!(order, planned);
+    check_held(&m, &order, &held);
+    runtime.block_on(mock.shutdown()).expect("mock stops");
+}

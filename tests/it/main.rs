@@ -2,8 +2,8 @@
 
 mod actions;
 mod ardupilot;
-mod blocks_flight;
 mod block_files;
+mod blocks_flight;
 mod camera;
 mod cli;
 mod crashes;
