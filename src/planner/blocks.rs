@@ -322,14 +322,10 @@ pub fn stop_orders(
     };
     let tour: StopTour = clusters::solve(&matrix, &set.stops, options)?;
     let proof = Proof {
-        solver: solver::Solver::Auto,
+        solver: tour.solver,
         optimal: tour.optimal,
         lower_bound: tour.lower_bound,
-        gap_pct: if tour.cost > 0.0 {
-            100.0 * (tour.cost - tour.lower_bound).max(0.0) / tour.cost
-        } else {
-            0.0
-        },
+        gap_pct: tour.gap_pct,
         seconds: started.elapsed().as_secs_f64(),
     };
     if objective == Objective::Energy {

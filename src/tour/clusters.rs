@@ -23,7 +23,7 @@ use std::time::{Duration, Instant};
 
 use super::progress::{self, Event};
 use super::solver::{Options, Solver, AUTO_BRANCH_CUT_MAX_NODES};
-use super::{bound, branch_cut, held_karp, CostMatrix, PlanError, Tour};
+use super::{bound, branch_cut, held_karp, CostMatrix, PlanError};
 use crate::rng::Rng;
 
 /// One way to fly a stop: entered at node `entry`, left from node `exit`, costing `inner` in
@@ -70,7 +70,7 @@ pub struct StopTour {
     pub cost: f64,
     pub lower_bound: f64,
     pub optimal: bool,
-    /// `held-karp` (the direction-aware dynamic programme, or [`solve_by_ways`]),
+    /// `held-karp` (the direction-aware dynamic programme),
     /// `branch-cut` (Noon-Bean) or `heuristic` (local search and the DFJ bound).
     pub solver: Solver,
     /// Relative gap between the cost and the lower bound, in percent (0 when optimal).
@@ -93,12 +93,14 @@ pub fn tour_cost(m: &CostMatrix, stops: &[Stop], visits: &[Visit]) -> f64 {
 }
 
 /// Largest number of two-way stops whose ways [`solve_by_ways`] enumerates.
-pub const MAX_ENUMERATED_BLOCKS: usize = 10;
+#[cfg(test)]
+const MAX_ENUMERATED_BLOCKS: usize = 10;
 
 /// The optimal tour by trying every choice of ways (2^blocks of them) and solving each as an
 /// ordinary ATSP over the stops with Held-Karp: exact, for at most [`held_karp::MAX_NODES`]
 /// stops and [`MAX_ENUMERATED_BLOCKS`] two-way stops. A reference for [`solve`]'s solvers.
-pub fn solve_by_ways(m: &CostMatrix, stops: &[Stop]) -> Result<StopTour, PlanError> {
+#[cfg(test)]
+fn solve_by_ways(m: &CostMatrix, stops: &[Stop]) -> Result<StopTour, PlanError> {
     let started = Instant::now();
     let two_way: Vec<usize> = (0..stops.len())
         .filter(|&s| stops[s].ways.len() > 1)
@@ -125,7 +127,7 @@ pub fn solve_by_ways(m: &CostMatrix, stops: &[Stop]) -> Result<StopTour, PlanErr
                 _ => m.cost(exit, ways[j - 1].entry) + ways[j - 1].inner,
             }
         });
-        let Tour { order, cost, .. } = held_karp::solve(&fixed)?;
+        let super::Tour { order, cost, .. } = held_karp::solve(&fixed)?;
         if best.as_ref().is_none_or(|b| cost < b.cost) {
             best = Some(StopTour {
                 visits: order
