@@ -70,6 +70,7 @@ fn plan() -> FlightPlan {
         repricings: Vec::new(),
         priced_by: None,
         blocks: Vec::new(),
+        pack: None,
         guard: Some(GuardSetup {
             policy: Policy::Rtl,
             usable_j: 720_000.0,
@@ -85,6 +86,7 @@ fn plan() -> FlightPlan {
             return_to: Vec::new(),
             return_rule: None,
             via_home_j: Vec::new(),
+            start: None,
         }),
     }
 }

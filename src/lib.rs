@@ -7,6 +7,7 @@
 //! vehicle in, a priced and checked `Plan` out) ; `link` (MAVLink) and `sim` (mock autopilot).
 
 pub mod flightlog;
+pub mod ledger;
 pub mod link;
 pub mod logfit;
 pub mod mission;

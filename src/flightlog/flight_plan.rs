@@ -124,6 +124,31 @@ pub struct FlightPlan {
     /// files written before they were kept).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub blocks: Vec<PlannedBlock>,
+    /// The battery pack flown (`--pack`, or the one the autopilot names): absent when not
+    /// known, and from files written before it was kept.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pack: Option<PackUse>,
+}
+
+/// The pack a flight flies on, and what its battery check started from.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PackUse {
+    pub name: String,
+    pub source: PackSource,
+    /// The pack's capacity against its label that the battery check and the guard started
+    /// from (the ledger's estimate; None: the label).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub capacity_ratio: Option<f64>,
+}
+
+/// Who named the pack.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PackSource {
+    /// The user (`--pack`).
+    User,
+    /// The autopilot (SMART_BATTERY_INFO's serial number or device name).
+    Autopilot,
 }
 
 /// A block of the mission as the flight flies it: `points[first_point..=last_point]`, its inner
@@ -419,6 +444,7 @@ impl FlightPlan {
             repricings: Vec::new(),
             priced_by: None,
             blocks: planned_blocks(mission, order),
+            pack: None,
         };
         plan.validate()?;
         Ok(plan)

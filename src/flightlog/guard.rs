@@ -86,6 +86,25 @@ pub struct GuardSetup {
     /// via points (absent from plan.json then, and from files written before it was kept).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub via_home_j: Vec<Vec<f64>>,
+    /// What the guard starts from instead of the label and the bare model: the pack's capacity
+    /// and the vehicle's correction learned in earlier flights (the ledger). Absent: the label
+    /// and the prior (and in files written before it was kept).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start: Option<GuardStart>,
+}
+
+/// What earlier flights taught the guard before this one.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GuardStart {
+    /// The pack's capacity against its label, and the flights of that pack it was learned from
+    /// (1 and 0: not known).
+    pub capacity_ratio: f64,
+    pub pack_flights: usize,
+    /// The vehicle's measured over predicted, the standard deviation of its logarithm, and the
+    /// flights it was learned from (1, the prior's and 0: not known).
+    pub correction: f64,
+    pub correction_sd_ln: f64,
+    pub vehicle_flights: usize,
 }
 
 /// The prior's standard deviation of `ln(measured / predicted)`: wide enough that an airframe

@@ -71,6 +71,7 @@ pub fn square_plan() -> FlightPlan {
         repricings: Vec::new(),
         priced_by: None,
         blocks: Vec::new(),
+        pack: None,
     }
 }
 

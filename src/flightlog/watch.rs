@@ -722,6 +722,7 @@ mod tests {
             return_to: Vec::new(),
             return_rule: None,
             via_home_j: Vec::new(),
+            start: None,
         });
         plan
     }

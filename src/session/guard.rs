@@ -256,6 +256,7 @@ pub fn setup(
             .collect(),
         return_rule: Some(ret.describe()),
         via_home_j,
+        start: None,
     })
 }
 

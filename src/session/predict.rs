@@ -265,6 +265,7 @@ pub fn plan_from_items(
         repricings: Vec::new(),
         priced_by: model.map(priced_by),
         blocks: Vec::new(),
+        pack: None,
     };
     plan.validate()?;
     Ok(plan)

@@ -27,6 +27,7 @@ const LAYERS: &[(&str, u32)] = &[
     ("logfit", 3),
     ("link", 3),
     ("sim", 4),
+    ("ledger", 4),
     ("plot", 4),
     ("session", 5),
     ("service", 6),
