@@ -132,4 +132,7 @@ pub enum LedgerError {
     NewerSchema { at: String, found: u32, known: u32 },
     #[error("{path}: {message}")]
     Flight { path: String, message: String },
+    /// A flight's file that cannot be read (the error names the file, and its line or field).
+    #[error(transparent)]
+    FlightFile(#[from] crate::flightlog::FlightLogError),
 }
