@@ -62,6 +62,10 @@ pub struct FlightInputs<'a> {
     pub started_at: Option<&'a str>,
     /// The autopilot, when the caller knows it (an onboard log's format); else the plan says.
     pub autopilot: Option<&'a str>,
+    /// The pack's label and curve to fit its samples with when the plan has no guard setup
+    /// (an onboard log alone: the vehicle file's, `PackModel::of_vehicle`); the plan's setup
+    /// comes first.
+    pub pack_model: Option<&'a PackModel>,
 }
 
 /// The record of the flight directory `dir`: a pure function of its files.
@@ -105,6 +109,7 @@ pub fn from_dir(dir: &Path) -> Result<FlightRecord, LedgerError> {
         pack: (!series.voltage_v.is_empty()).then_some(&series),
         started_at: started_at.as_deref(),
         autopilot: None,
+        pack_model: None,
     }))
 }
 
@@ -282,7 +287,10 @@ pub fn pack_fit(pack: &PackModel, series: &PackSeries) -> Option<PackFit> {
 }
 
 /// The record of a flight already measured: its report, the plan it was measured against and
-/// its pack samples, read by the caller.
+/// its pack samples, read by the caller. An onboard log measured alone gives its samples as
+/// `PackSeries::of_samples(0, series.samples().iter().map(|s| (s, None)))` (its parts' span
+/// then bounds the charge drawn), its id as [`id_of`] its file's name and bytes, and its start
+/// as [`iso_of_wall_us`] of its first reading.
 pub fn of_flight(inputs: &FlightInputs) -> FlightRecord {
     let report = inputs.report;
     let plan = inputs.plan;
@@ -294,7 +302,9 @@ pub fn of_flight(inputs: &FlightInputs) -> FlightRecord {
         .or_else(|| plan.and_then(autopilot_of_plan));
     let priced_by = plan.and_then(|p| p.priced_by.as_ref());
     let wind = plan.and_then(|p| p.wind);
-    let model = plan.and_then(pack_model_of);
+    let model = plan
+        .and_then(pack_model_of)
+        .or_else(|| inputs.pack_model.cloned().and_then(PackModel::checked));
     let fit = inputs
         .pack
         .zip(model.as_ref())
