@@ -32,7 +32,8 @@ pub struct Estimate {
 pub struct PackSummary {
     pub name: String,
     pub flights: usize,
-    /// Equivalent full cycles: the charge drawn over all its flights against its label.
+    /// Equivalent full cycles: the charge drawn over all its flights against its label (0
+    /// while no flight of it has a pack fit, which gives the label).
     pub cycles: f64,
     pub charge_throughput_ah: f64,
     pub energy_throughput_wh: f64,

@@ -62,6 +62,10 @@ pub struct FlightInputs<'a> {
     pub started_at: Option<&'a str>,
     /// The autopilot, when the caller knows it (an onboard log's format); else the plan says.
     pub autopilot: Option<&'a str>,
+    /// The pack's label and curve to fit its samples with when the plan has no guard setup
+    /// (an onboard log alone: the vehicle file's, `PackModel::of_vehicle`); the plan's setup
+    /// comes first.
+    pub pack_model: Option<&'a PackModel>,
 }
 
 /// The record of the flight directory `dir`: a pure function of its files.
@@ -105,6 +109,7 @@ pub fn from_dir(dir: &Path) -> Result<FlightRecord, LedgerError> {
         pack: (!series.voltage_v.is_empty()).then_some(&series),
         started_at: started_at.as_deref(),
         autopilot: None,
+        pack_model: None,
     }))
 }
 
@@ -282,7 +287,10 @@ pub fn pack_fit(pack: &PackModel, series: &PackSeries) -> Option<PackFit> {
 }
 
 /// The record of a flight already measured: its report, the plan it was measured against and
-/// its pack samples, read by the caller.
+/// its pack samples, read by the caller. An onboard log measured alone gives its samples as
+/// `PackSeries::of_samples(0, series.samples().iter().map(|s| (s, None)))` (its parts' span
+/// then bounds the charge drawn), its id as [`id_of`] its file's name and bytes, and its start
+/// as [`iso_of_wall_us`] of its first reading.
 pub fn of_flight(inputs: &FlightInputs) -> FlightRecord {
     let report = inputs.report;
     let plan = inputs.plan;
@@ -294,7 +302,9 @@ pub fn of_flight(inputs: &FlightInputs) -> FlightRecord {
         .or_else(|| plan.and_then(autopilot_of_plan));
     let priced_by = plan.and_then(|p| p.priced_by.as_ref());
     let wind = plan.and_then(|p| p.wind);
-    let model = plan.and_then(pack_model_of);
+    let model = plan
+        .and_then(pack_model_of)
+        .or_else(|| inputs.pack_model.cloned().and_then(PackModel::checked));
     let fit = inputs
         .pack
         .zip(model.as_ref())
@@ -375,5 +385,90 @@ mod tests {
             err.contains(&format!("emplan report {}", dir.display())),
             "{err}"
         );
+    }
+
+    /// A report from its JSON view: parts `(kind, from, to, start_s)`.
+    fn report(parts: &[(&str, &str, &str, f64)], complete: bool, returned: bool) -> FlightReport {
+        let part = |(_, from, to, start): &(&str, &str, &str, f64)| {
+            serde_json::json!({"from": from, "to": to, "predicted_kj": 2.0, "measured_kj": 2.5,
+                "error_pct": 25.0, "duration_s": 5.0, "predicted_duration_s": null,
+                "consumed_kj": null, "start_s": start, "end_s": start + 5.0, "coverage": 1.0,
+                "flags": []})
+        };
+        let of = |kind: &str| -> Vec<serde_json::Value> {
+            parts.iter().filter(|p| p.0 == kind).map(part).collect()
+        };
+        let one = |kind: &str| of(kind).into_iter().next();
+        let json = serde_json::json!({
+            "flight": "f", "legs": of("leg"), "hovers": of("hover"), "settles": of("settle"),
+            "takeoff": one("takeoff"), "landing": one("landing"), "return": one("return"),
+            "return_to": returned.then_some("rally point 1"),
+            "total": {"predicted_kj": 10.0, "measured_kj": 12.0, "error_pct": null, "duration_s": 60.0},
+            "complete": complete, "waypoints_left": if returned { vec!["B"] } else { vec![] },
+            "flags": [],
+            "guard": {"policy": "rtl", "notes": [], "correction": 1.2, "capacity_ratio": 0.9,
+                "state_of_charge_at_takeoff": 0.95, "returned": returned}
+        });
+        FlightReport::from_json(&serde_json::from_value(json).expect("a report"))
+    }
+
+    #[test]
+    fn the_parts_come_in_flight_order_and_the_outcome_from_the_report() {
+        // Listed by kind out of order; flown: take-off, A (leg, settle, hover), B's leg, home.
+        let flown = [
+            ("hover", "A", "A", 20.0),
+            ("leg", "origin", "A", 10.0),
+            ("leg", "A", "B", 25.0),
+            ("settle", "A", "A", 15.0),
+            ("takeoff", "ground", "origin", 0.0),
+            ("return", "A", "ground", 30.0),
+        ];
+        let sent_home = report(&flown, true, true);
+        let parts = parts_of(&sent_home);
+        let order: Vec<(&str, &str)> = parts
+            .iter()
+            .map(|p| (p.kind.as_str(), p.name.as_str()))
+            .collect();
+        assert_eq!(
+            order,
+            [
+                ("takeoff", ""),
+                ("leg", "A"),
+                ("settle", "A"),
+                ("hover", "A"),
+                ("leg", "B"),
+                ("return", "rally point 1")
+            ]
+        );
+        assert!(parts.iter().enumerate().all(|(k, p)| p.index as usize == k));
+        assert_eq!(parts[1].predicted_j, Some(2000.0));
+        assert_eq!(parts[1].measured_j, Some(2500.0));
+        assert_eq!(outcome_of(&sent_home), Outcome::Returned);
+        assert_eq!(outcome_of(&report(&flown, false, true)), Outcome::CutOff);
+        let mut landed = flown.to_vec();
+        landed[5] = ("landing", "origin", "ground", 30.0);
+        assert_eq!(
+            outcome_of(&report(&landed, true, false)),
+            Outcome::Completed
+        );
+        let mut left = report(&landed, true, false);
+        left.waypoints_left = vec!["C".into()];
+        assert_eq!(outcome_of(&left), Outcome::Incomplete);
+        // What the guard learned comes with the record.
+        let record = of_flight(&FlightInputs {
+            id: "f-0",
+            source: FlightSource::Directory,
+            path: "f",
+            plan: None,
+            report: &sent_home,
+            pack: None,
+            started_at: None,
+            autopilot: None,
+            pack_model: None,
+        });
+        let guard = record.guard.expect("the guard's");
+        assert_eq!((guard.correction, guard.returned), (1.2, true));
+        assert_eq!(record.pack_fit, None);
+        assert_eq!(record.mission, "f");
     }
 }

@@ -4,12 +4,14 @@
 //!
 //! Model (the physics model's lumped pack, `physics::powertrain`; the mock's `sim::battery`):
 //! V = OCV(SOC) - R I with SOC = SOC0 - Q / C, Q the charge drawn since the flight's first
-//! sample (trapezoid of the measured current over vehicle time). The OCV curve is the vehicle
-//! file's (`battery.ocv_soc`, `ocv_cell_v`): the fit is as good as that curve. Each flight's
-//! starting state of charge SOC0 is unknown (a pack is not always full) and fitted per flight by
-//! golden-section search; R and C are shared and fitted by Nelder-Mead on the squared voltage
-//! residuals. Only the primary battery's samples with a measured voltage and current count (not
-//! PX4 SITL's fake current).
+//! sample (trapezoid of the measured current over vehicle time). The pack (its label, its
+//! resistance to start from and its OCV curve: [`PackModel`]) is the vehicle file's
+//! (`battery.ocv_soc`, `ocv_cell_v`) for `calibrate`, or the one a flight was flown with (its
+//! plan.json's guard setup) for the ledger's fit of one flight ([`fit_flight`], with standard
+//! errors): the fit is as good as that curve. Each flight's starting state of charge SOC0 is
+//! unknown (a pack is not always full) and fitted per flight by golden-section search; R and C
+//! are shared and fitted by Nelder-Mead on the squared voltage residuals. Only the primary
+//! battery's samples with a measured voltage and current count (not PX4 SITL's fake current).
 
 use std::path::Path;
 
@@ -94,7 +96,7 @@ impl PackSeries {
             return None;
         }
         let step = |k: usize| self.drawn_as[k] - self.drawn_as[k - 1];
-        let armed = self.armed.iter().any(|a| *a == Some(true));
+        let armed = self.armed.contains(&Some(true));
         let counts = |k: usize| -> bool {
             if armed {
                 self.armed[k] == Some(true) && self.armed[k - 1] == Some(true)
@@ -380,17 +382,12 @@ pub fn fit_flight(pack: &PackModel, series: &PackSeries) -> Option<FlightPackFit
         let capacity_as = x[1] * 3600.0;
         let mut a = [[0.0; 3]; 3];
         let mut g = [0.0; 3];
-        for k in 0..n {
-            let q = series.drawn_as[k];
+        for ((&q, &i), &ek) in series.drawn_as.iter().zip(&series.current_a).zip(e) {
             let slope = pack.slope_v(x[2] - q / capacity_as);
             // Derivatives of the model voltage; C in Ah (q / C^2 with C in A s, times 3600).
-            let j = [
-                -series.current_a[k],
-                slope * q / (capacity_as * x[1]),
-                slope,
-            ];
+            let j = [-i, slope * q / (capacity_as * x[1]), slope];
             for r in 0..3 {
-                g[r] += j[r] * e[k];
+                g[r] += j[r] * ek;
                 for c in 0..3 {
                     a[r][c] += j[r] * j[c];
                 }
@@ -575,7 +572,11 @@ mod tests {
             let mut q = 0.0;
             let mut k = 0usize;
             while q < share * c_as {
-                let i = if (k / 150) % 4 == 0 { 5.0 } else { 45.0 };
+                let i = if (k / 150).is_multiple_of(4) {
+                    5.0
+                } else {
+                    45.0
+                };
                 out.push((q, i));
                 q += i * 0.1;
                 k += 1;

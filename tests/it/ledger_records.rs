@@ -5,9 +5,13 @@
 
 use std::path::{Path, PathBuf};
 
+use emplan::flightlog::csv::read_samples;
+use emplan::flightlog::recorder::read_report;
 use emplan::ledger::packs::{pack_prior, summarise};
-use emplan::ledger::record::from_dir;
-use emplan::ledger::{FlightRecord, Outcome};
+use emplan::ledger::record::{from_dir, of_flight, FlightInputs};
+use emplan::ledger::{FlightRecord, FlightSource, Outcome};
+use emplan::logfit::battery::{PackModel, PackSeries};
+use emplan::physics::Vehicle;
 
 use super::service::root;
 
@@ -191,6 +195,33 @@ fn three_mock_flights_on_a_weaker_pack_find_its_capacity_within_three_percent() 
                 ..again
             },
             record
+        );
+        // The same flight measured alone, as an onboard log imported without its plan: fitted
+        // with the vehicle file's pack (the same label and curve as the plan's setup).
+        let report = read_report(&dir).unwrap();
+        let rows = read_samples(&dir.join("samples.csv")).unwrap();
+        let series = PackSeries::of_samples(0, rows.iter().map(|r| (&r.sample, None)));
+        let vehicle = Vehicle::load(&root().join("models/s1000")).unwrap();
+        let model = PackModel::of_vehicle(&vehicle);
+        let alone = of_flight(&FlightInputs {
+            id: "alone",
+            source: FlightSource::Ulog,
+            path: "alone.ulg",
+            plan: None,
+            report: &report,
+            pack: Some(&series),
+            started_at: None,
+            autopilot: Some("px4"),
+            pack_model: Some(&model),
+        });
+        assert_eq!(alone.pack_fit, record.pack_fit);
+        assert_eq!((alone.vehicle, alone.pack), (None, None));
+        assert_eq!(alone.parts, record.parts);
+        // Its charge over its parts' span (no arming said): about the charge armed.
+        let alone_ah = alone.charge_ah.unwrap();
+        assert!(
+            (alone_ah / charge - 1.0).abs() < 0.02,
+            "{alone_ah} {charge}"
         );
         records.push(record);
     }
