@@ -58,7 +58,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     flying::finish(fly_mission(args), json)
 }
 
-fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
+fn fly_mission(mut args: Args) -> anyhow::Result<ExitCode> {
     let service = args.service.client()?;
     args.mock.check(service.is_some())?;
     let timeout = super::seconds("timeout-s", args.timeout_s)?;
@@ -74,6 +74,10 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
     let resumed = (args.resume.as_deref()).map(|d| resuming(&mission, d, &args.log_dir));
     let resumed = resumed.transpose()?;
     let mission = resumed.as_ref().map_or(mission, |(_, left)| left.clone());
+    args.flight.learn(&args.log_dir)?;
+    if let (Some(pack), false) = (&args.flight.on_pack, args.json) {
+        eprintln!("{}", pack.line());
+    }
     let (model, planned) = args.flight.plan_first(&mission)?;
     let builtin = args.link.connect.is_none();
     let mock = args
@@ -99,7 +103,8 @@ fn fly_mission(args: Args) -> anyhow::Result<ExitCode> {
             live_wind: args.flight.live_wind().then_some(&model),
             ..(args.flight).load(&mission, &plan, &flight, &model.vehicle)
         };
-        let recorder = session.recorder(RecorderConfig::new(&args.log_dir));
+        let recorder = session
+            .recorder(RecorderConfig::new(&args.log_dir).with_ledger(args.flight.pack.given()));
         let options = FlyOptions {
             arm: args.arm || builtin,
             timeout,

@@ -49,6 +49,10 @@ pub struct MockArgs {
     /// prices the rest of the flight again on)
     #[arg(long, value_name = "T_S=SPEED@FROM_DEG")]
     mock_wind_change: Option<emplan::sim::WindChange>,
+    /// Built-in mock only (for tests): the serial number its smart battery gives in
+    /// SMART_BATTERY_INFO, the pack's name without --pack
+    #[arg(long, value_name = "SERIAL", hide = true)]
+    mock_pack_serial: Option<u32>,
 }
 
 impl MockArgs {
@@ -90,6 +94,9 @@ impl MockArgs {
                 .with_context(|| format!("--mock-vehicle {}", dir.display()))?,
             None => planned.clone(),
         };
+        if self.mock_pack_serial.is_some() && !builtin {
+            anyhow::bail!("--mock-pack-serial is for the built-in mock (no --connect)");
+        }
         if (self.mock_wind.is_some() || self.mock_wind_change.is_some()) && !builtin {
             anyhow::bail!(
                 "--mock-wind and --mock-wind-change are for the built-in mock (no --connect)"
@@ -106,6 +113,7 @@ impl MockArgs {
             seed: self.mock_seed,
             loss: self.mock_loss,
             signing_key: None,
+            pack_serial: self.mock_pack_serial,
         })
     }
 

@@ -10,6 +10,7 @@ pub mod fly;
 pub mod flying;
 pub mod generate;
 pub mod mock_autopilot;
+pub mod pack;
 pub mod plan;
 pub mod plot;
 pub mod progress;
@@ -22,6 +23,10 @@ pub mod study;
 pub mod table;
 pub mod tsp;
 pub mod upload;
+
+/// Where `fly`, `record` and `serve` make flight directories unless `--log-dir` says (and so
+/// where the ledger is by default).
+pub const DEFAULT_LOG_DIR: &str = "flights";
 
 /// The tokio runtime of every command that talks to an autopilot: one thread, so the link's
 /// receive task hands each message to the transfer without a cross-thread wake-up (measured:
@@ -238,6 +243,20 @@ pub struct FlightArgs {
     /// none within 10 s)
     #[arg(long, value_name = "SPEED@FROM_DEG|live", allow_hyphen_values = true)]
     pub wind: Option<WindArg>,
+    #[command(flatten)]
+    pub pack: pack::PackArgs,
+    /// The pack named and what the ledger taught of it, read before planning
+    /// ([`FlightArgs::learn`]): the vehicle is planned on it.
+    #[arg(skip)]
+    pub on_pack: Option<pack::Pack>,
+    /// plan.json's pack and the guard's start, from `on_pack`.
+    #[arg(skip)]
+    pack_used: Option<emplan::flightlog::flight_plan::PackUse>,
+    #[arg(skip)]
+    guard_start: Option<emplan::flightlog::guard::GuardStart>,
+    /// The ledger learned from (`--ledger`, else the log directory's).
+    #[arg(skip)]
+    ledger: Option<emplan::ledger::LedgerSpec>,
 }
 
 /// `--wind`: a steady wind given, or (`live`) the vehicle's own estimate.
@@ -287,6 +306,17 @@ impl FlightArgs {
             Some(WindArg::Live) | None => emplan::physics::Wind::CALM,
         };
         Ok(self.model.model()?.with_wind(wind))
+    }
+
+    /// Reads what the ledger knows of the pack named (`--pack`; `log_dir`'s ledger unless
+    /// `--ledger`), before anything is planned.
+    pub fn learn(&mut self, log_dir: &std::path::Path) -> anyhow::Result<()> {
+        let vehicle = self.model.vehicle()?;
+        self.on_pack = self.pack.learned(log_dir, &vehicle.name)?;
+        self.ledger = Some(self.pack.spec(log_dir));
+        self.pack_used = self.on_pack.as_ref().map(pack::Pack::used);
+        self.guard_start = (self.on_pack.as_ref()).and_then(|p| p.learned.guard_start());
+        Ok(())
     }
 
     /// Whether the wind is read from the vehicle (`--wind live`).
@@ -341,21 +371,28 @@ impl FlightArgs {
         mission: &emplan::mission::Mission,
     ) -> anyhow::Result<(emplan::physics::VehicleModel, emplan::planner::Plan)> {
         let model = self.vehicle_model()?;
-        let (choice, solver) = (self.choice(), self.solver.options()?);
-        let plan = progress::solving(&format!("planning {}", mission.name), || {
-            choice.plan(mission, &model, solver)
-        })?;
+        let plan = self.plan_with(mission, &model)?;
         Ok((model, plan))
     }
 
     /// Plans `mission` with `model` (the vehicle chosen once, before a re-planning from the
-    /// vehicle's home).
+    /// vehicle's home), its battery on the pack named ([`FlightArgs::learn`]).
     pub fn plan_with(
         &self,
         mission: &emplan::mission::Mission,
         model: &emplan::physics::VehicleModel,
     ) -> anyhow::Result<emplan::planner::Plan> {
         let (choice, solver) = (self.choice(), self.solver.options()?);
+        // The battery check (and a split into sorties) on the pack named, as the ledger
+        // learned it; everything else on the vehicle file's.
+        let on_pack = self
+            .on_pack
+            .as_ref()
+            .map(|p| emplan::physics::VehicleModel {
+                vehicle: p.learned.on_pack(&model.vehicle),
+                ..model.clone()
+            });
+        let model = on_pack.as_ref().unwrap_or(model);
         Ok(progress::solving(
             &format!("planning {}", mission.name),
             || choice.plan(mission, model, solver),
@@ -413,7 +450,7 @@ impl ServiceArgs {
 impl FlightArgs {
     /// What goes onto the vehicle: `flight` of `plan` (of `mission`), planned with `vehicle`.
     pub fn load<'a>(
-        &self,
+        &'a self,
         mission: &'a emplan::mission::Mission,
         plan: &'a emplan::planner::Plan,
         flight: &'a emplan::planner::Flight<'a>,
@@ -429,6 +466,9 @@ impl FlightArgs {
             guard: emplan::flightlog::watch::Policy::Off,
             if_home_unknown: emplan::session::IfHomeUnknown::asked(self.plan_origin()),
             live_wind: None,
+            pack: self.pack_used.as_ref(),
+            guard_start: self.guard_start.as_ref(),
+            ledger: self.ledger.as_ref(),
         }
     }
 
@@ -504,6 +544,7 @@ impl FlightArgs {
     pub fn service_request(&self) -> anyhow::Result<emplan::service::wire::UploadRequest> {
         Ok(emplan::service::wire::UploadRequest {
             origin: self.plan_origin(),
+            pack: self.pack.name()?,
             ..emplan::service::wire::UploadRequest::new(
                 &self.choice(),
                 self.acceptance_radius_m,

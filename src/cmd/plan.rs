@@ -53,6 +53,8 @@ pub struct Args {
     /// one
     #[arg(long, value_name = "SPEED@FROM_DEG", allow_hyphen_values = true)]
     wind: Option<emplan::physics::Wind>,
+    #[command(flatten)]
+    pack: super::pack::PackArgs,
 }
 
 /// TSPLIB export scale: costs in units of 0.1 J, so that a tour of thousands of legs stays
@@ -83,10 +85,17 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         .as_ref()
         .map(|p| output(p, &args.export_atsp))
         .transpose()?;
-    let model = args
+    let mut model = args
         .model
         .model()?
         .with_wind(args.wind.unwrap_or(emplan::physics::Wind::CALM));
+    // The battery checked on the pack named, as the ledger learned it (`fly`'s default log
+    // directory's ledger unless --ledger).
+    let log_dir = std::path::Path::new(super::DEFAULT_LOG_DIR);
+    let pack = args.pack.learned(log_dir, &model.vehicle.name)?;
+    if let Some(pack) = &pack {
+        model.vehicle = pack.learned.on_pack(&model.vehicle);
+    }
     let options = PlanOptions {
         orders: match args.order {
             None => Orders::All,
@@ -107,7 +116,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         out.write(text.as_bytes())?;
         eprintln!("wrote {}", out.path.display());
     }
-    let doc = mission_document(&plan, &mission);
+    let mut doc = mission_document(&plan, &mission);
+    if let Some(pack) = &pack {
+        doc.battery = pack.battery(doc.battery);
+    }
     if !args.sorties {
         warn_if_over_budget(&args.mission, &doc.battery);
     }
@@ -122,6 +134,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         println!("{}", serde_json::to_string_pretty(&doc)?);
     } else {
         print_table(&plan, &doc, &mission);
+        if let Some(pack) = &pack {
+            println!("{}", pack.line());
+        }
         if let Some(r) = &plan.returns {
             let to: Vec<String> = r
                 .from

@@ -31,6 +31,8 @@ pub struct Args {
     /// is only warned about (no rtl)
     #[arg(long, value_name = "POLICY", default_value = "warn")]
     guard: Policy,
+    #[command(flatten)]
+    pack: super::pack::PackArgs,
     /// Print one JSON document (the report) instead of text
     #[arg(long)]
     json: bool,
@@ -50,10 +52,15 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         .transpose()?;
     let model = args.model.model()?;
     emplan::flightlog::recorder::check_log_dir(&args.log_dir)?;
+    let pack = args.pack.learned(&args.log_dir, &model.vehicle.name)?;
+    let guard_start = pack.as_ref().and_then(|p| p.learned.guard_start());
     super::runtime()?.block_on(async {
         let opened = args.link.open().await?;
         let (link, target) = (&opened.link, opened.target);
-        let recorder = spawn_recorder(link, RecorderConfig::new(&args.log_dir));
+        let recorder = spawn_recorder(
+            link,
+            RecorderConfig::new(&args.log_dir).with_ledger(args.pack.given()),
+        );
         // Subscribed before asking for the streams: connecting and asking took 1.3 s on
         // ArduCopter SITL, and a vehicle armed meanwhile must not be missed.
         let mut events = recorder.subscribe();
@@ -79,9 +86,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                         let known = Known::Named(mission.as_ref());
                         match held_flight_plan(link, &target, opened.transfer, known, &model).await {
                             Ok(mut plan) => {
+                                plan.pack = pack.as_ref().map(super::pack::Pack::used);
                                 if args.guard != Policy::Off {
                                     match emplan::session::guard::setup(&model.vehicle, model.profile, target.flavour, &plan, args.guard, &autopilot_return, model.wind) {
-                                        Ok(setup) => plan.guard = Some(setup),
+                                        Ok(setup) => plan.guard = Some(emplan::flightlog::guard::GuardSetup { start: guard_start.clone(), ..setup }),
                                         Err(e) => eprintln!("the energy guard cannot price the way home: {e}; not guarding this flight"),
                                     }
                                 }

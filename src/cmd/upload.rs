@@ -82,7 +82,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     }
 }
 
-fn upload(args: Args) -> anyhow::Result<ExitCode> {
+fn upload(mut args: Args) -> anyhow::Result<ExitCode> {
     if let Some(client) = args.service.client()? {
         return upload_through(&args, &client);
     }
@@ -94,6 +94,13 @@ fn upload(args: Args) -> anyhow::Result<ExitCode> {
         anyhow::bail!(
             "--wind live: only fly reads the wind from the vehicle; upload takes --wind SPEED@FROM_DEG"
         );
+    }
+    // Checked on the pack named as `fly` checks it (the ledger in `fly`'s default log
+    // directory unless --ledger).
+    args.flight
+        .learn(std::path::Path::new(super::DEFAULT_LOG_DIR))?;
+    if let (Some(pack), false) = (&args.flight.on_pack, args.json) {
+        eprintln!("{}", pack.line());
     }
     let (model, planned) = args.flight.plan_first(&mission)?;
     let runtime = super::runtime()?;

@@ -150,10 +150,32 @@ impl Correction {
         }
     }
 
-    /// The correction learned from the parts flown; `typical_j` is the energy of a typical part
-    /// of the plan (a part of that energy counts with weight 1, a shorter one less). Parts with a
-    /// non-positive or non-finite energy are left out (unmeasured, or not a part at all).
+    /// A prior centred on `ratio` with `sd_ln` (what earlier flights of the vehicle learned:
+    /// the ledger's), no part flown yet. A ratio or spread that is not a positive finite number
+    /// gives [`Correction::prior`].
+    pub fn starting(ratio: f64, sd_ln: f64) -> Correction {
+        if !(ratio.is_finite() && ratio > 0.0 && sd_ln.is_finite() && sd_ln > 0.0) {
+            return Correction::prior();
+        }
+        Correction {
+            ratio,
+            sd_ln,
+            parts: 0,
+            outliers: 0,
+        }
+    }
+
+    /// The correction learned from the parts flown, from [`Correction::prior`]; `typical_j` is
+    /// the energy of a typical part of the plan (a part of that energy counts with weight 1, a
+    /// shorter one less). Parts with a non-positive or non-finite energy are left out
+    /// (unmeasured, or not a part at all).
     pub fn learn(parts: &[Observed], typical_j: f64) -> Correction {
+        Correction::prior().learn_from(parts, typical_j)
+    }
+
+    /// [`Correction::learn`] from this correction as the prior (its ratio and `sd_ln`; the
+    /// parts it counted are not counted again).
+    pub fn learn_from(&self, parts: &[Observed], typical_j: f64) -> Correction {
         let typical_j = if typical_j.is_finite() && typical_j > 0.0 {
             typical_j
         } else {
@@ -172,18 +194,20 @@ impl Correction {
                 ((p.measured_j / p.predicted_j).ln(), weight)
             })
             .collect();
+        let prior = Correction::starting(self.ratio, self.sd_ln);
         if obs.is_empty() {
-            return Correction::prior();
+            return prior;
         }
-        let prior_precision = PRIOR_SD_LN.powi(-2);
+        let prior_precision = prior.sd_ln.powi(-2);
+        let prior_num = prior.ratio.ln() * prior_precision;
         let part_precision = PART_SD_LN.powi(-2);
         // Iteratively reweighted: the estimate, then each part's Huber weight against the
         // estimate of the others, until it settles.
         let mut huber = vec![1.0; obs.len()];
-        let mut mean = 0.0;
+        let mut mean = prior.ratio.ln();
         let mut precision = prior_precision;
         for _ in 0..50 {
-            let (mut num, mut prec) = (0.0, prior_precision);
+            let (mut num, mut prec) = (prior_num, prior_precision);
             for ((x, w), h) in obs.iter().zip(&huber) {
                 num += x * w * h * part_precision;
                 prec += w * h * part_precision;
@@ -431,6 +455,30 @@ mod tests {
         let c = Correction::learn(&parts(&scatter.map(|s| s * truth), 4000.0), 4000.0);
         assert!(c.sd_ln < 0.04, "{c:?}");
         assert_eq!(c.outliers, 0);
+    }
+
+    #[test]
+    fn a_correction_learned_before_is_the_prior_the_parts_move_from() {
+        // Earlier flights: the vehicle costs 1.3 times the model, known to 5%.
+        let before = Correction::starting(1.3, 0.05);
+        assert_eq!(before.learn_from(&[], 4000.0), before);
+        // One part at the model's price moves it less than it moves the wide prior.
+        let one = parts(&[1.0], 4000.0);
+        let from_before = before.learn_from(&one, 4000.0);
+        let from_prior = Correction::learn(&one, 4000.0);
+        assert!(
+            from_before.ratio > 1.15 && from_before.ratio < 1.3,
+            "{from_before:?}"
+        );
+        assert!(from_prior.ratio < 1.02, "{from_prior:?}");
+        assert!(from_before.sd_ln < 0.05);
+        // Many parts at 1.0 outweigh it.
+        let many = before.learn_from(&parts(&[1.0; 40], 4000.0), 4000.0);
+        assert!(many.ratio < 1.05, "{many:?}");
+        // The bare prior is the model's, and nonsense is not a prior.
+        assert_eq!(Correction::prior().learn_from(&one, 4000.0), from_prior);
+        assert_eq!(Correction::starting(f64::NAN, 0.1), Correction::prior());
+        assert_eq!(Correction::starting(1.2, 0.0), Correction::prior());
     }
 
     #[test]

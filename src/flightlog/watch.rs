@@ -11,7 +11,9 @@
 //!   current drawn through the pack's internal resistance) through its OCV curve, and its real
 //!   capacity, learned in flight from the charge drawn against the fall of that state of charge
 //!   (an aged or smaller pack is noticed once a tenth of it is spent; a pack is never assumed
-//!   larger than its label).
+//!   larger than its label). What earlier flights taught ([`GuardSetup`]'s `start`: the
+//!   ledger's capacity of the pack and correction of the vehicle) is where both start, so the
+//!   first legs are judged with them; a replay reads them from plan.json.
 //! - The rest: the plan's price of every stage still ahead (take-off, each leg, settle and hover,
 //!   the landing; the stage in progress by its share still to fly), and of the autopilot's
 //!   return from each point ([`GuardSetup::home_j`]; on a leg round a fence zone, through the
@@ -130,6 +132,12 @@ pub struct Watch {
     soc0: Option<f64>,
     recent_soc: std::collections::VecDeque<f64>,
     capacity_ratio: f64,
+    /// The capacity ratio the guard starts from (the ledger's for the pack, else 1), which the
+    /// capacity measured in flight moves from.
+    start_capacity_ratio: f64,
+    /// The correction before any part is flown (the vehicle's from earlier flights, else the
+    /// model's).
+    prior: Correction,
     correction: Correction,
     learned_parts: usize,
     last_update_s: f64,
@@ -253,6 +261,18 @@ impl Watch {
         let via_homes = (0..plan.points.len())
             .map(|k| via_homes(plan, &setup, k))
             .collect();
+        // What earlier flights taught: the pack's capacity (never above its label) and the
+        // vehicle's correction.
+        let start_capacity_ratio = (setup.start.as_ref())
+            .map(|s| s.capacity_ratio)
+            .filter(|r| r.is_finite() && *r > 0.0)
+            .map_or(1.0, |r| r.min(1.0));
+        let prior = match &setup.start {
+            Some(s) if s.vehicle_flights > 0 => {
+                Correction::starting(s.correction, s.correction_sd_ln)
+            }
+            _ => Correction::prior(),
+        };
         Some(Watch {
             via_homes,
             setup,
@@ -266,8 +286,10 @@ impl Watch {
             charge_as: 0.0,
             soc0: None,
             recent_soc: Default::default(),
-            capacity_ratio: 1.0,
-            correction: Correction::prior(),
+            capacity_ratio: start_capacity_ratio,
+            start_capacity_ratio,
+            correction: prior.clone(),
+            prior,
             learned_parts: 0,
             last_update_s: f64::NEG_INFINITY,
             verdict: None,
@@ -375,7 +397,8 @@ impl Watch {
     }
 
     /// The pack's capacity against its label, from the charge drawn and the fall of the state
-    /// of charge; 1 until a tenth of the pack is spent, never above 1.
+    /// of charge; what it started from (1, or the ledger's) until a tenth of the pack is spent,
+    /// never above 1.
     fn learn_capacity(&mut self) {
         let (Some(soc0), false) = (self.soc0, self.recent_soc.is_empty()) else {
             return;
@@ -392,7 +415,7 @@ impl Watch {
         let w = ((spent - CAPACITY_FROM_SOC) / (CAPACITY_FULL_SOC - CAPACITY_FROM_SOC))
             .clamp(0.0, 1.0)
             .max(0.5);
-        self.capacity_ratio = ((1.0 - w) + w * measured).min(1.0);
+        self.capacity_ratio = ((1.0 - w) * self.start_capacity_ratio + w * measured).min(1.0);
     }
 
     /// Looks again after a reading: `completed` are the parts flown so far with their measured
@@ -425,7 +448,7 @@ impl Watch {
                     })
                 })
                 .collect();
-            self.correction = Correction::learn(&observed, self.typical_j);
+            self.correction = self.prior.learn_from(&observed, self.typical_j);
         }
         self.learn_capacity();
         let Some((kind, started_s)) = in_progress else {
@@ -668,6 +691,7 @@ impl Watch {
 mod tests {
     use super::*;
     use crate::flightlog::flight_plan::{Predicted, PredictedLeg};
+    use crate::flightlog::guard::PRIOR_SD_LN;
     use crate::flightlog::segment::{SegmentConfig, Segmenter};
     use crate::flightlog::synthetic::{square_plan, SyntheticConfig, SyntheticFlight};
     use crate::flightlog::telemetry::{Reading, Stamped};
@@ -872,6 +896,69 @@ mod tests {
             "{less_kj} kJ less, the rest {extra_j} J dearer"
         );
         assert!(after.1.left_if_home_now_kj < after.0.left_if_home_now_kj);
+    }
+
+    /// `plan` starting from what earlier flights taught: a pack of `capacity_ratio` and a
+    /// vehicle costing `correction` times the model (known to `sd_ln`; 0 vehicle flights
+    /// when `correction` is None).
+    fn started(
+        mut plan: crate::flightlog::flight_plan::FlightPlan,
+        capacity_ratio: f64,
+        correction: Option<(f64, f64)>,
+    ) -> crate::flightlog::flight_plan::FlightPlan {
+        let (c, sd, flights) = correction.map_or((1.0, 0.7, 0), |(c, sd)| (c, sd, 4));
+        if let Some(g) = plan.guard.as_mut() {
+            g.start = Some(crate::flightlog::guard::GuardStart {
+                capacity_ratio,
+                pack_flights: 3,
+                correction: c,
+                correction_sd_ln: sd,
+                vehicle_flights: flights,
+            });
+        }
+        plan
+    }
+
+    #[test]
+    fn a_guard_starting_from_a_pack_of_085_judges_its_first_verdict_with_it() {
+        let label = plan(2_000_000.0, Policy::Warn);
+        let aged = started(label.clone(), 0.85, None);
+        let flight = SyntheticFlight::fly(&label, &SyntheticConfig::default());
+        let takeoff = flight.part(SegmentKind::Takeoff).expect("a take-off");
+        // The first view, early in the take-off: far less than a tenth of the pack spent.
+        let t_s = takeoff.start_s + 1.0;
+        let (l, a) = (view_at(&label, &flight, t_s), view_at(&aged, &flight, t_s));
+        assert!(l.drawn_kj < 0.1 * l.pack_kj, "{l:?}");
+        assert_eq!((l.capacity_ratio, a.capacity_ratio), (1.0, 0.85));
+        assert!((a.pack_kj / l.pack_kj - 0.85).abs() < 1e-9, "{a:?} {l:?}");
+        assert!((a.reserve_kj / l.reserve_kj - 0.85).abs() < 1e-9);
+        assert!(a.left_at_landing_kj < l.left_at_landing_kj);
+        // No vehicle learned: the model's prior.
+        assert_eq!((a.correction, a.correction_sd_ln), (1.0, PRIOR_SD_LN));
+        // The report keeps the capacity it measured from there: never above the label.
+        let s = flown(&aged, 1.0, |_, _| {});
+        let report = s.watch().expect("guarded").report();
+        assert!(report.capacity_ratio <= 1.0, "{report:?}");
+    }
+
+    #[test]
+    fn a_guard_starting_from_the_vehicles_correction_warns_before_any_part_is_flown() {
+        // A pack on which the plan lands with about a third left at the model's price: at 1.6
+        // times it, below the reserve.
+        let total = nominal_total_j();
+        let tight = plan(total * 1.5, Policy::Warn);
+        let learned = started(tight.clone(), 1.0, Some((1.6, 0.05)));
+        let flight = SyntheticFlight::fly(&tight, &SyntheticConfig::default());
+        let takeoff = flight.part(SegmentKind::Takeoff).expect("a take-off");
+        let t_s = takeoff.start_s + 1.0;
+        let (bare, start) = (
+            view_at(&tight, &flight, t_s),
+            view_at(&learned, &flight, t_s),
+        );
+        assert_eq!((bare.parts_learned, start.parts_learned), (0, 0));
+        assert_eq!(bare.verdict, "continue");
+        assert_eq!(start.verdict, "below_reserve", "{start:?}");
+        assert_eq!((start.correction, start.correction_sd_ln), (1.6, 0.05));
     }
 
     #[test]

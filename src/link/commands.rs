@@ -105,6 +105,33 @@ pub async fn capabilities(
         .unwrap_or_else(super::support::Capabilities::undeclared))
 }
 
+impl CommandMachine for super::pack::AskPack {
+    fn start(&mut self, now: Duration) -> Vec<MavMessage> {
+        super::pack::AskPack::start(self, now)
+    }
+    fn handle(&mut self, now: Duration, message: &MavMessage) -> Vec<MavMessage> {
+        super::pack::AskPack::handle(self, now, message)
+    }
+    fn tick(&mut self, now: Duration) -> Vec<MavMessage> {
+        super::pack::AskPack::tick(self, now)
+    }
+    fn done(&self) -> bool {
+        self.finished().is_some()
+    }
+}
+
+/// The name `target`'s pack gives itself (SMART_BATTERY_INFO's serial number, else its device
+/// name), None when it names none within `cfg`'s budget ([`super::pack`]).
+pub async fn pack_named(
+    link: &Link,
+    target: &Autopilot,
+    cfg: super::pack::AskPackConfig,
+) -> Result<Option<String>, LinkError> {
+    let mut machine = super::pack::AskPack::new(*target, cfg);
+    drive(link, target, &mut machine).await?;
+    Ok(machine.finished().flatten())
+}
+
 impl CommandMachine for StreamRequests {
     fn start(&mut self, now: Duration) -> Vec<MavMessage> {
         StreamRequests::start(self, now)

@@ -14,6 +14,7 @@ pub mod flight;
 pub mod home;
 pub mod items;
 pub mod locate;
+pub mod pack;
 pub mod params;
 pub mod readback;
 pub mod support;

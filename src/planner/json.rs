@@ -296,6 +296,33 @@ pub struct BatteryJson {
     pub feasible: bool,
     /// Energy over the budget (0 when feasible).
     pub excess_kj: f64,
+    /// With a pack named (`--pack`): its name, its capacity against its label that the budget
+    /// is scaled by (the ledger's; absent: nothing learned, the label), the flights it was
+    /// learned from, and the budget on the label.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pack: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub capacity_ratio: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pack_flights: Option<usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub label_budget_kj: Option<f64>,
+}
+
+impl BatteryJson {
+    /// The check of a flight planned on pack `name` holding `capacity_ratio` of its label
+    /// (the budget already scaled by it; None: nothing learned of it, the label's) as learned
+    /// from `flights` flights.
+    pub fn on_pack(self, name: &str, capacity_ratio: Option<f64>, flights: usize) -> BatteryJson {
+        let ratio = capacity_ratio.filter(|r| r.is_finite() && *r > 0.0);
+        BatteryJson {
+            pack: Some(name.to_string()),
+            capacity_ratio: ratio,
+            pack_flights: Some(flights),
+            label_budget_kj: Some(ratio.map_or(self.budget_kj, |r| self.budget_kj / r)),
+            ..self
+        }
+    }
 }
 
 /// The `"sorties"` object of `emplan plan --sorties --json`.
@@ -514,6 +541,10 @@ pub fn battery_json(plan: &Plan) -> BatteryJson {
         reserve_pct: b.reserve_pct,
         feasible: b.feasible,
         excess_kj: (total_kj - budget_kj).max(0.0),
+        pack: None,
+        capacity_ratio: None,
+        pack_flights: None,
+        label_budget_kj: None,
     }
 }
 

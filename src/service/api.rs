@@ -404,6 +404,10 @@ async fn upload_mission(
             "acceptance_radius_m {acceptance_radius_m}: expected a radius in (0, 100] m"
         )));
     }
+    let pack = (request.pack.as_deref())
+        .map(crate::session::ledger::pack_name)
+        .transpose()
+        .map_err(|e| bad_request(format!("pack: {e}")))?;
     let choice = FlightChoice {
         order: request.order,
         sortie: request.sortie,
@@ -433,6 +437,7 @@ async fn upload_mission(
                 choice,
                 acceptance_radius_m,
                 origin: request.origin,
+                pack,
                 solver,
                 span,
             },

@@ -33,6 +33,7 @@ use super::missions::CatalogRx;
 use super::wire::{Failure, LinkNumbers, LinkState, LinkStatus, UploadAnswer};
 use super::Refusal;
 use crate::flightlog::flight_plan::FlightPlan;
+use crate::flightlog::flight_plan::{PackSource, PackUse};
 use crate::flightlog::watch::{NoteKind, Policy};
 use crate::link::commands::{heartbeats, Heard};
 use crate::link::connection::{Autopilot, Link};
@@ -81,6 +82,8 @@ pub struct UploadJob {
     /// Where the flight is planned from (None: the mission's origin, the vehicle required
     /// there).
     pub origin: Option<PlanOrigin>,
+    /// The pack flown, as the request named it.
+    pub pack: Option<String>,
     /// How `plan` was solved (the same for a re-planning from the vehicle's home).
     pub solver: crate::tour::solver::Options,
     /// The request's span (`upload`).
@@ -421,6 +424,7 @@ async fn run(
         target: None,
         transfer_budget: cfg.transfer_budget,
         guard: cfg.guard,
+        ledger: cfg.recorder.ledger.clone(),
         expected: None,
         mission_verified: false,
         started: None,
@@ -460,6 +464,8 @@ struct Actor {
     target: Option<Autopilot>,
     transfer_budget: Option<Duration>,
     guard: Policy,
+    /// The ledger the recorder writes flights to, which a flight's pack is learned from.
+    ledger: Option<crate::ledger::LedgerSpec>,
     /// The plan the service set for the next flight (its upload).
     expected: Option<FlightPlan>,
     /// The vehicle holds the mission this service last uploaded and read back, as far as the
@@ -652,6 +658,11 @@ impl Actor {
             }
         }
         let planned = upload_document(&job.plan, &flight);
+        let pack = (job.pack.as_deref()).map(|name| PackUse {
+            name: name.to_string(),
+            source: PackSource::User,
+            capacity_ratio: None,
+        });
         let load = Load {
             mission: &job.mission,
             plan: &job.plan,
@@ -662,6 +673,9 @@ impl Actor {
             guard: self.guard,
             if_home_unknown: session::IfHomeUnknown::asked(job.origin),
             live_wind: None,
+            pack: pack.as_ref(),
+            guard_start: None,
+            ledger: self.ledger.as_ref(),
         };
         tracing::info!("uploading");
         let loaded = session::load(

@@ -298,6 +298,9 @@ pub struct UploadRequest {
     /// "mission" (the default: the vehicle must stand at the mission's origin) or "vehicle"
     /// (the mission re-planned from the vehicle's home).
     pub origin: Option<crate::session::PlanOrigin>,
+    /// The battery pack flown (its name; plan.json's `pack`), whose capacity the ledger learned.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pack: Option<String>,
 }
 
 impl UploadRequest {
@@ -319,6 +322,7 @@ impl UploadRequest {
             seed: Some(solver.seed),
             kicks: solver.kicks,
             origin: None,
+            pack: None,
         }
     }
 }

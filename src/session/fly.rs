@@ -21,9 +21,11 @@ use super::predict::{
     flight_plan, flight_plan_predicted, predicted_by_simulation, repriced, with_fast_waypoints,
 };
 use super::recorder::{FlightEvent, RecorderHandle, RepriceError, Repricer};
-use crate::flightlog::flight_plan::{FlightPlan, PricedBy, Repricing};
+use crate::flightlog::flight_plan::{FlightPlan, PackSource, PackUse, PricedBy, Repricing};
+use crate::flightlog::guard::{GuardSetup, GuardStart};
 use crate::flightlog::report::{FlightReport, ReportJson};
 use crate::flightlog::watch::{NoteKind, Policy};
+use crate::ledger::LedgerSpec;
 use crate::link::commands::{drive, keep_streams, request_streams};
 use crate::link::connection::{Autopilot, Link};
 use crate::link::driver::{upload_verified, upload_verified_of, UploadError, UploadReport};
@@ -31,6 +33,7 @@ use crate::link::fence::{fence_items, rally_items, FENCE, RALLY};
 use crate::link::flight::{Start, StartConfig, StartError};
 use crate::link::items::{flight_items_noted, ItemOptions};
 use crate::link::mav::MISSION_ITEM_INT_DATA;
+use crate::link::pack::AskPackConfig;
 use crate::link::support::{AskConfig, Capabilities, SupportError};
 use crate::link::transfer::TransferConfig;
 use crate::link::{Flavour, LinkError};
@@ -80,6 +83,15 @@ pub struct Load<'a> {
     /// `fly --wind live`: the model the rest of the flight is priced again with whenever the
     /// vehicle's wind estimate moves in flight (`flightlog::wind`); None: priced once.
     pub live_wind: Option<&'a VehicleModel>,
+    /// The pack flown and what the plan's battery check started from (`--pack`; plan.json's
+    /// `pack`). None: not named (the autopilot's SMART_BATTERY_INFO names it when it can).
+    pub pack: Option<&'a PackUse>,
+    /// What the energy guard starts from: the pack's capacity and the vehicle's correction
+    /// learned in earlier flights (`super::ledger::Learned::guard_start`).
+    pub guard_start: Option<&'a GuardStart>,
+    /// The ledger to learn the pack from when the autopilot names it (SMART_BATTERY_INFO, with
+    /// no `pack` given); None: the autopilot's pack is recorded, nothing learned of it.
+    pub ledger: Option<&'a LedgerSpec>,
 }
 
 /// A flight on the vehicle, verified, and what it will be measured against.
@@ -208,8 +220,34 @@ pub async fn load(
         })
         .transpose()
         .map_err(|e| FlyError::Plan(e.to_string()))?;
+    // The pack: the one named, else (when the flight is recorded) the one the autopilot names,
+    // with what the ledger learned of it.
+    let vehicle = priced_with.unwrap_or(load.vehicle).name.clone();
+    let (pack, guard_start) = match (load.pack, recorder) {
+        // Learned by the caller (`fly` before planning), or nowhere to learn it from.
+        (Some(pack), _) if load.guard_start.is_some() || load.ledger.is_none() => {
+            (Some(pack.clone()), load.guard_start.cloned())
+        }
+        (Some(pack), _) => learned_pack(&pack.name, pack.source, load.ledger, vehicle).await,
+        (None, None) => (None, load.guard_start.cloned()),
+        (None, Some(_)) => {
+            let named =
+                crate::link::commands::pack_named(link, target, AskPackConfig::default()).await?;
+            match named.map(|n| super::ledger::pack_name(&n)) {
+                Some(Ok(name)) => {
+                    learned_pack(&name, PackSource::Autopilot, load.ledger, vehicle).await
+                }
+                Some(Err(e)) => {
+                    tracing::warn!("the autopilot's SMART_BATTERY_INFO names no usable pack: {e}");
+                    (None, load.guard_start.cloned())
+                }
+                None => (None, load.guard_start.cloned()),
+            }
+        }
+    };
     let mut measured_against = FlightPlan {
         resumes: load.resumes.map(str::to_string),
+        pack,
         wind: (!plan.wind.is_calm()).then_some(plan.wind),
         priced_by: predicted.as_ref().map(|_| PricedBy {
             vehicle: priced_with.unwrap_or(load.vehicle).name.clone(),
@@ -231,7 +269,10 @@ pub async fn load(
             plan.wind,
         )
         .map_err(|e| FlyError::Plan(format!("the energy guard's return prices: {e}")))?;
-        measured_against.guard = Some(setup);
+        measured_against.guard = Some(GuardSetup {
+            start: guard_start,
+            ..setup
+        });
         autopilot_return = Some(ret);
     }
     let upload = upload_verified(link, target, &items, transfer, progress).await?;
@@ -278,6 +319,48 @@ pub async fn load(
         fence,
         rally,
     })
+}
+
+/// Pack `name` (named by `source`) and what the energy guard starts from: what the ledger at
+/// `ledger` learned of it and of `vehicle` (read on a blocking thread: the store must not run
+/// inside the async runtime); the label when there is no ledger or it cannot be read (warned
+/// of).
+async fn learned_pack(
+    name: &str,
+    source: PackSource,
+    ledger: Option<&LedgerSpec>,
+    vehicle: String,
+) -> (Option<PackUse>, Option<GuardStart>) {
+    let bare = PackUse {
+        name: name.to_string(),
+        source,
+        capacity_ratio: None,
+    };
+    let Some(spec) = ledger.cloned() else {
+        return (Some(bare), None);
+    };
+    let asked = name.to_string();
+    let learned =
+        tokio::task::spawn_blocking(move || super::ledger::learned(&spec, Some(&asked), &vehicle))
+            .await;
+    match learned {
+        Ok(Ok(learned)) => {
+            for note in &learned.notes {
+                tracing::info!("{note}");
+            }
+            (Some(learned.pack_use(name, source)), learned.guard_start())
+        }
+        Ok(Err(e)) => {
+            tracing::warn!("pack {name}: {e}: the guard starts from its label");
+            (Some(bare), None)
+        }
+        Err(e) => {
+            tracing::warn!(
+                "pack {name}: reading the ledger stopped: {e}: the guard starts from its label"
+            );
+            (Some(bare), None)
+        }
+    }
 }
 
 /// How errors name the autopilot: its kind and system id.

@@ -8,7 +8,9 @@
 //! service's vehicle actor alike; `home`, the check before any upload that the vehicle stands
 //! at the mission's origin, and the re-planning from the vehicle's home; `held`, the mission a
 //! vehicle holds measured (`emplan record`, the service); `download`, what a vehicle holds read
-//! back whole, its mission with its fence and rally points (`emplan download`).
+//! back whole, its mission with its fence and rally points (`emplan download`); `ledger`, every
+//! finished flight written to the ledger by the recorder, and what earlier flights of a pack
+//! and a vehicle taught the next one (its battery check, the guard's start).
 //!
 //! This is the async glue above `link` (MAVLink, sans-IO machines), `flightlog` (files,
 //! segmentation, energy; no tokio) and `planner`: what is decided lives in those layers, so a
@@ -20,6 +22,7 @@ pub mod fly;
 pub mod guard;
 pub mod held;
 pub mod home;
+pub mod ledger;
 pub mod onboard;
 pub mod open;
 pub mod params;

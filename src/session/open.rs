@@ -245,6 +245,8 @@ pub struct MockFlight {
     pub wind: Option<crate::physics::Wind>,
     /// A change of that wind in flight.
     pub wind_change: Option<crate::sim::WindChange>,
+    /// The serial number its smart battery gives (SMART_BATTERY_INFO); None: no smart battery.
+    pub pack_serial: Option<u32>,
 }
 
 impl MockFlight {
@@ -259,6 +261,7 @@ impl MockFlight {
                 seed: self.seed,
                 wind: self.wind,
                 wind_change: self.wind_change,
+                pack_serial: self.pack_serial,
                 ..Default::default()
             }),
             speedup: self.speedup,

@@ -29,6 +29,7 @@ use crate::flightlog::segment::{SegmentConfig, SegmentKind, Segmenter};
 use crate::flightlog::telemetry::{Reading, Stamped, VehicleState};
 use crate::flightlog::tlog::read_tlog;
 use crate::flightlog::watch::{GuardNote, GuardView};
+use crate::ledger::LedgerSpec;
 use crate::link::connection::{wall_us, Frame, Link};
 use crate::link::telemetry::Telemetry;
 use crate::mission::wind::Wind;
@@ -49,16 +50,33 @@ pub struct RecorderConfig {
     /// (wall time) before now, its last heartbeat was armed, it comes from the same autopilot
     /// and it has no complete report. None: every flight seen gets a new directory.
     pub resume_within: Option<Duration>,
+    /// The ledger every flight whose report is written goes to (`super::ledger`); None: none.
+    pub ledger: Option<LedgerSpec>,
 }
 
 impl RecorderConfig {
+    /// Flights made in `log_dir`, each written to the ledger beside them
+    /// (`log_dir/ledger.sqlite`).
     pub fn new(log_dir: impl Into<PathBuf>) -> RecorderConfig {
+        let log_dir = log_dir.into();
         RecorderConfig {
-            log_dir: log_dir.into(),
+            ledger: Some(super::ledger::default_spec(&log_dir)),
+            log_dir,
             segment: SegmentConfig::default(),
             preroll: Duration::from_secs(5),
             tail: Duration::from_millis(500),
             resume_within: None,
+        }
+    }
+
+    /// The same, writing flights to `ledger` (None: the default beside them).
+    pub fn with_ledger(self, ledger: Option<LedgerSpec>) -> RecorderConfig {
+        match ledger {
+            Some(spec) => RecorderConfig {
+                ledger: Some(spec),
+                ..self
+            },
+            None => self,
         }
     }
 }
@@ -617,6 +635,11 @@ impl State {
                 error: e.to_string(),
             });
         }
+        // Written before the end is announced: whoever sees it sees the flight in the ledger.
+        // This is the recorder's own thread, never the async runtime's.
+        if let (Some(spec), Some(_)) = (&self.cfg.ledger, &report) {
+            super::ledger::write_flight_or_warn(spec, &dir);
+        }
         let _ = self.events.send(FlightEvent::Ended {
             flight: open.name,
             dir,
@@ -853,6 +876,61 @@ mod tests {
         assert_eq!(replayed.report, **report);
         let on_disk = crate::flightlog::recorder::read_report(dir).expect("report.json");
         assert!(on_disk.complete);
+    }
+
+    /// Records the whole square flight with `cfg`: its events.
+    fn record_square(cfg: RecorderConfig) -> Vec<FlightEvent> {
+        let flight = SyntheticFlight::fly(&square_plan(), &SyntheticConfig::default());
+        let frames = frames(&flight);
+        let (events, mut rx) = broadcast::channel(4096);
+        let (live_tx, _) = watch::channel(Live::default());
+        let mut state = State::new(cfg, events, live_tx);
+        state.set_plan(square_plan(), None);
+        for frame in &frames {
+            state.frame(frame.clone());
+        }
+        state.end_flight(frames.last().expect("frames").wall_us + 1_000_000);
+        drain(&mut rx)
+    }
+
+    #[test]
+    fn a_flight_with_its_report_is_in_the_ledger_beside_it_when_its_end_is_announced() {
+        let log = tempfile::tempdir().expect("temp dir");
+        let events = record_square(RecorderConfig::new(log.path()));
+        let Some(FlightEvent::Ended { dir, .. }) = events.last() else {
+            panic!("no end: {events:?}");
+        };
+        let spec = super::super::ledger::default_spec(log.path());
+        let mut ledger = crate::ledger::Ledger::open_existing(&spec).expect("made beside it");
+        let records = ledger.flights(&Default::default()).expect("listed");
+        assert_eq!(records.len(), 1);
+        assert_eq!(
+            records[0].id,
+            crate::ledger::record::from_dir(dir).unwrap().id
+        );
+    }
+
+    #[test]
+    fn a_ledger_that_cannot_be_written_loses_nothing_of_the_flight() {
+        let log = tempfile::tempdir().expect("temp dir");
+        // A directory where the ledger's file should be: it cannot be opened.
+        let blocked = log.path().join("blocked.sqlite");
+        std::fs::create_dir(&blocked).expect("made");
+        let cfg = RecorderConfig::new(log.path().join("flights"))
+            .with_ledger(Some(LedgerSpec::Sqlite(blocked.clone())));
+        let events = record_square(cfg);
+        let Some(FlightEvent::Ended {
+            dir,
+            report: Some(report),
+            ..
+        }) = events.last()
+        else {
+            panic!("no report: {events:?}");
+        };
+        assert!(report.complete);
+        assert!(crate::flightlog::recorder::read_report(dir).is_ok_and(|r| r.complete));
+        assert!(blocked.is_dir(), "nothing written in its place");
+        assert!(!log.path().join("flights").join("ledger.sqlite").exists());
     }
 
     #[test]

@@ -266,6 +266,9 @@ async fn two_surveys_one_reversed_go_up_whole_and_are_measured_with_their_photos
         resumes: None,
         if_home_unknown: Default::default(),
         live_wind: None,
+        pack: None,
+        guard_start: None,
+        ledger: None,
     };
     let options = emplan::session::FlyOptions {
         arm: true,

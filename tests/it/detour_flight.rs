@@ -113,6 +113,9 @@ async fn a_detoured_leg_is_flown_through_its_via_point_and_measured_as_one_leg()
         resumes: None,
         if_home_unknown: Default::default(),
         live_wind: None,
+        pack: None,
+        guard_start: None,
+        ledger: None,
     };
     let options = emplan::session::FlyOptions {
         arm: true,

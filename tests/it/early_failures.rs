@@ -124,12 +124,12 @@ fn calibrate_from_logs_leaves_out_each_unreadable_flight_naming_it_and_fits_the_
     let logs = tmp.path().join("logs");
     let (ok, _, stderr) = fly(&logs);
     assert!(ok, "{stderr}");
+    // The flight directory (the ledger is beside it).
     let good = std::fs::read_dir(&logs)
         .unwrap()
-        .next()
-        .expect("the flight directory")
-        .unwrap()
-        .path();
+        .map(|e| e.unwrap().path())
+        .find(|p| p.is_dir())
+        .expect("the flight directory");
     // A flight killed mid-flight and never resumed: no report.json.
     let killed = logs.join("killed");
     copy_flight(&good, &killed);

@@ -81,6 +81,9 @@ async fn load(mock: &MockHandle, mission: &Mission) -> Result<Loaded, FlyError> 
         resumes: None,
         if_home_unknown: Default::default(),
         live_wind: None,
+        pack: None,
+        guard_start: None,
+        ledger: None,
     };
     emplan::session::load(&link, &target, cfg, None, &load, |_| {}, |_, _| {}).await
 }

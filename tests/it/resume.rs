@@ -72,6 +72,9 @@ async fn flight_sent_home(log_dir: &Path) -> PathBuf {
         resumes: None,
         if_home_unknown: Default::default(),
         live_wind: None,
+        pack: None,
+        guard_start: None,
+        ledger: None,
     };
     let options = emplan::session::FlyOptions {
         arm: true,

@@ -21,6 +21,9 @@
 //! - FENCE_STATUS `breach_status` 1 outside the fence, `breach_count` since boot, `breach_type`
 //!   (FENCE_BREACH), `breach_time` ms since boot of the last breach (0: none). ArduPilot sends it
 //!   while a fence is enabled; PX4 was not found to send it (its breaches come as STATUSTEXT).
+//! - SMART_BATTERY_INFO (common.xml) `serial_number` char[16] and `device_name` char[50], ASCII,
+//!   NUL-terminated, all NUL: not provided. The pack's name is the serial number, else the
+//!   device name ([`pack_named`]); text that is not printable ASCII is no name.
 //! - HEARTBEAT of the autopilot only (not a GCS, camera or companion: `autopilot` INVALID or a
 //!   ground-station type); armed = `MAV_MODE_FLAG_SAFETY_ARMED`; the mode from `custom_mode`: PX4
 //!   main mode in byte 2, sub mode in byte 3; ArduCopter's mode numbers.
@@ -35,6 +38,23 @@ use crate::link::mav::{
     self, CameraFeedbackFlags, MavAutopilot, MavLandedState, MavMessage, MavModeFlag, MavType,
     MissionState as MavMissionState,
 };
+
+/// The name a pack gives itself in SMART_BATTERY_INFO: its serial number, else its device
+/// name; None when it gives neither (all NUL) or either is not printable ASCII. (The message
+/// is marked superseded by BATTERY_INFO, see `link::pack`.)
+#[allow(deprecated)]
+pub fn pack_named(info: &mav::SMART_BATTERY_INFO_DATA) -> Option<String> {
+    fn text(bytes: &[u8]) -> Option<String> {
+        let end = bytes.iter().position(|&b| b == 0).unwrap_or(bytes.len());
+        let used = &bytes[..end];
+        if !used.iter().all(|b| (0x20..0x7f).contains(b)) {
+            return None;
+        }
+        let name = std::str::from_utf8(used).ok()?.trim();
+        (!name.is_empty()).then(|| name.to_string())
+    }
+    text(&info.serial_number[..]).or_else(|| text(&info.device_name[..]))
+}
 
 /// What one message gives the flight log: a reading, and the vehicle's boot time if the
 /// message carries one (a clock anchor).
@@ -379,6 +399,30 @@ impl TelemetryDecoder {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    #[allow(deprecated)]
+    fn a_pack_is_named_by_its_serial_number_else_its_device_name() {
+        let info = |serial: &str, name: &str| mav::SMART_BATTERY_INFO_DATA {
+            serial_number: serial.into(),
+            device_name: name.into(),
+            ..Default::default()
+        };
+        assert_eq!(
+            pack_named(&info("SN-0042", "Acme_6S")).as_deref(),
+            Some("SN-0042")
+        );
+        assert_eq!(pack_named(&info("", "Acme_6S")).as_deref(), Some("Acme_6S"));
+        assert_eq!(pack_named(&info("", "")), None);
+        let mut garbled = info("", "");
+        garbled.serial_number = [0xff; 16].into();
+        assert_eq!(pack_named(&garbled), None);
+        // A serial that fills all 16 bytes has no NUL.
+        assert_eq!(
+            pack_named(&info("0123456789abcdef", "")).as_deref(),
+            Some("0123456789abcdef")
+        );
+    }
     use crate::flightlog::telemetry::{
         Battery, BatterySource, FlightMode, LandedState, MissionState, Photo, PhotoMessage,
         PhotoPosition, Reading,

@@ -18,7 +18,7 @@ mod tlog;
 
 /// What a replay gives (they live in `flightlog::replay`; here beside the functions that make them).
 pub use crate::flightlog::replay::{Analysis, Replay};
-pub use decode::{decode, is_autopilot, Decoded, TelemetryDecoder};
+pub use decode::{decode, is_autopilot, pack_named, Decoded, TelemetryDecoder};
 pub use encode::encode;
 pub use frame::{check_frame, frame_bytes, frame_bytes_versioned, parse_frame, TelemetryError};
 pub use pipeline::Telemetry;

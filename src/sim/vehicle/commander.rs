@@ -2,9 +2,13 @@
 //! commander and ArduCopter handle them, and the automatic disarms (after a landing, armed on
 //! the ground too long).
 
+use mavlink::MessageData;
+
 use super::mode::Mode;
 use super::{SimVehicle, PREFLIGHT_DISARM_S};
 
+#[allow(deprecated)]
+use crate::link::mav::SMART_BATTERY_INFO_DATA;
 use crate::link::mav::{MavCmd, MavMessage, MavModeFlag, MavResult, MavSeverity, STATUSTEXT_DATA};
 use crate::link::Flavour;
 use crate::sim::flight::Command;
@@ -26,6 +30,8 @@ impl<'v> SimVehicle<'v> {
         ok && self.flight.current().is_some()
     }
 
+    // SMART_BATTERY_INFO, superseded but the one asked for (`link::pack`).
+    #[allow(deprecated)]
     pub(super) fn command(&mut self, command: MavCmd, p: [f32; 7]) -> MavResult {
         match command {
             MavCmd::MAV_CMD_COMPONENT_ARM_DISARM => {
@@ -60,6 +66,9 @@ impl<'v> SimVehicle<'v> {
             MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL => self.set_interval(p[0], p[1]),
             MavCmd::MAV_CMD_REQUEST_MESSAGE => {
                 let id = p[0] as u32;
+                if p[0].is_finite() && id == SMART_BATTERY_INFO_DATA::ID {
+                    return self.smart_battery_info();
+                }
                 if p[0].is_finite() && self.streams.iter().any(|s| s.id == id) {
                     let t = self.now_s;
                     self.send_stream(id, t);
@@ -70,6 +79,28 @@ impl<'v> SimVehicle<'v> {
             }
             _ => MavResult::MAV_RESULT_UNSUPPORTED,
         }
+    }
+
+    /// SMART_BATTERY_INFO asked for: its serial number (the rest not provided, as the
+    /// message marks it), or FAILED without a smart battery. (Superseded by BATTERY_INFO; the
+    /// one released autopilots send, see `link::pack`.)
+    #[allow(deprecated)]
+    fn smart_battery_info(&mut self) -> MavResult {
+        let Some(serial) = self.config.pack_serial else {
+            return MavResult::MAV_RESULT_FAILED;
+        };
+        self.out
+            .push(MavMessage::SMART_BATTERY_INFO(SMART_BATTERY_INFO_DATA {
+                serial_number: serial.to_string().as_str().into(),
+                capacity_full_specification: -1,
+                capacity_full: -1,
+                cycle_count: u16::MAX,
+                discharge_minimum_voltage: u16::MAX,
+                charging_minimum_voltage: u16::MAX,
+                resting_minimum_voltage: u16::MAX,
+                ..Default::default()
+            }));
+        MavResult::MAV_RESULT_ACCEPTED
     }
 
     pub(super) fn statustext(&mut self, severity: MavSeverity, text: &str) {

@@ -126,6 +126,10 @@ pub struct FlightConfig {
     /// The camera misses this photo (0 the first the mission takes): it is neither taken nor
     /// reported, as a camera that did not fire.
     pub missed_photo: Option<u32>,
+    /// The serial number its smart battery gives in SMART_BATTERY_INFO when asked (None: no
+    /// smart battery, and the request fails, as PX4's `MavlinkReceiver` answers when the stream
+    /// has nothing to send).
+    pub pack_serial: Option<u32>,
 }
 
 /// A change of the wind in flight: `after_armed_s` after the first arming, the vehicle flies
@@ -183,6 +187,7 @@ impl Default for FlightConfig {
             wind: None,
             wind_change: None,
             missed_photo: None,
+            pack_serial: None,
         }
     }
 }
