@@ -118,6 +118,7 @@ pub(crate) async fn serve_after(
         vehicle,
         missions_dir: missions.clone(),
         log_dir: log_dir.clone(),
+        ledger: emplan::ledger::LedgerSpec::Sqlite(log_dir.join("ledger.sqlite")),
         token: token.clone(),
         model: model(),
         solver: Default::default(),
