@@ -348,7 +348,7 @@ fn pack_of(request: &UploadRequest) -> Result<Option<String>, Refusal> {
     }
     if name.chars().count() > 64 || name.chars().any(char::is_control) {
         return Err(bad_request(format!(
-            "pack {:?}: expected a pack's name (up to 64 characters, no control characters)",
+            "pack \"{}\": expected a pack's name (up to 64 characters, no control characters)",
             escape_controls(name)
         )));
     }
