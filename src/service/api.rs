@@ -576,13 +576,22 @@ impl LedgerQuery {
     }
 }
 
-/// The ledger's flights matching `query`, oldest first, read on a blocking thread.
-async fn ledger_flights(s: &Shared, query: FlightQuery) -> Result<Vec<FlightRecord>, String> {
+/// The ledger's flights matching `query`, oldest first, read on a blocking thread; the inner
+/// error says why the ledger cannot be read, the outer refuses the query.
+async fn ledger_flights(
+    s: &Shared,
+    query: FlightQuery,
+) -> Result<Result<Vec<FlightRecord>, String>, Refusal> {
     let spec = s.ledger.clone();
-    tokio::task::spawn_blocking(move || super::ledger::flights(&spec, &query))
-        .await
-        .map_err(|e| format!("reading the ledger stopped: {e}"))?
-        .map_err(|e| e.to_string())
+    let read = tokio::task::spawn_blocking(move || super::ledger::flights(&spec, &query)).await;
+    Ok(match read {
+        Ok(Ok(records)) => Ok(records),
+        Ok(Err(e @ crate::ledger::LedgerError::Query { .. })) => {
+            return Err(bad_request(escape_controls(&e.to_string()).into_owned()))
+        }
+        Ok(Err(e)) => Err(e.to_string()),
+        Err(e) => Err(format!("reading the ledger stopped: {e}")),
+    })
 }
 
 async fn flights(
@@ -617,7 +626,7 @@ async fn flights(
     })?;
     // The flight directories are the flights' own record: a ledger that cannot be read is said,
     // the directories listed all the same.
-    let (records, ledger_error) = match ledger_flights(&s, query).await {
+    let (records, ledger_error) = match ledger_flights(&s, query).await? {
         Ok(mut records) => {
             records.reverse();
             (records, None)

@@ -67,26 +67,27 @@ pub fn pack_views(records: &[FlightRecord]) -> Vec<PackView> {
         .collect()
 }
 
-/// The flights of `pack` in `records` (oldest first), each with the equivalent full cycles the
-/// pack had done by its end (the charge drawn so far against the label, as the summary counts
-/// its cycles) and the capacity and resistance its own voltage and current show.
+/// The flights of `pack` in `records`, oldest first, each with the pack's age at its middle in
+/// equivalent full cycles (the charge drawn on the pack so far against its label `label_ah`, as
+/// `ledger::packs` places each flight on the pack's trend) and the capacity and resistance its
+/// own voltage and current show.
 fn history(records: &[FlightRecord], pack: &str, label_ah: Option<f64>) -> Vec<PackPoint> {
-    let mut charge_ah = 0.0;
-    records
+    let mut flights: Vec<&FlightRecord> = records
         .iter()
         .filter(|r| r.pack.as_deref() == Some(pack))
+        .collect();
+    flights.sort_by(|a, b| a.started_at.cmp(&b.started_at));
+    let label_ah = label_ah.filter(|l| l.is_finite() && *l > 0.0);
+    let mut charge_ah = 0.0;
+    flights
+        .into_iter()
         .map(|r| {
-            charge_ah += r.charge_ah.filter(|c| c.is_finite()).unwrap_or(0.0);
-            let label_ah = r
-                .pack_fit
-                .as_ref()
-                .map(|f| f.label_capacity_ah)
-                .or(label_ah)
-                .filter(|l| l.is_finite() && *l > 0.0);
+            let before = charge_ah;
+            charge_ah += r.charge_ah.filter(|c| c.is_finite() && *c > 0.0).unwrap_or(0.0);
             PackPoint {
                 flight: r.id.clone(),
                 started_at: r.started_at.clone(),
-                cycles: label_ah.map(|l| charge_ah / l),
+                cycles: label_ah.map(|l| 0.5 * (before + charge_ah) / l),
                 capacity_ah: r.pack_fit.as_ref().map(|f| f.capacity_ah),
                 capacity_sd_ah: r.pack_fit.as_ref().map(|f| f.capacity_sd_ah),
                 label_capacity_ah: label_ah,

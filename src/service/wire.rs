@@ -442,8 +442,9 @@ pub struct PackPoint {
     /// The flight's id in the ledger.
     pub flight: String,
     pub started_at: Option<String>,
-    /// Equivalent full cycles by the flight's end (the charge drawn on the pack so far against
-    /// its label; None: no label known).
+    /// The pack's age at the flight's middle in equivalent full cycles (the charge drawn on it
+    /// so far against its label, as `ledger::packs` places the flight on its trend; None: no
+    /// label known).
     pub cycles: Option<f64>,
     /// The capacity the flight's voltage and current show, its standard error and the label
     /// (Ah; None: not fitted).

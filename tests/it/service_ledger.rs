@@ -108,13 +108,14 @@ async fn the_packs_and_the_ledgers_flights_are_served_typed_and_filtered_from_a_
     assert_eq!(summaries, expected);
     assert_eq!(view.packs[0].summary.flights, 3);
     assert_eq!(view.packs[1].summary.flights, 1);
-    // Pack A's flights, oldest first: each one's capacity, at the cycles drawn by its end.
+    // Pack A's flights, oldest first: each one's capacity, at the pack's age at its middle
+    // (6 Ah drawn a flight from a 10 Ah label).
     let a = &view.packs[0].history;
     let flights: Vec<&str> = a.iter().map(|p| p.flight.as_str()).collect();
     assert_eq!(flights, ["f1", "f3", "f5"]);
     let capacities: Vec<f64> = a.iter().map(|p| p.capacity_ah.expect("fitted")).collect();
     assert_eq!(capacities, [8.7, 8.6, 8.5]);
-    for (point, cycles) in a.iter().zip([0.6, 1.2, 1.8]) {
+    for (point, cycles) in a.iter().zip([0.3, 0.9, 1.5]) {
         let got = point.cycles.expect("a label");
         assert!((got - cycles).abs() < 1e-9, "{}: {got} cycles", point.flight);
     }
@@ -152,6 +153,13 @@ async fn the_packs_and_the_ledgers_flights_are_served_typed_and_filtered_from_a_
     assert_eq!(refused.status, 400, "{refused:?}");
     let failure: Failure = read(&refused);
     assert!(failure.error.starts_with("since \"yesterday\""), "{}", failure.error);
+    let refused = client
+        .get("/api/flights?until=2026-02-30")
+        .await
+        .expect("GET");
+    assert_eq!(refused.status, 400, "{refused:?}");
+    let failure: Failure = read(&refused);
+    assert!(failure.error.starts_with("until `2026-02-30`"), "{}", failure.error);
     service.shutdown().await.expect("clean stop");
 }
 
