@@ -83,7 +83,10 @@ fn history(records: &[FlightRecord], pack: &str, label_ah: Option<f64>) -> Vec<P
         .into_iter()
         .map(|r| {
             let before = charge_ah;
-            charge_ah += r.charge_ah.filter(|c| c.is_finite() && *c > 0.0).unwrap_or(0.0);
+            charge_ah += r
+                .charge_ah
+                .filter(|c| c.is_finite() && *c > 0.0)
+                .unwrap_or(0.0);
             PackPoint {
                 flight: r.id.clone(),
                 started_at: r.started_at.clone(),
@@ -174,7 +177,9 @@ mod tests {
     #[test]
     fn a_postgres_url_is_described_without_its_password() {
         assert_eq!(
-            describe(&LedgerSpec::parse("postgres://team:s3cret@db.local:5432/ledger")),
+            describe(&LedgerSpec::parse(
+                "postgres://team:s3cret@db.local:5432/ledger"
+            )),
             "postgres://team:***@db.local:5432/ledger"
         );
         assert_eq!(
@@ -191,7 +196,14 @@ mod tests {
     fn dates_and_times_of_a_query_are_checked_and_named() {
         assert_eq!(check_date("since", "2026-11-29"), None);
         assert_eq!(check_date("until", "2026-11-29T10:15:00Z"), None);
-        for bad in ["yesterday", "2026-11-2", "2026-11-29T10:15", "2026/11/29", "", "é2026-11-29"] {
+        for bad in [
+            "yesterday",
+            "2026-11-2",
+            "2026-11-29T10:15",
+            "2026/11/29",
+            "",
+            "é2026-11-29",
+        ] {
             let e = check_date("since", bad).expect(bad);
             assert!(e.starts_with("since "), "{e}");
         }

@@ -67,10 +67,24 @@ fn record(
 fn hand_filled() -> Vec<FlightRecord> {
     vec![
         record("f1", Some("A"), "survey", "2026-03-01T09:00:00Z", 8.7, 6.0),
-        record("f2", Some("B"), "inspection", "2026-03-01T10:00:00Z", 9.5, 5.0),
+        record(
+            "f2",
+            Some("B"),
+            "inspection",
+            "2026-03-01T10:00:00Z",
+            9.5,
+            5.0,
+        ),
         record("f3", Some("A"), "survey", "2026-03-02T09:00:00Z", 8.6, 6.0),
         record("f4", None, "survey", "2026-03-02T11:00:00Z", 9.0, 4.0),
-        record("f5", Some("A"), "inspection", "2026-03-03T09:00:00Z", 8.5, 6.0),
+        record(
+            "f5",
+            Some("A"),
+            "inspection",
+            "2026-03-03T09:00:00Z",
+            8.5,
+            6.0,
+        ),
     ]
 }
 
@@ -117,7 +131,11 @@ async fn the_packs_and_the_ledgers_flights_are_served_typed_and_filtered_from_a_
     assert_eq!(capacities, [8.7, 8.6, 8.5]);
     for (point, cycles) in a.iter().zip([0.3, 0.9, 1.5]) {
         let got = point.cycles.expect("a label");
-        assert!((got - cycles).abs() < 1e-9, "{}: {got} cycles", point.flight);
+        assert!(
+            (got - cycles).abs() < 1e-9,
+            "{}: {got} cycles",
+            point.flight
+        );
     }
 
     // The ledger's flights, newest first, filtered by each field.
@@ -125,7 +143,11 @@ async fn the_packs_and_the_ledgers_flights_are_served_typed_and_filtered_from_a_
     assert_eq!(ids(&all), ["f5", "f4", "f3", "f2", "f1"]);
     assert_eq!(all.records[0], records[4]);
     assert_eq!(all.ledger_error, None);
-    assert!(all.flights.is_empty(), "no flight directory: {:?}", all.flights);
+    assert!(
+        all.flights.is_empty(),
+        "no flight directory: {:?}",
+        all.flights
+    );
     for (query, expected) in [
         ("?pack=A", vec!["f5", "f3", "f1"]),
         ("?pack=A&mission=survey", vec!["f3", "f1"]),
@@ -134,7 +156,10 @@ async fn the_packs_and_the_ledgers_flights_are_served_typed_and_filtered_from_a_
         ("?vehicle=another", vec![]),
         ("?since=2026-03-02", vec!["f5", "f4", "f3"]),
         ("?until=2026-03-01T23:59:59Z", vec!["f2", "f1"]),
-        ("?since=2026-03-01T09:30:00Z&until=2026-03-02T10:00:00Z", vec!["f3", "f2"]),
+        (
+            "?since=2026-03-01T09:30:00Z&until=2026-03-02T10:00:00Z",
+            vec!["f3", "f2"],
+        ),
         ("?pack=&vehicle=", vec!["f5", "f4", "f3", "f2", "f1"]),
     ] {
         let list: FlightsList = read(
@@ -152,14 +177,22 @@ async fn the_packs_and_the_ledgers_flights_are_served_typed_and_filtered_from_a_
         .expect("GET");
     assert_eq!(refused.status, 400, "{refused:?}");
     let failure: Failure = read(&refused);
-    assert!(failure.error.starts_with("since \"yesterday\""), "{}", failure.error);
+    assert!(
+        failure.error.starts_with("since \"yesterday\""),
+        "{}",
+        failure.error
+    );
     let refused = client
         .get("/api/flights?until=2026-02-30")
         .await
         .expect("GET");
     assert_eq!(refused.status, 400, "{refused:?}");
     let failure: Failure = read(&refused);
-    assert!(failure.error.starts_with("until `2026-02-30`"), "{}", failure.error);
+    assert!(
+        failure.error.starts_with("until `2026-02-30`"),
+        "{}",
+        failure.error
+    );
     service.shutdown().await.expect("clean stop");
 }
 
@@ -198,7 +231,11 @@ async fn a_pack_named_at_upload_is_kept_in_the_flights_plan_and_the_flight_lands
     let refused = upload(client, "paper-sample-3wp.toml", with_pack("P\n7")).await;
     assert_eq!(refused.status, 400, "{refused:?}");
     let failure: Failure = read(&refused);
-    assert!(failure.error.starts_with("pack \"P\\n7\""), "{}", failure.error);
+    assert!(
+        failure.error.starts_with("pack \"P\\n7\""),
+        "{}",
+        failure.error
+    );
 
     let uploaded = upload(client, "paper-sample-3wp.toml", with_pack("P7")).await;
     assert!(uploaded.ok(), "{uploaded:?}");

@@ -684,6 +684,12 @@
     const ah = estimate(f, 1, 3, ' Ah');
     return p.label_capacity_ah ? ah + ' (' + fmt((100 * f.value) / p.label_capacity_ah, 2) + '%)' : ah;
   }
+  // When the pack last flew (its last flight's start, UTC), else that flight's name.
+  function lastFlown(p) {
+    const last = (p.history || [])[(p.history || []).length - 1];
+    if (last && last.started_at) return last.started_at.replace('T', ' ').replace('Z', ' UTC');
+    return p.last_flight || '-';
+  }
   async function loadPacks() {
     const answer = await api('/api/packs');
     const body = $('packs-body');
@@ -711,7 +717,7 @@
           el('td', { class: 'num', text: estimate(p.capacity_ah, 1, 2) + (p.label_capacity_ah ? ' of ' + fmt(p.label_capacity_ah, 2) : '') }),
           el('td', { class: 'num', text: estimate(p.internal_resistance_ohm, 1000, 1) }),
           el('td', { class: 'num', text: fadeText(p) }),
-          el('td', { text: p.last_flight || '-' }),
+          el('td', { class: 'when', title: p.last_flight || '', text: lastFlown(p) }),
           el('td', { class: 'warnings', text: (p.warnings || []).join('; ') }),
         ),
       ),
@@ -761,7 +767,8 @@
       const pad = (hi - lo) * 0.08;
       lo -= pad;
       hi += pad;
-      const x0 = Math.min(...pts.map((q) => q.x));
+      // From a new pack (0 cycles) to its age now.
+      const x0 = Math.min(0, ...pts.map((q) => q.x));
       const x1 = Math.max(...pts.map((q) => q.x));
       const span = x1 - x0 > 1e-9 ? x1 - x0 : 1;
       const x = (v) => left + 10 + ((v - x0) / span) * (W - left - 24);
@@ -774,7 +781,7 @@
       }
       node('text', { x: 2, y: 16 }, fmt(hi, 1) + ' ' + unit);
       node('text', { x: 2, y: bottom - 2 }, fmt(lo, 1) + ' ' + unit);
-      node('text', { x: left, y: H - 4 }, fmt(x0, 2));
+      node('text', { x: left, y: H - 4 }, fmt(x0, 1));
       node('text', { x: W - 120, y: H - 4 }, fmt(x1, 2) + ' cycles');
     }
     return el('figure', { class: 'pack-chart', 'data-name': p.name }, svg, el('figcaption', { text: p.name + ': capacity ' + (unit === '%' ? 'of the label' : '(Ah)') + ' per flight over cycles' + (unit === '%' ? ' (dashed: the label)' : '') }));
