@@ -15,14 +15,18 @@
 //! WAL mode, its writers take the lock at `BEGIN IMMEDIATE` and wait for each other (a busy
 //! timeout); PostgreSQL's migrations run under a transaction-level advisory lock.
 
+mod dates;
 mod postgres;
+mod rows;
 mod schema;
 mod sqlite;
 
 use std::fmt;
 use std::path::PathBuf;
 
-use super::{FlightRecord, LedgerError, Outcome};
+use super::{FlightRecord, LedgerError};
+use dates::{since_bound, until_bound};
+use rows::{check_record, flight_row, insert_parts};
 
 /// Where the ledger is.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -180,7 +184,7 @@ pub struct Ledger {
     conn: Box<dyn Conn>,
 }
 
-/// The columns of `flights`, in the order [`flight_row`] binds them.
+/// The columns of `flights`, in the order `rows::flight_row` binds them.
 const FLIGHT_COLUMNS: &str =
     "id, vehicle, pack, mission, profile, autopilot, started_at, outcome, \
      duration_s, predicted_j, measured_j, charge_ah, record";
@@ -493,202 +497,6 @@ impl Ledger {
 /// The one integer a one-row, one-column result holds (None: null or no row).
 fn single_int(rows: &[Vec<Cell>]) -> Option<i64> {
     rows.first().and_then(|r| r.first()).and_then(Cell::int)
-}
-
-/// The flight's row of `flights`, in [`FLIGHT_COLUMNS`]' order.
-fn flight_row(record: &FlightRecord, json: &str) -> Vec<Param> {
-    let text = |v: &Option<String>| Param::Text(v.clone());
-    vec![
-        Param::Text(Some(record.id.clone())),
-        text(&record.vehicle),
-        text(&record.pack),
-        Param::Text(Some(record.mission.clone())),
-        text(&record.profile),
-        text(&record.autopilot),
-        text(&record.started_at),
-        Param::Text(Some(outcome_name(record.outcome).to_string())),
-        Param::Real(Some(record.duration_s)),
-        Param::Real(record.predicted_j),
-        Param::Real(record.measured_j),
-        Param::Real(record.charge_ah),
-        Param::Text(Some(json.to_string())),
-    ]
-}
-
-fn insert_parts(conn: &mut dyn Conn, record: &FlightRecord) -> Result<(), String> {
-    for (k, part) in record.parts.iter().enumerate() {
-        conn.execute(
-            "INSERT INTO parts (flight_id, idx, kind, name, predicted_j, measured_j, duration_s) \
-             VALUES ($1, $2, $3, $4, $5, $6, $7)",
-            &[
-                Param::Text(Some(record.id.clone())),
-                Param::Int(Some(i64::try_from(k).unwrap_or(i64::MAX))),
-                Param::Text(Some(part.kind.clone())),
-                Param::Text(Some(part.name.clone())),
-                Param::Real(part.predicted_j),
-                Param::Real(part.measured_j),
-                Param::Real(part.duration_s),
-            ],
-        )?;
-    }
-    Ok(())
-}
-
-/// The outcome as the record's JSON names it.
-fn outcome_name(outcome: Outcome) -> &'static str {
-    match outcome {
-        Outcome::Completed => "completed",
-        Outcome::Returned => "returned",
-        Outcome::Incomplete => "incomplete",
-        Outcome::CutOff => "cut_off",
-    }
-}
-
-/// A record the ledger can keep: an id, and every number finite (JSON has no NaN: one would
-/// come back as a null, or not at all).
-fn check_record(record: &FlightRecord) -> Result<(), LedgerError> {
-    let refuse = |message: String| LedgerError::Flight {
-        path: record.path.clone(),
-        message,
-    };
-    if record.id.is_empty() {
-        return Err(refuse("the record has no id".to_string()));
-    }
-    let mut numbers: Vec<(String, Option<f64>)> = vec![
-        ("wind_m_s".into(), record.wind_m_s),
-        ("wind_from_deg".into(), record.wind_from_deg),
-        ("duration_s".into(), Some(record.duration_s)),
-        ("predicted_j".into(), record.predicted_j),
-        ("measured_j".into(), record.measured_j),
-        ("charge_ah".into(), record.charge_ah),
-    ];
-    for (k, part) in record.parts.iter().enumerate() {
-        numbers.push((format!("parts[{k}].predicted_j"), part.predicted_j));
-        numbers.push((format!("parts[{k}].measured_j"), part.measured_j));
-        numbers.push((format!("parts[{k}].duration_s"), part.duration_s));
-    }
-    if let Some(g) = &record.guard {
-        numbers.push(("guard.correction".into(), Some(g.correction)));
-        numbers.push(("guard.capacity_ratio".into(), Some(g.capacity_ratio)));
-        numbers.push((
-            "guard.state_of_charge_at_takeoff".into(),
-            g.state_of_charge_at_takeoff,
-        ));
-    }
-    if let Some(p) = &record.pack_fit {
-        for (name, value) in [
-            ("capacity_ah", p.capacity_ah),
-            ("label_capacity_ah", p.label_capacity_ah),
-            ("capacity_sd_ah", p.capacity_sd_ah),
-            ("internal_resistance_ohm", p.internal_resistance_ohm),
-            ("state_of_charge_at_takeoff", p.state_of_charge_at_takeoff),
-            ("voltage_rms_v", p.voltage_rms_v),
-        ] {
-            numbers.push((format!("pack_fit.{name}"), Some(value)));
-        }
-    }
-    match numbers
-        .into_iter()
-        .find(|(_, v)| v.is_some_and(|v| !v.is_finite()))
-    {
-        Some((field, Some(value))) => Err(refuse(format!(
-            "record `{}`: {field} is {value}, which the ledger cannot keep",
-            record.id
-        ))),
-        _ => Ok(()),
-    }
-}
-
-/// A civil date `YYYY-MM-DD`, checked (month, day of the month, leap years).
-fn parse_date(text: &str) -> Option<(i32, u32, u32)> {
-    let b = text.as_bytes();
-    if b.len() != 10 || b[4] != b'-' || b[7] != b'-' {
-        return None;
-    }
-    let year = digits(&text[..4])?;
-    let month = digits(&text[5..7])?;
-    let day = digits(&text[8..])?;
-    let year = i32::try_from(year).ok()?;
-    ((1..=12).contains(&month) && (1..=days_in_month(year, month)).contains(&day))
-        .then_some((year, month, day))
-}
-
-/// A number written in ASCII digits only (no sign, no space).
-fn digits(text: &str) -> Option<u32> {
-    if text.is_empty() || !text.bytes().all(|c| c.is_ascii_digit()) {
-        return None;
-    }
-    text.parse().ok()
-}
-
-fn days_in_month(year: i32, month: u32) -> u32 {
-    let leap = (year % 4 == 0 && year % 100 != 0) || year % 400 == 0;
-    match month {
-        2 if leap => 29,
-        2 => 28,
-        4 | 6 | 9 | 11 => 30,
-        _ => 31,
-    }
-}
-
-/// The day after a date, as `YYYY-MM-DD`.
-fn day_after((year, month, day): (i32, u32, u32)) -> String {
-    let (year, month, day) = if day < days_in_month(year, month) {
-        (year, month, day + 1)
-    } else if month < 12 {
-        (year, month + 1, 1)
-    } else {
-        (year + 1, 1, 1)
-    };
-    format!("{year:04}-{month:02}-{day:02}")
-}
-
-/// Whether `text` is a timestamp as records keep them, `YYYY-MM-DDTHH:MM:SSZ`.
-fn is_timestamp(text: &str) -> bool {
-    let b = text.as_bytes();
-    let time_ok = || {
-        let time = &text[11..19];
-        let tb = time.as_bytes();
-        let field = |s: &str, max: u32| digits(s).is_some_and(|v| v <= max);
-        tb[2] == b':'
-            && tb[5] == b':'
-            && field(&time[..2], 23)
-            && field(&time[3..5], 59)
-            && field(&time[6..], 60)
-    };
-    b.len() == 20
-        && b[10] == b'T'
-        && b[19] == b'Z'
-        && parse_date(&text[..10]).is_some()
-        && time_ok()
-}
-
-fn bad_bound(field: &str, value: &str) -> LedgerError {
-    LedgerError::Query {
-        field: field.to_string(),
-        value: value.to_string(),
-    }
-}
-
-/// The lower bound of `since`: its date (a prefix of every timestamp that day) or its time.
-fn since_bound(since: &str) -> Result<String, LedgerError> {
-    if parse_date(since).is_some() || is_timestamp(since) {
-        Ok(since.to_string())
-    } else {
-        Err(bad_bound("since", since))
-    }
-}
-
-/// The upper bound of `until` and whether it is inclusive: a date takes its whole day (before
-/// the day after), a time itself.
-fn until_bound(until: &str) -> Result<(String, bool), LedgerError> {
-    if let Some(date) = parse_date(until) {
-        Ok((day_after(date), false))
-    } else if is_timestamp(until) {
-        Ok((until.to_string(), true))
-    } else {
-        Err(bad_bound("until", until))
-    }
 }
 
 #[cfg(test)]

@@ -6,7 +6,7 @@ use std::path::Path;
 use std::sync::{Arc, Barrier};
 
 use super::*;
-use crate::ledger::{FlightSource, GuardLearned, PackFit, PartRecord};
+use crate::ledger::{FlightSource, GuardLearned, Outcome, PackFit, PartRecord};
 
 /// The environment variable naming the PostgreSQL server the tests use.
 const POSTGRES_VAR: &str = "EMPLAN_TEST_POSTGRES";
@@ -88,7 +88,7 @@ fn record(k: usize) -> FlightRecord {
         kind: kind.to_string(),
         name: name.to_string(),
         predicted_j: Some(1000.0 + k as f64 / 3.0 + f64::from(index)),
-        measured_j: (index != 1).then(|| 1012.5 * (1.0 + k as f64 * 1e-7)),
+        measured_j: (index != 1).then_some(1012.5 * (1.0 + k as f64 * 1e-7)),
         duration_s: Some(12.1 + f64::from(index) * 0.1),
     };
     FlightRecord {
