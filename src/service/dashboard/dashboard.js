@@ -671,9 +671,14 @@
       );
       $('report-legs').hidden = false;
     }
-    $('rp-figure').hidden = false;
-    $('rp-plot').src = '/api/flights/' + enc(name) + '/plot.svg?complete=' + String(r ? r.complete : 'no') + '&legs=' + (r ? r.legs.length : 0);
-    $('rp-plot-open').href = $('rp-plot').src;
+    // A flight just begun has too little log to replay (422): its figure is drawn once it has
+    // a report.
+    const drawable = !(f.recording && !r);
+    $('rp-figure').hidden = !drawable;
+    if (drawable) {
+      $('rp-plot').src = '/api/flights/' + enc(name) + '/plot.svg?complete=' + String(r ? r.complete : 'no') + '&legs=' + (r ? r.legs.length : 0);
+      $('rp-plot-open').href = $('rp-plot').src;
+    }
   }
 
   // ---- packs ---------------------------------------------------------------------------
