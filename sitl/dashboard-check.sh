@@ -2,8 +2,10 @@
 # The dashboard in a real browser: starts `emplan serve` on the built-in mock with a temporary
 # missions folder holding MISSION and a temporary log directory, then drives the page in
 # headless Chromium (Debian's, through playwright-core; sitl/dashboard/check.mjs): upload and
-# start through the page's own controls with the token typed into it, the live leg table filled
-# leg by leg, the flight's report with every leg. Then a second service, `--guard rtl` with the
+# start through the page's own controls with the token typed into it and the pack named in its
+# Pack field, the live leg table filled leg by leg, the flight's report with every leg, and the
+# Packs page listing the pack with its flight and a capacity (the flight written to the ledger,
+# LOGDIR/ledger.sqlite). Then a second service, `--guard rtl` with the
 # mock flying a heavier vehicle with a smaller pack (`--mock-vehicle`), and a mission it cannot
 # finish with the reserve: the live view's guard panel shows the warning and the return. Screenshots go to OUT (default
 # target/dashboard). Installs what it needs (chromium, fonts, npm ci); stops what it started.
@@ -66,7 +68,7 @@ echo "dashboard-check: $url (missions $work/missions, flights $work/flights)"
 status=0
 node sitl/dashboard/check.mjs --url "$url" --token-file "$work/flights/token" \
     --mission "$(basename "$mission")" --broken broken.toml \
-    --infeasible long-inspection.toml --out "$out" || status=$?
+    --infeasible long-inspection.toml --pack P-check --out "$out" || status=$?
 if [ "$status" -ne 0 ]; then
     echo "== emplan serve's log" >&2
     tail -n 40 "$work/flights.log" >&2

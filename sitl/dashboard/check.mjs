@@ -4,10 +4,14 @@
 // table fill leg by leg, then open the flight's report. Saves screenshots; exits non-zero on any
 // failure (a step timing out, a console error, a CSP violation, the token found in the page).
 //
+// With --pack NAME, the pack is typed into the upload form's Pack field before the flight, and
+// after it the Packs page must list that pack with its one flight, a capacity measured, and its
+// chart of capacity over cycles (screenshot packs.png).
+//
 // With --guard yes, instead: the guarded flight of MISSION (a service run with --guard rtl and a
 // heavier --mock-vehicle): the live view's guard panel shows the warning and the return.
 //
-// node check.mjs --url URL --token-file FILE --mission NAME --out DIR [--broken NAME] [--infeasible NAME] [--guard yes] [--chromium PATH]
+// node check.mjs --url URL --token-file FILE --mission NAME --out DIR [--broken NAME] [--infeasible NAME] [--pack NAME] [--guard yes] [--chromium PATH]
 import { chromium } from 'playwright-core';
 import { readFileSync, mkdirSync } from 'node:fs';
 import { join } from 'node:path';
@@ -206,7 +210,8 @@ try {
     log(`wrong token: ${refused[1]}`);
     await page.evaluate(() => delete document.querySelector('#upload-result').dataset.outcome);
 
-    // Upload through the page: the button asks for the token.
+    // Upload through the page, naming the pack flown: the button asks for the token.
+    if (opts.pack) await page.fill('#upload-pack', opts.pack);
     await page.click('#upload-btn');
     await page.locator('#token-dialog').waitFor({ state: 'visible' });
     await page.fill('#token-input', token);
@@ -299,6 +304,41 @@ try {
     await page.screenshot({ path: join(opts.out, 'report.png') });
     await page.screenshot({ path: join(opts.out, 'report-full.png'), fullPage: true });
     log(`report: ${legs} legs, measured kJ ${measured.join(' ')}; .tlog and CSV links answer`);
+
+    if (opts.pack) {
+      // The Packs page: the pack flown, with its flight counted and a capacity measured. The
+      // flight reaches the ledger once its files are complete: the page is opened again until
+      // the pack is listed.
+      const packRow = `#packs-body tr[data-name="${opts.pack}"]`;
+      let listed = false;
+      for (const until = Date.now() + timeout; !listed && Date.now() < until; ) {
+        await page.click('#tab-flights');
+        await page.click('#tab-packs');
+        listed = await page
+          .locator(packRow)
+          .waitFor({ timeout: 2000 })
+          .then(() => true)
+          .catch(() => false);
+      }
+      if (!listed) throw new Error(`the Packs page does not list the pack ${opts.pack} flown`);
+      const shown = await page.evaluate((sel) => {
+        const row = document.querySelector(sel);
+        const chart = document.querySelector(`#packs-charts figure[data-name="${row.dataset.name}"]`);
+        return {
+          flights: row.querySelector('td.flights').textContent,
+          capacity: row.querySelector('td.capacity').textContent,
+          cells: [...row.querySelectorAll('td')].map((td) => td.textContent),
+          points: chart ? chart.querySelectorAll('circle.point').length : -1,
+          ledger: document.querySelector('#packs-ledger').textContent,
+        };
+      }, packRow);
+      log(`packs: ${opts.pack}: ${JSON.stringify(shown.cells)}; chart points ${shown.points}; ${shown.ledger}`);
+      if (shown.flights !== '1') throw new Error(`the Packs page counts ${shown.flights} flights of ${opts.pack}, expected 1`);
+      if (!/^\d+(\.\d+)?( ± \d+(\.\d+)?)?%$/.test(shown.capacity)) throw new Error(`the Packs page shows no capacity for ${opts.pack}: ${JSON.stringify(shown.capacity)}`);
+      if (shown.points !== 1) throw new Error(`the chart of ${opts.pack} has ${shown.points} points, expected its one flight`);
+      await noTokenInPage(page, 'on the Packs page');
+      await page.screenshot({ path: join(opts.out, 'packs.png') });
+    }
   }
   if (provoked.length) problems.push(`refusals expected and not seen: ${JSON.stringify(provoked)}`);
   if (problems.length) throw new Error(`the page reported problems:\n  ${problems.join('\n  ')}`);

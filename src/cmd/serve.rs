@@ -24,6 +24,10 @@ pub struct Args {
     /// Directory the flight directories are made in
     #[arg(long, default_value = "flights")]
     log_dir: PathBuf,
+    /// The flight and battery ledger: a SQLite file or a postgres:// URL (default:
+    /// LOG_DIR/ledger.sqlite, made when the first flight lands)
+    #[arg(long, value_name = "PATH|URL")]
+    ledger: Option<String>,
     /// Address of the HTTP API (port 0: any free port; the URL is printed on stdout)
     #[arg(long, default_value = "127.0.0.1:8080")]
     http: std::net::SocketAddr,
@@ -177,6 +181,19 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             flight.display()
         );
     }
+    let ledger = match &args.ledger {
+        Some(text) => emplan::ledger::LedgerSpec::parse(text),
+        None => emplan::ledger::LedgerSpec::Sqlite(args.log_dir.join("ledger.sqlite")),
+    };
+    if let emplan::ledger::LedgerSpec::Sqlite(path) = &ledger {
+        if let Some(flight) = emplan::flightlog::recorder::flight_dir_holding(path) {
+            anyhow::bail!(
+                "--ledger {}: inside the flight directory {}; a flight's directory holds its own files only (give a file outside it)",
+                path.display(),
+                flight.display()
+            );
+        }
+    }
     let (token, created) = Token::load_or_create(&token_file)?;
     for weakness in emplan::service::token::weaknesses(&token_file, &token) {
         tracing::warn!("{weakness}");
@@ -191,6 +208,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         vehicle,
         missions_dir: args.missions.clone(),
         log_dir: args.log_dir.clone(),
+        ledger,
         token,
         model: Arc::new(model),
         solver: args.solver.options()?,

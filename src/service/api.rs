@@ -1,6 +1,7 @@
 //! The HTTP API under `/api/` (axum), thin over the service's tasks: reads come from the mission
 //! catalog (a watch channel), the event hub and the flight directories; what changes the
-//! vehicle goes to the vehicle actor and needs the bearer token. `/` is the dashboard (see
+//! vehicle goes to the vehicle actor and needs the bearer token; the ledger is read on a
+//! blocking thread per request (`service::ledger`). `/` is the dashboard (see
 //! `dashboard`: one page and its script and style, embedded in the binary).
 //!
 //! - `GET /api/missions`: `{"dir", "missions": [SUMMARY]}`; `GET /api/missions/{name}`: the
@@ -15,8 +16,12 @@
 //!   while an upload is under way).
 //! - `GET /api/vehicle`, `GET /api/link`, `GET /api/battery?since_ms=`: link, vehicle and
 //!   battery state, the flight in progress with its parts so far, the battery's last minutes.
-//! - `GET /api/flights`, `GET /api/flights/{name}`, `GET /api/flights/{name}/report`,
-//!   `GET /api/flights/{name}/files/{file}`: recorded flights, their reports and files.
+//! - `GET /api/flights?vehicle=&pack=&mission=&since=&until=`, `GET /api/flights/{name}`,
+//!   `GET /api/flights/{name}/report`, `GET /api/flights/{name}/files/{file}`: recorded flights
+//!   (the flight directories, and the ledger's flights matching the query), their reports and
+//!   files.
+//! - `GET /api/packs`: every pack of the ledger's flights (`ledger::packs`), with the capacity
+//!   each flight measured over its cycles.
 //! - `GET /api/missions/{name}/plot.svg`, `GET /api/flights/{name}/plot.svg`: the figures of
 //!   `emplan plan --plot` and `emplan report --plot` (`crate::plot`) as `image/svg+xml`.
 //! - `GET /api/events`: server-sent events (see `events`).
@@ -45,13 +50,15 @@ use super::missions::CatalogRx;
 use super::vehicle::{UploadJob, VehicleHandle};
 use super::wire::{
     BatteryView, Event, FlightDetail, FlightFiles, FlightSummary, FlightsList, LinkStatus,
-    MissionDetail, MissionsFolder, UploadAnswer, UploadRequest, UploadResult, VehicleView,
+    MissionDetail, MissionsFolder, PacksView, UploadAnswer, UploadRequest, UploadResult,
+    VehicleView,
 };
 use super::{escape_controls, Refusal, Token};
 use crate::flightlog::recorder::{
     is_flight_dir, read_report, PLAN_FILE, REPORT_FILE, SAMPLES_FILE, TLOG_FILE,
 };
 use crate::flightlog::report::ReportJson;
+use crate::ledger::{FlightQuery, FlightRecord, LedgerSpec};
 use crate::physics::{Profile, VehicleModel};
 use crate::planner::FlightChoice;
 use crate::session::flight_dirs;
@@ -65,6 +72,7 @@ pub struct Shared {
     pub hub: Arc<Hub>,
     pub token: Token,
     pub log_dir: PathBuf,
+    pub ledger: LedgerSpec,
     pub model: Arc<VehicleModel>,
     pub solver: solver::Options,
     /// Turns true when the service stops (event streams end).
@@ -93,6 +101,7 @@ pub fn router(shared: Shared) -> Router {
         .route("/api/link", get(link))
         .route("/api/battery", get(battery))
         .route("/api/flights", get(flights))
+        .route("/api/packs", get(packs))
         .route("/api/flights/{name}", get(flight))
         .route("/api/flights/{name}/report", get(report))
         .route("/api/flights/{name}/plot.svg", get(flight_plot))
@@ -328,6 +337,24 @@ fn solver_of(
     Ok(options)
 }
 
+/// The pack `request` names, checked: a pack's name is a name, not text to hide things in.
+fn pack_of(request: &UploadRequest) -> Result<Option<String>, Refusal> {
+    let Some(name) = &request.pack else {
+        return Ok(None);
+    };
+    let name = name.trim();
+    if name.is_empty() {
+        return Ok(None);
+    }
+    if name.chars().count() > 64 || name.chars().any(char::is_control) {
+        return Err(bad_request(format!(
+            "pack \"{}\": expected a pack's name (up to 64 characters, no control characters)",
+            escape_controls(name)
+        )));
+    }
+    Ok(Some(name.to_string()))
+}
+
 async fn upload(
     State(s): State<AppState>,
     Path(name): Path<String>,
@@ -395,6 +422,7 @@ async fn upload_mission(
         }
     }
     let solver = solver_of(&request, s.solver)?;
+    let pack = pack_of(&request)?;
     let acceptance_radius_m = request.acceptance_radius_m.unwrap_or(2.0);
     if !(acceptance_radius_m.is_finite()
         && acceptance_radius_m > 0.0
@@ -440,6 +468,7 @@ async fn upload_mission(
                 pack,
                 solver,
                 span,
+                pack,
             },
             slot,
         )
@@ -519,7 +548,63 @@ fn recording(hub: &Hub) -> Option<String> {
     hub.flight().filter(|f| f.recording).map(|f| f.flight)
 }
 
-async fn flights(State(s): State<AppState>) -> Result<Json<FlightsList>, Refusal> {
+/// The query of `GET /api/flights`: which of the ledger's flights (an empty field: any).
+#[derive(Debug, Default, Deserialize)]
+struct LedgerQuery {
+    vehicle: Option<String>,
+    pack: Option<String>,
+    mission: Option<String>,
+    since: Option<String>,
+    until: Option<String>,
+}
+
+impl LedgerQuery {
+    /// The ledger's query, its dates checked.
+    fn query(self) -> Result<FlightQuery, Refusal> {
+        let given = |v: Option<String>| v.filter(|v| !v.trim().is_empty());
+        let (since, until) = (given(self.since), given(self.until));
+        for (field, value) in [("since", &since), ("until", &until)] {
+            if let Some(problem) = value
+                .as_deref()
+                .and_then(|v| super::ledger::check_date(field, v))
+            {
+                return Err(bad_request(escape_controls(&problem).into_owned()));
+            }
+        }
+        Ok(FlightQuery {
+            vehicle: given(self.vehicle),
+            pack: given(self.pack),
+            mission: given(self.mission),
+            since,
+            until,
+        })
+    }
+}
+
+/// The ledger's flights matching `query`, oldest first, read on a blocking thread; the inner
+/// error says why the ledger cannot be read, the outer refuses the query.
+async fn ledger_flights(
+    s: &Shared,
+    query: FlightQuery,
+) -> Result<Result<Vec<FlightRecord>, String>, Refusal> {
+    let spec = s.ledger.clone();
+    let read = tokio::task::spawn_blocking(move || super::ledger::flights(&spec, &query)).await;
+    Ok(match read {
+        Ok(Ok(records)) => Ok(records),
+        Ok(Err(e @ crate::ledger::LedgerError::Query { .. })) => {
+            return Err(bad_request(escape_controls(&e.to_string()).into_owned()))
+        }
+        Ok(Err(e)) => Err(e.to_string()),
+        Err(e) => Err(format!("reading the ledger stopped: {e}")),
+    })
+}
+
+async fn flights(
+    State(s): State<AppState>,
+    query: Result<Query<LedgerQuery>, axum::extract::rejection::QueryRejection>,
+) -> Result<Json<FlightsList>, Refusal> {
+    let Query(query) = query.map_err(|e| bad_request(format!("the flights' query: {e}")))?;
+    let query = query.query()?;
     let log_dir = s.log_dir.clone();
     let now = recording(&s.hub);
     let list = tokio::task::spawn_blocking(move || -> std::io::Result<Vec<FlightSummary>> {
@@ -544,9 +629,45 @@ async fn flights(State(s): State<AppState>) -> Result<Json<FlightsList>, Refusal
             &format!("log directory {}: {e}", s.log_dir.display()),
         )
     })?;
+    // The flight directories are the flights' own record: a ledger that cannot be read is said,
+    // the directories listed all the same.
+    let (records, ledger_error) = match ledger_flights(&s, query).await? {
+        Ok(mut records) => {
+            records.reverse();
+            (records, None)
+        }
+        Err(e) => {
+            tracing::warn!("listing the ledger's flights: {}", escape_controls(&e));
+            (Vec::new(), Some(e))
+        }
+    };
     Ok(Json(FlightsList {
         dir: s.log_dir.clone(),
         flights: list,
+        ledger: super::ledger::describe(&s.ledger),
+        records,
+        ledger_error,
+    }))
+}
+
+/// Every pack of the ledger's flights, summed up by `ledger::packs`.
+async fn packs(State(s): State<AppState>) -> Result<Json<PacksView>, Refusal> {
+    let spec = s.ledger.clone();
+    let ledger = super::ledger::describe(&spec);
+    let (exists, packs) = tokio::task::spawn_blocking(move || {
+        let records = super::ledger::flights(&spec, &FlightQuery::default())?;
+        Ok::<_, crate::ledger::LedgerError>((
+            super::ledger::exists(&spec),
+            super::ledger::pack_views(&records),
+        ))
+    })
+    .await
+    .map_err(|e| Refusal::new(500, "ledger", &format!("reading the ledger stopped: {e}")))?
+    .map_err(|e| Refusal::new(500, "ledger", &e.to_string()))?;
+    Ok(Json(PacksView {
+        ledger,
+        exists,
+        packs,
     }))
 }
 

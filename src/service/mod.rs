@@ -12,7 +12,8 @@
 //! `Host` check, the bound on plots and downloads at once). No lock is held across an await.
 //! `wire` holds every request, answer and event the HTTP side sends or takes, shared by the
 //! server and `client`, the HTTP client of `--service` (`remote`: upload and fly through a
-//! service); `token` the bearer token.
+//! service); `token` the bearer token; `ledger` the flights and packs of the ledger the API
+//! serves (`GET /api/flights`, `GET /api/packs`), read on a blocking thread per request.
 //!
 //! Shutdown: the signal stops the HTTP server (no new requests; event streams end; requests in
 //! progress finish), then the vehicle actor closes the flight log (an open flight's files are
@@ -24,6 +25,7 @@ pub mod client;
 pub mod dashboard;
 pub mod events;
 pub mod http;
+pub mod ledger;
 pub mod missions;
 pub mod remote;
 pub mod token;
@@ -92,6 +94,8 @@ pub struct ServiceConfig {
     pub missions_dir: PathBuf,
     /// Where flight directories are made.
     pub log_dir: PathBuf,
+    /// The flight and battery ledger (`serve --ledger`; default `LOG_DIR/ledger.sqlite`).
+    pub ledger: crate::ledger::LedgerSpec,
     /// What a request that changes the vehicle must carry.
     pub token: Token,
     /// The vehicle model (and profile) missions are planned and flights predicted with.
@@ -226,6 +230,7 @@ pub async fn run(
                 ..RecorderConfig::new(&cfg.log_dir)
             },
             guard: cfg.guard,
+            ledger: cfg.ledger.clone(),
         },
         cfg.model.clone(),
         catalog.clone(),
@@ -241,6 +246,7 @@ pub async fn run(
         hub,
         token: cfg.token.clone(),
         log_dir: cfg.log_dir.clone(),
+        ledger: cfg.ledger.clone(),
         model: cfg.model.clone(),
         solver: cfg.solver,
         stop: http_stop,
@@ -249,9 +255,10 @@ pub async fn run(
     });
     if let Ok(addr) = listener.local_addr() {
         tracing::info!(
-            "serving on http://{addr}/api/ (missions in {}, flights in {})",
+            "serving on http://{addr}/api/ (missions in {}, flights in {}, ledger {})",
             cfg.missions_dir.display(),
-            cfg.log_dir.display()
+            cfg.log_dir.display(),
+            ledger::describe(&cfg.ledger)
         );
     }
     http::serve(listener, app, cfg.http.header_timeout, async move {

@@ -398,11 +398,61 @@ pub struct FlightSummary {
     pub files: FlightFiles,
 }
 
-/// `GET /api/flights`: the log directory and its flights, newest first.
+/// `GET /api/flights?vehicle=&pack=&mission=&since=&until=`: the log directory and its
+/// flights (every flight directory in it, newest first), and the ledger's flights matching the
+/// query (every field given must match; none: all), newest first.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FlightsList {
     pub dir: PathBuf,
     pub flights: Vec<FlightSummary>,
+    /// Where the ledger is (a PostgreSQL URL without its password).
+    #[serde(default)]
+    pub ledger: String,
+    /// The ledger's flights matching the query, newest first (none while the ledger does not
+    /// exist yet, or cannot be read: then `ledger_error` says why).
+    #[serde(default)]
+    pub records: Vec<crate::ledger::FlightRecord>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ledger_error: Option<String>,
+}
+
+/// `GET /api/packs`: every pack of the ledger's flights.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PacksView {
+    /// Where the ledger is (a PostgreSQL URL without its password).
+    pub ledger: String,
+    /// False until the first flight lands in it (the service does not create it before).
+    pub exists: bool,
+    /// By name.
+    pub packs: Vec<PackView>,
+}
+
+/// One pack: what `ledger::packs::summarise` makes of its flights (flights, cycles, capacity
+/// and resistance with their standard errors, fade per cycle, warnings), and each flight's own
+/// measure of it, oldest first (the capacity over cycles the dashboard draws).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PackView {
+    #[serde(flatten)]
+    pub summary: crate::ledger::PackSummary,
+    pub history: Vec<PackPoint>,
+}
+
+/// One flight of a pack, as its voltage and current measured the pack.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PackPoint {
+    /// The flight's id in the ledger.
+    pub flight: String,
+    pub started_at: Option<String>,
+    /// The pack's age at the flight's middle in equivalent full cycles (the charge drawn on it
+    /// so far against its label, as `ledger::packs` places the flight on its trend; None: no
+    /// label known).
+    pub cycles: Option<f64>,
+    /// The capacity the flight's voltage and current show, its standard error and the label
+    /// (Ah; None: not fitted).
+    pub capacity_ah: Option<f64>,
+    pub capacity_sd_ah: Option<f64>,
+    pub label_capacity_ah: Option<f64>,
+    pub internal_resistance_ohm: Option<f64>,
 }
 
 /// `GET /api/flights/{name}`: the summary, the mission it flew, its report and, while it is

@@ -41,6 +41,7 @@ mod resume;
 mod service;
 mod service_guard;
 mod service_http_hardening;
+mod service_ledger;
 mod service_missions_folder;
 mod service_refused_starts;
 mod snapshots;

@@ -118,6 +118,7 @@ pub(crate) async fn serve_after(
         vehicle,
         missions_dir: missions.clone(),
         log_dir: log_dir.clone(),
+        ledger: emplan::ledger::LedgerSpec::Sqlite(log_dir.join("ledger.sqlite")),
         token: token.clone(),
         model: model(),
         solver: Default::default(),
@@ -223,7 +224,7 @@ pub(crate) fn read<T: serde::de::DeserializeOwned>(answer: &Answer) -> T {
 }
 
 /// Polls `GET path` until `accept` takes the answer (up to `seconds`).
-async fn poll(
+pub(crate) async fn poll(
     client: &Client,
     path: &str,
     seconds: u64,
@@ -1323,6 +1324,9 @@ async fn the_dashboard_is_served_at_the_root_with_its_script_and_style_and_holds
         "flights-body",
         "report-legs-body",
         "rp-plot",
+        "upload-pack",
+        "packs-body",
+        "packs-charts",
     ] {
         assert!(
             page.contains(&format!("id=\"{id}\"")),

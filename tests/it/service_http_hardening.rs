@@ -48,6 +48,7 @@ impl Service {
             },
             missions_dir: missions,
             log_dir: log_dir.clone(),
+            ledger: emplan::ledger::LedgerSpec::Sqlite(log_dir.join("ledger.sqlite")),
             token: token.clone(),
             model: Arc::new(
                 VehicleModel::load(&root.join("models/s1000"), None).expect("the model"),

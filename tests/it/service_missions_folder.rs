@@ -68,6 +68,7 @@ async fn serve(settings: Settings) -> Running {
         },
         missions_dir: missions.clone(),
         log_dir: work.path().join("flights"),
+        ledger: emplan::ledger::LedgerSpec::Sqlite(work.path().join("flights/ledger.sqlite")),
         token: token.clone(),
         model: model(),
         solver: emplan::tour::solver::Options {

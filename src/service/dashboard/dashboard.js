@@ -16,6 +16,7 @@
     guardNotes: [],
     flights: [],
     report: null,
+    packs: [],
   };
   const CHART_WINDOW_MS = 5 * 60 * 1000;
 
@@ -120,11 +121,12 @@
 
   // ---- views ---------------------------------------------------------------------------
   function show(view) {
-    for (const name of ['missions', 'live', 'flights']) {
+    for (const name of ['missions', 'live', 'flights', 'packs']) {
       $('view-' + name).hidden = name !== view;
       $('tab-' + name).setAttribute('aria-pressed', String(name === view));
     }
     if (view === 'live') drawCharts();
+    if (view === 'packs') loadPacks();
   }
   for (const tab of document.querySelectorAll('.tab')) {
     tab.addEventListener('click', () => show(tab.dataset.view));
@@ -284,6 +286,8 @@
     const request = { order: $('upload-order').value, allow_infeasible: $('upload-infeasible').checked };
     const sortie = $('upload-sortie').value;
     if (sortie) request.sortie = Number(sortie);
+    const pack = $('upload-pack').value.trim();
+    if (pack) request.pack = pack;
     const button = $('upload-btn');
     button.disabled = true;
     showResult(box, 'busy', 'Uploading ' + name + '…');
@@ -293,7 +297,7 @@
         showResult(box, 'fail', 'Not uploaded: no token entered.');
       } else if (answer.ok && answer.body && answer.body.ok !== false) {
         const d = answer.body;
-        const lines = ['Uploaded and verified: ' + d.mission + ', ' + (d.order || request.order) + ' order' + (d.sortie ? ', sortie ' + d.sortie : '')];
+        const lines = ['Uploaded and verified: ' + d.mission + ', ' + (d.order || request.order) + ' order' + (d.sortie ? ', sortie ' + d.sortie : '') + (pack ? ', pack ' + pack : '')];
         if (d.sequence) lines.push('Order: ' + ['origin', ...d.sequence, 'origin'].join(' > '));
         const r = d.report || {};
         lines.push((r.items ?? '-') + ' items sent, ' + (r.verified ? 'read back identical' : 'NOT verified') + (d.autopilot ? ' (' + d.autopilot.flavour + ' autopilot)' : ''));
@@ -667,9 +671,125 @@
       );
       $('report-legs').hidden = false;
     }
-    $('rp-figure').hidden = false;
-    $('rp-plot').src = '/api/flights/' + enc(name) + '/plot.svg?complete=' + String(r ? r.complete : 'no') + '&legs=' + (r ? r.legs.length : 0);
-    $('rp-plot-open').href = $('rp-plot').src;
+    // A flight just begun has too little log to replay (422): its figure is drawn once it has
+    // a report.
+    const drawable = !(f.recording && !r);
+    $('rp-figure').hidden = !drawable;
+    if (drawable) {
+      $('rp-plot').src = '/api/flights/' + enc(name) + '/plot.svg?complete=' + String(r ? r.complete : 'no') + '&legs=' + (r ? r.legs.length : 0);
+      $('rp-plot-open').href = $('rp-plot').src;
+    }
+  }
+
+  // ---- packs ---------------------------------------------------------------------------
+  const estimate = (e, scale, digits, unit) => (e ? fmt(e.value * scale, digits) + (e.sd !== null && e.sd !== undefined ? ' \u00b1 ' + fmt(e.sd * scale, digits) : '') + (unit || '') : '-');
+  function fadeText(p) {
+    const f = p.fade_ah_per_cycle;
+    if (!f) return '-';
+    const ah = estimate(f, 1, 3, ' Ah');
+    return p.label_capacity_ah ? ah + ' (' + fmt((100 * f.value) / p.label_capacity_ah, 2) + '%)' : ah;
+  }
+  // When the pack last flew (its last flight's start, UTC), else that flight's name.
+  function lastFlown(p) {
+    const last = (p.history || [])[(p.history || []).length - 1];
+    if (last && last.started_at) return last.started_at.replace('T', ' ').replace('Z', ' UTC');
+    return p.last_flight || '-';
+  }
+  async function loadPacks() {
+    const answer = await api('/api/packs');
+    const body = $('packs-body');
+    if (!answer.ok) {
+      body.replaceChildren(el('tr', {}, el('td', { colspan: 9, class: 'bad', text: failureText(answer) })));
+      return;
+    }
+    state.packs = answer.body.packs || [];
+    $('packs-ledger').textContent = 'Ledger: ' + answer.body.ledger + (answer.body.exists ? '' : ' (made when the first flight lands)');
+    $('pack-names').replaceChildren(...state.packs.map((p) => el('option', { value: p.name })));
+    if (state.packs.length === 0) {
+      body.replaceChildren(el('tr', {}, el('td', { colspan: 9, text: 'No pack flown yet: name the pack when you upload a mission.' })));
+      $('packs-charts').replaceChildren();
+      return;
+    }
+    body.replaceChildren(
+      ...state.packs.map((p) =>
+        el(
+          'tr',
+          { 'data-name': p.name, class: p.warnings && p.warnings.length ? 'warn' : null },
+          el('td', { text: p.name }),
+          el('td', { class: 'num flights', text: String(p.flights) }),
+          el('td', { class: 'num', text: fmt(p.cycles, 2) }),
+          el('td', { class: 'num capacity', text: estimate(p.capacity_ratio, 100, 1, '%') }),
+          el('td', { class: 'num', text: estimate(p.capacity_ah, 1, 2) + (p.label_capacity_ah ? ' of ' + fmt(p.label_capacity_ah, 2) : '') }),
+          el('td', { class: 'num', text: estimate(p.internal_resistance_ohm, 1000, 1) }),
+          el('td', { class: 'num', text: fadeText(p) }),
+          el('td', { class: 'when', title: p.last_flight || '', text: lastFlown(p) }),
+          el('td', { class: 'warnings', text: (p.warnings || []).join('; ') }),
+        ),
+      ),
+    );
+    $('packs-charts').replaceChildren(...state.packs.map(packChart));
+  }
+  // The capacity each flight measured (% of the label, or Ah without one) over the pack's cycles.
+  function packChart(p) {
+    const NS = 'http://www.w3.org/2000/svg';
+    const W = 420;
+    const H = 170;
+    const left = 56;
+    const bottom = H - 22;
+    const svg = document.createElementNS(NS, 'svg');
+    svg.setAttribute('viewBox', '0 0 ' + W + ' ' + H);
+    svg.setAttribute('role', 'img');
+    svg.setAttribute('aria-label', 'capacity of pack ' + p.name + ' over its cycles');
+    const node = (tag, attrs, text) => {
+      const n = document.createElementNS(NS, tag);
+      for (const [k, v] of Object.entries(attrs)) n.setAttribute(k, String(v));
+      if (text !== undefined) n.textContent = text;
+      svg.append(n);
+      return n;
+    };
+    const pts = (p.history || [])
+      .map((h, k) => {
+        const label = h.label_capacity_ah;
+        const scale = label ? 100 / label : 1;
+        return { x: h.cycles ?? k + 1, y: h.capacity_ah === null || h.capacity_ah === undefined ? null : h.capacity_ah * scale, sd: (h.capacity_sd_ah || 0) * scale, pct: !!label };
+      })
+      .filter((q) => q.y !== null && Number.isFinite(q.y));
+    const unit = pts.length && pts.every((q) => q.pct) ? '%' : 'Ah';
+    node('line', { x1: left, y1: bottom, x2: W - 4, y2: bottom, class: 'axis' });
+    node('line', { x1: left, y1: 4, x2: left, y2: bottom, class: 'axis' });
+    if (pts.length === 0) {
+      node('text', { x: left + 10, y: bottom / 2 }, 'no capacity measured yet');
+    } else {
+      let lo = Math.min(...pts.map((q) => q.y - q.sd));
+      let hi = Math.max(...pts.map((q) => q.y + q.sd));
+      if (unit === '%') {
+        hi = Math.max(hi, 100);
+      }
+      if (hi - lo < 1) {
+        hi += 0.5;
+        lo -= 0.5;
+      }
+      const pad = (hi - lo) * 0.08;
+      lo -= pad;
+      hi += pad;
+      // From a new pack (0 cycles) to its age now.
+      const x0 = Math.min(0, ...pts.map((q) => q.x));
+      const x1 = Math.max(...pts.map((q) => q.x));
+      const span = x1 - x0 > 1e-9 ? x1 - x0 : 1;
+      const x = (v) => left + 10 + ((v - x0) / span) * (W - left - 24);
+      const y = (v) => 4 + ((hi - v) / (hi - lo)) * (bottom - 8);
+      if (unit === '%' && hi >= 100 && lo <= 100) node('line', { x1: left, y1: y(100), x2: W - 4, y2: y(100), class: 'label-line' });
+      node('polyline', { class: 'line', points: pts.map((q) => x(q.x).toFixed(1) + ',' + y(q.y).toFixed(1)).join(' ') });
+      for (const q of pts) {
+        if (q.sd > 0) node('line', { x1: x(q.x), y1: y(q.y - q.sd), x2: x(q.x), y2: y(q.y + q.sd), class: 'sd' });
+        node('circle', { cx: x(q.x).toFixed(1), cy: y(q.y).toFixed(1), r: 4, class: 'point' });
+      }
+      node('text', { x: 2, y: 16 }, fmt(hi, 1) + ' ' + unit);
+      node('text', { x: 2, y: bottom - 2 }, fmt(lo, 1) + ' ' + unit);
+      node('text', { x: left, y: H - 4 }, fmt(x0, 1));
+      node('text', { x: W - 120, y: H - 4 }, fmt(x1, 2) + ' cycles');
+    }
+    return el('figure', { class: 'pack-chart', 'data-name': p.name }, svg, el('figcaption', { text: p.name + ': capacity ' + (unit === '%' ? 'of the label' : '(Ah)') + ' per flight over cycles' + (unit === '%' ? ' (dashed: the label)' : '') }));
   }
 
   // ---- the event stream ----------------------------------------------------------------
@@ -689,6 +809,7 @@
         loadMissions();
         loadVehicle();
         loadFlights();
+        loadPacks();
       }
     };
     source.onerror = () => {
@@ -728,6 +849,8 @@
           setText('live-note', 'Flight ' + e.flight + ' ended: its report is under Flights.');
           $('live-note').dataset.ended = e.flight;
           loadFlights(e.flight);
+          // The flight is written to the ledger once its files are complete: read the packs again then.
+          setTimeout(loadPacks, 1500);
           break;
         case 'recording_failed':
           setText('live-note', 'Recording ' + e.flight + ' failed: ' + e.error);
@@ -752,5 +875,6 @@
   loadMissions();
   loadVehicle();
   loadFlights();
+  loadPacks();
   follow();
 })();
