@@ -337,24 +337,6 @@ fn solver_of(
     Ok(options)
 }
 
-/// The pack `request` names, checked: a pack's name is a name, not text to hide things in.
-fn pack_of(request: &UploadRequest) -> Result<Option<String>, Refusal> {
-    let Some(name) = &request.pack else {
-        return Ok(None);
-    };
-    let name = name.trim();
-    if name.is_empty() {
-        return Ok(None);
-    }
-    if name.chars().count() > 64 || name.chars().any(char::is_control) {
-        return Err(bad_request(format!(
-            "pack \"{}\": expected a pack's name (up to 64 characters, no control characters)",
-            escape_controls(name)
-        )));
-    }
-    Ok(Some(name.to_string()))
-}
-
 async fn upload(
     State(s): State<AppState>,
     Path(name): Path<String>,
@@ -422,7 +404,6 @@ async fn upload_mission(
         }
     }
     let solver = solver_of(&request, s.solver)?;
-    let pack = pack_of(&request)?;
     let acceptance_radius_m = request.acceptance_radius_m.unwrap_or(2.0);
     if !(acceptance_radius_m.is_finite()
         && acceptance_radius_m > 0.0
@@ -465,7 +446,6 @@ async fn upload_mission(
                 choice,
                 acceptance_radius_m,
                 origin: request.origin,
-                pack,
                 solver,
                 span,
                 pack,
@@ -644,7 +624,7 @@ async fn flights(
     Ok(Json(FlightsList {
         dir: s.log_dir.clone(),
         flights: list,
-        ledger: super::ledger::describe(&s.ledger),
+        ledger: s.ledger.to_string(),
         records,
         ledger_error,
     }))
@@ -653,7 +633,7 @@ async fn flights(
 /// Every pack of the ledger's flights, summed up by `ledger::packs`.
 async fn packs(State(s): State<AppState>) -> Result<Json<PacksView>, Refusal> {
     let spec = s.ledger.clone();
-    let ledger = super::ledger::describe(&spec);
+    let ledger = spec.to_string();
     let (exists, packs) = tokio::task::spawn_blocking(move || {
         let records = super::ledger::flights(&spec, &FlightQuery::default())?;
         Ok::<_, crate::ledger::LedgerError>((

@@ -7,36 +7,8 @@
 //! service only reads here: a ledger that does not exist yet reads as no flights and is not
 //! created (the first flight that lands creates it).
 
-use std::path::Path;
-
 use super::wire::{PackPoint, PackView};
-use crate::ledger::{packs, FlightQuery, FlightRecord, Ledger, LedgerError, LedgerSpec, Written};
-
-/// Where the ledger is, for a person: the SQLite file's path, or the PostgreSQL URL with its
-/// password hidden.
-pub fn describe(spec: &LedgerSpec) -> String {
-    match spec {
-        LedgerSpec::Sqlite(path) => path.display().to_string(),
-        LedgerSpec::Postgres(url) => hide_password(url),
-    }
-}
-
-/// `url` with the password of its user information (`postgres://user:secret@host/db`) written
-/// as `***`.
-fn hide_password(url: &str) -> String {
-    let Some((scheme, rest)) = url.split_once("://") else {
-        return url.to_string();
-    };
-    let authority_end = rest.find(['/', '?']).unwrap_or(rest.len());
-    let (authority, tail) = rest.split_at(authority_end);
-    match authority.rsplit_once('@') {
-        Some((user_info, host)) => match user_info.split_once(':') {
-            Some((user, _password)) => format!("{scheme}://{user}:***@{host}{tail}"),
-            None => url.to_string(),
-        },
-        None => url.to_string(),
-    }
-}
+use crate::ledger::{packs, FlightQuery, FlightRecord, Ledger, LedgerError, LedgerSpec};
 
 /// Whether the ledger at `spec` exists yet (a PostgreSQL ledger is taken to: its server says).
 pub fn exists(spec: &LedgerSpec) -> bool {
@@ -52,7 +24,7 @@ pub fn flights(spec: &LedgerSpec, query: &FlightQuery) -> Result<Vec<FlightRecor
     if !exists(spec) {
         return Ok(Vec::new());
     }
-    Ledger::open(spec)?.flights(query)
+    Ledger::open_existing(spec)?.flights(query)
 }
 
 /// Every pack of `records` (oldest first), as `ledger::packs::summarise` sums it up, each with
@@ -123,74 +95,9 @@ pub fn check_date(field: &str, text: &str) -> Option<String> {
     }
 }
 
-/// Writes the flight of directory `dir` to the ledger at `spec` (created when absent). Blocking.
-// FIXME: the session writes each finished flight to the ledger (it also has the pack and the
-// vehicle); until it does, the service writes the flights it recorded here.
-pub fn write_flight(spec: &LedgerSpec, dir: &Path) -> Result<Written, LedgerError> {
-    let record = crate::ledger::record::from_dir(dir)?;
-    Ledger::open(spec)?.write(&record)
-}
-
-/// Writes every flight the recorder finishes to the ledger at `spec`, each on a blocking thread;
-/// a flight whose write fails is kept (its files are its record) and the failure logged.
-// FIXME: see `write_flight`.
-pub async fn write_finished(
-    spec: LedgerSpec,
-    mut flights: tokio::sync::broadcast::Receiver<crate::session::FlightEvent>,
-) {
-    use tokio::sync::broadcast::error::RecvError;
-    loop {
-        let (flight, dir) = match flights.recv().await {
-            Ok(crate::session::FlightEvent::Ended { flight, dir, .. }) => (flight, dir),
-            Ok(_) => continue,
-            Err(RecvError::Lagged(n)) => {
-                tracing::warn!("{n} flight events missed by the ledger writer");
-                continue;
-            }
-            Err(RecvError::Closed) => return,
-        };
-        let spec = spec.clone();
-        let written = tokio::task::spawn_blocking(move || write_flight(&spec, &dir)).await;
-        let name = super::escape_controls(&flight).into_owned();
-        match written {
-            Ok(Ok(w)) => tracing::info!(
-                "flight {name}: {} the ledger",
-                match w {
-                    Written::Inserted => "written to",
-                    Written::Unchanged => "already in",
-                    Written::Replaced => "replaced in",
-                }
-            ),
-            Ok(Err(e)) => tracing::warn!(
-                "flight {name}: not written to the ledger ({}); its directory keeps it",
-                super::escape_controls(&e.to_string())
-            ),
-            Err(e) => tracing::warn!("flight {name}: the ledger write stopped: {e}"),
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn a_postgres_url_is_described_without_its_password() {
-        assert_eq!(
-            describe(&LedgerSpec::parse(
-                "postgres://team:s3cret@db.local:5432/ledger"
-            )),
-            "postgres://team:***@db.local:5432/ledger"
-        );
-        assert_eq!(
-            describe(&LedgerSpec::parse("postgresql://db.local/ledger?user=x")),
-            "postgresql://db.local/ledger?user=x"
-        );
-        assert_eq!(
-            describe(&LedgerSpec::parse("flights/ledger.sqlite")),
-            "flights/ledger.sqlite"
-        );
-    }
 
     #[test]
     fn dates_and_times_of_a_query_are_checked_and_named() {

@@ -227,10 +227,10 @@ pub async fn run(
             transfer_budget: cfg.transfer_budget,
             recorder: RecorderConfig {
                 resume_within: Some(cfg.resume_within),
+                ledger: Some(cfg.ledger.clone()),
                 ..RecorderConfig::new(&cfg.log_dir)
             },
             guard: cfg.guard,
-            ledger: cfg.ledger.clone(),
         },
         cfg.model.clone(),
         catalog.clone(),
@@ -258,7 +258,7 @@ pub async fn run(
             "serving on http://{addr}/api/ (missions in {}, flights in {}, ledger {})",
             cfg.missions_dir.display(),
             cfg.log_dir.display(),
-            ledger::describe(&cfg.ledger)
+            cfg.ledger
         );
     }
     http::serve(listener, app, cfg.http.header_timeout, async move {

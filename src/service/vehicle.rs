@@ -68,8 +68,6 @@ pub struct VehicleConfig {
     pub recorder: RecorderConfig,
     /// What the energy guard may do in the service's flights.
     pub guard: Policy,
-    /// The ledger each finished flight is written to.
-    pub ledger: crate::ledger::LedgerSpec,
 }
 
 /// An upload asked of the vehicle: `choice` of `plan` (planned for that choice) of `mission`.
@@ -90,8 +88,6 @@ pub struct UploadJob {
     pub solver: crate::tour::solver::Options,
     /// The request's span (`upload`).
     pub span: tracing::Span,
-    /// The pack the flight flies, named by the request (kept in its plan.json).
-    pub pack: Option<String>,
 }
 
 enum Command {
@@ -411,10 +407,6 @@ async fn run(
         status.subscribe(),
         stop.clone(),
     ));
-    let ledger_writer = tokio::spawn(super::ledger::write_finished(
-        cfg.ledger.clone(),
-        recorder.subscribe(),
-    ));
     status.send_modify(|s| {
         s.state = LinkState::WaitingForHeartbeat;
         s.error = None;
@@ -452,8 +444,6 @@ async fn run(
     recorder.close().await;
     monitor.abort();
     let _ = forward.await;
-    // The recorder is closed: its last flight's end is the last event the writer gets.
-    let _ = tokio::time::timeout(Duration::from_secs(10), ledger_writer).await;
     drop(link);
     if let Some(mock) = mock {
         mock.shutdown().await;
@@ -737,16 +727,7 @@ impl Actor {
             restarts: report.restarts,
             refusals: report.refusals,
         };
-        let mut measured_against = loaded.measured_against;
-        if let Some(name) = job.pack.clone() {
-            // The pack named by the request, kept in the flight's plan.json.
-            measured_against.pack = Some(crate::flightlog::flight_plan::PackUse {
-                name,
-                source: crate::flightlog::flight_plan::PackSource::User,
-                capacity_ratio: None,
-            });
-            self.recorder.set_plan(measured_against.clone());
-        }
+        let measured_against = loaded.measured_against;
         self.expected = Some(measured_against);
         self.mission_verified = true;
         let answer = UploadAnswer {
