@@ -20,6 +20,8 @@ pub mod fly;
 pub mod guard;
 pub mod held;
 pub mod home;
+pub mod import;
+pub mod ledger_read;
 pub mod onboard;
 pub mod open;
 pub mod params;

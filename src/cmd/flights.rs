@@ -1,0 +1,137 @@
+//! `emplan flights`: the flights the ledger knows, by vehicle, pack, mission and date, as a table
+//! (predicted against measured energy, the pack's capacity fitted) or `--json` (the ledger's
+//! records).
+
+use std::process::ExitCode;
+
+use emplan::ledger::{FlightQuery, FlightRecord, Outcome};
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Only the flights of this vehicle (its vehicle file's name)
+    #[arg(long, value_name = "NAME")]
+    vehicle: Option<String>,
+    /// Only the flights on this pack
+    #[arg(long, value_name = "NAME")]
+    pack: Option<String>,
+    /// Only the flights of this mission
+    #[arg(long, value_name = "NAME")]
+    mission: Option<String>,
+    /// Only the flights started on or after this date (YYYY-MM-DD, UTC, or
+    /// YYYY-MM-DDTHH:MM:SSZ)
+    #[arg(long, value_name = "DATE", value_parser = date)]
+    since: Option<String>,
+    /// Only the flights started before this date (YYYY-MM-DD, UTC, or YYYY-MM-DDTHH:MM:SSZ)
+    #[arg(long, value_name = "DATE", value_parser = date)]
+    until: Option<String>,
+    /// Print one JSON document instead of text
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    ledger: super::ledger::LedgerArgs,
+}
+
+/// A date as `--since` and `--until` take it: `YYYY-MM-DD` or `YYYY-MM-DDTHH:MM:SSZ`.
+pub fn date(text: &str) -> Result<String, String> {
+    let b = text.as_bytes();
+    let digits = |r: std::ops::Range<usize>| b[r].iter().all(u8::is_ascii_digit);
+    let day = b.len() >= 10 && digits(0..4) && b[4] == b'-' && digits(5..7) && b[7] == b'-' && digits(8..10);
+    let time = b.len() == 20
+        && b[10] == b'T'
+        && digits(11..13)
+        && b[13] == b':'
+        && digits(14..16)
+        && b[16] == b':'
+        && digits(17..19)
+        && b[19] == b'Z';
+    if day && (b.len() == 10 || time) {
+        Ok(text.to_string())
+    } else {
+        Err("expected a UTC date, YYYY-MM-DD or YYYY-MM-DDTHH:MM:SSZ".into())
+    }
+}
+
+pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    let mut ledger = args.ledger.open_existing()?;
+    let flights = ledger.flights(&FlightQuery {
+        vehicle: args.vehicle,
+        pack: args.pack,
+        mission: args.mission,
+        since: args.since,
+        until: args.until,
+    })?;
+    if args.json {
+        let doc = serde_json::json!({ "flights": flights });
+        println!("{}", serde_json::to_string_pretty(&doc)?);
+        return Ok(ExitCode::SUCCESS);
+    }
+    print(&flights, &args.ledger.name());
+    Ok(ExitCode::SUCCESS)
+}
+
+fn outcome(o: Outcome) -> &'static str {
+    match o {
+        Outcome::Completed => "completed",
+        Outcome::Returned => "returned",
+        Outcome::Incomplete => "incomplete",
+        Outcome::CutOff => "cut off",
+    }
+}
+
+fn print(flights: &[FlightRecord], ledger: &str) {
+    println!(
+        "{} flight{} in the ledger {ledger}",
+        flights.len(),
+        if flights.len() == 1 { "" } else { "s" }
+    );
+    if flights.is_empty() {
+        return;
+    }
+    let kj = |j: Option<f64>| j.map_or("-".to_string(), |j| format!("{:.1}", j / 1000.0));
+    let text = |s: &Option<String>| s.clone().unwrap_or_else(|| "-".into());
+    println!(
+        "{:<16} {:<24} {:<12} {:<10} {:<9} {:<10} {:>12} {:>11} {:>7} {:>8}",
+        "date", "mission", "vehicle", "pack", "profile", "outcome", "predicted_kj", "measured_kj", "error", "capacity"
+    );
+    for f in flights {
+        let date = f.started_at.as_deref().map_or("-".to_string(), |s| {
+            s.trim_end_matches('Z').replacen('T', " ", 1).chars().take(16).collect()
+        });
+        let error = match (f.outcome, f.predicted_j, f.measured_j) {
+            (Outcome::Completed, Some(p), Some(m)) if p > 0.0 => format!("{:+.1}%", (m - p) / p * 100.0),
+            _ => "-".into(),
+        };
+        let capacity = f
+            .pack_fit
+            .as_ref()
+            .filter(|p| p.label_capacity_ah > 0.0)
+            .map_or("-".to_string(), |p| {
+                format!("{:.0}%", 100.0 * p.capacity_ah / p.label_capacity_ah)
+            });
+        println!(
+            "{date:<16} {:<24} {:<12} {:<10} {:<9} {:<10} {:>12} {:>11} {error:>7} {capacity:>8}",
+            f.mission,
+            text(&f.vehicle),
+            text(&f.pack),
+            text(&f.profile),
+            outcome(f.outcome),
+            kj(f.predicted_j),
+            kj(f.measured_j),
+        );
+    }
+    println!("error: measured against predicted, for completed flights; capacity: the pack's capacity fitted to the flight's voltage and current, against its label");
+}
+
+#[cfg(test)]
+mod tests {
+    use super::date;
+
+    #[test]
+    fn dates_are_a_day_or_a_utc_timestamp() {
+        assert!(date("2026-11-29").is_ok());
+        assert!(date("2026-11-29T10:00:00Z").is_ok());
+        for bad in ["29/11/2026", "2026-11-29T10:00", "2026-11-29 10:00:00", "", "2026-1-2"] {
+            assert!(date(bad).is_err(), "{bad}");
+        }
+    }
+}

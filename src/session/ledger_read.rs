@@ -1,0 +1,120 @@
+//! What the commands that only read the ledger ask of it (`emplan flights`, `emplan packs`,
+//! `calibrate --from-ledger`): opening one that must already exist (a reader never creates a
+//! ledger), each pack's flights as points over its cycles with its trend (drawn by
+//! `plot::packs_svg`), and a vehicle's flight directories still on disk.
+
+use std::path::PathBuf;
+
+use crate::ledger::packs::PackSummary;
+use crate::ledger::{FlightQuery, FlightRecord, FlightSource, Ledger, LedgerError, LedgerSpec};
+use crate::plot::{PackHistory, PackPoint, PackTrend};
+
+/// How a ledger is made, for the error of a reader that finds none.
+pub const MADE_BY: &str = "a ledger is made by `emplan fly`, `emplan record` or `emplan ledger rebuild DIR...` (or name another with --ledger)";
+
+/// Opens the ledger at `spec` only if it exists: a missing SQLite file is an error naming it
+/// and saying how one is made (a PostgreSQL ledger is opened as it is).
+pub fn open_existing(spec: &LedgerSpec) -> Result<Ledger, LedgerError> {
+    if let LedgerSpec::Sqlite(path) = spec {
+        if !path.is_file() {
+            return Err(LedgerError::Store {
+                at: path.display().to_string(),
+                message: format!("no such file: {MADE_BY}"),
+            });
+        }
+    }
+    Ledger::open(spec)
+}
+
+/// Each pack's flights (those with a pack fit) as points over the equivalent full cycles drawn
+/// before each flight, with its trend from `summaries` (`ledger::packs::summarise` of the same
+/// flights); `flights` oldest first, as the ledger lists them.
+pub fn pack_histories(flights: &[FlightRecord], summaries: &[PackSummary]) -> Vec<PackHistory> {
+    summaries
+        .iter()
+        .map(|summary| {
+            let mut drawn_ah = 0.0;
+            let mut points = Vec::new();
+            let label = summary.label_capacity_ah.or_else(|| {
+                (flights.iter())
+                    .filter(|f| f.pack.as_deref() == Some(summary.name.as_str()))
+                    .find_map(|f| f.pack_fit.as_ref().map(|p| p.label_capacity_ah))
+            });
+            for flight in flights
+                .iter()
+                .filter(|f| f.pack.as_deref() == Some(summary.name.as_str()))
+            {
+                let cycles = label.filter(|l| *l > 0.0).map_or(0.0, |l| drawn_ah / l);
+                if let Some(fit) = &flight.pack_fit {
+                    points.push(PackPoint {
+                        cycles,
+                        capacity_ah: fit.capacity_ah,
+                        capacity_sd_ah: fit.capacity_sd_ah,
+                        internal_resistance_ohm: fit.internal_resistance_ohm,
+                    });
+                }
+                drawn_ah += flight.charge_ah.unwrap_or(0.0);
+            }
+            let trend = match (&summary.capacity_ah, &summary.fade_ah_per_cycle, points.first()) {
+                (Some(now), Some(fade), Some(first)) if points.len() >= 2 => {
+                    let last = points.last().map_or(first.cycles, |p| p.cycles);
+                    Some(PackTrend {
+                        from_cycles: first.cycles,
+                        to_cycles: last,
+                        capacity_from_ah: now.value + fade.value * (first.cycles - last),
+                        capacity_to_ah: now.value,
+                    })
+                }
+                _ => None,
+            };
+            PackHistory {
+                name: summary.name.clone(),
+                label_capacity_ah: label,
+                points,
+                trend,
+            }
+        })
+        .collect()
+}
+
+/// What [`vehicle_flight_dirs`] found: the vehicle's flight directories still on disk, and what
+/// of its flights could not be used.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct VehicleFlights {
+    pub dirs: Vec<PathBuf>,
+    /// Its flights in the ledger, those imported from onboard logs, and the directories gone.
+    pub flights: usize,
+    pub onboard: usize,
+    pub missing: Vec<PathBuf>,
+}
+
+/// The flight directories (oldest first) of `vehicle` (the vehicle file's name) that the
+/// ledger knows and that still exist.
+pub fn vehicle_flight_dirs(
+    ledger: &mut Ledger,
+    vehicle: &str,
+) -> Result<VehicleFlights, LedgerError> {
+    let flights = ledger.flights(&FlightQuery {
+        vehicle: Some(vehicle.to_string()),
+        ..FlightQuery::default()
+    })?;
+    let mut found = VehicleFlights {
+        flights: flights.len(),
+        ..VehicleFlights::default()
+    };
+    for flight in &flights {
+        if flight.source != FlightSource::Directory {
+            found.onboard += 1;
+            continue;
+        }
+        let dir = PathBuf::from(&flight.path);
+        if crate::flightlog::recorder::is_flight_dir(&dir) {
+            if !found.dirs.contains(&dir) {
+                found.dirs.push(dir);
+            }
+        } else {
+            found.missing.push(dir);
+        }
+    }
+    Ok(found)
+}
