@@ -35,7 +35,12 @@ pub struct Args {
 pub fn date(text: &str) -> Result<String, String> {
     let b = text.as_bytes();
     let digits = |r: std::ops::Range<usize>| b[r].iter().all(u8::is_ascii_digit);
-    let day = b.len() >= 10 && digits(0..4) && b[4] == b'-' && digits(5..7) && b[7] == b'-' && digits(8..10);
+    let day = b.len() >= 10
+        && digits(0..4)
+        && b[4] == b'-'
+        && digits(5..7)
+        && b[7] == b'-'
+        && digits(8..10);
     let time = b.len() == 20
         && b[10] == b'T'
         && digits(11..13)
@@ -91,14 +96,29 @@ fn print(flights: &[FlightRecord], ledger: &str) {
     let text = |s: &Option<String>| s.clone().unwrap_or_else(|| "-".into());
     println!(
         "{:<16} {:<24} {:<12} {:<10} {:<9} {:<10} {:>12} {:>11} {:>7} {:>8}",
-        "date", "mission", "vehicle", "pack", "profile", "outcome", "predicted_kj", "measured_kj", "error", "capacity"
+        "date",
+        "mission",
+        "vehicle",
+        "pack",
+        "profile",
+        "outcome",
+        "predicted_kj",
+        "measured_kj",
+        "error",
+        "capacity"
     );
     for f in flights {
         let date = f.started_at.as_deref().map_or("-".to_string(), |s| {
-            s.trim_end_matches('Z').replacen('T', " ", 1).chars().take(16).collect()
+            s.trim_end_matches('Z')
+                .replacen('T', " ", 1)
+                .chars()
+                .take(16)
+                .collect()
         });
         let error = match (f.outcome, f.predicted_j, f.measured_j) {
-            (Outcome::Completed, Some(p), Some(m)) if p > 0.0 => format!("{:+.1}%", (m - p) / p * 100.0),
+            (Outcome::Completed, Some(p), Some(m)) if p > 0.0 => {
+                format!("{:+.1}%", (m - p) / p * 100.0)
+            }
             _ => "-".into(),
         };
         let capacity = f
@@ -130,7 +150,13 @@ mod tests {
     fn dates_are_a_day_or_a_utc_timestamp() {
         assert!(date("2026-11-29").is_ok());
         assert!(date("2026-11-29T10:00:00Z").is_ok());
-        for bad in ["29/11/2026", "2026-11-29T10:00", "2026-11-29 10:00:00", "", "2026-1-2"] {
+        for bad in [
+            "29/11/2026",
+            "2026-11-29T10:00",
+            "2026-11-29 10:00:00",
+            "",
+            "2026-1-2",
+        ] {
             assert!(date(bad).is_err(), "{bad}");
         }
     }

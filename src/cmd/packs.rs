@@ -78,7 +78,13 @@ fn print(summaries: &[PackSummary], ledger: &str) {
     }
     println!(
         "{:<12} {:>7} {:>7} {:>16} {:>14} {:>16} {:>18}",
-        "pack", "flights", "cycles", "capacity_ah", "of_label_%", "resistance_mohm", "fade_mah_per_cycle"
+        "pack",
+        "flights",
+        "cycles",
+        "capacity_ah",
+        "of_label_%",
+        "resistance_mohm",
+        "fade_mah_per_cycle"
     );
     for s in summaries {
         println!(
@@ -92,7 +98,9 @@ fn print(summaries: &[PackSummary], ledger: &str) {
             estimate(s.fade_ah_per_cycle, 1000.0, 1),
         );
     }
-    println!("± one standard error; cycles: the charge drawn over all its flights against its label");
+    println!(
+        "± one standard error; cycles: the charge drawn over all its flights against its label"
+    );
     for s in summaries {
         for w in &s.warnings {
             println!("warning: pack {}: {w}", s.name);

@@ -180,6 +180,9 @@ pub fn inputs(paths: &[PathBuf], logs: bool) -> Inputs {
             fail(&mut found, path, what.into());
         }
     }
+    // A flight named twice (alone and in its folder) is imported once.
+    let mut seen = std::collections::HashSet::new();
+    found.inputs.retain(|i| seen.insert(i.path.clone()));
     found
 }
 
@@ -206,12 +209,23 @@ pub fn onboard_record(path: &Path) -> Result<FlightRecord, LedgerError> {
         path: path.display().to_string(),
         message,
     };
-    let log = onboard::read(path).map_err(|e| failed(e.to_string()))?;
-    let source = match log.format {
-        onboard::Format::Ulog => FlightSource::Ulog,
-        onboard::Format::Dataflash => FlightSource::Dataflash,
+    let source = match onboard::format_of(path) {
+        Some(onboard::Format::Ulog) => FlightSource::Ulog,
+        Some(onboard::Format::Dataflash) => FlightSource::Dataflash,
+        // Unreadable, or no onboard log: the reader says which.
+        None => {
+            return Err(failed(onboard::read(path).err().map_or_else(
+                || "not a PX4 ULog nor an ArduPilot DataFlash log".to_string(),
+                |e| e.to_string(),
+            )))
+        }
     };
-    let _ = (source, replay_onboard, PlanFrom::default(), SegmentConfig::default());
+    let _ = (
+        source,
+        replay_onboard,
+        PlanFrom::default(),
+        SegmentConfig::default(),
+    );
     Err(failed("onboard logs are not imported yet".into()))
 }
 
@@ -281,8 +295,5 @@ pub fn import(
 /// An error's text without the leading `PATH: ` that [`Failed::path`] already says.
 fn without_path(message: &str, path: &Path) -> String {
     let prefix = format!("{}: ", path.display());
-    message
-        .strip_prefix(&prefix)
-        .unwrap_or(message)
-        .to_string()
+    message.strip_prefix(&prefix).unwrap_or(message).to_string()
 }

@@ -55,7 +55,11 @@ pub fn pack_histories(flights: &[FlightRecord], summaries: &[PackSummary]) -> Ve
                 }
                 drawn_ah += flight.charge_ah.unwrap_or(0.0);
             }
-            let trend = match (&summary.capacity_ah, &summary.fade_ah_per_cycle, points.first()) {
+            let trend = match (
+                &summary.capacity_ah,
+                &summary.fade_ah_per_cycle,
+                points.first(),
+            ) {
                 (Some(now), Some(fade), Some(first)) if points.len() >= 2 => {
                     let last = points.last().map_or(first.cycles, |p| p.cycles);
                     Some(PackTrend {

@@ -22,6 +22,7 @@ mod fromlogs;
 mod guard;
 mod home;
 mod install;
+mod ledger_cli;
 mod messages;
 mod mission;
 mod onboard;
