@@ -132,4 +132,7 @@ pub enum LedgerError {
     NewerSchema { at: String, found: u32, known: u32 },
     #[error("{path}: {message}")]
     Flight { path: String, message: String },
+    /// A query's date bound that is neither a date nor a time (`field`: `since` or `until`).
+    #[error("{field} `{value}`: not a date (YYYY-MM-DD) or a time (YYYY-MM-DDTHH:MM:SSZ)")]
+    Query { field: String, value: String },
 }
