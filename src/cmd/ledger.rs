@@ -32,30 +32,12 @@ impl LedgerArgs {
 
     /// Opens the ledger only if it exists (commands that only read it).
     pub fn open_existing(&self) -> anyhow::Result<Ledger> {
-        Ok(emplan::session::ledger_read::open_existing(&self.spec())?)
+        Ok(Ledger::open_existing(&self.spec())?)
     }
 
-    /// The ledger as said to the user: its file, or its server without the connection string's
-    /// password.
+    /// The ledger as said to the user: its file, or its server without the password.
     pub fn name(&self) -> String {
-        match self.spec() {
-            LedgerSpec::Sqlite(path) => path.display().to_string(),
-            LedgerSpec::Postgres(url) => without_password(&url),
-        }
-    }
-}
-
-/// `postgres://user:secret@host/db` as `postgres://user@host/db`.
-fn without_password(url: &str) -> String {
-    let Some((scheme, rest)) = url.split_once("://") else {
-        return url.to_string();
-    };
-    match rest.split_once('@') {
-        Some((user, host)) => {
-            let user = user.split(':').next().unwrap_or("");
-            format!("{scheme}://{user}@{host}")
-        }
-        None => url.to_string(),
+        self.spec().to_string()
     }
 }
 
@@ -157,22 +139,5 @@ fn print(summary: &ImportSummary, read: usize, ledger: &str) -> ExitCode {
             if summary.failed.len() == 1 { "" } else { "s" }
         );
         ExitCode::FAILURE
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_postgres_ledger_is_named_without_its_password() {
-        assert_eq!(
-            without_password("postgres://ops:secret@db.local:5432/ledger"),
-            "postgres://ops@db.local:5432/ledger"
-        );
-        assert_eq!(
-            without_password("postgres://db.local/ledger"),
-            "postgres://db.local/ledger"
-        );
     }
 }

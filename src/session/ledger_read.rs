@@ -1,30 +1,12 @@
-//! What the commands that only read the ledger ask of it (`emplan flights`, `emplan packs`,
-//! `calibrate --from-ledger`): opening one that must already exist (a reader never creates a
-//! ledger), each pack's flights as points over its cycles with its trend (drawn by
-//! `plot::packs_svg`), and a vehicle's flight directories still on disk.
+//! What the commands that only read the ledger ask of it beyond its flights (`emplan packs`,
+//! `calibrate --from-ledger`): each pack's flights as points over its cycles with its trend
+//! (drawn by `plot::packs_svg`), and a vehicle's flight directories still on disk.
 
 use std::path::PathBuf;
 
 use crate::ledger::packs::PackSummary;
-use crate::ledger::{FlightQuery, FlightRecord, FlightSource, Ledger, LedgerError, LedgerSpec};
+use crate::ledger::{FlightQuery, FlightRecord, FlightSource, Ledger, LedgerError};
 use crate::plot::{PackHistory, PackPoint, PackTrend};
-
-/// How a ledger is made, for the error of a reader that finds none.
-pub const MADE_BY: &str = "a ledger is made by `emplan fly`, `emplan record` or `emplan ledger rebuild DIR...` (or name another with --ledger)";
-
-/// Opens the ledger at `spec` only if it exists: a missing SQLite file is an error naming it
-/// and saying how one is made (a PostgreSQL ledger is opened as it is).
-pub fn open_existing(spec: &LedgerSpec) -> Result<Ledger, LedgerError> {
-    if let LedgerSpec::Sqlite(path) = spec {
-        if !path.is_file() {
-            return Err(LedgerError::Store {
-                at: path.display().to_string(),
-                message: format!("no such file: {MADE_BY}"),
-            });
-        }
-    }
-    Ledger::open(spec)
-}
 
 /// Each pack's flights (those with a pack fit) as points over the equivalent full cycles drawn
 /// before each flight, with its trend from `summaries` (`ledger::packs::summarise` of the same
