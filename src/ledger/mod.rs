@@ -135,4 +135,7 @@ pub enum LedgerError {
     /// A query's date bound that is neither a date nor a time (`field`: `since` or `until`).
     #[error("{field} `{value}`: not a date (YYYY-MM-DD) or a time (YYYY-MM-DDTHH:MM:SSZ)")]
     Query { field: String, value: String },
+    /// A flight's file that cannot be read (the error names the file, and its line or field).
+    #[error(transparent)]
+    FlightFile(#[from] crate::flightlog::FlightLogError),
 }

@@ -23,6 +23,7 @@ mod guard;
 mod home;
 mod install;
 mod ledger_cli;
+mod ledger_records;
 mod messages;
 mod mission;
 mod onboard;
