@@ -12,7 +12,9 @@ use rayon::prelude::*;
 use crate::flightlog::onboard;
 use crate::flightlog::recorder::is_flight_dir;
 use crate::flightlog::segment::SegmentConfig;
+use crate::ledger::record::FlightInputs;
 use crate::ledger::{self, FlightRecord, FlightSource, Ledger, LedgerError, Written};
+use crate::logfit::battery::PackSeries;
 
 use super::onboard::{replay_onboard, PlanFrom};
 
@@ -220,13 +222,30 @@ pub fn onboard_record(path: &Path) -> Result<FlightRecord, LedgerError> {
             )))
         }
     };
-    let _ = (
+    let analysis = replay_onboard(path, PlanFrom::default(), SegmentConfig::default())
+        .map_err(|e| failed(e.to_string()))?;
+    let bytes = std::fs::read(path).map_err(|e| failed(e.to_string()))?;
+    let name = path
+        .file_name()
+        .map_or_else(|| "log".to_string(), |n| n.to_string_lossy().into_owned());
+    let id = ledger::record::id_of(&name, &bytes);
+    let samples = analysis.segmenter.series().samples();
+    let series = PackSeries::of_samples(0, samples.iter().map(|s| (s, None)));
+    let started_at = (samples.first()).and_then(|s| ledger::record::iso_of_wall_us(s.wall_us));
+    let autopilot = match source {
+        FlightSource::Ulog => "px4",
+        _ => "ardupilot",
+    };
+    Ok(ledger::record::of_flight(&FlightInputs {
+        id: &id,
         source,
-        replay_onboard,
-        PlanFrom::default(),
-        SegmentConfig::default(),
-    );
-    Err(failed("onboard logs are not imported yet".into()))
+        path: &path.display().to_string(),
+        plan: Some(analysis.segmenter.plan()),
+        report: &analysis.report,
+        pack: (!series.voltage_v.is_empty()).then_some(&series),
+        started_at: started_at.as_deref(),
+        autopilot: Some(autopilot),
+    }))
 }
 
 /// Imports `inputs` into `ledger`: each read and measured on a pool of `options.jobs` threads,

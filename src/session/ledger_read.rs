@@ -4,50 +4,48 @@
 
 use std::path::PathBuf;
 
-use crate::ledger::packs::PackSummary;
+use crate::ledger::packs::{PackSummary, MIN_TREND_FLIGHTS};
 use crate::ledger::{FlightQuery, FlightRecord, FlightSource, Ledger, LedgerError};
 use crate::plot::{PackHistory, PackPoint, PackTrend};
 
-/// Each pack's flights (those with a pack fit) as points over the equivalent full cycles drawn
-/// before each flight, with its trend from `summaries` (`ledger::packs::summarise` of the same
-/// flights); `flights` oldest first, as the ledger lists them.
+/// Each pack's flights (those with a pack fit) as points over the pack's equivalent full
+/// cycles at each flight's middle, as `ledger::packs` places them, with the trend from
+/// `summaries` (`ledger::packs::summarise` of the same flights: the capacity now, at the
+/// pack's cycles so far, and its fade per cycle) from the first point to now; `flights` oldest
+/// first, as the ledger lists them.
 pub fn pack_histories(flights: &[FlightRecord], summaries: &[PackSummary]) -> Vec<PackHistory> {
     summaries
         .iter()
         .map(|summary| {
+            let label = summary.label_capacity_ah.filter(|l| *l > 0.0);
             let mut drawn_ah = 0.0;
             let mut points = Vec::new();
-            let label = summary.label_capacity_ah.or_else(|| {
-                (flights.iter())
-                    .filter(|f| f.pack.as_deref() == Some(summary.name.as_str()))
-                    .find_map(|f| f.pack_fit.as_ref().map(|p| p.label_capacity_ah))
-            });
             for flight in flights
                 .iter()
                 .filter(|f| f.pack.as_deref() == Some(summary.name.as_str()))
             {
-                let cycles = label.filter(|l| *l > 0.0).map_or(0.0, |l| drawn_ah / l);
-                if let Some(fit) = &flight.pack_fit {
+                let drawn = flight.charge_ah.filter(|c| c.is_finite() && *c > 0.0);
+                let before = drawn_ah;
+                drawn_ah += drawn.unwrap_or(0.0);
+                if let (Some(label), Some(fit)) = (label, &flight.pack_fit) {
                     points.push(PackPoint {
-                        cycles,
+                        cycles: 0.5 * (before + drawn_ah) / label,
                         capacity_ah: fit.capacity_ah,
                         capacity_sd_ah: fit.capacity_sd_ah,
                         internal_resistance_ohm: fit.internal_resistance_ohm,
                     });
                 }
-                drawn_ah += flight.charge_ah.unwrap_or(0.0);
             }
             let trend = match (
                 &summary.capacity_ah,
                 &summary.fade_ah_per_cycle,
                 points.first(),
             ) {
-                (Some(now), Some(fade), Some(first)) if points.len() >= 2 => {
-                    let last = points.last().map_or(first.cycles, |p| p.cycles);
+                (Some(now), Some(fade), Some(first)) if points.len() >= MIN_TREND_FLIGHTS => {
                     Some(PackTrend {
                         from_cycles: first.cycles,
-                        to_cycles: last,
-                        capacity_from_ah: now.value + fade.value * (first.cycles - last),
+                        to_cycles: summary.cycles,
+                        capacity_from_ah: now.value + fade.value * (first.cycles - summary.cycles),
                         capacity_to_ah: now.value,
                     })
                 }

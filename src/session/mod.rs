@@ -8,7 +8,11 @@
 //! service's vehicle actor alike; `home`, the check before any upload that the vehicle stands
 //! at the mission's origin, and the re-planning from the vehicle's home; `held`, the mission a
 //! vehicle holds measured (`emplan record`, the service); `download`, what a vehicle holds read
-//! back whole, its mission with its fence and rally points (`emplan download`).
+//! back whole, its mission with its fence and rally points (`emplan download`); `import`,
+//! flights into the ledger from their files, flight directories and onboard logs measured in
+//! parallel (`emplan ledger rebuild|import`); `ledger_read`, what the commands that read the
+//! ledger ask of it beyond its flights (the packs figure's points, a vehicle's flight
+//! directories).
 //!
 //! This is the async glue above `link` (MAVLink, sans-IO machines), `flightlog` (files,
 //! segmentation, energy; no tokio) and `planner`: what is decided lives in those layers, so a
