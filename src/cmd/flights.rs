@@ -69,8 +69,7 @@ fn print(flights: &[FlightRecord], ledger: &str) {
     }
     let kj = |j: Option<f64>| j.map_or("-".to_string(), |j| format!("{:.1}", j / 1000.0));
     let text = |s: &Option<String>| s.clone().unwrap_or_else(|| "-".into());
-    println!(
-        "{:<16} {:<24} {:<12} {:<10} {:<9} {:<10} {:>12} {:>11} {:>7} {:>8}",
+    let header = [
         "date",
         "mission",
         "vehicle",
@@ -80,8 +79,10 @@ fn print(flights: &[FlightRecord], ledger: &str) {
         "predicted_kj",
         "measured_kj",
         "error",
-        "capacity"
-    );
+        "capacity",
+    ]
+    .map(String::from);
+    let mut rows = vec![header];
     for f in flights {
         let date = f.started_at.as_deref().map_or("-".to_string(), |s| {
             s.trim_end_matches('Z')
@@ -103,16 +104,37 @@ fn print(flights: &[FlightRecord], ledger: &str) {
             .map_or("-".to_string(), |p| {
                 format!("{:.0}%", 100.0 * p.capacity_ah / p.label_capacity_ah)
             });
-        println!(
-            "{date:<16} {:<24} {:<12} {:<10} {:<9} {:<10} {:>12} {:>11} {error:>7} {capacity:>8}",
-            f.mission,
+        rows.push([
+            date,
+            f.mission.clone(),
             text(&f.vehicle),
             text(&f.pack),
             text(&f.profile),
-            outcome(f.outcome),
+            outcome(f.outcome).to_string(),
             kj(f.predicted_j),
             kj(f.measured_j),
-        );
+            error,
+            capacity,
+        ]);
+    }
+    // Each column as wide as its widest cell; text left, numbers right.
+    let mut widths = [0usize; 10];
+    for row in &rows {
+        for (w, cell) in widths.iter_mut().zip(row) {
+            *w = (*w).max(cell.chars().count());
+        }
+    }
+    for row in &rows {
+        let cells: Vec<String> = (row.iter().zip(widths).enumerate())
+            .map(|(k, (cell, w))| {
+                if k < 6 {
+                    format!("{cell:<w$}")
+                } else {
+                    format!("{cell:>w$}")
+                }
+            })
+            .collect();
+        println!("{}", cells.join("  ").trim_end());
     }
     println!("error: measured against predicted, for completed flights; capacity: the pack's capacity fitted to the flight's voltage and current, against its label");
 }
