@@ -55,7 +55,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// `value ± sd` scaled by `scale`, with `decimals`.
+/// `value +- sd` scaled by `scale`, with `decimals`.
 fn estimate(e: Option<Estimate>, scale: f64, decimals: usize) -> String {
     e.map_or("-".to_string(), |e| {
         format!(
