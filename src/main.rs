@@ -62,6 +62,13 @@ enum Command {
     Replay(cmd::replay::Args),
     /// Report recorded flights: per-leg predicted vs measured energy; several flights combined.
     Report(cmd::report::Args),
+    /// Flights into the ledger from their files: `rebuild` flight directories, `import` them and
+    /// the flight controller's own logs.
+    Ledger(cmd::ledger::Args),
+    /// The flights the ledger knows, by vehicle, pack, mission and date.
+    Flights(cmd::flights::Args),
+    /// Every pack the ledger knows: capacity, resistance and their trend over its cycles.
+    Packs(cmd::packs::Args),
     /// The field-day service: hold the vehicle link, plan every mission in a folder, upload
     /// on request, record and report every flight; an HTTP API on loopback.
     Serve(cmd::serve::Args),
@@ -137,6 +144,9 @@ fn main() -> ExitCode {
         Command::Record(args) => cmd::record::run(args),
         Command::Replay(args) => cmd::replay::run(args),
         Command::Report(args) => cmd::report::run(args),
+        Command::Ledger(args) => cmd::ledger::run(args),
+        Command::Flights(args) => cmd::flights::run(args),
+        Command::Packs(args) => cmd::packs::run(args),
         Command::Serve(args) => cmd::serve::run(args),
         Command::MockAutopilot(args) => cmd::mock_autopilot::run(args),
         Command::BatterySim(args) => cmd::battery_sim::run(args),

@@ -1,7 +1,8 @@
 //! SVG figures drawn with plotters: the orders of a planned mission as the paper draws them (a
 //! top view and two side views, the energy order solid and the min-distance order dashed, with
-//! arrows giving the direction of flight) and histograms of the random-mission study's
-//! baseline/minimum-energy energy ratios. A mission's geofence is drawn in the top view (an
+//! arrows giving the direction of flight), histograms of the random-mission study's
+//! baseline/minimum-energy energy ratios, and each pack's capacity and internal resistance over
+//! its cycles (`emplan packs --plot`). A mission's geofence is drawn in the top view (an
 //! inclusion zone outlined in green, an exclusion zone filled in red) and its rally points in
 //! every view (a purple cross, `R1`, `R2`, ...). A block (a survey's or scan's lines) is drawn as
 //! one wide teal path under the orders, its entry and exit in the energy order marked and the
@@ -839,4 +840,162 @@ mod tests {
         assert!(polylines(&svg, BLOCK_COLOUR, BLOCK_STROKE_PX).is_empty());
         assert!(!svg.lines().any(|l| l.trim() == "entry"));
     }
+}
+
+/// One flight's pack fit, at the equivalent full cycles its pack had drawn before it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PackPoint {
+    pub cycles: f64,
+    pub capacity_ah: f64,
+    pub capacity_sd_ah: f64,
+    pub internal_resistance_ohm: f64,
+}
+
+/// A pack's capacity trend over its cycles, as a straight line between two cycle counts.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PackTrend {
+    pub from_cycles: f64,
+    pub to_cycles: f64,
+    pub capacity_from_ah: f64,
+    pub capacity_to_ah: f64,
+}
+
+/// One pack as `emplan packs --plot` draws it (built from the ledger by the session).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PackHistory {
+    pub name: String,
+    pub label_capacity_ah: Option<f64>,
+    pub points: Vec<PackPoint>,
+    pub trend: Option<PackTrend>,
+}
+
+/// Colours of the packs, in turn.
+const PACK_COLOURS: [RGBColor; 8] = [
+    ENERGY_COLOUR,
+    DISTANCE_COLOUR,
+    INCLUSION_COLOUR,
+    RALLY_COLOUR,
+    BLOCK_COLOUR,
+    RGBColor(0x8c, 0x56, 0x4b),
+    RGBColor(0xe3, 0x77, 0xc2),
+    RGBColor(0x7f, 0x7f, 0x7f),
+];
+
+/// The packs drawn: each flight's fitted capacity (with its standard error as a bar) over the
+/// pack's equivalent full cycles with the trend dashed and the label dotted, and beside it each
+/// flight's internal resistance; one colour per pack, named in the legend.
+pub fn packs_svg(packs: &[PackHistory]) -> Result<String, PlotError> {
+    let err = drawing("the packs figure");
+    let all = || packs.iter().flat_map(|p| p.points.iter());
+    let max_cycles = all().map(|p| p.cycles).fold(0.0_f64, f64::max).max(1.0) * 1.08;
+    let capacity_hi = all()
+        .map(|p| p.capacity_ah + p.capacity_sd_ah)
+        .chain(packs.iter().filter_map(|p| p.label_capacity_ah))
+        .fold(1.0_f64, f64::max)
+        * 1.1;
+    let capacity_lo = all()
+        .map(|p| p.capacity_ah - p.capacity_sd_ah)
+        .fold(capacity_hi, f64::min)
+        .max(0.0)
+        * 0.9;
+    let resistance_hi = all()
+        .map(|p| p.internal_resistance_ohm * 1000.0)
+        .fold(1.0_f64, f64::max)
+        * 1.2;
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (WIDTH_PX, HEIGHT_PX)).into_drawing_area();
+        root.fill(&WHITE).map_err(&err)?;
+        let (left, right) = root.split_horizontally(WIDTH_PX / 2);
+        let mut capacity = ChartBuilder::on(&left)
+            .caption("capacity fitted per flight", (FONT, 20))
+            .margin(12)
+            .x_label_area_size(44)
+            .y_label_area_size(64)
+            .build_cartesian_2d(0.0..max_cycles, capacity_lo..capacity_hi)
+            .map_err(&err)?;
+        capacity
+            .configure_mesh()
+            .x_desc("equivalent full cycles")
+            .y_desc("capacity (Ah)")
+            .light_line_style(RGBColor(0xee, 0xee, 0xee))
+            .draw()
+            .map_err(&err)?;
+        let mut resistance = ChartBuilder::on(&right)
+            .caption("internal resistance fitted per flight", (FONT, 20))
+            .margin(12)
+            .x_label_area_size(44)
+            .y_label_area_size(64)
+            .build_cartesian_2d(0.0..max_cycles, 0.0..resistance_hi)
+            .map_err(&err)?;
+        resistance
+            .configure_mesh()
+            .x_desc("equivalent full cycles")
+            .y_desc("resistance (mOhm)")
+            .light_line_style(RGBColor(0xee, 0xee, 0xee))
+            .draw()
+            .map_err(&err)?;
+        for (k, pack) in packs.iter().enumerate() {
+            let colour = PACK_COLOURS[k % PACK_COLOURS.len()];
+            capacity
+                .draw_series(pack.points.iter().map(|p| {
+                    PathElement::new(
+                        vec![
+                            (p.cycles, p.capacity_ah - p.capacity_sd_ah),
+                            (p.cycles, p.capacity_ah + p.capacity_sd_ah),
+                        ],
+                        colour.stroke_width(1),
+                    )
+                }))
+                .map_err(&err)?;
+            capacity
+                .draw_series(
+                    (pack.points.iter())
+                        .map(|p| Circle::new((p.cycles, p.capacity_ah), 4, colour.filled())),
+                )
+                .map_err(&err)?
+                .label(pack.name.clone())
+                .legend(move |(x, y)| Circle::new((x + 10, y), 4, colour.filled()));
+            if let Some(t) = &pack.trend {
+                capacity
+                    .draw_series(std::iter::once(DashedPathElement::new(
+                        vec![
+                            (t.from_cycles, t.capacity_from_ah),
+                            (t.to_cycles, t.capacity_to_ah),
+                        ],
+                        6,
+                        4,
+                        colour.stroke_width(2),
+                    )))
+                    .map_err(&err)?;
+            }
+            if let Some(label) = pack.label_capacity_ah {
+                capacity
+                    .draw_series(std::iter::once(DashedPathElement::new(
+                        vec![(0.0, label), (max_cycles, label)],
+                        2,
+                        4,
+                        colour.mix(0.5).stroke_width(1),
+                    )))
+                    .map_err(&err)?;
+            }
+            resistance
+                .draw_series(pack.points.iter().map(|p| {
+                    Circle::new(
+                        (p.cycles, p.internal_resistance_ohm * 1000.0),
+                        4,
+                        colour.filled(),
+                    )
+                }))
+                .map_err(&err)?;
+        }
+        capacity
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
+            .map_err(&err)?;
+        root.present().map_err(&err)?;
+    }
+    Ok(svg)
 }

@@ -12,20 +12,29 @@ use emplan::output::Output;
 use emplan::physics::{Profile, Vehicle};
 
 #[derive(Debug, Clone, clap::Args)]
+#[command(group(clap::ArgGroup::new("logged").args(["from_logs", "from_ledger"])))]
 pub struct LogArgs {
     /// Fit to the legs of logged flights instead of the paper: flight directories (as `fly`
     /// and `record` write them: plan.json, report.json), the flight controller's own logs
     /// (PX4 .ulg beside a plan.json, ArduPilot .bin), or folders of them
     #[arg(long, value_name = "LOG_DIR", num_args = 1.., conflicts_with = "fit")]
     from_logs: Vec<PathBuf>,
+    /// Fit to the flights of the vehicle chosen (--vehicle: its vehicle file's name) that the
+    /// ledger knows, its flight directories still on disk, as --from-logs fits them
+    #[arg(long, conflicts_with_all = ["fit", "from_logs"])]
+    from_ledger: bool,
+    /// With --from-ledger: the ledger, a SQLite file or postgres://... [default:
+    /// flights/ledger.sqlite]
+    #[arg(long, value_name = "FILE|URL", requires = "from_ledger")]
+    ledger: Option<String>,
     /// With --from-logs: the profile the flights flew (default: the one their plan.json says
     /// they were flown with, which must be the same for every flight; else the autopilot's,
     /// told by the mission's layout; else the vehicle's)
-    #[arg(long, requires = "from_logs")]
+    #[arg(long, requires = "logged")]
     profile: Option<Profile>,
     /// With --from-logs: write the calibrated vehicle (vehicle.toml and tables) to this new
     /// directory
-    #[arg(long, value_name = "DIR", requires = "from_logs")]
+    #[arg(long, value_name = "DIR", requires = "logged")]
     out: Option<PathBuf>,
     /// With --out: the tables to rebuild, comma-separated, `all` or `none` (default: the
     /// profile the flights were flown with; the px4 and ptf tables take tens of seconds each,
@@ -37,7 +46,7 @@ pub struct LogArgs {
     /// With --from-logs: the airframe's weighed take-off mass in kg (battery and payload on):
     /// set, not fitted, so the energies fit the propulsion, the drag and the descent
     /// (mass, efficiency and kappa all raise the hover power; a scale tells them apart)
-    #[arg(long, value_name = "KG", requires = "from_logs")]
+    #[arg(long, value_name = "KG", requires = "logged")]
     mass_kg: Option<f64>,
     /// With --out: write into a directory that holds files already, replacing them (never the
     /// source vehicle's directory nor a flight directory)
@@ -53,12 +62,17 @@ pub fn run(
     vehicle_dir: Option<&Path>,
     json: bool,
 ) -> anyhow::Result<Option<ExitCode>> {
-    if args.from_logs.is_empty() {
-        return Ok(None);
-    }
     let name = vehicle_dir.map_or(emplan::physics::builtin::NAME.to_string(), |d| {
         d.display().to_string()
     });
+    let from_logs = if args.from_ledger {
+        ledger_flights(args, vehicle, &name)?
+    } else {
+        args.from_logs.clone()
+    };
+    if from_logs.is_empty() {
+        return Ok(None);
+    }
     // The tables named (a failure to build one refuses the output) or implied (the default:
     // the flights' profile, known once they are read; `all`).
     let named: Option<Vec<Profile>> = match args.tables.as_deref() {
@@ -74,7 +88,7 @@ pub fn run(
     // The output directory checked before the fit: never the source vehicle's, a flight's or
     // (unforced) one holding anything.
     let out = args.out.as_ref().map(|path| {
-        let mut inputs = args.from_logs.clone();
+        let mut inputs = from_logs.clone();
         // The source vehicle's directory, or the built-in vehicle's (models/s1000), however
         // the output is spelled.
         let sources = match vehicle_dir {
@@ -97,7 +111,7 @@ pub fn run(
             .map(|a| (a.segmenter.plan().clone(), a.report))
             .map_err(|e| format!("{e:#}").into())
     };
-    let flights = logfit::read_flights_with(&args.from_logs, &onboard)?;
+    let flights = logfit::read_flights_with(&from_logs, &onboard)?;
     for skipped in &flights.skipped {
         eprintln!(
             "warning: flight {} left out: {}",
@@ -192,6 +206,34 @@ pub fn run(
         println!("(pass --out DIR to write the calibrated vehicle with its tables)");
     }
     Ok(Some(ExitCode::SUCCESS))
+}
+
+/// `--from-ledger`: the chosen vehicle's flight directories that the ledger knows and that are
+/// still on disk; none is an error saying what the ledger holds of the vehicle.
+fn ledger_flights(args: &LogArgs, vehicle: &Vehicle, chosen: &str) -> anyhow::Result<Vec<PathBuf>> {
+    let ledger = super::ledger::LedgerArgs {
+        ledger: args.ledger.clone(),
+    };
+    let mut store = ledger.open_existing()?;
+    let found = emplan::session::ledger_read::vehicle_flight_dirs(&mut store, &vehicle.name)?;
+    for dir in &found.missing {
+        eprintln!(
+            "warning: flight {} of the ledger left out: its directory is gone",
+            dir.display()
+        );
+    }
+    if found.dirs.is_empty() {
+        anyhow::bail!(
+            "--from-ledger: the ledger {} holds no flight directory of the vehicle {} (chosen: {chosen}): {} flight{} of it, {} imported from onboard logs, {} whose directory is gone",
+            ledger.name(),
+            vehicle.name,
+            found.flights,
+            if found.flights == 1 { "" } else { "s" },
+            found.onboard,
+            found.missing.len()
+        );
+    }
+    Ok(found.dirs)
 }
 
 fn stats_line(what: &str, e: &ErrorStats) -> String {

@@ -1,4 +1,4 @@
-//! The command line's figures (`plan --plot`, `report --plot`, `study --histogram`): drawn by
+//! The command line's figures (`plan --plot`, `report --plot`, `study --histogram`, `packs --plot`): drawn by
 //! `emplan::plot` (which the service's dashboard draws with too) into a string and written once
 //! through `emplan::output` (never an input, a flight's file or, unforced, an existing file), so
 //! a write error is reported with the file name.
@@ -31,4 +31,9 @@ pub fn flight_svg(
     analyses: &[emplan::flightlog::replay::Analysis],
 ) -> anyhow::Result<()> {
     write_svg(out, emplan::plot::flight_svg(analyses))
+}
+
+/// `packs --plot`: each pack's capacity and resistance over its cycles.
+pub fn packs_svg(out: &Output, packs: &[emplan::plot::PackHistory]) -> anyhow::Result<()> {
+    write_svg(out, emplan::plot::packs_svg(packs))
 }

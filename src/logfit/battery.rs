@@ -41,7 +41,24 @@ pub struct PackSeries {
     pub armed: Vec<Option<bool>>,
 }
 
+/// The most samples the joint search of one flight's fit runs on (`fit_flight`).
+const SEARCH_SAMPLES: usize = 400;
+
 impl PackSeries {
+    /// Every `k`-th sample of the series, the first included (`k` of 0 or 1: all of them).
+    pub fn every(&self, k: usize) -> PackSeries {
+        let k = k.max(1);
+        let pick = |v: &[f64]| v.iter().step_by(k).copied().collect::<Vec<f64>>();
+        PackSeries {
+            flight: self.flight,
+            voltage_v: pick(&self.voltage_v),
+            current_a: pick(&self.current_a),
+            drawn_as: pick(&self.drawn_as),
+            t_s: pick(&self.t_s),
+            armed: self.armed.iter().step_by(k).copied().collect(),
+        }
+    }
+
     /// The series of flight `flight` from its samples in log order, each with whether the
     /// vehicle was armed: only the primary battery's samples with a measured, finite voltage
     /// and current count (not PX4 SITL's fake current); the charge drawn is the trapezoid of
@@ -354,9 +371,12 @@ pub fn fit_flight(pack: &PackModel, series: &PackSeries) -> Option<FlightPackFit
         return None;
     }
     let n = series.voltage_v.len();
-    let one = std::slice::from_ref(series);
-    let (ranges, (r_start, c_start)) = search_r_c(pack, one, 200);
-    let soc_start = best_soc0(pack, series, r_start, c_start * 3600.0).0;
+    // The joint search only finds where Gauss-Newton starts, so it runs on at most
+    // SEARCH_SAMPLES samples spread over the flight (the charge drawn is cumulative, so every
+    // k-th sample is the same curve, sparser); the refinement and its error use them all.
+    let one = [series.every(n.div_ceil(SEARCH_SAMPLES))];
+    let (ranges, (r_start, c_start)) = search_r_c(pack, &one, 200);
+    let soc_start = best_soc0(pack, &one[0], r_start, c_start * 3600.0).0;
     let (soc_low, soc_high) = (pack.ocv_soc[0], pack.ocv_soc[pack.ocv_soc.len() - 1]);
     let clamp = |x: [f64; 3]| -> [f64; 3] {
         [

@@ -10,7 +10,11 @@
 //! vehicle holds measured (`emplan record`, the service); `download`, what a vehicle holds read
 //! back whole, its mission with its fence and rally points (`emplan download`); `ledger`, every
 //! finished flight written to the ledger by the recorder, and what earlier flights of a pack
-//! and a vehicle taught the next one (its battery check, the guard's start).
+//! and a vehicle taught the next one (its battery check, the guard's start); `import`,
+//! flights into the ledger from their files, flight directories and onboard logs measured in
+//! parallel (`emplan ledger rebuild|import`); `ledger_read`, what the commands that read the
+//! ledger ask of it beyond its flights (the packs figure's points, a vehicle's flight
+//! directories).
 //!
 //! This is the async glue above `link` (MAVLink, sans-IO machines), `flightlog` (files,
 //! segmentation, energy; no tokio) and `planner`: what is decided lives in those layers, so a
@@ -22,7 +26,9 @@ pub mod fly;
 pub mod guard;
 pub mod held;
 pub mod home;
+pub mod import;
 pub mod ledger;
+pub mod ledger_read;
 pub mod onboard;
 pub mod open;
 pub mod params;

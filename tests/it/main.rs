@@ -22,6 +22,7 @@ mod fromlogs;
 mod guard;
 mod home;
 mod install;
+mod ledger_cli;
 mod ledger_flights;
 mod ledger_records;
 mod messages;
