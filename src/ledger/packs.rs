@@ -124,23 +124,59 @@ fn flights_of<'a>(flights: &'a [FlightRecord], pack: &str) -> Vec<&'a FlightReco
     of
 }
 
-fn history<'a>(flights: &'a [FlightRecord], pack: &str) -> History<'a> {
-    let flights = flights_of(flights, pack);
-    // The label: the last fitted flight's (the pack's own, as its flights were planned).
-    let label_ah = flights
+/// The pack's label: its last fitted flight's (the pack's own, as its flights were planned).
+fn label_of(flights: &[&FlightRecord]) -> Option<f64> {
+    flights
         .iter()
         .rev()
         .find_map(|f| f.pack_fit.as_ref())
-        .and_then(|p| finite_positive(Some(p.label_capacity_ah)));
+        .and_then(|p| finite_positive(Some(p.label_capacity_ah)))
+}
+
+/// A flight of a pack and the pack's age at its middle, in equivalent full cycles (the charge
+/// drawn by its flights before it and half its own, against the label; None without a label).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Aged<'a> {
+    pub flight: &'a FlightRecord,
+    pub cycles: Option<f64>,
+}
+
+/// Every flight of `pack` in `flights`, oldest first, with the pack's age at its middle: where
+/// the summary, the figure and the dashboard place each flight on the pack's cycles.
+pub fn aged<'a>(flights: &'a [FlightRecord], pack: &str) -> Vec<Aged<'a>> {
+    let flights = flights_of(flights, pack);
+    let label_ah = label_of(&flights);
     let mut charge_ah = 0.0;
-    let mut energy_wh = 0.0;
+    flights
+        .into_iter()
+        .map(|flight| {
+            let before = charge_ah;
+            charge_ah += finite_positive(flight.charge_ah).unwrap_or(0.0);
+            Aged {
+                flight,
+                cycles: label_ah.map(|label| 0.5 * (before + charge_ah) / label),
+            }
+        })
+        .collect()
+}
+
+fn history<'a>(flights: &'a [FlightRecord], pack: &str) -> History<'a> {
+    let aged = aged(flights, pack);
+    let flights: Vec<&FlightRecord> = aged.iter().map(|a| a.flight).collect();
+    let label_ah = label_of(&flights);
+    let charge_ah = flights
+        .iter()
+        .map(|f| finite_positive(f.charge_ah).unwrap_or(0.0))
+        .sum();
+    let energy_wh = flights
+        .iter()
+        .map(|f| finite_positive(f.measured_j).unwrap_or(0.0) / 3600.0)
+        .sum();
     let mut points = Vec::new();
-    for f in &flights {
-        let drawn = finite_positive(f.charge_ah).unwrap_or(0.0);
-        let before = charge_ah;
-        charge_ah += drawn;
-        energy_wh += finite_positive(f.measured_j).unwrap_or(0.0) / 3600.0;
-        let (Some(label), Some(fit)) = (label_ah, f.pack_fit.as_ref()) else {
+    for a in &aged {
+        let (Some(label), Some(cycles), Some(fit)) =
+            (label_ah, a.cycles, a.flight.pack_fit.as_ref())
+        else {
             continue;
         };
         let usable = fit.capacity_ah.is_finite()
@@ -149,7 +185,6 @@ fn history<'a>(flights: &'a [FlightRecord], pack: &str) -> History<'a> {
             && fit.capacity_sd_ah >= 0.0
             && fit.internal_resistance_ohm.is_finite();
         if usable {
-            let cycles = 0.5 * (before + charge_ah) / label;
             let sd = fit.capacity_sd_ah.max(CAPACITY_SD_FLOOR * label);
             points.push((cycles, fit.capacity_ah, sd, fit.internal_resistance_ohm));
         }

@@ -19,7 +19,7 @@ use std::time::Duration;
 use mavlink::MessageData;
 
 use super::connection::Autopilot;
-use super::mav::{MavCmd, MavMessage, MavResult, COMMAND_LONG_DATA, HOME_POSITION_DATA};
+use super::mav::{MavCmd, MavMessage, MavResult, HOME_POSITION_DATA};
 use crate::mission::Geodetic;
 
 /// Timing of [`Locate`].
@@ -131,14 +131,8 @@ impl Locate {
     fn request(&mut self, now: Duration) -> Vec<MavMessage> {
         self.requests += 1;
         self.next_send = now + self.cfg.retry;
-        vec![MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
-            command: MavCmd::MAV_CMD_REQUEST_MESSAGE,
-            // The message id, 242.
-            param1: HOME_POSITION_DATA::ID as f32,
-            target_system: self.target.system_id,
-            target_component: self.target.component_id,
-            ..Default::default()
-        })]
+        // The message id, 242.
+        vec![super::request_message(&self.target, HOME_POSITION_DATA::ID)]
     }
 
     /// Asks for the home.

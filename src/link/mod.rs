@@ -116,3 +116,15 @@ pub fn parse_mission_result(text: &str) -> Option<mav::MavMissionResult> {
         name == upper || name.strip_prefix("MAV_MISSION_") == Some(upper.as_str())
     })
 }
+
+/// MAV_CMD_REQUEST_MESSAGE to `target` for the message `id` (sent once; the autopilot answers
+/// with the message, and acknowledges or refuses the command).
+pub(crate) fn request_message(target: &connection::Autopilot, id: u32) -> mav::MavMessage {
+    mav::MavMessage::COMMAND_LONG(mav::COMMAND_LONG_DATA {
+        command: mav::MavCmd::MAV_CMD_REQUEST_MESSAGE,
+        param1: id as f32,
+        target_system: target.system_id,
+        target_component: target.component_id,
+        ..Default::default()
+    })
+}

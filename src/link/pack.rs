@@ -20,7 +20,7 @@ use std::time::Duration;
 use mavlink::MessageData;
 
 use super::connection::Autopilot;
-use super::mav::{MavCmd, MavMessage, MavResult, COMMAND_LONG_DATA, SMART_BATTERY_INFO_DATA};
+use super::mav::{MavCmd, MavMessage, MavResult, SMART_BATTERY_INFO_DATA};
 
 /// Timing of [`AskPack`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -80,13 +80,10 @@ impl AskPack {
     fn request(&mut self, now: Duration) -> Vec<MavMessage> {
         self.requests += 1;
         self.next_send = now + self.cfg.retry;
-        vec![MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
-            command: MavCmd::MAV_CMD_REQUEST_MESSAGE,
-            param1: SMART_BATTERY_INFO_DATA::ID as f32,
-            target_system: self.target.system_id,
-            target_component: self.target.component_id,
-            ..Default::default()
-        })]
+        vec![super::request_message(
+            &self.target,
+            SMART_BATTERY_INFO_DATA::ID,
+        )]
     }
 
     pub fn start(&mut self, now: Duration) -> Vec<MavMessage> {

@@ -44,29 +44,19 @@ pub fn pack_views(records: &[FlightRecord]) -> Vec<PackView> {
 /// `ledger::packs` places each flight on the pack's trend) and the capacity and resistance its
 /// own voltage and current show.
 fn history(records: &[FlightRecord], pack: &str, label_ah: Option<f64>) -> Vec<PackPoint> {
-    let mut flights: Vec<&FlightRecord> = records
-        .iter()
-        .filter(|r| r.pack.as_deref() == Some(pack))
-        .collect();
-    flights.sort_by(|a, b| a.started_at.cmp(&b.started_at));
     let label_ah = label_ah.filter(|l| l.is_finite() && *l > 0.0);
-    let mut charge_ah = 0.0;
-    flights
+    packs::aged(records, pack)
         .into_iter()
-        .map(|r| {
-            let before = charge_ah;
-            charge_ah += r
-                .charge_ah
-                .filter(|c| c.is_finite() && *c > 0.0)
-                .unwrap_or(0.0);
+        .map(|a| {
+            let fit = a.flight.pack_fit.as_ref();
             PackPoint {
-                flight: r.id.clone(),
-                started_at: r.started_at.clone(),
-                cycles: label_ah.map(|l| 0.5 * (before + charge_ah) / l),
-                capacity_ah: r.pack_fit.as_ref().map(|f| f.capacity_ah),
-                capacity_sd_ah: r.pack_fit.as_ref().map(|f| f.capacity_sd_ah),
+                flight: a.flight.id.clone(),
+                started_at: a.flight.started_at.clone(),
+                cycles: a.cycles,
+                capacity_ah: fit.map(|f| f.capacity_ah),
+                capacity_sd_ah: fit.map(|f| f.capacity_sd_ah),
                 label_capacity_ah: label_ah,
-                internal_resistance_ohm: r.pack_fit.as_ref().map(|f| f.internal_resistance_ohm),
+                internal_resistance_ohm: fit.map(|f| f.internal_resistance_ohm),
             }
         })
         .collect()

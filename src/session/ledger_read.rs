@@ -18,24 +18,18 @@ pub fn pack_histories(flights: &[FlightRecord], summaries: &[PackSummary]) -> Ve
         .iter()
         .map(|summary| {
             let label = summary.label_capacity_ah.filter(|l| *l > 0.0);
-            let mut drawn_ah = 0.0;
-            let mut points = Vec::new();
-            for flight in flights
-                .iter()
-                .filter(|f| f.pack.as_deref() == Some(summary.name.as_str()))
-            {
-                let drawn = flight.charge_ah.filter(|c| c.is_finite() && *c > 0.0);
-                let before = drawn_ah;
-                drawn_ah += drawn.unwrap_or(0.0);
-                if let (Some(label), Some(fit)) = (label, &flight.pack_fit) {
-                    points.push(PackPoint {
-                        cycles: 0.5 * (before + drawn_ah) / label,
+            let points: Vec<PackPoint> = crate::ledger::packs::aged(flights, &summary.name)
+                .into_iter()
+                .filter_map(|a| {
+                    let fit = a.flight.pack_fit.as_ref()?;
+                    Some(PackPoint {
+                        cycles: a.cycles?,
                         capacity_ah: fit.capacity_ah,
                         capacity_sd_ah: fit.capacity_sd_ah,
                         internal_resistance_ohm: fit.internal_resistance_ohm,
-                    });
-                }
-            }
+                    })
+                })
+                .collect();
             let trend = match (
                 &summary.capacity_ah,
                 &summary.fade_ah_per_cycle,
