@@ -8,9 +8,6 @@ use std::process::ExitCode;
 use emplan::ledger::{Ledger, LedgerSpec};
 use emplan::session::import::{self, ImportOptions, ImportSummary, Inputs};
 
-/// The ledger when no `--ledger` is given: beside the flights `fly` writes by default.
-pub const DEFAULT_LEDGER: &str = "flights/ledger.sqlite";
-
 /// `--ledger`: where the ledger is.
 #[derive(Debug, Clone, clap::Args)]
 pub struct LedgerArgs {
@@ -22,7 +19,11 @@ pub struct LedgerArgs {
 
 impl LedgerArgs {
     pub fn spec(&self) -> LedgerSpec {
-        LedgerSpec::parse(self.ledger.as_deref().unwrap_or(DEFAULT_LEDGER))
+        // None: beside the flights `fly` writes by default, as the session names it.
+        self.ledger.as_deref().map_or_else(
+            || emplan::session::ledger::default_spec(std::path::Path::new(super::DEFAULT_LOG_DIR)),
+            LedgerSpec::parse,
+        )
     }
 
     /// Opens the ledger, creating it if it is not there (commands that write flights).
